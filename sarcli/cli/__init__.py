@@ -1,0 +1,1 @@
+"""The ``sar`` command-line interface: thin click commands over the library."""

@@ -1,0 +1,84 @@
+"""Shared machinery of the commands: error mapping, warnings as one line, grid options."""
+
+from __future__ import annotations
+
+import functools
+import sys
+import warnings
+
+import click
+
+from ..errors import NumericalError, SarcliInputError, SarcliWarning
+
+__all__ = ["handle_errors", "grid_options", "parse_pair", "echo_info"]
+
+
+def _show_warning(message, category, filename, lineno, file=None, line=None):
+    name = "warning" if not issubclass(category, SarcliWarning) else f"warning ({category.__name__})"
+    click.echo(f"{name}: {message}", err=True)
+
+
+def handle_errors(func):
+    """Decorate a command: user mistakes -> one line + exit 2; numerical failure -> exit 1.
+
+    Library warnings are printed as a single ``warning: ...`` line each (no source lines).
+    """
+
+    @functools.wraps(func)
+    def wrapper(*args, **kwargs):
+        old = warnings.showwarning
+        warnings.showwarning = _show_warning
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("default", SarcliWarning)
+                warnings.showwarning = _show_warning
+                return func(*args, **kwargs)
+        except SarcliInputError as exc:
+            click.echo(f"error: {exc}", err=True)
+            sys.exit(2)
+        except NumericalError as exc:
+            click.echo(f"error: {exc}", err=True)
+            sys.exit(1)
+        finally:
+            warnings.showwarning = old
+
+    return wrapper
+
+
+def parse_pair(text, name):
+    """Parse ``"a"`` or ``"a,b"`` into a float pair (``(a, a)`` for one number)."""
+    if text is None:
+        return None
+    try:
+        parts = [float(p) for p in str(text).split(",")]
+    except ValueError:
+        raise click.BadParameter(f"expected a number or two numbers 'A,B', got {text!r}",
+                                 param_hint=name) from None
+    if len(parts) == 1:
+        parts = parts * 2
+    if len(parts) != 2:
+        raise click.BadParameter(f"expected one or two comma-separated numbers, got {text!r}",
+                                 param_hint=name)
+    return tuple(parts)
+
+
+def grid_options(func):
+    """The grid overrides shared by ``form-image``, ``regularize`` and friends.
+
+    Adds ``--center X,Y``, ``--extent W[,H]`` and ``--pixel-size H``; the command receives
+    ``center``, ``extent`` and ``pixel_size`` (None when not given) and passes them to
+    :func:`sarcli.grid_for`.
+    """
+    func = click.option("--pixel-size", "pixel_size", type=float, default=None,
+                        help="Pixel size in metres (default: from the acquisition).")(func)
+    func = click.option("--extent", "extent", default=None,
+                        help="Full side lengths W or W,H in metres (default: the acquisition's scene).")(func)
+    func = click.option("--center", "center", default=None,
+                        help="Grid centre X,Y in metres (default 0,0).")(func)
+    return func
+
+
+def echo_info(ctx, text):
+    """Print informational output unless ``--quiet``."""
+    if not (ctx.obj or {}).get("quiet"):
+        click.echo(text)

@@ -1,0 +1,294 @@
+"""Geometry of a spotlight collection: the one home of every k-space and range formula.
+
+Frames and signs follow ``CONVENTIONS.md``: ground frame x east, y north, z up, scene centre at
+the origin; pulse ``p`` looks along ``u_p = (cos φ cos θ, cos φ sin θ, -sin φ)`` from its antenna
+phase centre ``a_p`` to the scene centre. Every other module (simulator, image formers,
+regularisers, PSF) takes its wavenumbers, k-space coordinates, ranges and sampling limits from
+here instead of re-deriving them.
+
+All functions are array in, array out, float64, and vectorised over pulses (axis 0) and
+frequencies (axis 1).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = [
+    "C",
+    "wavenumbers",
+    "look_directions",
+    "kspace_coordinates",
+    "dimensionless_frequencies",
+    "alias_free_radii",
+    "resolutions",
+    "frequency_spacing",
+    "azimuth_spacing",
+    "antenna_positions_circle",
+    "antenna_positions_line",
+    "angles_from_positions",
+    "differential_range",
+    "farfield_phase_error",
+    "signal_phase",
+]
+
+#: Speed of light in vacuum (m/s).
+C = 299_792_458.0
+
+
+def _as_pm(freq_hz, n_pulses: int) -> np.ndarray:
+    """Frequencies as a [P, M] float64 array (broadcast a shared [M] vector)."""
+    f = np.asarray(freq_hz, dtype=np.float64)
+    if f.ndim == 1:
+        return np.broadcast_to(f, (n_pulses, f.size))
+    return f
+
+
+def wavenumbers(freq_hz, elevation_rad) -> np.ndarray:
+    """Ground-plane wavenumbers ``k = 4π α cos φ / c`` (paper eq. ``k-values``), in rad/m.
+
+    Parameters
+    ----------
+    freq_hz : array_like, shape (M,) or (P, M)
+        Frequencies α_j (Hz), shared by all pulses or per pulse.
+    elevation_rad : array_like, shape (P,) or scalar
+        Elevation φ_p of each pulse.
+
+    Returns
+    -------
+    k : ndarray, shape (P, M)
+    """
+    el = np.atleast_1d(np.asarray(elevation_rad, dtype=np.float64))
+    f = _as_pm(freq_hz, el.size)
+    return 4.0 * np.pi * f * np.cos(el)[:, None] / C
+
+
+def look_directions(azimuth_rad, elevation_rad) -> np.ndarray:
+    """Unit look vectors ``u_p`` from antenna to scene centre, shape (P, 3)."""
+    az = np.atleast_1d(np.asarray(azimuth_rad, dtype=np.float64))
+    el = np.broadcast_to(np.asarray(elevation_rad, dtype=np.float64), az.shape)
+    return np.stack([np.cos(el) * np.cos(az), np.cos(el) * np.sin(az), -np.sin(el)], axis=-1)
+
+
+def kspace_coordinates(freq_hz, azimuth_rad, elevation_rad):
+    """Physical k-space sample coordinates ``k ξ_θ`` (rad/m), paper eq. ``eq1``.
+
+    Returns
+    -------
+    kx, ky : ndarray, shape (P, M)
+    """
+    az = np.atleast_1d(np.asarray(azimuth_rad, dtype=np.float64))
+    el = np.broadcast_to(np.asarray(elevation_rad, dtype=np.float64), az.shape)
+    k = wavenumbers(freq_hz, el)
+    return k * np.cos(az)[:, None], k * np.sin(az)[:, None]
+
+
+def dimensionless_frequencies(freq_hz, azimuth_rad, elevation_rad, pixel_m, *, wrap: bool = True):
+    """Dimensionless frequencies ``(k1, k2) = k h ξ_θ`` of the pixel model (eq. ``fund-freq``).
+
+    Parameters
+    ----------
+    pixel_m : float or (float, float)
+        Pixel length h (or (hx, hy) for a rectangular pixel).
+    wrap : bool
+        Wrap into [-π, π), which is exact on the pixel grid (section ``sec: alias``).
+
+    Returns
+    -------
+    k1, k2 : ndarray, shape (P, M)
+        Multiply ``x``-index by k1 and ``y``-index by k2.
+    """
+    hx, hy = (pixel_m, pixel_m) if np.isscalar(pixel_m) else pixel_m
+    kx, ky = kspace_coordinates(freq_hz, azimuth_rad, elevation_rad)
+    k1, k2 = kx * hx, ky * hy
+    if wrap:
+        k1 = np.mod(k1 + np.pi, 2.0 * np.pi) - np.pi
+        k2 = np.mod(k2 + np.pi, 2.0 * np.pi) - np.pi
+    return k1, k2
+
+
+def frequency_spacing(freq_hz) -> float:
+    """Largest spacing Δα between adjacent frequencies (Hz); 0 for a single frequency."""
+    f = np.asarray(freq_hz, dtype=np.float64)
+    f = f if f.ndim == 1 else f[0]
+    if f.size < 2:
+        return 0.0
+    return float(np.max(np.abs(np.diff(np.sort(f)))))
+
+
+def azimuth_spacing(azimuth_rad) -> float:
+    """Largest spacing Δθ between adjacent look azimuths (rad), wrap-aware; 0 for one pulse."""
+    az = np.sort(np.mod(np.asarray(azimuth_rad, dtype=np.float64), 2 * np.pi))
+    if az.size < 2:
+        return 0.0
+    gaps = np.diff(az)
+    # a full circle closes on itself: include the wrap-around gap only when it is small
+    wrap_gap = az[0] + 2 * np.pi - az[-1]
+    if wrap_gap < 2 * np.max(gaps):
+        gaps = np.append(gaps, wrap_gap)
+    return float(np.max(gaps))
+
+
+def alias_free_radii(freq_hz, azimuth_rad, elevation_rad):
+    """Alias-free scene radii from the sampling (section ``sec: size``, eq. ``scene-size``).
+
+    ``R = c / (4 Δα cos φ)`` in range and ``R_cr = c / (4 α_M cos φ Δθ)`` in cross-range, with
+    the largest spacings and, for varying elevation, the largest ``cos φ`` (the tightest limit).
+
+    Returns
+    -------
+    r_range, r_cross : float
+        Radii in metres; ``inf`` where a dimension has a single sample.
+    """
+    cos_el = float(np.max(np.cos(np.atleast_1d(elevation_rad))))
+    dalpha = frequency_spacing(freq_hz)
+    dtheta = azimuth_spacing(azimuth_rad)
+    alpha_max = float(np.max(freq_hz))
+    r_range = np.inf if dalpha == 0 else C / (4.0 * dalpha * cos_el)
+    r_cross = np.inf if dtheta == 0 else C / (4.0 * alpha_max * cos_el * dtheta)
+    return r_range, r_cross
+
+
+def resolutions(freq_hz, azimuth_rad, elevation_rad):
+    """Range and cross-range resolution (m), CONVENTIONS.md "Sampling limits".
+
+    ``ρ_r = c / (2 B cos φ)`` with ``B = α_M - α_1`` and ``ρ_cr = c / (4 α_c cos φ sin(Θ/2))``
+    for a total aperture Θ; ``inf`` for a single frequency or a single pulse. Θ is capped at π
+    (a wider aperture does not sharpen further in this formula).
+    """
+    f = np.asarray(freq_hz, dtype=np.float64)
+    cos_el = float(np.mean(np.cos(np.atleast_1d(elevation_rad))))
+    bandwidth = float(np.max(f) - np.min(f))
+    alpha_c = 0.5 * float(np.max(f) + np.min(f))
+    az = np.atleast_1d(np.asarray(azimuth_rad, dtype=np.float64))
+    aperture = total_aperture(az)
+    rho_r = np.inf if bandwidth == 0 else C / (2.0 * bandwidth * cos_el)
+    rho_cr = np.inf if aperture == 0 else C / (4.0 * alpha_c * cos_el * np.sin(min(aperture, np.pi) / 2))
+    return rho_r, rho_cr
+
+
+def total_aperture(azimuth_rad) -> float:
+    """Total azimuth extent Θ (rad) spanned by the looks, wrap-aware (2π for a full circle)."""
+    az = np.sort(np.mod(np.asarray(azimuth_rad, dtype=np.float64), 2 * np.pi))
+    if az.size < 2:
+        return 0.0
+    gaps = np.append(np.diff(az), az[0] + 2 * np.pi - az[-1])
+    largest = float(np.max(gaps))
+    spacing = float(np.median(np.diff(az))) if az.size > 1 else 0.0
+    # the largest gap is the part of the circle not covered, unless the looks close the circle
+    if largest <= 1.5 * spacing + 1e-12:
+        return 2 * np.pi
+    return 2 * np.pi - largest
+
+
+def antenna_positions_circle(azimuth_rad, elevation_rad, range_m) -> np.ndarray:
+    """Antenna positions ``a_p = -r0 u_p`` on a circular (constant range) path, shape (P, 3)."""
+    u = look_directions(azimuth_rad, elevation_rad)
+    r0 = np.broadcast_to(np.asarray(range_m, dtype=np.float64), (u.shape[0],))
+    return -r0[:, None] * u
+
+
+def antenna_positions_line(azimuth_rad, elevation_rad, range_m, center_azimuth_rad) -> np.ndarray:
+    """Antenna positions on a straight, level flight line, shape (P, 3).
+
+    The line is horizontal at the altitude ``r0 sin φ``, perpendicular to the look at
+    ``center_azimuth_rad``, at ground distance ``r0 cos φ`` from the scene centre; pulse p sits
+    where the horizontal look azimuth equals ``azimuth_rad[p]`` (so its elevation and range vary
+    along the line; use :func:`angles_from_positions` for the exact per-pulse angles).
+    """
+    az = np.atleast_1d(np.asarray(azimuth_rad, dtype=np.float64))
+    ground = float(range_m) * np.cos(float(elevation_rad))
+    height = float(range_m) * np.sin(float(elevation_rad))
+    rel = az - center_azimuth_rad
+    if np.any(np.abs(np.cos(rel)) < 1e-6):
+        raise ValueError("a straight flight line cannot see the scene at ±90° from its centre look")
+    along = ground * np.tan(rel)
+    # antenna horizontal position = -ground * xi_c + along * t, t = xi_c rotated +90°
+    xi_c = np.array([np.cos(center_azimuth_rad), np.sin(center_azimuth_rad)])
+    t = np.array([-xi_c[1], xi_c[0]])
+    # looking from the antenna towards the centre at azimuth θ means the antenna lies at -θ side:
+    # horizontal antenna position a_h = -ρ ξ_θ, so a_h·t = -ρ sin(θ-θc) < 0 for θ > θc.
+    xy = -ground * xi_c[None, :] - along[:, None] * t[None, :]
+    return np.column_stack([xy, np.full(az.size, height)])
+
+
+def angles_from_positions(antenna_position_m):
+    """Look azimuth θ_p and elevation φ_p (rad) from antenna positions (scene centre at origin).
+
+    Returns
+    -------
+    azimuth_rad, elevation_rad, range_to_center_m : ndarray, shape (P,)
+    """
+    a = np.asarray(antenna_position_m, dtype=np.float64)
+    r0 = np.linalg.norm(a, axis=1)
+    u = -a / r0[:, None]
+    az = np.arctan2(u[:, 1], u[:, 0])
+    el = np.arcsin(np.clip(-u[:, 2], -1.0, 1.0))
+    return az, el, r0
+
+
+def differential_range(antenna_position_m, range_to_center_m, points_m) -> np.ndarray:
+    """Differential range ``|a_p - x| - r0_p`` (m) in a cancellation-free form.
+
+    ``|a - x| - |a| = (|x|² - 2 a·x) / (|a - x| + |a|)`` loses no digits even at r0 = 100 km,
+    unlike the naive difference of two large numbers; a reference range r0_p other than |a_p|
+    (motion-compensated data) adds ``|a_p| - r0_p``.
+
+    Parameters
+    ----------
+    antenna_position_m : array_like, shape (P, 3)
+    range_to_center_m : array_like, shape (P,)
+    points_m : array_like, shape (..., 3) or (..., 2)
+        Scene points; a missing z is 0.
+
+    Returns
+    -------
+    dr : ndarray, shape (P, ...)
+    """
+    a = np.asarray(antenna_position_m, dtype=np.float64)
+    r0 = np.asarray(range_to_center_m, dtype=np.float64)
+    x = np.asarray(points_m, dtype=np.float64)
+    if x.shape[-1] == 2:
+        x = np.concatenate([x, np.zeros(x.shape[:-1] + (1,))], axis=-1)
+    pts = x.reshape(-1, 3)
+    norm_a = np.linalg.norm(a, axis=1)
+    ax = a @ pts.T  # (P, S)
+    xx = np.einsum("ij,ij->i", pts, pts)[None, :]
+    dist = np.sqrt(np.maximum(norm_a[:, None] ** 2 - 2 * ax + xx, 0.0))
+    dr = (xx - 2 * ax) / (dist + norm_a[:, None]) + (norm_a - r0)[:, None]
+    return dr.reshape((a.shape[0],) + x.shape[:-1])
+
+
+def farfield_phase_error(range_to_center_m, freq_max_hz, radius_m) -> float:
+    """Predicted far-field phase error at distance ``radius_m`` from the centre (rad).
+
+    ``(4π α_max / c) |x|² / (2 r0)`` (CONVENTIONS.md "Data models"): what a far-field method
+    loses on spherical data; a few tenths of a radian already defocus.
+    """
+    r0 = float(np.min(range_to_center_m))
+    return 4.0 * np.pi * float(freq_max_hz) / C * float(radius_m) ** 2 / (2.0 * r0)
+
+
+def signal_phase(freq_hz, azimuth_rad, elevation_rad, points_m, *, model="farfield",
+                 antenna_position_m=None, range_to_center_m=None) -> np.ndarray:
+    """Phase ψ[p, j, s] with ``d[p, j] = Σ_s a_s exp(-i ψ)`` for point scatterers (float64).
+
+    Far-field: ``ψ = k_pj ξ_θp · x_s`` (eq. ``eq1``). Spherical: ``ψ = (4π α_pj / c)(|a_p - x_s| - r0_p)``.
+    The matched filter multiplies by ``exp(+i ψ)``. Memory is P × M × S: chunk the callers.
+
+    Returns
+    -------
+    psi : ndarray, shape (P, M, S)
+    """
+    x = np.atleast_2d(np.asarray(points_m, dtype=np.float64))
+    az = np.atleast_1d(np.asarray(azimuth_rad, dtype=np.float64))
+    if model == "farfield":
+        kx, ky = kspace_coordinates(freq_hz, az, elevation_rad)
+        return kx[:, :, None] * x[None, None, :, 0] + ky[:, :, None] * x[None, None, :, 1]
+    if model == "spherical":
+        if antenna_position_m is None or range_to_center_m is None:
+            raise ValueError("the spherical model needs antenna positions and ranges")
+        dr = differential_range(antenna_position_m, range_to_center_m, x)  # (P, S)
+        f = _as_pm(freq_hz, az.size)
+        return (4.0 * np.pi / C) * f[:, :, None] * dr[:, None, :]
+    raise ValueError(f"unknown model {model!r}; expected 'farfield' or 'spherical'")

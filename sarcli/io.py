@@ -1,0 +1,405 @@
+"""Phase-history and image files (HDF5), exactly as CONVENTIONS.md "Files" specifies.
+
+Readers validate the whole contract (format, version, datasets, dtypes, shapes, finiteness)
+and raise :class:`~sarcli.errors.InputFileError` with one line naming the file and what is wrong;
+writers go through a temporary file renamed at the end, so no partial file is ever left.
+
+Public API
+----------
+read_phase_history(path) -> PhaseHistory
+write_phase_history(path, ph)
+read_image(path) -> Image
+write_image(path, img)
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import h5py
+import numpy as np
+
+from ._atomic import atomic_path
+from ._version import __version__
+from .acquisition import MODELS, Acquisition
+from .errors import InputFileError
+from .grid import Grid
+
+__all__ = [
+    "PhaseHistory",
+    "Truth",
+    "Image",
+    "read_phase_history",
+    "write_phase_history",
+    "read_image",
+    "write_image",
+    "PH_FORMAT",
+    "IMAGE_FORMAT",
+]
+
+PH_FORMAT = "sarcli-phase-history"
+IMAGE_FORMAT = "sarcli-image"
+FILE_VERSION = 1
+
+
+@dataclass(frozen=True, eq=False)
+class Truth:
+    """What a simulated scene really was.
+
+    Attributes
+    ----------
+    point_position_m : ndarray (S, 3)
+    point_amplitude : ndarray (S,) complex
+    scene : ndarray (ny, nx) complex, optional
+        The scene at reconstruction resolution (block average of the fine synthesis grid).
+    x_m, y_m : ndarray, optional
+        Pixel-centre coordinates of ``scene``.
+    magnitude : ndarray (ny, nx), optional
+        Block average of the reflectivity magnitude (what a speckle-free image should show).
+    """
+
+    point_position_m: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    point_amplitude: np.ndarray = field(default_factory=lambda: np.zeros(0, complex))
+    scene: np.ndarray | None = None
+    x_m: np.ndarray | None = None
+    y_m: np.ndarray | None = None
+    magnitude: np.ndarray | None = None
+
+    @property
+    def grid(self) -> Grid | None:
+        return None if self.scene is None else Grid.from_axes(self.x_m, self.y_m)
+
+
+@dataclass(frozen=True, eq=False)
+class PhaseHistory:
+    """A phase history ``d[p, j]`` with its acquisition geometry.
+
+    Attributes
+    ----------
+    data : ndarray (P, M) complex
+    acquisition : Acquisition
+        Geometry; ``acquisition.model`` is the data model the samples follow.
+    truth : Truth, optional
+    attrs : dict
+        Provenance read from or written to the file (``sarcli_version``, ``config_yaml``, ...).
+    """
+
+    data: np.ndarray
+    acquisition: Acquisition
+    truth: Truth | None = None
+    attrs: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def model(self) -> str:
+        return self.acquisition.model
+
+
+@dataclass(eq=False)
+class Image:
+    """A complex image on a grid, normalised so a unit point scatterer peaks at 1.
+
+    Attributes
+    ----------
+    image : ndarray (ny, nx) complex
+    x_m, y_m : ndarray
+        Increasing pixel-centre coordinates.
+    method : str
+    parameters : dict
+        Every setting that shaped the image (JSON-serialisable).
+    runtime_s : float
+        Wall seconds of the formation itself.
+    history : dict of str -> ndarray, optional
+        Per-iteration logs of iterative methods.
+    attrs : dict
+        Further root attributes.
+    """
+
+    image: np.ndarray
+    x_m: np.ndarray
+    y_m: np.ndarray
+    method: str = ""
+    parameters: dict[str, Any] = field(default_factory=dict)
+    runtime_s: float = 0.0
+    history: dict[str, np.ndarray] | None = None
+    attrs: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def grid(self) -> Grid:
+        return Grid.from_axes(self.x_m, self.y_m)
+
+
+# --------------------------------------------------------------------------------------------
+# helpers
+# --------------------------------------------------------------------------------------------
+def _json_default(o):
+    if isinstance(o, np.ndarray):
+        return o.tolist()
+    if isinstance(o, (np.floating, np.integer)):
+        return o.item()
+    if isinstance(o, (np.bool_,)):
+        return bool(o)
+    if isinstance(o, complex):
+        return [o.real, o.imag]
+    if isinstance(o, Path):
+        return str(o)
+    return str(o)
+
+
+def to_json(obj) -> str:
+    return json.dumps(obj, default=_json_default, sort_keys=True)
+
+
+def _open(path, kind: str) -> h5py.File:
+    p = Path(path)
+    if not p.exists():
+        raise InputFileError(path, f"no such file (expected a {kind} HDF5 file)")
+    if p.is_dir():
+        raise InputFileError(path, f"is a directory, expected a {kind} HDF5 file")
+    try:
+        return h5py.File(p, "r")
+    except OSError as exc:
+        raise InputFileError(path, f"not a readable HDF5 file ({str(exc).splitlines()[0]})") from None
+
+
+def _attr_str(f, name):
+    v = f.attrs.get(name)
+    if isinstance(v, bytes):
+        v = v.decode()
+    return v
+
+
+def _check_format(path, f, expected):
+    fmt = _attr_str(f, "format")
+    if fmt != expected:
+        raise InputFileError(path, f"root attribute 'format' is {fmt!r}, expected {expected!r}")
+    ver = f.attrs.get("version")
+    try:
+        ver = int(ver)
+    except (TypeError, ValueError):
+        raise InputFileError(path, f"root attribute 'version' is {ver!r}, expected an integer") from None
+    if ver != FILE_VERSION:
+        raise InputFileError(path, f"{expected} version {ver} is not supported (this sarcli reads {FILE_VERSION})")
+
+
+def _dataset(path, f, name, *, kind, ndim, shape=None, required=True, finite=True):
+    if name not in f:
+        if required:
+            raise InputFileError(path, f"missing dataset '{name}'")
+        return None
+    obj = f[name]
+    if not isinstance(obj, h5py.Dataset):
+        raise InputFileError(path, f"'{name}' is not a dataset")
+    try:
+        arr = obj[()]
+    except (OSError, KeyError) as exc:
+        raise InputFileError(path, f"dataset '{name}' cannot be read (truncated or corrupt file: {exc})") from None
+    arr = np.asarray(arr)
+    dims = ndim if isinstance(ndim, tuple) else (ndim,)
+    if arr.ndim not in dims:
+        raise InputFileError(path, f"dataset '{name}' has {arr.ndim} dimensions, expected {' or '.join(map(str, dims))}")
+    if kind == "complex" and not np.iscomplexobj(arr):
+        raise InputFileError(path, f"dataset '{name}' has dtype {arr.dtype}, expected complex64 or complex128")
+    if kind == "float" and not (np.issubdtype(arr.dtype, np.floating) or np.issubdtype(arr.dtype, np.integer)):
+        raise InputFileError(path, f"dataset '{name}' has dtype {arr.dtype}, expected float64")
+    if shape is not None:
+        for axis, n in enumerate(shape):
+            if n is not None and arr.shape[axis] != n:
+                raise InputFileError(path, f"dataset '{name}' has shape {arr.shape}, expected {tuple('*' if s is None else s for s in shape)}")
+    if finite and arr.size and not np.all(np.isfinite(arr)):
+        bad = int(np.size(arr) - np.count_nonzero(np.isfinite(arr)))
+        raise InputFileError(path, f"dataset '{name}' holds {bad} NaN/Inf values")
+    return arr
+
+
+# --------------------------------------------------------------------------------------------
+# phase history
+# --------------------------------------------------------------------------------------------
+def write_phase_history(path, ph: PhaseHistory) -> Path:
+    """Write a phase history file (atomic: a temporary name renamed at the end).
+
+    Parameters
+    ----------
+    path : str or Path
+    ph : PhaseHistory
+
+    Returns
+    -------
+    Path
+    """
+    acq = ph.acquisition
+    with atomic_path(path) as tmp:
+        with h5py.File(tmp, "w") as f:
+            f.attrs["format"] = PH_FORMAT
+            f.attrs["version"] = FILE_VERSION
+            f.attrs["model"] = acq.model
+            f.attrs["sarcli_version"] = __version__
+            f.attrs["name"] = acq.name or ""
+            if acq.config_text is not None:
+                f.attrs["config_yaml"] = acq.config_text
+            if acq.source is not None:
+                f.attrs["config_source"] = str(acq.source)
+            if acq.snr_db is not None:
+                f.attrs["snr_db"] = float(acq.snr_db)
+            for k, v in ph.attrs.items():
+                if k in ("format", "version", "model"):
+                    continue
+                f.attrs[k] = v if isinstance(v, (str, int, float, np.number)) else to_json(v)
+            f.create_dataset("phase_history", data=ph.data)
+            f.create_dataset("frequency_hz", data=np.asarray(acq.frequency_hz, np.float64))
+            f.create_dataset("azimuth_rad", data=np.asarray(acq.azimuth_rad, np.float64))
+            f.create_dataset("elevation_rad", data=np.asarray(acq.elevation_rad, np.float64))
+            if acq.antenna_position_m is not None:
+                f.create_dataset("antenna_position_m", data=np.asarray(acq.antenna_position_m, np.float64))
+                f.create_dataset("range_to_center_m", data=np.asarray(acq.range_to_center_m, np.float64))
+            g = f.create_group("grid")
+            for k, v in acq.grid.as_dict().items():
+                g.attrs[k] = v
+            if ph.truth is not None:
+                t = f.create_group("truth")
+                t.create_dataset("point_position_m", data=np.asarray(ph.truth.point_position_m, np.float64).reshape(-1, 3))
+                t.create_dataset("point_amplitude", data=np.asarray(ph.truth.point_amplitude, np.complex128).reshape(-1))
+                if ph.truth.scene is not None:
+                    t.create_dataset("scene", data=ph.truth.scene)
+                    t.create_dataset("x_m", data=np.asarray(ph.truth.x_m, np.float64))
+                    t.create_dataset("y_m", data=np.asarray(ph.truth.y_m, np.float64))
+                    if ph.truth.magnitude is not None:
+                        t.create_dataset("magnitude", data=np.asarray(ph.truth.magnitude, np.float64))
+    return Path(path)
+
+
+def read_phase_history(path) -> PhaseHistory:
+    """Read and validate a phase-history file.
+
+    Raises
+    ------
+    InputFileError
+        Foreign format or version, a missing dataset, a wrong dtype or shape, NaN/Inf,
+        non-positive frequencies, or a truncated file; the message names the file and the fault.
+    """
+    try:
+        with _open(path, PH_FORMAT) as f:
+            return _read_ph(path, f)
+    except InputFileError:
+        raise
+    except (OSError, KeyError, ValueError, TypeError) as exc:
+        raise InputFileError(path, f"broken phase-history file ({exc})") from None
+
+
+def _read_ph(path, f) -> PhaseHistory:
+    _check_format(path, f, PH_FORMAT)
+    model = _attr_str(f, "model")
+    if model not in MODELS:
+        raise InputFileError(path, f"root attribute 'model' is {model!r}, expected one of {MODELS}")
+    data = _dataset(path, f, "phase_history", kind="complex", ndim=2)
+    P, M = data.shape
+    if P < 1 or M < 1:
+        raise InputFileError(path, f"dataset 'phase_history' is empty (shape {data.shape})")
+    freq = _dataset(path, f, "frequency_hz", kind="float", ndim=(1, 2))
+    if freq.ndim == 1 and freq.shape != (M,) or freq.ndim == 2 and freq.shape != (P, M):
+        raise InputFileError(path, f"dataset 'frequency_hz' has shape {freq.shape}, expected ({M},) or ({P}, {M}) to match 'phase_history' {data.shape}")
+    if np.any(freq <= 0):
+        raise InputFileError(path, f"dataset 'frequency_hz' holds non-positive values (min {freq.min():g} Hz)")
+    az = _dataset(path, f, "azimuth_rad", kind="float", ndim=1, shape=(P,))
+    el = _dataset(path, f, "elevation_rad", kind="float", ndim=1, shape=(P,))
+    if np.any(np.abs(el) >= np.pi / 2):
+        raise InputFileError(path, "dataset 'elevation_rad' holds |φ| >= 90°")
+    need = model == "spherical"
+    pos = _dataset(path, f, "antenna_position_m", kind="float", ndim=2, shape=(P, 3), required=need)
+    r0 = _dataset(path, f, "range_to_center_m", kind="float", ndim=1, shape=(P,), required=need or pos is not None)
+    if "grid" in f:
+        g = f["grid"].attrs
+        grid = Grid(int(g["nx"]), int(g["ny"]), float(g["dx"]), float(g["dy"]), float(g["cx"]), float(g["cy"]))
+    else:
+        grid = _default_grid(freq, az, el)
+    attrs = {k: (v.decode() if isinstance(v, bytes) else v) for k, v in f.attrs.items()}
+    snr = attrs.get("snr_db")
+    acq = Acquisition(
+        frequency_hz=freq.astype(np.float64), azimuth_rad=az.astype(np.float64),
+        elevation_rad=el.astype(np.float64), grid=grid,
+        antenna_position_m=None if pos is None else pos.astype(np.float64),
+        range_to_center_m=None if r0 is None else r0.astype(np.float64),
+        model=model, snr_db=None if snr is None else float(snr), name=str(attrs.get("name", "")),
+        source=str(path), config_text=attrs.get("config_yaml"),
+    )
+    truth = None
+    if "truth" in f:
+        pp = _dataset(path, f, "truth/point_position_m", kind="float", ndim=2, required=False)
+        pa = _dataset(path, f, "truth/point_amplitude", kind="any", ndim=1, required=False)
+        if pp is not None and pa is not None and pp.shape[0] != pa.shape[0]:
+            raise InputFileError(path, "datasets 'truth/point_position_m' and 'truth/point_amplitude' differ in length")
+        scene = _dataset(path, f, "truth/scene", kind="any", ndim=2, required=False)
+        tx = ty = mag = None
+        if scene is not None:
+            tx = _dataset(path, f, "truth/x_m", kind="float", ndim=1, shape=(scene.shape[1],))
+            ty = _dataset(path, f, "truth/y_m", kind="float", ndim=1, shape=(scene.shape[0],))
+            mag = _dataset(path, f, "truth/magnitude", kind="float", ndim=2, shape=scene.shape, required=False)
+        truth = Truth(
+            point_position_m=np.zeros((0, 3)) if pp is None else pp,
+            point_amplitude=np.zeros(0, complex) if pa is None else pa.astype(np.complex128),
+            scene=scene, x_m=tx, y_m=ty, magnitude=mag,
+        )
+    return PhaseHistory(data=data, acquisition=acq, truth=truth, attrs=attrs)
+
+
+def _default_grid(freq, az, el) -> Grid:
+    """A grid derived from the sampling for files written by other tools (no /grid group)."""
+    from .config import derive_grid  # local import: config depends on io-free modules only
+
+    return derive_grid(freq, az, el)
+
+
+# --------------------------------------------------------------------------------------------
+# image
+# --------------------------------------------------------------------------------------------
+def write_image(path, img: Image) -> Path:
+    """Write an image file (atomic). ``parameters`` is stored as a JSON string."""
+    with atomic_path(path) as tmp:
+        with h5py.File(tmp, "w") as f:
+            f.attrs["format"] = IMAGE_FORMAT
+            f.attrs["version"] = FILE_VERSION
+            f.attrs["method"] = img.method
+            f.attrs["parameters"] = to_json(img.parameters)
+            f.attrs["runtime_s"] = float(img.runtime_s)
+            f.attrs["sarcli_version"] = __version__
+            for k, v in img.attrs.items():
+                if k in ("format", "version", "method", "parameters", "runtime_s"):
+                    continue
+                f.attrs[k] = v if isinstance(v, (str, int, float, np.number)) else to_json(v)
+            f.create_dataset("image", data=img.image)
+            f.create_dataset("x_m", data=np.asarray(img.x_m, np.float64))
+            f.create_dataset("y_m", data=np.asarray(img.y_m, np.float64))
+            if img.history:
+                h = f.create_group("history")
+                for k, v in img.history.items():
+                    h.create_dataset(k, data=np.asarray(v, np.float64))
+    return Path(path)
+
+
+def read_image(path) -> Image:
+    """Read and validate an image file."""
+    try:
+        with _open(path, IMAGE_FORMAT) as f:
+            _check_format(path, f, IMAGE_FORMAT)
+            im = _dataset(path, f, "image", kind="complex", ndim=2, finite=False)
+            x = _dataset(path, f, "x_m", kind="float", ndim=1, shape=(im.shape[1],))
+            y = _dataset(path, f, "y_m", kind="float", ndim=1, shape=(im.shape[0],))
+            if x.size > 1 and np.any(np.diff(x) <= 0) or y.size > 1 and np.any(np.diff(y) <= 0):
+                raise InputFileError(path, "datasets 'x_m'/'y_m' must be increasing")
+            attrs = {k: (v.decode() if isinstance(v, bytes) else v) for k, v in f.attrs.items()}
+            try:
+                params = json.loads(attrs.get("parameters", "{}"))
+            except json.JSONDecodeError:
+                raise InputFileError(path, "root attribute 'parameters' is not valid JSON") from None
+            history = None
+            if "history" in f:
+                history = {k: np.asarray(v[()]) for k, v in f["history"].items()}
+            return Image(image=im, x_m=x, y_m=y, method=str(attrs.get("method", "")),
+                         parameters=params, runtime_s=float(attrs.get("runtime_s", 0.0)),
+                         history=history, attrs=attrs)
+    except InputFileError:
+        raise
+    except (OSError, KeyError, ValueError, TypeError) as exc:
+        raise InputFileError(path, f"broken image file ({exc})") from None
