@@ -1,0 +1,31 @@
+"""``sar export IMG.h5 -o OUT.{tif,png,sicd,nitf}``: write an image in another format."""
+
+from __future__ import annotations
+
+import click
+
+from ._common import handle_errors
+
+
+@click.command("export")
+@click.argument("image", type=click.Path(dir_okay=False))
+@click.option("-o", "--output", required=True, type=click.Path(dir_okay=False),
+              help="Output file; the suffix picks the format (.tif/.tiff, .png, .sicd/.nitf).")
+@click.option("--kind", type=click.Choice(["magnitude", "db", "complex"]), default=None,
+              help="What to write (default: GeoTIFF magnitude, PNG db, SICD complex).")
+@click.option("--dynamic-range-db", type=float, default=50.0, show_default=True,
+              help="Displayed dynamic range of dB output.")
+@click.option("--cmap", default="gray", show_default=True, help="PNG colormap (matplotlib name).")
+@click.option("--annotate", is_flag=True, help="PNG: a figure with metre axes and a colour bar.")
+@click.option("--phase-history", "phase_history", type=click.Path(dir_okay=False), default=None,
+              help="SICD: the phase-history file the image was formed from (collection geometry).")
+@handle_errors
+def command(image, output, kind, dynamic_range_db, cmap, annotate, phase_history):
+    """Export IMAGE (a sarcli image file) to GeoTIFF, PNG or SICD."""
+    from ..export import export_image
+    from ..io import read_image, read_phase_history
+
+    img = read_image(image)
+    ph = read_phase_history(phase_history) if phase_history else None
+    export_image(img, output, kind=kind, dynamic_range_db=dynamic_range_db, cmap=cmap,
+                 annotate=annotate, phase_history=ph)

@@ -1,0 +1,109 @@
+"""PNG export of an image: 8-bit dB (or linear magnitude) display, north-up, grey or a colormap.
+
+Mapping (``kind='db'``, the default): ``20 log10(|f| / max|f|)`` clipped to ``[-DR, 0]`` and mapped
+linearly onto 0..255, so the peak is exactly 255 and ``-DR`` dB (and below) is 0. ``kind='magnitude'``
+maps ``|f| / max|f|`` linearly onto 0..255. Rows are flipped so the top of the picture is north;
+the PNG's ``Description`` text chunk records the flip and the mapping. Grey pictures are 8-bit
+single-channel; a named matplotlib colormap gives 8-bit RGB.
+With ``annotate=True`` a matplotlib figure is written instead: axes in metres (east, north) and a
+colour bar in dB (or linear units).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .._atomic import atomic_path
+from .._version import __version__
+from ..errors import SarcliInputError
+from ..io import Image
+from . import _common
+
+__all__ = ["write_png", "display_values"]
+
+
+def display_values(img: Image, *, kind: str = "db", dynamic_range_db: float = 50.0) -> np.ndarray:
+    """The 8-bit picture (our row order, row 0 south) before colouring and flipping."""
+    _common.check_kind(kind, ("db", "magnitude"), "PNG")
+    dr = _common.check_dynamic_range(dynamic_range_db)
+    if kind == "db":
+        return _common.db_to_uint8(img.image, dr)
+    mag = np.abs(np.asarray(img.image)).astype(np.float64)
+    peak = float(mag.max()) if mag.size else 0.0
+    scaled = mag / peak if peak > 0 else mag
+    return np.clip(np.rint(255.0 * scaled), 0, 255).astype(np.uint8)
+
+
+def _colormap(name):
+    import matplotlib
+
+    try:
+        return matplotlib.colormaps[name]
+    except KeyError:
+        raise SarcliInputError(f"unknown matplotlib colormap {name!r} (try gray, viridis, magma)") from None
+
+
+def write_png(img: Image, path, *, kind: str = "db", dynamic_range_db: float = 50.0,
+              cmap: str = "gray", annotate: bool = False):
+    """Write ``img`` as a PNG picture (north-up).
+
+    Parameters
+    ----------
+    img : Image
+    path : str or Path
+    kind : {'db', 'magnitude'}
+    dynamic_range_db : float
+        Displayed dynamic range DR (dB) of the dB mapping.
+    cmap : str
+        'gray' (8-bit grey) or any matplotlib colormap name (8-bit RGB).
+    annotate : bool
+        Write a matplotlib figure with metre axes and a colour bar instead of the bare pixels.
+    """
+    values = display_values(img, kind=kind, dynamic_range_db=dynamic_range_db)
+    colormap = _colormap(cmap)
+    if annotate:
+        return _write_annotated(img, path, values, kind, float(dynamic_range_db), colormap)
+    from PIL import Image as PILImage
+    from PIL.PngImagePlugin import PngInfo
+
+    up = _common.north_up(values)
+    if cmap in ("gray", "grey", "Greys_r"):
+        pic = PILImage.fromarray(up, mode="L")
+    else:
+        rgb = (colormap(up.astype(np.float64) / 255.0)[..., :3] * 255.0 + 0.5).astype(np.uint8)
+        pic = PILImage.fromarray(rgb, mode="RGB")
+    info = PngInfo()
+    mapping = (f"20log10(|f|/max|f|) clipped to [-{dynamic_range_db:g}, 0] dB -> 0..255" if kind == "db"
+               else "|f|/max|f| -> 0..255")
+    info.add_text("Description", f"{_common.FLIP_NOTE}; {mapping}; colormap {cmap}")
+    info.add_text("Software", f"sarcli {__version__}")
+    with atomic_path(path) as tmp:
+        pic.save(tmp, format="PNG", pnginfo=info)
+
+
+def _write_annotated(img, path, values, kind, dr, colormap):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from matplotlib.figure import Figure
+
+    grid = img.grid
+    extent = (img.x_m[0] - grid.dx / 2, img.x_m[-1] + grid.dx / 2,
+              img.y_m[0] - grid.dy / 2, img.y_m[-1] + grid.dy / 2)
+    fig = Figure(figsize=(6.4, 5.2), dpi=100)
+    ax = fig.add_subplot()
+    if kind == "db":
+        shown = values.astype(np.float64) * (dr / 255.0) - dr
+        label, vmin, vmax = "dB relative to peak", -dr, 0.0
+    else:
+        shown = values.astype(np.float64) / 255.0
+        label, vmin, vmax = "|f| / max|f|", 0.0, 1.0
+    # origin='lower' puts our row 0 (south) at the bottom: the figure is north-up
+    im = ax.imshow(shown, origin="lower", extent=extent, cmap=colormap, vmin=vmin, vmax=vmax,
+                   interpolation="nearest")
+    ax.set_xlabel("x (east) [m]")
+    ax.set_ylabel("y (north) [m]")
+    ax.set_title(img.method or "image")
+    fig.colorbar(im, ax=ax, label=label)
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, format="png", bbox_inches="tight")
