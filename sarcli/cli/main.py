@@ -19,6 +19,7 @@ from ..progress import set_quiet
 COMMANDS: dict[str, tuple[str, str]] = {
     "simulate": ("simulate", "Simulate a phase-history file from a YAML acquisition."),
     "info": ("info", "Describe a YAML acquisition or a phase-history/image file."),
+    "export": ("export", "Export an image to GeoTIFF, PNG or SICD."),
 }
 
 
