@@ -23,7 +23,6 @@ _LAZY = {
     "resolve_grid": "grid",
     "load_acquisition": "config",
     "parse_acquisition": "config",
-    "simulate": "simulate",
     "PhaseHistory": "io",
     "Image": "io",
     "Truth": "io",
@@ -34,7 +33,11 @@ _LAZY = {
     "form_image": "formation",
 }
 
-__all__ = ["__version__", *_LAZY]
+# ``simulate`` is both a submodule and its main function: bind the function eagerly so that
+# ``sarcli.simulate(...)`` works whichever is imported first.
+from .simulate import simulate  # noqa: E402
+
+__all__ = ["__version__", "simulate", *_LAZY]
 
 
 def __getattr__(name):

@@ -116,16 +116,21 @@ def frequency_spacing(freq_hz) -> float:
     return float(np.max(np.abs(np.diff(np.sort(f)))))
 
 
+def _covered_gaps(azimuth_rad):
+    """Gaps between adjacent looks around the circle, without the uncovered arc (if any)."""
+    az = np.sort(np.mod(np.asarray(azimuth_rad, dtype=np.float64), 2 * np.pi))
+    gaps = np.append(np.diff(az), az[0] + 2 * np.pi - az[-1])
+    i = int(np.argmax(gaps))
+    if gaps[i] > 1.5 * np.median(gaps) + 1e-12:  # the part of the circle no pulse looks from
+        return np.delete(gaps, i), True
+    return gaps, False
+
+
 def azimuth_spacing(azimuth_rad) -> float:
     """Largest spacing Δθ between adjacent look azimuths (rad), wrap-aware; 0 for one pulse."""
-    az = np.sort(np.mod(np.asarray(azimuth_rad, dtype=np.float64), 2 * np.pi))
-    if az.size < 2:
+    if np.size(azimuth_rad) < 2:
         return 0.0
-    gaps = np.diff(az)
-    # a full circle closes on itself: include the wrap-around gap only when it is small
-    wrap_gap = az[0] + 2 * np.pi - az[-1]
-    if wrap_gap < 2 * np.max(gaps):
-        gaps = np.append(gaps, wrap_gap)
+    gaps, _ = _covered_gaps(azimuth_rad)
     return float(np.max(gaps))
 
 
@@ -169,16 +174,10 @@ def resolutions(freq_hz, azimuth_rad, elevation_rad):
 
 def total_aperture(azimuth_rad) -> float:
     """Total azimuth extent Θ (rad) spanned by the looks, wrap-aware (2π for a full circle)."""
-    az = np.sort(np.mod(np.asarray(azimuth_rad, dtype=np.float64), 2 * np.pi))
-    if az.size < 2:
+    if np.size(azimuth_rad) < 2:
         return 0.0
-    gaps = np.append(np.diff(az), az[0] + 2 * np.pi - az[-1])
-    largest = float(np.max(gaps))
-    spacing = float(np.median(np.diff(az))) if az.size > 1 else 0.0
-    # the largest gap is the part of the circle not covered, unless the looks close the circle
-    if largest <= 1.5 * spacing + 1e-12:
-        return 2 * np.pi
-    return 2 * np.pi - largest
+    gaps, open_arc = _covered_gaps(azimuth_rad)
+    return float(np.sum(gaps)) if open_arc else 2 * np.pi
 
 
 def antenna_positions_circle(azimuth_rad, elevation_rad, range_m) -> np.ndarray:

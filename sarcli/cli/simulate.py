@@ -1,0 +1,35 @@
+"""``sar simulate CONFIG -o PH.h5``."""
+
+from __future__ import annotations
+
+import click
+
+from ._common import echo_info, handle_errors
+
+
+@click.command("simulate")
+@click.argument("config", type=click.Path(dir_okay=False))
+@click.option("-o", "--output", required=True, type=click.Path(dir_okay=False), help="Phase-history file to write (.h5).")
+@click.option("--seed", type=int, default=None, help="Seed for random phases and noise (default: the config's).")
+@click.option("--snr-db", type=float, default=None, help="Override the config's noise.snr_db.")
+@click.option("--noiseless", is_flag=True, help="Ignore the config's noise section.")
+@click.option("--model", type=click.Choice(["farfield", "spherical"]), default=None,
+              help="Data model (default: the config's).")
+@click.option("--single", is_flag=True, help="Store complex64 samples instead of complex128.")
+@click.pass_context
+@handle_errors
+def command(ctx, config, output, seed, snr_db, noiseless, model, single):
+    """Simulate the phase history of CONFIG's scene and write it to OUTPUT."""
+    import numpy as np
+
+    from ..config import load_acquisition
+    from ..io import write_phase_history
+    from ..simulate import simulate
+
+    acq = load_acquisition(config)
+    snr = None if noiseless else ("config" if snr_db is None else snr_db)
+    ph = simulate(acq, seed=seed, snr_db=snr, model=model, dtype=np.complex64 if single else np.complex128)
+    write_phase_history(output, ph)
+    p, m = ph.data.shape
+    echo_info(ctx, f"wrote {output}: {p} pulses x {m} frequencies, model {ph.model}"
+                   + (f", SNR {ph.acquisition.snr_db:g} dB" if ph.acquisition.snr_db is not None else ""))
