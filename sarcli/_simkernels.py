@@ -9,10 +9,11 @@ from .geometry import C
 
 
 @numba.njit(parallel=True, cache=True, fastmath=False)
-def spherical_sum(freq, antenna, r0, points_xy, amp, out):  # pragma: no cover - compiled
+def spherical_sum(freq, antenna, offset, points_xy, amp, out):  # pragma: no cover - compiled
     """out[p, j] += Σ_s amp[s] exp(-i 4π f[p, j] (|a_p - x_s| - r0_p) / c), exact, in float64.
 
-    The differential range is computed cancellation-free (see geometry.differential_range).
+    The differential range is computed cancellation-free (see geometry.differential_range);
+    ``offset[p] = |a_p| - r0_p`` is taken in extended precision by the caller.
     When the frequencies of a pulse are equally spaced the phasor is advanced by multiplication,
     re-anchored every 64 steps to keep rounding below 1e-13.
     """
@@ -34,7 +35,7 @@ def spherical_sum(freq, antenna, r0, points_xy, amp, out):  # pragma: no cover -
             xx = x * x + y * y
             ax_dot = ax * x + ay * y
             dist = np.sqrt(na * na - 2.0 * ax_dot + xx)
-            dr = (xx - 2.0 * ax_dot) / (dist + na) + (na - r0[p])
+            dr = (xx - 2.0 * ax_dot) / (dist + na) + offset[p]
             k0 = 4.0 * np.pi * dr / C
             a = amp[s]
             if uniform:

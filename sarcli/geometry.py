@@ -254,7 +254,11 @@ def differential_range(antenna_position_m, range_to_center_m, points_m) -> np.nd
     ax = a @ pts.T  # (P, S)
     xx = np.einsum("ij,ij->i", pts, pts)[None, :]
     dist = np.sqrt(np.maximum(norm_a[:, None] ** 2 - 2 * ax + xx, 0.0))
-    dr = (xx - 2 * ax) / (dist + norm_a[:, None]) + (norm_a - r0)[:, None]
+    # |a_p| - r0_p is tiny (0 unless motion-compensated) but |a_p| rounds by ~1e-12 m at 10 km:
+    # take that difference in extended precision so the model's r0_p is honoured exactly.
+    norm_ld = np.sqrt(np.sum(a.astype(np.longdouble) ** 2, axis=1))
+    offset = (norm_ld - r0.astype(np.longdouble)).astype(np.float64)
+    dr = (xx - 2 * ax) / (dist + norm_a[:, None]) + offset[:, None]
     return dr.reshape((a.shape[0],) + x.shape[:-1])
 
 

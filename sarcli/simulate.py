@@ -74,7 +74,8 @@ def _spherical_extended(acq: Acquisition, values, grid) -> np.ndarray:
     f2 = np.ascontiguousarray(acq.frequencies_2d, dtype=np.float64)
     out = np.zeros((acq.n_pulses, acq.n_frequencies), np.complex128)
     a = np.ascontiguousarray(acq.antenna_position_m, dtype=np.float64)
-    r0 = np.ascontiguousarray(acq.range_to_center_m, dtype=np.float64)
+    norm_ld = np.sqrt(np.sum(acq.antenna_position_m.astype(np.longdouble) ** 2, axis=1))
+    r0 = (norm_ld - acq.range_to_center_m.astype(np.longdouble)).astype(np.float64)  # |a_p| - r0_p
     step = max(1, acq.n_pulses // 32)
     for p0 in progress(range(0, acq.n_pulses, step), desc="simulate scene", unit="chunk"):
         sl = slice(p0, min(acq.n_pulses, p0 + step))

@@ -1,0 +1,45 @@
+"""Shared fixtures: small acquisitions written to tmp_path, the repository's paths."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+import yaml
+
+REPO = Path(__file__).resolve().parents[1]
+CONFIGS = REPO / "configs"
+GOTCHA_DIR = REPO.parent / "shared" / "data" / "gotcha"
+
+
+def small_config(**overrides) -> dict:
+    """A small three-points-like acquisition (fast to simulate and image)."""
+    cfg = {
+        "name": "small",
+        "model": "spherical",
+        "frequencies": {"center_frequency_ghz": 10.0, "bandwidth_mhz": 600.0, "count": 64},
+        "elevation_deg": 30.0,
+        "azimuths": {"center_deg": 50.0, "extent_deg": 3.0, "count": 32},
+        "geometry": {"path": "circle", "standoff_range_m": 10000.0},
+        "image": {"half_width_m": 4.0, "pixels": 64},
+        "scene": {"points": [{"position_m": [0.0, 0.0], "amplitude": 1.0},
+                             {"position_m": [-1.5, 1.0], "amplitude": [0.0, 1.0]}]},
+    }
+    for key, value in overrides.items():
+        if value is None:
+            cfg.pop(key, None)
+        else:
+            cfg[key] = value
+    return cfg
+
+
+@pytest.fixture
+def write_config(tmp_path):
+    """Write a config dict (or raw text) to a YAML file and return its path."""
+
+    def _write(cfg, name="acq.yaml"):
+        path = tmp_path / name
+        path.write_text(cfg if isinstance(cfg, str) else yaml.safe_dump(cfg, sort_keys=False))
+        return path
+
+    return _write

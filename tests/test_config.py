@@ -1,0 +1,167 @@
+"""Every validation rule of the YAML loader: exit code 2, one line naming the key."""
+
+from __future__ import annotations
+
+import copy
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+import sarcli
+from sarcli.cli.main import cli
+from sarcli.errors import AliasingWarning, ConfigError
+
+from .conftest import CONFIGS, small_config
+
+
+def _run_bad(write_config, tmp_path, cfg):
+    path = write_config(cfg)
+    out = tmp_path / "ph.h5"
+    res = CliRunner().invoke(cli, ["simulate", str(path), "-o", str(out)])
+    return res, out
+
+
+def _with(path, value):
+    cfg = small_config()
+    node = cfg
+    keys = path.split(".")
+    for k in keys[:-1]:
+        node = node[k]
+    if value is KeyError:
+        del node[keys[-1]]
+    else:
+        node[keys[-1]] = value
+    return cfg
+
+
+BAD = [
+    # (key path, value, text the message must contain)
+    ("frequencies.bandwidth_mhz", -5.0, "frequencies.bandwidth_mhz"),
+    ("frequencies.center_frequency_ghz", 1.0e10, "looks like Hz"),
+    ("frequencies.bandwidth_mhz", 6.0e8, "looks like Hz"),
+    ("frequencies.count", 0, "frequencies.count"),
+    ("frequencies.count", 12.5, "frequencies.count"),
+    ("frequencies.count", "many", "frequencies.count"),
+    ("frequencies.center_frequency_ghz", KeyError, "frequencies.center_frequency_ghz"),
+    ("elevation_deg", 90.0, "elevation_deg"),
+    ("elevation_deg", 95.0, "elevation_deg"),
+    ("elevation_deg", -10.0, "elevation_deg"),
+    ("elevation_deg", "thirty", "elevation_deg"),
+    ("image.pixels", 63, "odd"),
+    ("image.pixels", 1, "image.pixels"),
+    ("image.half_width_m", -1.0, "image.half_width_m"),
+    ("image.half_width_m", KeyError, "image.half_width_m"),
+    ("azimuths.count", -3, "azimuths.count"),
+    ("azimuths.extent_deg", 400.0, "azimuths.extent_deg"),
+    ("azimuths.extent_deg", KeyError, "azimuths.extent_deg"),
+    ("geometry.path", "zigzag", "geometry.path"),
+    ("geometry.standoff_range_m", 0.0, "geometry.standoff_range_m"),
+    ("model", "curved", "model"),
+    ("scene.points", [{"position_m": [0, 0, 0, 0]}], "position_m"),
+    ("scene.points", [{"position_m": [0, 0], "amplitude": "big"}], "amplitude"),
+]
+
+
+@pytest.mark.parametrize("key,value,needle", BAD, ids=[f"{k}={v}" for k, v, _ in BAD])
+def test_bad_values_exit_2_with_one_line(write_config, tmp_path, key, value, needle):
+    res, out = _run_bad(write_config, tmp_path, _with(key, value))
+    assert res.exit_code == 2, res.output
+    lines = [ln for ln in res.output.strip().splitlines() if ln.startswith("error")]
+    assert len(lines) == 1, res.output
+    assert needle in lines[0]
+    assert "acq.yaml" in lines[0]
+    assert "Traceback" not in res.output
+    assert not out.exists()
+
+
+def test_unknown_key_suggests_closest(write_config, tmp_path):
+    cfg = small_config()
+    cfg["elevation_dgr"] = cfg.pop("elevation_deg")
+    res, _ = _run_bad(write_config, tmp_path, cfg)
+    assert res.exit_code == 2
+    assert "elevation_dgr" in res.output and "did you mean 'elevation_deg'" in res.output
+    cfg = small_config()
+    cfg["frequencies"]["bandwith_mhz"] = cfg["frequencies"].pop("bandwidth_mhz")
+    res, _ = _run_bad(write_config, tmp_path, cfg)
+    assert res.exit_code == 2 and "frequencies.bandwith_mhz" in res.output and "bandwidth_mhz" in res.output
+
+
+def test_missing_section(write_config, tmp_path):
+    res, _ = _run_bad(write_config, tmp_path, small_config(azimuths=None))
+    assert res.exit_code == 2 and "'azimuths'" in res.output and "missing" in res.output
+
+
+def test_wrong_type_section_and_bad_yaml(write_config, tmp_path):
+    res, _ = _run_bad(write_config, tmp_path, small_config(frequencies=[1, 2, 3]))
+    assert res.exit_code == 2 and "frequencies" in res.output
+    path = write_config("frequencies: {center_frequency_ghz: 10\n  bad: [", name="broken.yaml")
+    res = CliRunner().invoke(cli, ["simulate", str(path), "-o", str(tmp_path / "x.h5")])
+    assert res.exit_code == 2 and "broken.yaml" in res.output and "YAML" in res.output
+    res = CliRunner().invoke(cli, ["simulate", str(tmp_path / "nope.yaml"), "-o", str(tmp_path / "x.h5")])
+    assert res.exit_code == 2 and "nope.yaml" in res.output
+
+
+def test_spherical_needs_path(write_config, tmp_path):
+    cfg = small_config(geometry={"path": "farfield"}, model="spherical")
+    res, _ = _run_bad(write_config, tmp_path, cfg)
+    assert res.exit_code == 2 and "model" in res.output and "flight path" in res.output
+
+
+def test_units_converted_once(write_config):
+    acq = sarcli.load_acquisition(write_config(small_config()))
+    f = acq.frequency_hz
+    assert f.size == 64 and np.isclose(f.max() - f.min(), 600e6) and np.isclose(f.mean(), 10e9)
+    assert np.allclose(np.degrees(acq.elevation_rad), 30.0)
+    assert np.isclose(np.degrees(np.ptp(acq.azimuth_rad)), 3.0)
+    assert acq.grid.nx == 64 and np.isclose(acq.grid.dx, 8.0 / 64)
+
+
+def test_explicit_lists_and_full_circle(write_config):
+    cfg = small_config(frequencies={"list_ghz": [9.9, 10.0, 10.1]},
+                       azimuths={"list_deg": [10, 11, 12.5]})
+    acq = sarcli.load_acquisition(write_config(cfg))
+    assert np.allclose(acq.frequency_hz, [9.9e9, 10e9, 10.1e9])
+    assert np.allclose(np.degrees(acq.azimuth_rad), [10, 11, 12.5])
+    cfg = small_config(azimuths={"full_circle": True, "count": 8})
+    acq = sarcli.load_acquisition(write_config(cfg))
+    assert np.isclose(np.degrees(acq.total_aperture_rad()), 360.0)
+
+
+def test_geometry_paths(write_config):
+    for path in ("circle", "line"):
+        acq = sarcli.load_acquisition(write_config(small_config(geometry={"path": path, "standoff_range_m": 5000.0})))
+        # the look directions recomputed from the antenna positions reproduce the requested azimuths
+        assert np.allclose(np.degrees(acq.azimuth_rad), np.linspace(48.5, 51.5, 32), atol=1e-9)
+        assert np.isclose(acq.range_to_center_m[16], 5000.0, rtol=1e-3)
+    pos = [[-5000.0, float(y), 3000.0] for y in np.linspace(-100, 100, 5)]
+    acq = sarcli.load_acquisition(write_config(small_config(geometry={"path": "positions", "antenna_position_m": pos},
+                                                            azimuths={"center_deg": 0, "extent_deg": 1, "count": 5})))
+    assert acq.n_pulses == 5 and np.allclose(acq.antenna_position_m, pos)
+
+
+def test_derived_grid_and_alias_warning(write_config):
+    cfg = small_config(image=None)
+    acq = sarcli.load_acquisition(write_config(cfg))
+    rho = min(acq.resolutions())
+    assert np.isclose(acq.grid.dx, rho / 2)  # default oversampling 2
+    # scene reaches |y| = 1 m, |x| = 1.5 m: extent = scene + 4 cells, far below the alias-free radius
+    assert acq.grid.extent[0] / 2 == pytest.approx(1.5 + 4 * rho, abs=acq.grid.dx)
+    cfg = small_config(scene={"points": [{"position_m": [60.0, 0.0]}]})
+    with pytest.warns(AliasingWarning, match=r"60 m .* alias-free radius is"):
+        sarcli.load_acquisition(write_config(cfg))
+
+
+def test_shipped_configs_load():
+    for name in ("three-points", "shepp-logan", "circular-360", "narrowband"):
+        acq = sarcli.load_acquisition(CONFIGS / f"{name}.yaml")
+        assert acq.n_pulses > 0 and acq.grid.nx % 2 == 0
+    acq = sarcli.load_acquisition(CONFIGS / "narrowband.yaml")
+    assert acq.bandwidth_hz / acq.center_frequency_hz == pytest.approx(1e-3)
+
+
+def test_config_error_is_value_error():
+    with pytest.raises(ValueError):
+        sarcli.parse_acquisition({"frequencies": {}, "azimuths": {}}, source="x.yaml")
+    with pytest.raises(ConfigError, match="x.yaml: key 'frequencies.center_frequency_ghz'"):
+        sarcli.parse_acquisition(copy.deepcopy({"frequencies": {}, "azimuths": {}}), source="x.yaml")

@@ -1,0 +1,138 @@
+"""The HDF5 contract: exact round trips, and refusal of foreign or broken files with one line."""
+
+from __future__ import annotations
+
+import h5py
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+import sarcli
+from sarcli.cli.main import cli
+from sarcli.errors import InputFileError
+
+from .conftest import CONFIGS, small_config
+
+
+@pytest.fixture
+def ph_file(tmp_path, write_config):
+    ph = sarcli.simulate(sarcli.load_acquisition(write_config(small_config())), snr_db=20, seed=1)
+    path = tmp_path / "ph.h5"
+    sarcli.write_phase_history(path, ph)
+    return ph, path
+
+
+def test_round_trip_exact(ph_file):
+    ph, path = ph_file
+    back = sarcli.read_phase_history(path)
+    a, b = ph.acquisition, back.acquisition
+    assert np.array_equal(back.data, ph.data) and back.data.dtype == ph.data.dtype
+    for name in ("frequency_hz", "azimuth_rad", "elevation_rad", "antenna_position_m", "range_to_center_m"):
+        assert np.array_equal(getattr(a, name), getattr(b, name)), name
+    assert b.model == "spherical" and b.grid == a.grid and b.snr_db == 20
+    assert np.array_equal(back.truth.point_position_m, ph.truth.point_position_m)
+    assert np.array_equal(back.truth.point_amplitude, ph.truth.point_amplitude)
+    assert np.array_equal(back.truth.scene, ph.truth.scene)
+    assert back.attrs["sarcli_version"] == sarcli.__version__
+    assert "frequencies:" in back.attrs["config_yaml"]  # provenance: the YAML text itself
+
+
+def test_file_follows_conventions_exactly(ph_file):
+    """Read it with h5py alone, as another program knowing only CONVENTIONS.md would."""
+    _, path = ph_file
+    with h5py.File(path, "r") as f:
+        assert f.attrs["format"] == "sarcli-phase-history" and int(f.attrs["version"]) == 1
+        assert f.attrs["model"] == "spherical"
+        P, M = f["phase_history"].shape
+        assert f["phase_history"].dtype == np.complex128
+        assert f["frequency_hz"].shape == (M,) and f["frequency_hz"].dtype == np.float64
+        for name, shape in [("azimuth_rad", (P,)), ("elevation_rad", (P,)), ("antenna_position_m", (P, 3)),
+                            ("range_to_center_m", (P,))]:
+            assert f[name].shape == shape and f[name].dtype == np.float64
+        assert f["truth/point_position_m"].shape == (2, 3) and f["truth/point_amplitude"].dtype == np.complex128
+        assert f["truth/scene"].shape == (f["truth/y_m"].shape[0], f["truth/x_m"].shape[0])
+        # the look direction convention: antenna at azimuth θ + π
+        a = f["antenna_position_m"][()]
+        th = f["azimuth_rad"][()]
+        assert np.allclose(np.cos(np.arctan2(a[:, 1], a[:, 0]) - th), -1)
+
+
+def _corrupt(path, how):
+    if how == "truncate":
+        data = path.read_bytes()
+        path.write_bytes(data[: len(data) // 3])
+        return
+    with h5py.File(path, "r+") as f:
+        if how == "format":
+            f.attrs["format"] = "someone-elses-format"
+        elif how == "version":
+            f.attrs["version"] = 7
+        elif how == "missing":
+            del f["azimuth_rad"]
+        elif how == "shape":
+            del f["elevation_rad"]
+            f["elevation_rad"] = np.zeros(3)
+        elif how == "dtype":
+            d = f["phase_history"][()]
+            del f["phase_history"]
+            f["phase_history"] = np.abs(d)
+        elif how == "nan":
+            d = f["phase_history"][()]
+            d[0, 0] = np.nan
+            f["phase_history"][...] = d
+        elif how == "frequency":
+            f["frequency_hz"][0] = -1.0
+        elif how == "model":
+            f.attrs["model"] = "wavy"
+
+
+@pytest.mark.parametrize("how,needle", [
+    ("format", "format"), ("version", "version 7"), ("missing", "missing dataset 'azimuth_rad'"),
+    ("shape", "'elevation_rad' has shape (3,)"), ("dtype", "expected complex"), ("nan", "NaN"),
+    ("frequency", "non-positive"), ("model", "model"), ("truncate", "ph.h5"),
+])
+def test_broken_files_refused_with_one_line(ph_file, how, needle):
+    _, path = ph_file
+    _corrupt(path, how)
+    with pytest.raises(InputFileError):
+        sarcli.read_phase_history(path)
+    res = CliRunner().invoke(cli, ["info", str(path)])
+    assert res.exit_code == 2, res.output
+    assert "Traceback" not in res.output
+    lines = res.output.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error: ") and str(path) in lines[0]
+    assert needle in lines[0]
+
+
+def test_not_hdf5_and_missing(tmp_path):
+    junk = tmp_path / "junk.h5"
+    junk.write_text("hello")
+    for p in (junk, tmp_path / "absent.h5"):
+        res = CliRunner().invoke(cli, ["info", str(p)])
+        assert res.exit_code == 2 and len(res.output.strip().splitlines()) == 1
+
+
+def test_image_round_trip(tmp_path):
+    img = sarcli.Image(image=(np.arange(12.0) + 1j).reshape(3, 4), x_m=np.arange(4.0), y_m=np.arange(3.0) - 1,
+                       method="direct", parameters={"window": "hann", "eps": 1e-9}, runtime_s=0.5,
+                       history={"objective": np.array([3.0, 2.0])})
+    path = tmp_path / "img.h5"
+    sarcli.write_image(path, img)
+    back = sarcli.read_image(path)
+    assert np.array_equal(back.image, img.image) and np.array_equal(back.y_m, img.y_m)
+    assert back.method == "direct" and back.parameters == img.parameters and back.runtime_s == 0.5
+    assert np.array_equal(back.history["objective"], [3.0, 2.0])
+    with h5py.File(path, "r+") as f:
+        f.attrs["format"] = "sarcli-phase-history"
+    with pytest.raises(InputFileError, match="format"):
+        sarcli.read_image(path)
+
+
+def test_info_prints_the_numbers(tmp_path):
+    res = CliRunner().invoke(cli, ["info", str(CONFIGS / "three-points.yaml"), "--json"])
+    assert res.exit_code == 0
+    import json
+
+    info = json.loads(res.output)
+    assert info["alias_free_radius_m"]["range"] == pytest.approx(73.7055, rel=1e-5)
+    assert any("defocuses" in w for w in info["warnings"])
