@@ -20,6 +20,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "simulate": ("simulate", "Simulate a phase-history file from a YAML acquisition."),
     "info": ("info", "Describe a YAML acquisition or a phase-history/image file."),
     "export": ("export", "Export an image to GeoTIFF, PNG or SICD."),
+    "export-cphd": ("export_cphd", "Export a phase history to a CPHD file."),
 }
 
 

@@ -1,0 +1,20 @@
+"""``sar export-cphd PH.h5 -o FILE.cphd``: a phase history as a CPHD 1.1.0 file."""
+
+from __future__ import annotations
+
+import click
+
+from ._common import handle_errors
+
+
+@click.command("export-cphd")
+@click.argument("phase_history", type=click.Path(dir_okay=False))
+@click.option("-o", "--output", required=True, type=click.Path(dir_okay=False),
+              help="CPHD file to write.")
+@handle_errors
+def command(phase_history, output):
+    """Export PHASE_HISTORY (needs antenna positions and equally spaced frequencies) to CPHD."""
+    from ..cphd import write_cphd
+    from ..io import read_phase_history
+
+    write_cphd(read_phase_history(phase_history), output)

@@ -1,0 +1,24 @@
+"""``sar import cphd FILE.cphd -o PH.h5``: a CPHD file as a sarcli phase history."""
+
+from __future__ import annotations
+
+import click
+
+from ._common import echo_info, handle_errors
+
+
+@click.command("cphd")
+@click.argument("cphd_file", type=click.Path(dir_okay=False))
+@click.option("-o", "--output", required=True, type=click.Path(dir_okay=False),
+              help="Phase-history file to write (HDF5).")
+@click.pass_context
+@handle_errors
+def command(ctx, cphd_file, output):
+    """Import CPHD_FILE (FX domain, monostatic; first channel) as a spherical phase history."""
+    from ..cphd import read_cphd
+    from ..io import write_phase_history
+
+    ph = read_cphd(cphd_file)
+    write_phase_history(output, ph)
+    P, M = ph.data.shape
+    echo_info(ctx, f"{output}: {P} pulses x {M} frequencies (spherical model)")
