@@ -262,11 +262,12 @@ def write_phase_history(path, ph: PhaseHistory) -> Path:
                 t.create_dataset("point_position_m", data=np.asarray(ph.truth.point_position_m, np.float64).reshape(-1, 3))
                 t.create_dataset("point_amplitude", data=np.asarray(ph.truth.point_amplitude, np.complex128).reshape(-1))
                 if ph.truth.scene is not None:
-                    t.create_dataset("scene", data=ph.truth.scene)
+                    t.create_dataset("scene", data=ph.truth.scene, compression="gzip", shuffle=True)
                     t.create_dataset("x_m", data=np.asarray(ph.truth.x_m, np.float64))
                     t.create_dataset("y_m", data=np.asarray(ph.truth.y_m, np.float64))
                     if ph.truth.magnitude is not None:
-                        t.create_dataset("magnitude", data=np.asarray(ph.truth.magnitude, np.float64))
+                        t.create_dataset("magnitude", data=np.asarray(ph.truth.magnitude, np.float64),
+                                         compression="gzip", shuffle=True)
     return Path(path)
 
 
