@@ -1,0 +1,128 @@
+"""Backprojection speed against the C anchor ``/work/shared/bench/bp_anchor.c`` (no assertions).
+
+Builds the anchor into a temporary folder, runs it and :func:`sarcli.formers.backprojection.backproject`
+at the same image side and pulse count, and prints a markdown table of
+
+- pixel-pulses per second per core, and the ratio to the anchor (target >= 0.5),
+- the 1 -> 2 thread speed-up as a fraction of linear (target >= 0.7),
+- peak Python-heap memory of one call (tracemalloc) vs 3 x (phase history + image) bytes,
+- numba compile time (first call, reported separately; later runs load the cache).
+
+Usage::
+
+    python bench/bench_backprojection.py [--sizes 512x256,1024x512] [--repeat 3]
+
+The anchor is a single-thread float32 linear-interpolation loop, so the like-for-like row is our
+``precision='float32', interp='linear'``; the default settings (cubic, upsample 8) are listed too.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import re
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+import tracemalloc
+from pathlib import Path
+
+import numba
+import numpy as np
+
+from sarcli import geometry
+from sarcli.formers.backprojection import backproject
+from sarcli.grid import Grid
+
+ANCHOR = Path("/work/shared/bench/bp_anchor.c")
+
+
+def build_anchor(tmp: Path) -> Path | None:
+    """Compile the anchor with the flags it documents; None if gcc or the source is missing."""
+    if not ANCHOR.exists() or shutil.which("gcc") is None:
+        return None
+    exe = tmp / "bp_anchor"
+    subprocess.run(["gcc", "-O3", "-ffast-math", "-march=native", "-fopenmp-simd", str(ANCHOR),
+                    "-o", str(exe), "-lm"], check=True, capture_output=True)
+    return exe
+
+
+def run_anchor(exe: Path, n: int, pulses: int, repeat: int) -> float:
+    """Best pixel-pulses/s (one core) over ``repeat`` runs."""
+    best = 0.0
+    for _ in range(repeat):
+        out = subprocess.run([str(exe), str(n), str(pulses)], check=True, capture_output=True,
+                             text=True).stdout
+        best = max(best, float(re.search(r"([0-9.eE+]+) pixel-pulses/s", out).group(1)))
+    return best
+
+
+def problem(n: int, pulses: int, m: int = 512):
+    """An X-band circular-path collection whose unambiguous window covers the n x n, 0.25 m grid."""
+    grid = Grid(n, n, 0.25, 0.25)
+    half_diag = grid.half_diagonal
+    el = np.radians(30.0)
+    dalpha = geometry.C / (4.0 * 1.1 * half_diag * np.cos(el))   # window radius 1.1 x the corner
+    freq = 10e9 - dalpha * m / 2 + dalpha * np.arange(m)
+    az = np.radians(np.linspace(-1.5, 1.5, pulses))
+    a = geometry.antenna_positions_circle(az, el, 10e3)
+    r0 = np.linalg.norm(a, axis=1)
+    rng = np.random.default_rng(1)
+    data = (rng.normal(size=(pulses, m)) + 1j * rng.normal(size=(pulses, m))).astype(np.complex64)
+    return data, freq, a, r0, grid
+
+
+def time_ours(args, kwargs, threads: int, repeat: int) -> float:
+    best = np.inf
+    for _ in range(repeat):
+        t = time.perf_counter()
+        backproject(*args, nthreads=threads, **kwargs)
+        best = min(best, time.perf_counter() - t)
+    return best
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--sizes", default="512x256,1024x512", help="image side x pulses, comma separated")
+    ap.add_argument("--repeat", type=int, default=3)
+    opts = ap.parse_args(argv)
+    sizes = [tuple(int(v) for v in s.split("x")) for s in opts.sizes.split(",")]
+    cores = min(2, numba.config.NUMBA_NUM_THREADS, os.cpu_count() or 1)
+    variants = [("float32 linear u=4 (like the anchor)", dict(precision="float32", interp="linear", upsample=4)),
+                ("float32 cubic u=8", dict(precision="float32", interp="cubic", upsample=8)),
+                ("default (float64 cubic u=8)", dict())]
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        exe = build_anchor(Path(tmp))
+        for n, pulses in sizes:
+            anchor = run_anchor(exe, n, pulses, opts.repeat) if exe else float("nan")
+            args = problem(n, pulses)
+            data, grid = args[0], args[4]
+            budget = 3 * (data.nbytes + n * n * np.dtype(np.complex64).itemsize)
+            for name, kw in variants:
+                t = time.perf_counter()
+                backproject(*problem(16, 2)[:4], Grid(16, 16, 0.25, 0.25), **kw)  # compile / load cache
+                compile_s = time.perf_counter() - t
+                t1 = time_ours(args, kw, 1, opts.repeat)
+                t2 = time_ours(args, kw, cores, opts.repeat) if cores > 1 else t1
+                tracemalloc.start()
+                backproject(*args, nthreads=cores, **kw)
+                peak = tracemalloc.get_traced_memory()[1]
+                tracemalloc.stop()
+                rate1 = n * n * pulses / t1
+                rows.append((f"{n}² × {pulses}", name, anchor, rate1, rate1 / anchor,
+                             t1, t2, t1 / t2 / cores, compile_s, peak / 2**20, budget / 2**20))
+    print(f"machine: {os.cpu_count()} cores; numba threads {numba.config.NUMBA_NUM_THREADS}; "
+          f"python {sys.version.split()[0]}; numba {numba.__version__}\n")
+    print("| size | ours | anchor px·pulse/s/core | ours px·pulse/s/core | ratio | t 1 thr (s) "
+          "| t 2 thr (s) | speed-up / linear | first call (s) | peak MiB | 3×(PH+img) MiB |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
+    for r in rows:
+        print(f"| {r[0]} | {r[1]} | {r[2]:.3g} | {r[3]:.3g} | {r[4]:.2f} | {r[5]:.3f} | {r[6]:.3f} "
+              f"| {r[7]:.2f} | {r[8]:.2f} | {r[9]:.1f} | {r[10]:.1f} |")
+
+
+if __name__ == "__main__":
+    main()
