@@ -13,7 +13,10 @@ modes ``-N//2 .. (N-1)//2``, which is exactly ``col - nx//2`` for even and odd `
 
 from __future__ import annotations
 
+import math
+
 import finufft
+import numba
 import numpy as np
 
 from .direct import _check_kspace, weighted_samples
@@ -26,7 +29,25 @@ FFTW_FLAGS = {"estimate": 64, "measure": 0, "patient": 32, "exhaustive": 8}
 
 def _wrap(k):
     """Wrap dimensionless frequencies into [-π, π) (exact on the pixel lattice, ``sec: alias``)."""
-    return np.mod(k + np.pi, 2.0 * np.pi) - np.pi
+    return k - 2.0 * np.pi * np.floor((k + np.pi) / (2.0 * np.pi))
+
+
+@numba.njit(parallel=True, fastmath=False, cache=True)
+def _prepare(c, kx, ky, dx, dy, cx, cy):  # pragma: no cover - compiled
+    """Centre phase ``c exp(i (kx cx + ky cy))`` and wrapped ``(kx dx, ky dy)``, one pass, float64."""
+    n = c.size
+    out = np.empty(n, dtype=np.complex128)
+    k1 = np.empty(n, dtype=np.float64)
+    k2 = np.empty(n, dtype=np.float64)
+    two_pi = 2.0 * math.pi
+    for i in numba.prange(n):
+        ph = kx[i] * cx + ky[i] * cy
+        out[i] = c[i] if ph == 0.0 else c[i] * complex(math.cos(ph), math.sin(ph))
+        a = kx[i] * dx
+        b = ky[i] * dy
+        k1[i] = a - two_pi * math.floor((a + math.pi) / two_pi)
+        k2[i] = b - two_pi * math.floor((b + math.pi) / two_pi)
+    return out, k1, k2
 
 
 def nufft_farfield(data, kx, ky, grid, weights=None, *, eps=1e-9, nthreads=None,
@@ -64,17 +85,14 @@ def nufft_farfield(data, kx, ky, grid, weights=None, *, eps=1e-9, nthreads=None,
         raise ValueError(f"unknown fftw planner {fftw!r}; choose one of {', '.join(FFTW_FLAGS)}")
     if not (0 < eps < 1):
         raise ValueError(f"eps must lie in (0, 1), got {eps}")
-    kxf, kyf = kx.ravel(), ky.ravel()
-    c = wd.ravel()
-    if grid.cx != 0.0 or grid.cy != 0.0:
-        c = c * np.exp(1j * (kxf * grid.cx + kyf * grid.cy))
-    c = np.ascontiguousarray(c, dtype=np.complex128)
-    k1 = np.ascontiguousarray(_wrap(kxf * grid.dx))
-    k2 = np.ascontiguousarray(_wrap(kyf * grid.dy))
+    c, k1, k2 = _prepare(np.ascontiguousarray(wd).ravel(), np.ascontiguousarray(kx).ravel(),
+                         np.ascontiguousarray(ky).ravel(), float(grid.dx), float(grid.dy),
+                         float(grid.cx), float(grid.cy))
     opts = {"fftw": flag}
     if nthreads is not None:
         opts["nthreads"] = int(nthreads)
     # first coordinate <-> first output axis: rows (y) first, so the result is [ny, nx]
     image = finufft.nufft2d1(k2, k1, c, (int(grid.ny), int(grid.nx)), eps=float(eps), isign=1,
                              **opts)
-    return image / total
+    image *= 1.0 / total
+    return image

@@ -1,0 +1,75 @@
+"""Overhead of :func:`sarcli.formers.nufft.nufft_farfield` over the raw FINUFFT call it wraps.
+
+Times the whole former (weighting, centre phase, wrapping, plan, transform, normalisation) and
+``finufft.nufft2d1`` alone on the same prepared points with the same eps, in the same run
+(median of ``--repeat`` runs after one warm-up each), and prints a markdown table.
+
+Usage: ``python bench/bench_nufft.py [--pulses 512] [--freqs 512] [--n 512] [--eps 1e-9]``
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import time
+
+import finufft
+import numpy as np
+
+from sarcli import geometry
+from sarcli.formers.nufft import FFTW_FLAGS, _wrap, nufft_farfield
+from sarcli.grid import Grid
+
+
+def _median_time(fn, repeat):
+    fn()  # warm-up
+    times = []
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - t0)
+    return statistics.median(times)
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--pulses", type=int, default=512)
+    ap.add_argument("--freqs", type=int, default=512)
+    ap.add_argument("--n", type=int, default=512, help="image side in pixels")
+    ap.add_argument("--eps", type=float, default=1e-9)
+    ap.add_argument("--repeat", type=int, default=5)
+    ap.add_argument("--nthreads", type=int, default=None)
+    args = ap.parse_args(argv)
+
+    p, m = args.pulses, args.freqs
+    az = np.deg2rad(50 + np.linspace(-1.5, 1.5, p))
+    el = np.full(p, np.deg2rad(30))
+    freq = 1e10 + np.linspace(-3e8, 3e8, m)
+    kx, ky = geometry.kspace_coordinates(freq, az, el)
+    radius = 0.9 * min(geometry.alias_free_radii(freq, az, el))
+    grid = Grid.square(radius, args.n, center=(1.0, -0.5))
+    rng = np.random.default_rng(0)
+    data = rng.standard_normal((p, m)) + 1j * rng.standard_normal((p, m))
+
+    opts = {"fftw": FFTW_FLAGS["estimate"]}
+    if args.nthreads is not None:
+        opts["nthreads"] = args.nthreads
+    k1 = np.ascontiguousarray(_wrap(kx.ravel() * grid.dx))
+    k2 = np.ascontiguousarray(_wrap(ky.ravel() * grid.dy))
+    c = np.ascontiguousarray(data.ravel())
+
+    t_raw = _median_time(lambda: finufft.nufft2d1(k2, k1, c, (grid.ny, grid.nx), eps=args.eps,
+                                                  isign=1, **opts), args.repeat)
+    t_sar = _median_time(lambda: nufft_farfield(data, kx, ky, grid, eps=args.eps,
+                                                nthreads=args.nthreads), args.repeat)
+    print(f"## nufft_farfield vs raw finufft.nufft2d1 ({p} pulses x {m} freqs -> {grid.ny} x {grid.nx}, "
+          f"eps {args.eps:g}, median of {args.repeat})\n")
+    print("| call | median time (s) |")
+    print("|---|---|")
+    print(f"| finufft.nufft2d1 (plan included) | {t_raw:.4f} |")
+    print(f"| sarcli nufft_farfield | {t_sar:.4f} |")
+    print(f"\nratio sarcli / raw: {t_sar / t_raw:.2f}")
+
+
+if __name__ == "__main__":
+    main()
