@@ -1,0 +1,34 @@
+"""``sar regrid PH.h5 -o KGRID.h5``: the Cartesian k-space samples of the polar format algorithm."""
+
+from __future__ import annotations
+
+import click
+
+from ._common import echo_info, grid_options, handle_errors, parse_pair
+from .form_image import window_options
+
+
+@click.command("regrid")
+@click.argument("input_path", metavar="PH.h5", type=click.Path(dir_okay=False))
+@click.option("-o", "--output", required=True, type=click.Path(dir_okay=False), help="k-grid file to write (.h5).")
+@window_options
+@grid_options
+@click.option("--kernel", type=click.Choice(["kaiser", "linear"]), default="kaiser", show_default=True)
+@click.option("--oversample", type=float, default=2.0, show_default=True)
+@click.option("--width", type=int, default=6, show_default=True)
+@click.pass_context
+@handle_errors
+def command(ctx, input_path, output, window, taylor_nbar, taylor_sll_db, center, extent, pixel_size,
+            kernel, oversample, width):
+    """Interpolate polar phase history onto a Cartesian k-grid covering only the data's support."""
+    from ..formation import regrid
+    from ..grid import resolve_grid
+    from ..io import read_phase_history
+
+    ph = read_phase_history(input_path)
+    grid = resolve_grid(ph.acquisition.grid, center=parse_pair(center, "--center"),
+                        extent=parse_pair(extent, "--extent"), pixel_size=pixel_size)
+    kg = regrid(ph, grid=grid, window=window, taylor_nbar=taylor_nbar, taylor_sll_db=taylor_sll_db,
+                kernel=kernel, oversample=oversample, width=width)
+    kg.to_hdf5(output)
+    echo_info(ctx, f"wrote {output}: k-grid {kg.shape[1]} x {kg.shape[0]}")

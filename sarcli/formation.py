@@ -1,0 +1,206 @@
+"""Image formation: the public :func:`form_image` over the kernels in :mod:`sarcli.formers`.
+
+Every method computes the same quantity, the matched filter of CONVENTIONS.md (paper eq. ``mf``)
+``f(x) = (1/W) Σ_pj w_pj d_pj e_pj(x)``, so a unit point scatterer peaks at 1 whatever the method,
+window or grid:
+
+========================  =====================  ==============================================
+method                    data model             how
+========================  =====================  ==============================================
+``direct``                the file's own         exact sum, float64 (the reference)
+``nufft``                 far-field              one type-1 NUFFT (FINUFFT), knob ``eps``
+``pfa``                   far-field              gridding onto a Cartesian k-grid + FFT
+``backprojection``        spherical (any path)   range-compress, interpolate, phase, accumulate
+========================  =====================  ==============================================
+
+A far-field method applied to spherical data warns with the predicted phase error at the grid's
+corner; backprojection of far-field data uses virtual antennas on a circle of radius
+``r_v = 5·10^7 · (grid half-diagonal)``, where the spherical model's curvature term
+``(4π α/c)|x|²/(2 r_v)`` and the float64 rounding of ranges ``~(4π α/c)·r_v·2e-16`` balance
+(both ~1e-5 rad at X band).
+"""
+
+from __future__ import annotations
+
+import time
+import warnings
+
+import numpy as np
+
+from . import geometry
+from .errors import DefocusWarning, SarcliInputError
+from .grid import Grid, resolve_grid
+from .io import Image, PhaseHistory
+from .windows import window_weights
+
+__all__ = ["form_image", "regrid", "METHODS", "WINDOWS", "image_error"]
+
+METHODS = ("direct", "nufft", "pfa", "backprojection")
+WINDOWS = ("none", "hann", "hamming", "taylor")
+FARFIELD_METHODS = ("nufft", "pfa")
+#: Virtual stand-off range per metre of grid half-diagonal used to backproject far-field data.
+VIRTUAL_RANGE_PER_M = 5.0e7
+#: Phase error (rad) above which a far-field method on spherical data is warned about.
+DEFOCUS_WARN_RAD = 0.1
+
+
+def image_error(image, reference) -> float:
+    """Relative error ``‖f − f_ref‖₂ / ‖f_ref‖₂`` (CONVENTIONS.md), the measure used everywhere."""
+    ref = np.asarray(reference)
+    return float(np.linalg.norm(np.asarray(image) - ref) / np.linalg.norm(ref))
+
+
+def _weights(ph: PhaseHistory, window, nbar, sll_db):
+    if window not in WINDOWS:
+        raise SarcliInputError(f"unknown window {window!r}; choose one of {', '.join(WINDOWS)}")
+    P, M = ph.data.shape
+    return window_weights(P, M, window, nbar=nbar, sll_db=sll_db)
+
+
+def _warn_defocus(ph: PhaseHistory, grid: Grid, method: str):
+    acq = ph.acquisition
+    if ph.model != "spherical" or not acq.has_positions:
+        return
+    err = geometry.farfield_phase_error(acq.range_to_center_m, acq.frequency_hz.max(), grid.half_diagonal)
+    if err > DEFOCUS_WARN_RAD:
+        warnings.warn(f"far-field method '{method}' on spherical data: predicted phase error "
+                      f"{err:.3g} rad at the grid corner ({grid.half_diagonal:.3g} m from the centre, "
+                      f"r0 = {acq.range_to_center_m.min():.4g} m); use direct or backprojection",
+                      DefocusWarning, stacklevel=3)
+
+
+def _positions(ph: PhaseHistory, grid: Grid):
+    acq = ph.acquisition
+    if ph.model == "spherical":
+        return acq.antenna_position_m, acq.range_to_center_m
+    r_v = VIRTUAL_RANGE_PER_M * max(grid.half_diagonal, 1e-3)
+    pos = geometry.antenna_positions_circle(acq.azimuth_rad, acq.elevation_rad, r_v)
+    return pos, np.full(acq.n_pulses, r_v)
+
+
+def regrid(ph: PhaseHistory, *, grid: Grid | None = None, window="none", taylor_nbar=4, taylor_sll_db=-35.0,
+           kernel="kaiser", oversample=2.0, width=6):
+    """The polar format algorithm's first half: polar samples onto a Cartesian k-grid.
+
+    Returns a :class:`sarcli.formers.pfa.KGrid` designed for ``grid`` (default: the
+    acquisition's); :func:`form_image` with ``method='pfa'`` accepts it in place of the phase history.
+    """
+    from .formers.pfa import regrid_polar
+
+    grid = grid or ph.acquisition.grid
+    _warn_defocus(ph, grid, "pfa")
+    w = _weights(ph, window, taylor_nbar, taylor_sll_db)
+    kx, ky = ph.acquisition.kspace()
+    kg = regrid_polar(ph.data, kx, ky, w, pixel_m=(grid.dx, grid.dy), shape=grid.shape,
+                      center_m=(grid.cx, grid.cy), kernel=kernel, oversample=oversample, width=width)
+    kg.parameters.update({"window": window, "taylor_nbar": taylor_nbar, "taylor_sll_db": taylor_sll_db,
+                          "design_grid": grid.as_dict()})
+    return kg
+
+
+def form_image(ph, method: str = "nufft", *, grid: Grid | None = None, center=None, extent=None,
+               pixel_size=None, window: str = "none", taylor_nbar: int = 4, taylor_sll_db: float = -35.0,
+               eps: float = 1e-9, kernel: str = "kaiser", oversample: float = 2.0, width: int = 6,
+               upsample: float | None = None, interp: str | None = None, precision: str = "float64",
+               nthreads: int | None = None) -> Image:
+    """Form the matched-filter image of a phase history.
+
+    Parameters
+    ----------
+    ph : PhaseHistory or KGrid
+        The data (a :class:`~sarcli.formers.pfa.KGrid` from :func:`regrid` only with ``method='pfa'``).
+    method : {'direct', 'nufft', 'pfa', 'backprojection'}
+    grid : Grid, optional
+        Image grid; default the acquisition's, modified by ``center``/``extent``/``pixel_size``.
+    center, extent, pixel_size : optional
+        Grid overrides (m): centre ``(x, y)``, full side lengths ``W`` or ``(W, H)``, pixel size.
+    window : {'none', 'hann', 'hamming', 'taylor'}
+        Applied in range (over frequencies) and cross-range (over pulses); normalised by W = Σw.
+    taylor_nbar, taylor_sll_db : Taylor window parameters.
+    eps : float
+        NUFFT accuracy (``nufft``).
+    kernel, oversample, width :
+        PFA gridding kernel ('kaiser' or 'linear'), field-of-view oversampling and kernel width.
+    upsample, interp, precision, nthreads :
+        Backprojection range-profile upsampling, interpolator ('linear', 'cubic', 'lanczos'),
+        arithmetic ('float64' or 'float32'), threads.
+
+    Returns
+    -------
+    Image
+        With ``method``, every setting in ``parameters`` and ``runtime_s`` (the formation alone,
+        one-time compilation included).
+    """
+    from .formers.pfa import KGrid
+
+    if method not in METHODS:
+        raise SarcliInputError(f"unknown method {method!r}; choose one of {', '.join(METHODS)}")
+    params: dict = {"method": method}
+    if isinstance(ph, KGrid):
+        if method != "pfa":
+            raise SarcliInputError(f"a k-grid file can only be imaged with method 'pfa', not {method!r}")
+        return _form_from_kgrid(ph, grid, center, extent, pixel_size)
+    if not isinstance(ph, PhaseHistory):
+        raise TypeError(f"form_image expects a PhaseHistory or a KGrid, got {type(ph).__name__}")
+    acq = ph.acquisition
+    grid = resolve_grid(grid or acq.grid, center=center, extent=extent, pixel_size=pixel_size)
+    w = _weights(ph, window, taylor_nbar, taylor_sll_db)
+    params.update({"window": window, "grid": grid.as_dict(), "data_model": ph.model})
+    if window == "taylor":
+        params.update({"taylor_nbar": taylor_nbar, "taylor_sll_db": taylor_sll_db})
+    t0 = time.perf_counter()
+    if method == "direct":
+        from .formers.direct import direct_farfield, direct_spherical
+
+        if ph.model == "spherical":
+            img = direct_spherical(ph.data, acq.frequency_hz, acq.antenna_position_m, acq.range_to_center_m,
+                                   grid, w)
+        else:
+            kx, ky = acq.kspace()
+            img = direct_farfield(ph.data, kx, ky, grid, w)
+    elif method == "nufft":
+        from .formers.nufft import nufft_farfield
+
+        _warn_defocus(ph, grid, method)
+        kx, ky = acq.kspace()
+        img = nufft_farfield(ph.data, kx, ky, grid, w, eps=eps, nthreads=nthreads)
+        params["eps"] = eps
+    elif method == "pfa":
+        from .formers.pfa import pfa_image
+
+        kg = regrid(ph, grid=grid, window=window, taylor_nbar=taylor_nbar, taylor_sll_db=taylor_sll_db,
+                    kernel=kernel, oversample=oversample, width=width)
+        img = pfa_image(kg, grid)
+        params.update({"kernel": kernel, "oversample": oversample, "width": width})
+    else:
+        from .formers import backprojection as bp
+
+        pos, r0 = _positions(ph, grid)
+        up = bp.DEFAULT_UPSAMPLE if upsample is None else upsample
+        it = bp.DEFAULT_INTERP if interp is None else interp
+        img = bp.backproject(ph.data, acq.frequency_hz, pos, r0, grid, w, upsample=up, interp=it,
+                             precision=precision, nthreads=nthreads)
+        params.update({"upsample": up, "interp": it, "precision": precision})
+        if ph.model != "spherical":
+            params["virtual_range_m"] = float(r0[0])
+    runtime = time.perf_counter() - t0
+    attrs = {k: v for k, v in ph.attrs.items() if str(k).startswith("scene_center")}
+    attrs["source_name"] = acq.name
+    return Image(image=np.asarray(img), x_m=grid.x, y_m=grid.y, method=method, parameters=params,
+                 runtime_s=runtime, attrs=attrs)
+
+
+def _form_from_kgrid(kg, grid, center, extent, pixel_size) -> Image:
+    from .formers.pfa import pfa_image
+
+    design = kg.parameters.get("design_grid")
+    base = grid or (Grid(**design) if design else None)
+    if base is None:
+        raise SarcliInputError("this k-grid file does not record its design grid; give --extent and --pixel-size")
+    grid = resolve_grid(base, center=center, extent=extent, pixel_size=pixel_size)
+    t0 = time.perf_counter()
+    img = pfa_image(kg, grid)
+    runtime = time.perf_counter() - t0
+    params = {"method": "pfa", "from_kgrid": True, "grid": grid.as_dict(),
+              **{k: v for k, v in kg.parameters.items() if k != "design_grid"}}
+    return Image(image=img, x_m=grid.x, y_m=grid.y, method="pfa", parameters=params, runtime_s=runtime)
