@@ -19,6 +19,8 @@ from ..progress import set_quiet
 COMMANDS: dict[str, tuple[str, str]] = {
     "simulate": ("simulate", "Simulate a phase-history file from a YAML acquisition."),
     "info": ("info", "Describe a YAML acquisition or a phase-history/image file."),
+    "form-image": ("form_image", "Form an image: direct, nufft, pfa or backprojection."),
+    "regrid": ("regrid", "Regrid polar phase history onto a Cartesian k-grid (PFA's first half)."),
     "psf": ("psf", "Write the PSF (Theorem main-theorem) and its predicted IPR."),
     "quality": ("quality", "Measure IRW, PSLR, ISLR and peak position of point targets."),
     "export": ("export", "Export an image to GeoTIFF, PNG or SICD."),
