@@ -43,7 +43,7 @@ from .export.georef import ReferencePoint, ecf_to_enu, enu_basis, enu_to_ecf, re
 from .grid import Grid
 from .io import PhaseHistory
 
-__all__ = ["read_cphd", "write_cphd", "NOMINAL_SPEED_M_S", "CPHD_NS"]
+__all__ = ["read_cphd", "write_cphd", "pulse_times", "NOMINAL_SPEED_M_S", "CPHD_NS"]
 
 CPHD_NS = "http://api.nsgreg.nga.mil/schema/cphd/1.1.0"
 #: Platform speed (m/s) used to invent pulse times for files that carry none.
@@ -81,7 +81,7 @@ def _uniform_frequencies(freq_pm: np.ndarray):
     return f[:, 0].copy(), scss
 
 
-def _pulse_times(pos: np.ndarray):
+def pulse_times(pos: np.ndarray):
     """Synthetic transmit times (s) and velocities (m/s) from positions at NOMINAL_SPEED_M_S."""
     P = pos.shape[0]
     if P < 2:
@@ -265,7 +265,7 @@ def write_cphd(ph: PhaseHistory, path) -> Path:
         # fold exp(+i 4πα/c (|a| - r0)) into the signal: the file is referenced to the SRP
         corr = np.exp(1j * (4 * np.pi / geometry.C) * acq.frequencies_2d * (norm_a - r0)[:, None])
         data = data * corr
-    t, vel = _pulse_times(pos)
+    t, vel = pulse_times(pos)
     pvp = np.zeros(P, dtype=_pvp_dtype())
     pos_ecf = enu_to_ecf(pos, ref)
     vel_ecf = vel @ enu_basis(ref)

@@ -143,3 +143,115 @@ def test_cphd_cli_round_trip_and_truncated(tmp_path):
         assert res.exit_code == 2, (n, res.output)
         assert res.output.count("\n") == 1 and res.output.startswith("error:"), res.output
         assert not (tmp_path / "t.h5").exists()
+
+
+# --------------------------------------------------------------------------------------------
+# SICD
+# --------------------------------------------------------------------------------------------
+def _sicd_case(look_azimuth_rad, attrs=OHIO):
+    """A collection whose k-space support is sampled at an oversampling of 1.1-2.2 by 0.75 m pixels."""
+    M, P = 40, 32
+    f = 9.6e9 + np.arange(M) * 3e6  # 117 MHz: 0.68 cycles/m of range support
+    az = look_azimuth_rad + np.radians(np.linspace(-0.4, 0.4, P))  # 0.8°: 0.78 cycles/m across
+    el = np.full(P, np.radians(30.0))
+    pos = geometry.antenna_positions_circle(az, el, 8e3)
+    grid = Grid(40, 24, 0.75, 0.75, 0.0, 0.0)  # rectangular, to catch transposes
+    acq = Acquisition(f, az, el, grid, antenna_position_m=pos, model="spherical")
+    ph = PhaseHistory(np.zeros((P, M), np.complex64), acq, attrs=dict(attrs or {}))
+    rng = np.random.default_rng(3)
+    im = (rng.standard_normal(grid.shape) + 1j * rng.standard_normal(grid.shape)).astype(np.complex64)
+    from sarcli.io import Image
+
+    return Image(im, grid.x, grid.y, method="backprojection", attrs=dict(attrs or {})), ph
+
+
+def _sicd_failures(path):
+    import sarkit.verification as skver
+
+    with open(path, "rb") as f:
+        con = skver.SicdConsistency.from_file(f)
+        con.check()
+    return con.failures(), len(con.passes())
+
+
+@pytest.mark.parametrize("look_deg, row_name, to_sicd", [
+    (-90.0, "south", lambda a: a[::-1, :]),  # antenna north of the scene: north-up rows
+    (0.0, "east", lambda a: a.T),
+    (90.0, "north", lambda a: a[:, ::-1]),
+    (200.0, "west", lambda a: a.T[::-1, ::-1]),
+])
+def test_sicd_round_trip_and_consistency(tmp_path, look_deg, row_name, to_sicd):
+    import sarkit.sicd as sksicd
+
+    from sarcli.export import export_image
+    from sarcli.export.sicd import read_sicd
+
+    img, ph = _sicd_case(np.radians(look_deg))
+    out = tmp_path / "a.sicd"
+    export_image(img, out, phase_history=ph)
+    failures, n_pass = _sicd_failures(out)
+    assert not failures, list(failures)
+    assert n_pass > 30
+    with open(out, "rb") as f, sksicd.NitfReader(f) as r:
+        pixels = r.read_image()
+        xml = r.metadata.xmltree
+    np.testing.assert_array_equal(pixels, to_sicd(img.image))
+    assert xml.findtext("{*}Grid/{*}ImagePlane") == "GROUND"
+    lat, lon = (float(xml.findtext(f"{{*}}GeoData/{{*}}SCP/{{*}}LLH/{{*}}{k}")) for k in ("Lat", "Lon"))
+    assert (lat, lon) == pytest.approx((39.78, -84.06), abs=1e-9)
+    # KCtr along the row: the projected centre of the k-space support, 2 f cosφ / c ≈ 55.8 cycles/m
+    kctr = float(xml.findtext("{*}Grid/{*}Row/{*}KCtr"))
+    assert kctr == pytest.approx(2 * 9.6585e9 * np.cos(np.radians(30)) / geometry.C
+                                 * abs(np.cos(np.radians(look_deg) - {"south": -np.pi / 2, "east": 0,
+                                                                      "north": np.pi / 2, "west": np.pi}[row_name])),
+                                 rel=2e-3)
+    back = read_sicd(out)
+    np.testing.assert_array_equal(back.image, img.image)
+    np.testing.assert_allclose(back.x_m, img.x_m, atol=1e-9)
+    np.testing.assert_allclose(back.y_m, img.y_m, atol=1e-9)
+
+
+def test_sicd_without_phase_history_is_nominal_and_consistent(tmp_path):
+    import sarkit.sicd as sksicd
+
+    from sarcli.export.sicd import write_sicd
+
+    img, _ = _sicd_case(0.0, attrs=None)
+    out = tmp_path / "n.nitf"
+    info = write_sicd(img, out)
+    assert info["nominal"] and info["reference"].is_default and info["name"] == "south"
+    failures, _ = _sicd_failures(out)
+    assert not failures, list(failures)
+    with open(out, "rb") as f, sksicd.NitfReader(f) as r:
+        notes = " ".join(e.text for e in r.metadata.xmltree.findall("{*}CollectionInfo/{*}Parameter"))
+        np.testing.assert_array_equal(r.read_image(), img.image[::-1])
+    assert "NOMINAL" in notes and "PLACEHOLDER" in notes
+
+
+def test_sicd_rejects_real_kinds_and_corrupt_input(tmp_path):
+    from sarcli.export import export_image
+    from sarcli.io import write_image
+
+    img, ph = _sicd_case(-np.pi / 2)
+    with pytest.raises(SarcliInputError, match="complex"):
+        export_image(img, tmp_path / "x.sicd", kind="magnitude")
+    out = tmp_path / "a.sicd"
+    export_image(img, out, phase_history=ph)
+    raw = out.read_bytes()
+    runner = CliRunner()
+    for n in (len(raw) - 100, 1500, 2):
+        bad = tmp_path / "bad.sicd"
+        bad.write_bytes(raw[:n])
+        res = runner.invoke(cli, ["export", str(bad), "-o", str(tmp_path / "o.png")])
+        assert res.exit_code == 2, (n, res.output)
+        assert res.output.count("\n") == 1 and res.output.startswith("error:"), res.output
+        assert not (tmp_path / "o.png").exists()
+    # the CLI: sarcli image + phase history -> SICD -> PNG
+    write_image(tmp_path / "img.h5", img)
+    write_phase_history(tmp_path / "ph.h5", ph)
+    res = runner.invoke(cli, ["export", str(tmp_path / "img.h5"), "-o", str(tmp_path / "c.nitf"),
+                              "--phase-history", str(tmp_path / "ph.h5")])
+    assert res.exit_code == 0, res.output
+    assert not _sicd_failures(tmp_path / "c.nitf")[0]
+    res = runner.invoke(cli, ["export", str(tmp_path / "c.nitf"), "-o", str(tmp_path / "c.png")])
+    assert res.exit_code == 0, res.output

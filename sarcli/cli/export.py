@@ -21,11 +21,11 @@ from ._common import handle_errors
               help="SICD: the phase-history file the image was formed from (collection geometry).")
 @handle_errors
 def command(image, output, kind, dynamic_range_db, cmap, annotate, phase_history):
-    """Export IMAGE (a sarcli image file) to GeoTIFF, PNG or SICD."""
-    from ..export import export_image
-    from ..io import read_image, read_phase_history
+    """Export IMAGE (a sarcli image file, or a SICD) to GeoTIFF, PNG or SICD."""
+    from ..export import export_image, load_image
+    from ..io import read_phase_history
 
-    img = read_image(image)
+    img = load_image(image)
     ph = read_phase_history(phase_history) if phase_history else None
     export_image(img, output, kind=kind, dynamic_range_db=dynamic_range_db, cmap=cmap,
                  annotate=annotate, phase_history=ph)

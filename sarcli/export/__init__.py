@@ -2,6 +2,7 @@
 
 Public API
 ----------
+load_image(path) -> Image   (a sarcli image file, or a ground-plane SICD by its suffix)
 export_image(img, path, *, kind=None, dynamic_range_db=50, cmap='gray', annotate=False, fmt=None,
              phase_history=None)
 
@@ -16,7 +17,7 @@ from pathlib import Path
 from ..errors import SarcliInputError
 from ..io import Image
 
-__all__ = ["export_image", "FORMATS", "format_from_suffix"]
+__all__ = ["export_image", "load_image", "FORMATS", "format_from_suffix"]
 
 #: format name -> suffixes it is chosen by
 FORMATS = {"geotiff": (".tif", ".tiff"), "png": (".png",), "sicd": (".sicd", ".nitf", ".ntf")}
@@ -83,3 +84,15 @@ def export_image(img: Image, path, *, kind: str | None = None, dynamic_range_db:
 
         write_sicd(img, path, phase_history=phase_history)
     return Path(path)
+
+
+def load_image(path) -> Image:
+    """Read an image: a SICD (``.sicd``/``.nitf``/``.ntf``, see :func:`sarcli.export.sicd.read_sicd`)
+    or a sarcli image file (anything else)."""
+    if Path(path).suffix.lower() in FORMATS["sicd"]:
+        from .sicd import read_sicd
+
+        return read_sicd(path)
+    from ..io import read_image
+
+    return read_image(path)
