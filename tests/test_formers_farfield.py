@@ -207,3 +207,11 @@ def test_pfa_wide_aperture_warns_but_stays_correct():
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         regrid_polar(data[:5], kx[:5], ky[:5], pixel_m=grid.dx, shape=grid.shape)  # 8°: silent
+
+
+def test_pfa_gridding_chunks_do_not_change_result(monkeypatch, three_points):
+    data, _ = three_points
+    whole = regrid_polar(data, KX, KY, pixel_m=GRID.dx, shape=GRID.shape)
+    monkeypatch.setattr(pfa, "_SPREAD_CHUNK", 1000)
+    chunked = regrid_polar(data, KX, KY, pixel_m=GRID.dx, shape=GRID.shape)
+    assert np.abs(chunked.samples - whole.samples).max() <= 1e-12 * np.abs(whole.samples).max()

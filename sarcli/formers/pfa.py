@@ -46,6 +46,7 @@ from scipy.special import i0
 from .. import geometry
 from .._atomic import atomic_path
 from ..errors import InputFileError, SarcliInputError, SarcliWarning
+from ..progress import progress
 from .direct import _check_kspace, weighted_samples
 
 __all__ = ["KGrid", "regrid_polar", "pfa_image", "check_aperture", "PFA_KERNELS", "MAX_KGRID_CELLS"]
@@ -53,6 +54,8 @@ __all__ = ["KGrid", "regrid_polar", "pfa_image", "check_aperture", "PFA_KERNELS"
 PFA_KERNELS = ("kaiser", "linear")
 #: largest k-grid (cells) regrid_polar builds (2**25 cells = 512 MiB of complex128)
 MAX_KGRID_CELLS = 1 << 25
+#: samples whose kernel taps are evaluated at once (bounds the memory of the gridding step)
+_SPREAD_CHUNK = 1 << 18
 _FORMAT = "sarcli-kgrid"
 _VERSION = 1
 
@@ -271,10 +274,13 @@ def regrid_polar(data, kx, ky, weights=None, *, pixel_m, shape, center_m=(0.0, 0
         raise SarcliInputError(
             f"the PFA k-grid would need {nky} x {nkx} cells for a {aperture:.1f}° aperture "
             f"(limit {MAX_KGRID_CELLS}); use the NUFFT former or a coarser pixel")
-    fx, tx = _kernel_taps((kxf - kx0) / dkx, kernel, width, beta)
-    fy, ty = _kernel_taps((kyf - ky0) / dky, kernel, width, beta)
     samples = np.zeros((nky, nkx), dtype=np.complex128)
-    _spread(samples, fx, fy, tx, ty, np.ascontiguousarray(c))
+    starts = range(0, c.size, _SPREAD_CHUNK)
+    for s in progress(starts, total=len(starts), desc="PFA gridding", unit="chunk"):
+        sl = slice(s, s + _SPREAD_CHUNK)
+        fx, tx = _kernel_taps((kxf[sl] - kx0) / dkx, kernel, width, beta)
+        fy, ty = _kernel_taps((kyf[sl] - ky0) / dky, kernel, width, beta)
+        _spread(samples, fx, fy, tx, ty, np.ascontiguousarray(c[sl]))
     parameters = {"kernel": kernel, "width": width, "beta": beta, "oversample": oversample,
                   "density": density, "pixel_m": [dx, dy], "shape": [ny, nx],
                   "center_m": [cx, cy], "n_fft": [nfy, nfx], "aperture_deg": aperture}
