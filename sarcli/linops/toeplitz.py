@@ -1,0 +1,119 @@
+"""The pre-gridded form of the SAR normal operator: ``AᴴA`` by FFTs on a 2N × 2N grid.
+
+For the pixel model (``fourier.py``) ``(AᴴA f)[j] = Σ_j' K[j - j'] f[j']`` with the kernel
+``K[m] = Σ_l w_l exp(+i (k1_l m1 + k2_l m2))``, ``m ∈ [-N, N)²``: a Toeplitz matrix. Embedded in a
+2N × 2N circulant it is applied by one zero-padded FFT, a pointwise product and one inverse FFT
+(paper Appendix A, "Computational Cost": re-grid once, then only FFTs). The kernel is computed
+once by a FINUFFT type-1 transform of the weights onto the 2N × 2N modes, and ``Aᴴb`` once by the
+NUFFT adjoint; the grid-centre phase ramp cancels in ``AᴴA``.
+"""
+
+from __future__ import annotations
+
+import os
+
+import finufft
+import numpy as np
+import scipy.fft
+
+from .base import Linop
+
+__all__ = ["ToeplitzGram", "NormalEquations", "normal_equations"]
+
+_WORKERS = max(1, os.cpu_count() or 1)
+
+
+class ToeplitzGram(Linop):
+    """``AᴴA`` (Hermitian, positive semi-definite) applied through a 2N × 2N circulant embedding.
+
+    Parameters
+    ----------
+    k1, k2 : ndarray
+        Dimensionless (wrapped) frequencies along x (columns) and y (rows), any shape.
+    shape : (ny, nx)
+        Image shape.
+    weights : ndarray, optional
+        Per-sample weights ``w_l`` (``AᴴWA``); default 1.
+    eps : float
+        FINUFFT tolerance of the kernel.
+    """
+
+    def __init__(self, k1, k2, shape, *, weights=None, eps: float = 1e-9):
+        super().__init__(shape, shape, np.complex128)
+        ny, nx = self.ishape
+        k1 = np.ascontiguousarray(np.asarray(k1, np.float64).ravel())
+        k2 = np.ascontiguousarray(np.asarray(k2, np.float64).ravel())
+        w = np.ones(k1.size, np.complex128) if weights is None else \
+            np.ascontiguousarray(np.asarray(weights, np.complex128).ravel())
+        # K[m2, m1] for m in [-N, N): modes in increasing order (FINUFFT modeord 0)
+        kernel = finufft.nufft2d1(k2, k1, w, (2 * ny, 2 * nx), eps=eps, isign=+1)
+        # circulant first column: move m = 0 to index 0
+        self.kernel_hat = scipy.fft.fft2(np.fft.ifftshift(kernel), workers=_WORKERS)
+        self.padded_shape = (2 * ny, 2 * nx)
+
+    def _forward(self, x):
+        ny, nx = self.ishape
+        xf = scipy.fft.fft2(x, s=self.padded_shape, workers=_WORKERS)
+        xf *= self.kernel_hat
+        return scipy.fft.ifft2(xf, workers=_WORKERS, overwrite_x=True)[:ny, :nx]
+
+    def _adjoint(self, y):
+        return self._forward(y)  # Hermitian
+
+    def gram(self):  # pragma: no cover - not used: AᴴA of a Gram operator is never needed
+        return super().gram()
+
+
+class NormalEquations:
+    """What a least-squares solver needs of ``‖Af - b‖²``: ``AᴴA``, ``Aᴴb`` and ``‖b‖²``.
+
+    ``‖Af - b‖² = Re⟨f, AᴴA f⟩ - 2 Re⟨f, Aᴴb⟩ + ‖b‖²`` so the data term is evaluated without A.
+
+    Attributes
+    ----------
+    gram : Linop
+        ``AᴴA`` (NUFFT pair composed, or :class:`ToeplitzGram`).
+    atb : ndarray
+        ``Aᴴb`` (image shape).
+    bnorm2 : float
+        ``‖b‖²``.
+    """
+
+    def __init__(self, gram: Linop, atb, bnorm2: float):
+        self.gram = gram
+        self.atb = np.asarray(atb)
+        self.bnorm2 = float(bnorm2)
+
+    def residual_norm2(self, f, gram_f) -> float:
+        """``‖Af - b‖²`` from ``f`` and ``AᴴA f`` (clipped at 0 against round-off)."""
+        val = np.vdot(f, gram_f).real - 2.0 * np.vdot(f, self.atb).real + self.bnorm2
+        return max(float(val), 0.0)
+
+    def scaled(self, a_scale: float, b_scale: float) -> "NormalEquations":
+        """The normal equations of ``A / a_scale`` and ``b / b_scale``."""
+        from .base import Scaled
+
+        return NormalEquations(Scaled(self.gram, 1.0 / a_scale**2), self.atb / (a_scale * b_scale),
+                               self.bnorm2 / b_scale**2)
+
+
+def normal_equations(op: Linop, b, *, form: str = "nufft") -> NormalEquations:
+    """Build :class:`NormalEquations` of ``op`` and data ``b``.
+
+    Parameters
+    ----------
+    op : Linop
+        The forward operator (a :class:`~sarcli.linops.fourier.NufftOperator` for ``'toeplitz'``).
+    form : {'nufft', 'toeplitz'}
+        ``'nufft'``: ``AᴴA = Aᴴ ∘ A`` (two NUFFTs per application); ``'toeplitz'``: the
+        pre-gridded FFT form (``op.toeplitz_gram()``); other operators use ``op.gram()``.
+    """
+    b = np.asarray(b)
+    atb = op.adjoint(b)
+    if form == "toeplitz":
+        if not hasattr(op, "toeplitz_gram"):
+            raise ValueError(f"{type(op).__name__} has no Toeplitz form")
+        gram = op.toeplitz_gram()
+    else:
+        gram = op.gram()
+    return NormalEquations(gram, atb, float(np.vdot(b, b).real))

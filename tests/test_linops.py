@@ -1,0 +1,136 @@
+"""Contract tests of every Linop (adjoint, linearity, shapes) and the NUFFT/Toeplitz agreement."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from sarcli import geometry
+from sarcli.acquisition import Acquisition
+from sarcli.grid import Grid
+from sarcli.linops import (Diagonal, FiniteDifference, Identity, MatrixLinop, NufftOperator,
+                           SphericalOperator, SubsampledDFT, gram_eigmax, phase_operator,
+                           power_norm, sparsifying_operator)
+
+RNG = np.random.default_rng(20261122)
+
+
+def _crandn(shape):
+    return RNG.standard_normal(shape) + 1j * RNG.standard_normal(shape)
+
+
+def _kspace(P=9, M=11, fc=10e9, bw=600e6, ext_deg=3.0):
+    freq = np.linspace(fc - bw / 2, fc + bw / 2, M)
+    az = np.deg2rad(50 + np.linspace(-ext_deg / 2, ext_deg / 2, P))
+    return freq, az, np.full(P, np.deg2rad(30.0))
+
+
+GRID = Grid(12, 10, 0.05, 0.04, 0.3, -0.2)  # non-square, offset centre
+
+
+def _operators():
+    freq, az, el = _kspace()
+    kx, ky = geometry.kspace_coordinates(freq, az, el)
+    nufft = NufftOperator(kx, ky, GRID, eps=1e-13)
+    a = geometry.antenna_positions_circle(az, el, 10_000.0)
+    return {
+        "nufft": nufft,
+        "toeplitz_gram": nufft.toeplitz_gram(),
+        "nufft_gram": nufft.gram(),
+        "spherical": SphericalOperator(freq, a, np.linalg.norm(a, axis=1), GRID),
+        "fd1": FiniteDifference(GRID.shape, 1),
+        "fd2": FiniteDifference(GRID.shape, 2),
+        "fd3": FiniteDifference(GRID.shape, 3),
+        "fd1_1d": FiniteDifference((17,), 1),
+        "identity": Identity(GRID.shape),
+        "theta": phase_operator(_crandn(GRID.shape)),
+        "ptv": sparsifying_operator("ptv", GRID.shape, order=2, f0=_crandn(GRID.shape)),
+        "matrix": MatrixLinop(_crandn((7, 12)), ishape=(3, 4)),
+        "partial_dft": SubsampledDFT(RNG.random((8, 6)) < 0.5),
+        "composite": 2.0 * FiniteDifference(GRID.shape, 1) @ Diagonal(_crandn(GRID.shape))
+        - (1 - 0.5j) * FiniteDifference(GRID.shape, 2),
+    }
+
+
+OPS = _operators()
+
+
+@pytest.mark.parametrize("name", sorted(OPS))
+def test_adjoint_dot_product(name):
+    op = OPS[name]
+    x, y = _crandn(op.ishape), _crandn(op.oshape)
+    lhs = np.vdot(y, op.forward(x))
+    rhs = np.vdot(op.adjoint(y), x)
+    assert abs(lhs - rhs) / abs(lhs) < 1e-10
+    # the adjoint operator's adjoint is the operator
+    assert np.allclose(op.H.H.forward(x), op.forward(x), rtol=0, atol=1e-12 * np.abs(lhs))
+
+
+@pytest.mark.parametrize("name", sorted(OPS))
+def test_linearity_and_shapes(name):
+    op = OPS[name]
+    x1, x2 = _crandn(op.ishape), _crandn(op.ishape)
+    a, b = 0.7 - 1.3j, -2.1 + 0.4j
+    y = op.forward(a * x1 + b * x2)
+    assert y.shape == op.oshape
+    assert op.adjoint(_crandn(op.oshape)).shape == op.ishape
+    ref = a * op.forward(x1) + b * op.forward(x2)
+    assert np.linalg.norm(y - ref) / np.linalg.norm(ref) < 1e-10
+    with pytest.raises(ValueError):
+        op.forward(np.zeros(op.ishape + (2,)))
+
+
+def test_nufft_matches_direct_pixel_model():
+    """A f equals the far-field sum over pixel centres (grid offset included), eq. 2D-DFT."""
+    freq, az, el = _kspace(P=5, M=6)
+    op = NufftOperator.from_acquisition(Acquisition(freq, az, el, GRID), eps=1e-13)
+    f = _crandn(GRID.shape)
+    psi = geometry.signal_phase(freq, az, el, GRID.points().reshape(-1, 3))
+    direct = np.exp(-1j * psi) @ f.reshape(-1)
+    assert np.linalg.norm(op.forward(f) - direct) / np.linalg.norm(direct) < 1e-11
+
+
+def test_nufft_adjoint_over_pm_is_matched_filter_peak_one():
+    freq, az, el = _kspace()
+    kx, ky = geometry.kspace_coordinates(freq, az, el)
+    op = NufftOperator(kx, ky, GRID, eps=1e-12)
+    row, col = 3, 7
+    e = np.zeros(GRID.shape, complex)
+    e[row, col] = 1.0
+    mf = op.adjoint(op.forward(e)) / kx.size
+    assert abs(mf[row, col] - 1.0) < 1e-10
+    assert np.unravel_index(np.argmax(np.abs(mf)), mf.shape) == (row, col)
+
+
+@pytest.mark.parametrize("shape", [(16, 16), (12, 20)])
+def test_toeplitz_gram_matches_nufft_pair(shape):
+    """AᴴA by the 2N×2N Toeplitz embedding equals Aᴴ(A f) by the NUFFT pair to 1e-6."""
+    freq, az, el = _kspace(P=40, M=48, ext_deg=6.0)
+    kx, ky = geometry.kspace_coordinates(freq, az, el)
+    grid = Grid(shape[1], shape[0], 0.07, 0.05, -0.4, 0.25)
+    op = NufftOperator(kx, ky, grid, eps=1e-9)
+    for _ in range(3):
+        f = _crandn(shape)
+        ref = op.adjoint(op.forward(f))
+        assert np.linalg.norm(op.toeplitz_gram().forward(f) - ref) / np.linalg.norm(ref) < 1e-6
+
+
+def test_finite_difference_values_and_norm():
+    x = np.arange(6.0) ** 2  # 0 1 4 9 16 25
+    d1 = FiniteDifference((6,), 1).forward(x)[0].real
+    d2 = FiniteDifference((6,), 2).forward(x)[0].real
+    assert np.allclose(d1[:5], [1, 3, 5, 7, 9]) and d1[5] == -25  # periodic wrap
+    assert np.allclose(d2[:4], 0.5 * 2.0)  # second difference 2, scaled by 2^(1-2)
+    for k in (1, 2, 3):  # ‖Dᵏ‖ = 2 per axis: 2-D stack has ‖·‖² = 8
+        lam = gram_eigmax(FiniteDifference((16, 16), k).gram(), iters=200)
+        assert abs(lam - 8.0) < 1e-3
+
+
+def test_phase_operator_makes_f0_real_positive():
+    f0 = _crandn((5, 4))
+    theta = phase_operator(f0)
+    assert np.allclose(theta.forward(f0), np.abs(f0), atol=1e-14)
+
+
+def test_power_norm_of_unitary_subsampled_dft_is_one():
+    assert abs(power_norm(SubsampledDFT(RNG.random((8, 8)) < 0.5)) - 1.0) < 1e-12
