@@ -289,7 +289,7 @@ def psf_kernel(acq_or_arrays, grid: Grid | None = None, *, weights=None, center=
     >>> from sarcli.grid import Grid
     >>> f = np.linspace(9.7e9, 10.3e9, 64); az = np.radians(np.linspace(48.5, 51.5, 32))
     >>> k = psf_kernel((f, az, np.radians(30.0)), Grid.square(2.0, 64))
-    >>> round(abs(k[32, 32]), 12)
+    >>> float(round(abs(k[32, 32]), 12))
     1.0
     """
     freq, az, el = _as_arrays(acq_or_arrays)
@@ -432,9 +432,11 @@ def psf_image(acq: Acquisition, grid: Grid | None = None, *, window="none", nbar
     k = psf_kernel(acq, grid, weights=weights, center=center, method=method)
     runtime = time.perf_counter() - t0
     pred = predicted_ipr(acq, window=window, nbar=nbar, sll_db=sll_db)
-    params = {"window": window, "nbar": int(nbar), "sll_db": float(sll_db), "point_m": list(center),
+    params = {"window": window, "point_m": list(center),
               "evaluation": "theorem (eq. main-2D-conv)" if how == "theorem" else f"weighted sum ({how})",
               "grid": grid.as_dict(), "normalisation": "1/W (peak 1 at the point)"}
+    if window == "taylor":
+        params.update({"taylor_nbar": int(nbar), "taylor_sll_db": float(sll_db)})
     return Image(image=k, x_m=grid.x, y_m=grid.y, method="psf", parameters=params, runtime_s=runtime,
                  attrs={"predicted_ipr": pred})
 

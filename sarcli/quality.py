@@ -305,9 +305,10 @@ def measure_ipr(image, x_m, y_m, at=None, *, range_direction_rad=0.0, resolution
 # --------------------------------------------------------------------------------------------
 def _window_from_parameters(parameters: dict):
     """(kind, nbar, sll_db) recorded by an image former in ``Image.parameters``."""
-    win = (parameters or {}).get("window", "none")
-    nbar = (parameters or {}).get("nbar", 4)
-    sll = (parameters or {}).get("sll_db", -35.0)
+    par = parameters or {}
+    win = par.get("window", "none")
+    nbar = par.get("taylor_nbar", par.get("nbar", 4))
+    sll = par.get("taylor_sll_db", par.get("sll_db", -35.0))
     if isinstance(win, dict):
         nbar = win.get("nbar", nbar)
         sll = win.get("sll_db", sll)

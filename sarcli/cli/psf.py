@@ -15,8 +15,10 @@ WINDOWS = ("none", "hann", "hamming", "taylor")
               help="Image file to write (.h5), method 'psf'.")
 @click.option("--window", type=click.Choice(WINDOWS), default="none", show_default=True,
               help="Window (taper) of the matched filter.")
-@click.option("--nbar", type=int, default=4, show_default=True, help="Taylor: nearly constant sidelobes.")
-@click.option("--sll-db", type=float, default=-35.0, show_default=True, help="Taylor: sidelobe level (dB).")
+@click.option("--taylor-nbar", "nbar", type=int, default=4, show_default=True,
+              help="Taylor window number of nearly constant sidelobes.")
+@click.option("--taylor-sll-db", "sll_db", type=float, default=-35.0, show_default=True,
+              help="Taylor window peak sidelobe level (dB).")
 @click.option("--method", type=click.Choice(["auto", "theorem", "direct", "nufft"]), default="auto",
               show_default=True, help="Theorem closed form, exact sum, or FINUFFT (windows need a sum).")
 @click.option("--png", type=click.Path(dir_okay=False), default=None, help="Also write a PNG of 20 log10|K|.")

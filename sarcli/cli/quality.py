@@ -10,7 +10,7 @@ from ._common import handle_errors, parse_pair
 
 
 def _num(v, fmt):
-    return "-" if v is None else format(v, fmt)
+    return "-" if v is None else format(v + 0.0, fmt)  # + 0.0: no "-0.000"
 
 
 def _table(results) -> str:
