@@ -47,6 +47,7 @@ def test_sidelobe_levels():
     assert _peak_sidelobe_db(window_1d(n, "none")) == pytest.approx(-13.26, abs=0.1)
     assert _peak_sidelobe_db(window_1d(n, "hann")) == pytest.approx(-31.5, abs=0.3)
     assert _peak_sidelobe_db(window_1d(n, "hamming")) < -41.0
+    assert _peak_sidelobe_db(window_1d(n, "taylor")) < -34.5  # defaults nbar=4, -35 dB: -35.2
     for sll in (-30, -35, -40):
         level = _peak_sidelobe_db(window_1d(n, "taylor", nbar=5, sll_db=sll))
         assert sll - 1.5 < level < sll + 0.5  # approximately at the requested level
