@@ -9,7 +9,7 @@ OUT    := out
 GOTCHA := ../shared/data/gotcha
 PYTEST_WORKERS ?= 2
 
-.PHONY: all setup demo test test-fast data bench gotcha clean distclean help
+.PHONY: all setup demo test test-fast data bench gotcha paper clean distclean help
 
 all: demo
 
@@ -19,6 +19,7 @@ help:
 	@echo "make data    regenerate data/synthetic/"
 	@echo "make bench   run the benchmarks (ratios against baselines in the same run)"
 	@echo "make gotcha  image the AFRL GOTCHA files in $(GOTCHA)"
+	@echo "make paper   regenerate the paper's figures into $(OUT)/paper and docs/paper.md"
 
 # -- environment -------------------------------------------------------------------------------
 $(VENV)/.installed: pyproject.toml
@@ -36,13 +37,61 @@ test: $(VENV)/.installed
 test-fast: $(VENV)/.installed
 	$(BIN)/python -m pytest -q -x tests
 
-# -- demo: three points --------------------------------------------------------------------------
-$(OUT)/three-points.h5: configs/three-points.yaml $(VENV)/.installed
+# -- demo: three points ------------------------------------------------------------------------
+# spherical data (r0 = 10 km) for backprojection; the far-field model of the same scene for the
+# far-field methods and the regulariser (nufft on the spherical file would warn of 1.1 rad defocus).
+DEMO := $(OUT)/three-points
+
+$(DEMO).h5: configs/three-points.yaml $(VENV)/.installed
 	@mkdir -p $(OUT)
 	$(SAR) simulate $< -o $@ --seed 1
 
-demo: $(OUT)/three-points.h5
-	$(BIN)/sar info $(OUT)/three-points.h5
+$(DEMO)-ff.h5: configs/three-points.yaml $(VENV)/.installed
+	@mkdir -p $(OUT)
+	$(SAR) simulate $< -o $@ --seed 1 --model farfield
+
+$(DEMO)-bp.h5: $(DEMO).h5
+	$(SAR) form-image $< -o $@ --method backprojection --png $(DEMO)-bp.png --geotiff $(DEMO)-bp.tif
+
+$(DEMO)-nufft.h5: $(DEMO)-ff.h5
+	$(SAR) form-image $< -o $@ --method nufft --window taylor --png $(DEMO)-nufft.png --geotiff $(DEMO)-nufft.tif
+
+$(DEMO)-quality.json: $(DEMO)-bp.h5 $(DEMO).h5
+	$(SAR) quality $< --ph $(DEMO).h5 --json > $@.tmp && mv $@.tmp $@
+
+$(DEMO)-ptv.h5: $(DEMO)-ff.h5
+	$(SAR) regularize $< -o $@ --prior ptv --iters 60 --history-png $(DEMO)-ptv-history.png
+	$(SAR) export $@ -o $(DEMO)-ptv.png
+	$(SAR) export $@ -o $(DEMO)-ptv.tif
+
+DEMO_FILES := $(DEMO).h5 $(DEMO)-ff.h5 $(DEMO)-bp.h5 $(DEMO)-nufft.h5 $(DEMO)-quality.json $(DEMO)-ptv.h5
+
+demo: $(DEMO_FILES)
+	$(BIN)/sar info $(DEMO).h5
+	$(BIN)/sar quality $(DEMO)-bp.h5 --ph $(DEMO).h5
+	@echo "demo outputs in $(OUT)/:"; ls -1 $(OUT) | sed 's/^/  /'
+
+# -- real data: AFRL GOTCHA ---------------------------------------------------------------------
+GOTCHA_FILES := $(wildcard $(GOTCHA)/data_3dsar_pass1_az00*_HH.mat)
+
+$(OUT)/gotcha.h5: $(GOTCHA_FILES) $(VENV)/.installed
+	@mkdir -p $(OUT)
+	@test -n "$(GOTCHA_FILES)" || { echo "no GOTCHA files in $(GOTCHA)"; exit 2; }
+	$(SAR) import gotcha $(GOTCHA_FILES) -o $@
+
+$(OUT)/gotcha-bp.h5: $(OUT)/gotcha.h5
+	$(SAR) form-image $< -o $@ --method backprojection --extent 100 --pixel-size 0.25 --png $(OUT)/gotcha-bp.png
+
+$(OUT)/gotcha-ptv.h5: $(OUT)/gotcha.h5
+	$(SAR) regularize $< -o $@ --prior ptv --operator spherical --extent 100 --pixel-size 0.25 --iters 30
+	$(SAR) export $@ -o $(OUT)/gotcha-ptv.png
+
+gotcha: $(OUT)/gotcha-bp.h5 $(OUT)/gotcha-ptv.h5
+	@ls -1 $(OUT)/gotcha*
+
+# -- the paper's figures -------------------------------------------------------------------------
+paper: $(VENV)/.installed
+	$(BIN)/python scripts/paper/run_all.py $(OUT)/paper docs/paper.md
 
 # -- committed synthetic data (small) --------------------------------------------------------
 data/synthetic/three-points-small.h5: configs/three-points.yaml $(VENV)/.installed
