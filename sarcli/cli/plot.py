@@ -1,0 +1,58 @@
+"""``sar plot WHAT INPUT -o OUT.png``: psf-cuts | kspace | image-fft diagnostic figures."""
+
+from __future__ import annotations
+
+import click
+
+from ._common import grid_options, handle_errors, parse_pair
+
+WHATS = ("psf-cuts", "kspace", "image-fft")
+
+
+@click.command("plot")
+@click.argument("what", type=click.Choice(WHATS))
+@click.argument("input_path", metavar="INPUT", type=click.Path(dir_okay=False))
+@click.option("-o", "--output", required=True, type=click.Path(dir_okay=False), help="PNG to write.")
+@click.option("--at", default=None, help="psf-cuts: X,Y (m) near which to take the peak.")
+@click.option("--dynamic-range-db", type=float, default=60.0, show_default=True,
+              help="Lower limit of dB scales.")
+@grid_options
+@handle_errors
+def command(what, input_path, output, at, dynamic_range_db, center, extent, pixel_size):
+    """Draw WHAT from INPUT.
+
+    \b
+    psf-cuts   INPUT an image (.h5 or SICD): x and y cuts through the peak, -3 dB width marked
+    kspace     INPUT a YAML acquisition or phase-history .h5: samples in dimensionless
+               frequencies (k1, k2) = k h ξ with their aliased copies (grid options set h)
+    image-fft  INPUT an image: the image beside log|2-D FFT|
+    """
+    from .. import plots
+
+    if what == "kspace":
+        from pathlib import Path
+
+        from ..grid import resolve_grid
+
+        if Path(input_path).suffix.lower() in (".yaml", ".yml"):
+            from ..config import load_acquisition
+
+            acq = load_acquisition(input_path)
+        else:
+            from ..io import read_phase_history
+
+            acq = read_phase_history(input_path).acquisition
+        try:
+            grid = resolve_grid(acq.grid, center=parse_pair(center, "--center"),
+                                extent=parse_pair(extent, "--extent"), pixel_size=pixel_size)
+        except ValueError as exc:
+            raise click.BadParameter(str(exc)) from None
+        plots.plot_kspace(acq, grid, output)
+        return
+    from ..export import load_image
+
+    img = load_image(input_path)
+    if what == "psf-cuts":
+        plots.plot_psf_cuts(img, output, at=parse_pair(at, "--at"), dynamic_range_db=dynamic_range_db)
+    else:
+        plots.plot_image_fft(img, output, dynamic_range_db=dynamic_range_db)
