@@ -154,3 +154,15 @@ def test_cli_psf_taylor_window(tmp_path, write_config):
     img = read_image(out)
     assert img.parameters["window"] == "taylor" and "weighted sum" in img.parameters["evaluation"]
     assert abs(img.image[8, 8]) == pytest.approx(1.0, abs=1e-9)
+
+
+def test_predicted_weighted_cut_matches_direct_sum():
+    from sarcli.psf import _weighted_cut
+
+    w = np.outer(sw.taylor(AZ.size, nbar=4, sll=35), sw.taylor(F.size, nbar=4, sll=35))
+    theta, step = 0.9, 0.013
+    cut = _weighted_cut(F, AZ, EL, w, theta, step, 50)
+    s = np.arange(-50, 51) * step
+    ref = kernel_at((F, AZ, EL), s[:, None] * np.array([np.cos(theta), np.sin(theta)]), weights=w,
+                    method="direct")
+    assert np.max(np.abs(cut - ref)) < 1e-10
