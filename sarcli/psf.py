@@ -385,8 +385,6 @@ def predicted_ipr(acq, *, window="none", nbar=4, sll_db=-35.0, samples_per_cell=
            "window": window if isinstance(window, str) or window is None else "custom",
            "sidelobe_extent_cells": float(sidelobe_extent_cells), "islr_definition": ISLR_DEFINITION}
     _, _, _, dev = theorem_parameters(freq, el)
-    how = _resolve_method("auto", weights, dev, 0.0)
-    out["method"] = "theorem" if how == "theorem" else "weighted sum"
     finite = [r for r in rho if np.isfinite(r)]
     # one step for both cuts, from the finer resolution (a wide aperture makes the range cut as
     # sharp as the cross-range one); at most max_samples per cut, shortening the cut if needed
@@ -402,7 +400,9 @@ def predicted_ipr(acq, *, window="none", nbar=4, sll_db=-35.0, samples_per_cell=
         if how == "theorem":
             vals = kernel_at((freq, az, el), pts, method="theorem")
         else:
-            vals = _weighted_cut(freq, az, el, weights, theta, step, s.size // 2)
+            w = _weights_array(weights, az.size, np.shape(freq)[-1])
+            vals = _weighted_cut(freq, az, el, w, theta, step, s.size // 2)
+        out["method"] = "theorem" if how == "theorem" else "weighted sum"
         met = profile_metrics(s, np.abs(vals), sidelobe_extent=min(sidelobe_extent_cells * r, float(s[-1])))
         met["resolution_m"] = float(r)
         out[name] = met

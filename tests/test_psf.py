@@ -166,3 +166,12 @@ def test_predicted_weighted_cut_matches_direct_sum():
     ref = kernel_at((F, AZ, EL), s[:, None] * np.array([np.cos(theta), np.sin(theta)]), weights=w,
                     method="direct")
     assert np.max(np.abs(cut - ref)) < 1e-10
+
+
+def test_predicted_ipr_with_unequal_frequencies_uses_the_exact_sum():
+    f = F.copy()
+    f[5] += 1e6
+    pred = predicted_ipr((f, AZ, EL))
+    ref = predicted_ipr((F, AZ, EL))
+    assert pred["method"] == "weighted sum" and ref["method"] == "theorem"
+    assert pred["range"]["irw_m"] == pytest.approx(ref["range"]["irw_m"], rel=0.01)
