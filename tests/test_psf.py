@@ -175,3 +175,21 @@ def test_predicted_ipr_with_unequal_frequencies_uses_the_exact_sum():
     ref = predicted_ipr((F, AZ, EL))
     assert pred["method"] == "weighted sum" and ref["method"] == "theorem"
     assert pred["range"]["irw_m"] == pytest.approx(ref["range"]["irw_m"], rel=0.01)
+
+
+GOTCHA = __import__("pathlib").Path(__file__).resolve().parents[2] / "shared" / "data" / "gotcha"
+
+
+def test_predicted_ipr_on_gotcha_geometry_matches_the_textbook():
+    files = sorted(GOTCHA.glob("data_3dsar_pass1_az00*_HH.mat")) if GOTCHA.is_dir() else []
+    if not files:
+        pytest.skip(f"GOTCHA data not found at {GOTCHA}")
+    gotcha = pytest.importorskip("sarcli.gotcha")
+    acq = gotcha.read_gotcha(files[:1]).acquisition
+    pred = predicted_ipr(acq)
+    # float32-stored frequencies are not exactly equally spaced: the exact sum is used
+    assert pred["method"] == "weighted sum"
+    rho_r, rho_cr = acq.resolutions()
+    assert abs(pred["range"]["irw_m"] / (0.886 * rho_r) - 1) < 0.02
+    assert abs(pred["cross_range"]["irw_m"] / (0.886 * rho_cr) - 1) < 0.02
+    assert abs(pred["range"]["pslr_db"] - (-13.26)) < 0.3
