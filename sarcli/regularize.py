@@ -32,7 +32,7 @@ import warnings
 import numpy as np
 
 from .errors import DefocusWarning, SarcliInputError
-from .grid import Grid
+from .grid import Grid, resolve_grid
 from .io import Image, PhaseHistory
 from .linops import (NufftOperator, SphericalOperator, gram_eigmax, normal_equations,
                      sparsifying_operator)
@@ -40,7 +40,7 @@ from .linops.finite_diff import FiniteDifference
 from .solvers import ADMM, tikhonov
 
 __all__ = ["regularize", "PRIORS", "OPERATORS", "DEFAULT_LAM", "DEFAULT_BETA_RATIO",
-           "matched_filter", "scale_problem"]
+           "matched_filter", "scale_problem", "plot_history"]
 
 PRIORS = ("l1", "tv", "hotv", "ptv", "tikhonov")
 OPERATORS = ("auto", "nufft", "toeplitz", "spherical")
@@ -104,7 +104,7 @@ def matched_filter(ph: PhaseHistory, grid: Grid | None = None, *, operator: str 
 
 def regularize(ph: PhaseHistory, *, prior: str = "ptv", order: int = 1, lam: float | None = None,
                beta: float | None = None, iters: int = 300, tol: float = 1e-4, operator: str = "auto",
-               grid: Grid | None = None, init=None, isotropic: bool = True, callback=None,
+               grid: Grid | None = None, center=None, extent=None, pixel_size=None, init=None, isotropic: bool = True, callback=None,
                inner_iters: int = 1, reestimate_every: int = 0, eps: float = 1e-9) -> Image:
     """Regularised image of a phase history (paper eq. ``eq: reg`` / ``eq: main-L1``).
 
@@ -126,7 +126,9 @@ def regularize(ph: PhaseHistory, *, prior: str = "ptv", order: int = 1, lam: flo
         spherical reprojection/backprojection pair. 'auto': spherical when the far-field phase error
         at the grid corner exceeds :data:`DEFOCUS_WARN_RAD`, else Toeplitz.
     grid : Grid, optional
-        Image grid (default the acquisition's).
+        Image grid; default the acquisition's, modified by ``center``/``extent``/``pixel_size``.
+    center, extent, pixel_size : optional
+        Grid overrides (m), as for :func:`sarcli.formation.form_image`.
     init : ndarray or Image, optional
         Initial image (physical units); for 'ptv' also the f0 whose phases define Θ
         (default f0: the matched filter).
@@ -173,7 +175,11 @@ def regularize(ph: PhaseHistory, *, prior: str = "ptv", order: int = 1, lam: flo
         raise SarcliInputError(f"beta must be a finite number > 0, got {beta}")
     if int(iters) < 1 or not (tol > 0):
         raise SarcliInputError(f"iters must be >= 1 and tol > 0, got {iters}, {tol}")
-    grid = ph.acquisition.grid if grid is None else grid
+    if grid is None:
+        try:
+            grid = resolve_grid(ph.acquisition.grid, center=center, extent=extent, pixel_size=pixel_size)
+        except ValueError as exc:
+            raise SarcliInputError(str(exc)) from None
     if init is not None:
         init = np.asarray(init.image if isinstance(init, Image) else init, np.complex128)
         if init.shape != grid.shape:
@@ -213,3 +219,38 @@ def regularize(ph: PhaseHistory, *, prior: str = "ptv", order: int = 1, lam: flo
     params["iterations"] = int(len(hist.get("objective", [])))
     return Image(f, grid.x, grid.y, method=f"regularize-{prior}", parameters=params,
                  runtime_s=time.perf_counter() - t0, history=hist)
+
+
+def plot_history(history: dict, path) -> None:
+    """Plot objective and relative change against iteration and elapsed time (PNG, atomic).
+
+    Parameters
+    ----------
+    history : dict of str -> ndarray
+        An :class:`~sarcli.io.Image`'s ``history`` (needs ``objective``, ``relative_change``,
+        ``elapsed_s``).
+    path : str or Path
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from ._atomic import atomic_path
+
+    if not history or "objective" not in history:
+        raise SarcliInputError("the image has no iteration history to plot")
+    obj = np.asarray(history["objective"])
+    rel = np.asarray(history.get("relative_change", np.full(obj.size, np.nan)))
+    t = np.asarray(history.get("elapsed_s", np.arange(obj.size)))
+    it = np.arange(1, obj.size + 1)
+    fig, axes = plt.subplots(2, 2, figsize=(9, 6), constrained_layout=True)
+    for col, (xv, xlabel) in enumerate([(it, "iteration"), (t, "elapsed (s)")]):
+        axes[0, col].semilogy(xv, np.maximum(obj, np.finfo(float).tiny))
+        axes[0, col].set_ylabel("objective")
+        axes[1, col].semilogy(xv, np.maximum(rel, np.finfo(float).tiny))
+        axes[1, col].set_ylabel("relative change")
+        axes[1, col].set_xlabel(xlabel)
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, format="png", dpi=100)
+    plt.close(fig)
