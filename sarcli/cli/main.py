@@ -28,6 +28,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "plot": ("plot", "Diagnostic figures: PSF cuts, k-space samples, image spectrum."),
     "import": ("import_", "Import real phase history (GOTCHA .mat, CPHD)."),
     "regularize": ("regularize", "Regularised image: TV, higher-order TV, l1, phase-corrected TV, Tikhonov."),
+    "batch": ("batch", "Run a plan of many imaging jobs on dask."),
 }
 
 
