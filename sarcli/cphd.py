@@ -7,8 +7,9 @@ Mapping (``docs/formats.md`` has the table):
   spherical model ``exp(-i (4π α / c)(|a_p - x| - r0_p))`` with ``r0_p = |a_p - SRP_p|``.
 * Vector p = pulse p: ``TxPos = RcvPos = a_p`` (monostatic, stop-and-hop), ``SRPPos`` = the scene
   centre, ``SC0``/``SCSS`` = first frequency and spacing (``FX1``/``FX2`` the band edges), so the
-  frequencies of every pulse must be equally spaced. A phase history whose ``r0_p`` differs from
-  ``|a_p|`` (motion-compensated data) has the phase ``exp(+i (4π α/c)(|a_p| - r0_p))`` folded into
+  frequencies of every pulse must be equally spaced (to 1 % of a step, see
+  ``_uniform_frequencies``). A phase history whose ``r0_p`` differs from ``|a_p|``
+  (motion-compensated data) has the phase ``exp(+i (4π α/c)(|a_p| - r0_p))`` folded into
   the signal so that the file is referenced to the SRP, as CPHD requires.
 * Signal format ``CF8`` (complex64; CPHD has no complex128 format, so complex128 data is rounded).
 * Our local ENU frame (x east, y north, z up, origin at the scene centre) is anchored on the Earth
@@ -43,7 +44,7 @@ from .export.georef import ReferencePoint, ecf_to_enu, enu_basis, enu_to_ecf, re
 from .grid import Grid
 from .io import PhaseHistory
 
-__all__ = ["read_cphd", "write_cphd", "pulse_times", "NOMINAL_SPEED_M_S", "CPHD_NS"]
+__all__ = ["read_cphd", "write_cphd", "pulse_times", "UNIFORM_TOLERANCE", "NOMINAL_SPEED_M_S", "CPHD_NS"]
 
 CPHD_NS = "http://api.nsgreg.nga.mil/schema/cphd/1.1.0"
 #: Platform speed (m/s) used to invent pulse times for files that carry none.
@@ -52,6 +53,8 @@ NOMINAL_SPEED_M_S = 100.0
 PLACEHOLDER_START = "2000-01-01T00:00:00.000000Z"
 CHANNEL_ID = "1"
 _FX_OSR = 1.2
+#: largest deviation (in steps) of a frequency from the per-pulse line SC0 + j SCSS
+UNIFORM_TOLERANCE = 0.01
 
 # PVP layout: name, words (8-byte), format
 _PVP_LAYOUT = [
@@ -67,18 +70,29 @@ _PVP_LAYOUT = [
 # writing
 # --------------------------------------------------------------------------------------------
 def _uniform_frequencies(freq_pm: np.ndarray):
-    """First frequency and spacing per pulse; SarcliInputError unless equally spaced."""
+    """First frequency and spacing per pulse (least-squares line); SarcliInputError unless uniform.
+
+    "Equally spaced" means within ``UNIFORM_TOLERANCE`` of a step of the fitted line, which bounds
+    the phase error of replacing the frequencies by ``SC0 + j SCSS`` to
+    ``π × UNIFORM_TOLERANCE`` (0.03 rad) anywhere inside the alias-free range radius
+    ``c / (4 Δα)`` (float32-rounded frequencies, as in the GOTCHA files, pass easily).
+    """
     f = np.asarray(freq_pm, dtype=np.float64)
-    if f.shape[1] < 2:
+    M = f.shape[1]
+    if M < 2:
         raise SarcliInputError("CPHD export needs at least two frequencies per pulse")
-    steps = np.diff(f, axis=1)
-    scss = steps.mean(axis=1)
-    dev = np.max(np.abs(steps - scss[:, None]) / np.abs(scss[:, None]))
-    if not np.all(scss > 0) or dev > 1e-6:
+    j = np.arange(M, dtype=np.float64) - (M - 1) / 2
+    mean = f.mean(axis=1)
+    scss = (f - mean[:, None]) @ j / (j @ j)
+    sc0 = mean - scss * (M - 1) / 2
+    fit = sc0[:, None] + scss[:, None] * np.arange(M)[None, :]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        dev = float(np.max(np.abs(f - fit) / np.abs(scss)[:, None]))
+    if not np.all(scss > 0) or not dev <= UNIFORM_TOLERANCE:
         raise SarcliInputError(
             "CPHD stores equally spaced, increasing frequencies per pulse (SC0 + n SCSS); this phase "
-            f"history's frequency steps deviate from uniform by {dev:.3g} (relative)")
-    return f[:, 0].copy(), scss
+            f"history's frequencies deviate from that by {dev:.3g} of a step (tolerance {UNIFORM_TOLERANCE})")
+    return sc0, scss
 
 
 def pulse_times(pos: np.ndarray):

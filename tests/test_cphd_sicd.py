@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 from click.testing import CliRunner
@@ -255,3 +257,32 @@ def test_sicd_rejects_real_kinds_and_corrupt_input(tmp_path):
     assert not _sicd_failures(tmp_path / "c.nitf")[0]
     res = runner.invoke(cli, ["export", str(tmp_path / "c.nitf"), "-o", str(tmp_path / "c.png")])
     assert res.exit_code == 0, res.output
+
+
+GOTCHA = Path(__file__).resolve().parents[2] / "shared" / "data" / "gotcha"
+
+
+def test_cphd_round_trip_gotcha(tmp_path):
+    """Real data: one degree of GOTCHA (float32 frequencies, autofocus r0 != |a|) through CPHD."""
+    files = sorted(GOTCHA.glob("data_3dsar_pass1_az001_HH.mat")) if GOTCHA.is_dir() else []
+    if not files:
+        pytest.skip(f"GOTCHA data not found at {GOTCHA}")
+    from sarcli.gotcha import read_gotcha
+
+    ph = read_gotcha(files, autofocus=True)
+    ph = PhaseHistory(ph.data, ph.acquisition, attrs={**ph.attrs, **OHIO})
+    back = read_cphd(write_cphd(ph, tmp_path / "g.cphd"))
+    import sarkit.verification as skver
+
+    with open(tmp_path / "g.cphd", "rb") as f:
+        con = skver.CphdConsistency.from_file(f, thorough=True)
+        con.check()
+    assert not con.failures(), list(con.failures())
+    a, b = ph.acquisition, back.acquisition
+    np.testing.assert_allclose(b.antenna_position_m, a.antenna_position_m, rtol=0, atol=1e-5)
+    step = float(np.median(np.diff(a.frequency_hz)))
+    assert np.max(np.abs(b.frequencies_2d - a.frequencies_2d)) <= 0.01 * step
+    grid = Grid(16, 16, 0.5, 0.5, 0.0, 0.0)
+    ref = matched_filter(ph, grid)
+    img = matched_filter(back, grid)
+    assert _rel(img, ref) <= 1e-3
