@@ -286,3 +286,22 @@ def test_cphd_round_trip_gotcha(tmp_path):
     ref = matched_filter(ph, grid)
     img = matched_filter(back, grid)
     assert _rel(img, ref) <= 1e-3
+
+
+def test_sicd_window_broadens_impulse_response_width(tmp_path):
+    import sarkit.sicd as sksicd
+
+    from sarcli.export.sicd import write_sicd
+
+    img, ph = _sicd_case(-np.pi / 2)
+    widths = {}
+    for window in ("none", "hamming"):
+        img.parameters = {"window": window}
+        write_sicd(img, tmp_path / f"{window}.sicd", phase_history=ph)
+        with open(tmp_path / f"{window}.sicd", "rb") as f, sksicd.NitfReader(f) as r:
+            x = r.metadata.xmltree
+        widths[window] = (float(x.findtext("{*}Grid/{*}Row/{*}ImpRespWid"))
+                          * float(x.findtext("{*}Grid/{*}Row/{*}ImpRespBW")))
+        assert not _sicd_failures(tmp_path / f"{window}.sicd")[0]
+    assert widths["none"] == pytest.approx(0.8859, rel=1e-9)
+    assert widths["hamming"] == pytest.approx(1.30, rel=0.01)  # textbook Hamming IRW (Harris 1978)

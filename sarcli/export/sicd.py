@@ -104,31 +104,28 @@ def nominal_acquisition(grid) -> Acquisition:
                        model="spherical", name="nominal")
 
 
-def _ipr_factor(window) -> tuple[str, float]:
-    """(WindowName, -3 dB width × bandwidth) of the weighting named in the image parameters."""
-    if window in (None, "", "none", "uniform", "rect", "rectangular", "boxcar"):
-        return "UNIFORM", KAPFAC
-    from scipy.signal import windows
+def _ipr_factor(parameters: dict) -> tuple[str, float]:
+    """(WindowName, -3 dB width × bandwidth) of the weighting recorded in the image parameters.
 
-    spec = window
-    if isinstance(window, str) and ":" in window:
-        name, arg = window.split(":", 1)
-        try:
-            spec = (name, float(arg))
-        except ValueError:
-            spec = window
-    try:
-        w = windows.get_window(spec, 128, fftbins=False)
-    except (ValueError, TypeError):
-        return str(window).upper(), KAPFAC
-    pad = 64
-    resp = np.abs(np.fft.fft(w, 128 * pad)) ** 2
+    The window comes from :func:`sarcli.windows.window_1d` (``window``, ``taylor_nbar``,
+    ``taylor_sll_db`` as :func:`sarcli.formation.form_image` records them); its -3 dB width is
+    measured on a 64-fold zero-padded spectrum of 128 taps (uniform: 0.8859).
+    """
+    from ..windows import WINDOW_KINDS, window_1d
+
+    kind = (parameters or {}).get("window") or "none"
+    if kind in ("none", "uniform"):
+        return "UNIFORM", KAPFAC
+    if kind not in WINDOW_KINDS:
+        return str(kind).upper(), KAPFAC
+    n, pad = 128, 64
+    w = window_1d(n, kind, nbar=int(parameters.get("taylor_nbar", 4)),
+                  sll_db=float(parameters.get("taylor_sll_db", -35.0)))
+    resp = np.abs(np.fft.fft(w, n * pad)) ** 2
     resp /= resp[0]
     first = int(np.argmax(resp < 0.5))  # first bin below half power
-    # linear interpolation between bins first-1 and first
     frac = (resp[first - 1] - 0.5) / (resp[first - 1] - resp[first])
-    half = (first - 1 + frac) / (128 * pad)
-    return str(window).upper(), float(2 * half * 128)
+    return str(kind).upper(), float(2 * (first - 1 + frac) / pad)
 
 
 # --------------------------------------------------------------------------------------------
@@ -155,9 +152,9 @@ def _support(acq: Acquisition, direction_enu):
     return 0.5 * (lo + hi), hi - lo
 
 
-def _grid_dim(E, tag, uvect_ecf, ss, kctr, extent, window):
+def _grid_dim(E, tag, uvect_ecf, ss, kctr, extent, parameters):
     bw = min(extent, 1.0 / ss)
-    win_name, factor = _ipr_factor(window)
+    win_name, factor = _ipr_factor(parameters)
     children = [
         _xyz(E, "UVectECF", uvect_ecf),
         E.SS(repr(ss)),
@@ -192,7 +189,8 @@ def _build_xml(img: Image, acq: Acquisition, ref, orient, *, nominal: bool):
     # image corners (FRFC, FRLC, LRLC, LRFC) in the ground plane through the SCP
     corners = []
     for r, c in ((0, 0), (0, ncols - 1), (nrows - 1, ncols - 1), (nrows - 1, 0)):
-        enu = scp_enu + (r - srow) * orient["row_ss"] * orient["row_enu"] + (c - scol) * orient["col_ss"] * orient["col_enu"]
+        enu = (scp_enu + (r - srow) * orient["row_ss"] * orient["row_enu"]
+               + (c - scol) * orient["col_ss"] * orient["col_enu"])
         corners.append(wgs84.cartesian_to_geodetic(enu_to_ecf(enu, ref)))
     # timing and ARP polynomial
     pos = np.asarray(acq.antenna_position_m, np.float64)
@@ -210,7 +208,7 @@ def _build_xml(img: Image, acq: Acquisition, ref, orient, *, nominal: bool):
     fmin, fmax = float(f.min()), float(f.max())
     kctr_r, ext_r = _support(acq, orient["row_enu"])
     kctr_c, ext_c = _support(acq, orient["col_enu"])
-    window = (img.parameters or {}).get("window")
+    params = img.parameters or {}
     pol = str((img.attrs or {}).get("polarization", "")).upper()
     txrcv = f"{pol[0]}:{pol[1]}" if len(pol) == 2 and set(pol) <= set("HV") else "UNKNOWN"
     tx_pol = pol[0] if txrcv != "UNKNOWN" else "UNKNOWN"
@@ -255,8 +253,8 @@ def _build_xml(img: Image, acq: Acquisition, ref, orient, *, nominal: bool):
             E.ImagePlane("GROUND"),
             E.Type("PLANE"),
             _poly2_const(E, "TimeCOAPoly", t_coa),
-            _grid_dim(E, "Row", row_ecf, orient["row_ss"], kctr_r, ext_r, window),
-            _grid_dim(E, "Col", col_ecf, orient["col_ss"], kctr_c, ext_c, window),
+            _grid_dim(E, "Row", row_ecf, orient["row_ss"], kctr_r, ext_r, params),
+            _grid_dim(E, "Col", col_ecf, orient["col_ss"], kctr_c, ext_c, params),
         ),
         E.Timeline(
             E.CollectStart(start),
