@@ -16,6 +16,13 @@ from sarcli.errors import InputFileError, SarcliInputError
 from sarcli.grid import Grid
 from sarcli.io import PhaseHistory, Truth, read_phase_history, write_phase_history
 
+pytestmark = [
+    # a schema-invalid SICD makes sarkit's NitfWriter warn: treat that as a failure
+    pytest.mark.filterwarnings("error::UserWarning"),
+    # sarkit 1.8 reads its schemas with importlib.resources' legacy API
+    pytest.mark.filterwarnings("ignore:.*is deprecated. Use files\\(\\) instead:DeprecationWarning"),
+]
+
 POINTS = np.array([[0.0, 0.0, 0.0], [5.0, -3.0, 0.0], [-8.0, 6.0, 0.0]])
 AMPS = np.array([1.0, 0.5j, 0.7])
 OHIO = {"scene_center_lat_deg": 39.78, "scene_center_lon_deg": -84.06}
