@@ -1,0 +1,46 @@
+"""``sar batch PLAN.yaml -o OUTDIR [--scheduler ADDRESS] [--workers N]``."""
+
+from __future__ import annotations
+
+import sys
+
+import click
+
+from ._common import echo_info, handle_errors
+
+
+@click.command("batch")
+@click.argument("plan_path", metavar="PLAN.yaml", type=click.Path(dir_okay=False))
+@click.option("-o", "--output", "outdir", required=True, type=click.Path(file_okay=False),
+              help="Output folder; each job writes its image inside it.")
+@click.option("--scheduler", default=None, metavar="ADDRESS",
+              help="Run on an existing dask cluster, e.g. tcp://host:8786 (default: a local cluster).")
+@click.option("--workers", "n_workers", type=click.IntRange(min=1), default=None,
+              help="Workers of the local cluster (default: one per core).")
+@click.option("--force", is_flag=True, help="Redo jobs whose valid output already exists.")
+@click.pass_context
+@handle_errors
+def command(ctx, plan_path, outdir, scheduler, n_workers, force):
+    """Run a plan of many imaging jobs on dask; re-running resumes where a batch stopped.
+
+    Exit code 0 when every job succeeded, 1 when some failed (each is listed with its input and
+    reason), 2 for a bad plan.
+    """
+    import logging
+
+    import distributed  # noqa: F401 - configures its loggers on import; quieten them after
+
+    from ..batch import load_plan, run_plan
+
+    if not (ctx.obj or {}).get("verbose"):  # dask's INFO lines about its own start-up and shutdown
+        logging.getLogger("distributed").setLevel(logging.ERROR)
+    if scheduler and n_workers:
+        raise click.BadParameter("--workers sizes the local cluster; it cannot be used with --scheduler",
+                                 param_hint="--workers")
+    plan = load_plan(plan_path)
+    report = run_plan(plan, outdir, scheduler=scheduler, n_workers=n_workers, force=force)
+    for r in report.failed:
+        click.echo(f"failed: {r.name} (input {r.input}): {r.error}", err=True)
+    echo_info(ctx, report.summary())
+    if not report.ok:
+        sys.exit(1)
