@@ -329,7 +329,8 @@ def read_cphd(path) -> PhaseHistory:
     Antenna positions are ``(TxPos + RcvPos) / 2`` converted to the local ENU frame of the
     image-area reference point (IARP); ``r0_p = |a_p - SRP_p|``; azimuth and elevation come from
     :func:`sarcli.geometry.angles_from_positions`; frequencies are ``SC0 + n SCSS``. A file with
-    ``SGN = +1`` is conjugated into our sign convention.
+    ``SGN = +1`` is conjugated into our sign convention; an ``AmpSF`` PVP scales its vector;
+    vectors with ``SIGNAL = 0`` are dropped.
 
     Raises
     ------
@@ -383,6 +384,8 @@ def _read_cphd(p: Path) -> PhaseHistory:
         names = data.dtype.names
         data = data[names[0]].astype(np.float32) + 1j * data[names[1]].astype(np.float32)
     data = data.astype(np.complex64)
+    if "AmpSF" in pvp.dtype.names:  # per-vector amplitude scale factor (CPHD: multiply)
+        data = (data * pvp["AmpSF"][:, None]).astype(np.complex64)
     if sgn == 1:
         data = np.conj(data)
     if "SIGNAL" in pvp.dtype.names and np.any(pvp["SIGNAL"] == 0):

@@ -312,3 +312,21 @@ def test_sicd_window_broadens_impulse_response_width(tmp_path):
         assert not _sicd_failures(tmp_path / f"{window}.sicd")[0]
     assert widths["none"] == pytest.approx(0.8859, rel=1e-9)
     assert widths["hamming"] == pytest.approx(1.30, rel=0.01)  # textbook Hamming IRW (Harris 1978)
+
+
+def test_cphd_foreign_sign_convention(tmp_path):
+    """A file written with SGN = +1 (conjugate convention) reads back as the same phase history."""
+    import lxml.etree
+    import sarkit.cphd as skcphd
+
+    ph = spherical_ph()
+    write_cphd(ph, tmp_path / "a.cphd")
+    with open(tmp_path / "a.cphd", "rb") as f, skcphd.Reader(f) as r:
+        xml = lxml.etree.fromstring(lxml.etree.tostring(r.metadata.xmltree)).getroottree()
+        sig, pvp = r.read_channel("1")
+    xml.find("{*}Global/{*}SGN").text = "1"
+    with open(tmp_path / "b.cphd", "wb") as f, skcphd.Writer(f, skcphd.Metadata(xmltree=xml)) as w:
+        w.write_signal("1", np.conj(sig).astype(np.complex64))
+        w.write_pvp("1", pvp)
+    back = read_cphd(tmp_path / "b.cphd")
+    assert np.max(np.abs(back.data - ph.data)) <= 1e-6 * np.max(np.abs(ph.data))
