@@ -153,3 +153,21 @@ def test_cli_export(tmp_path):
     assert not (tmp_path / "o.bmp").exists()
     res = runner.invoke(cli, ["export", str(tmp_path / "missing.h5"), "-o", str(tmp_path / "o.png")])
     assert res.exit_code == 2 and "no such file" in res.output
+
+
+def test_georef_enu_ecf_and_utm_zones():
+    from sarcli.export.georef import DEFAULT_REFERENCE, ReferencePoint, ecf_to_enu, enu_to_ecf, reference_point
+
+    # at 0N 0E: east is +Y, north is +Z, up is +X of ECF; the origin sits on the equator, a = 6378137 m
+    enu = np.array([[0, 0, 0], [10.0, 0, 0], [0, 20.0, 0], [0, 0, 30.0]])
+    ecf = enu_to_ecf(enu, DEFAULT_REFERENCE)
+    np.testing.assert_allclose(ecf, [[6378137, 0, 0], [6378137, 10, 0], [6378137, 0, 20], [6378167, 0, 0]],
+                               atol=1e-8)
+    ref = ReferencePoint(39.78, -84.06, 250.0)
+    pts = np.random.default_rng(0).uniform(-5e3, 5e3, (20, 3))
+    np.testing.assert_allclose(ecf_to_enu(enu_to_ecf(pts, ref), ref), pts, atol=1e-8)
+    assert reference_point({}, None) is DEFAULT_REFERENCE
+    assert reference_point({"scene_center_lat_deg": 1, "scene_center_lon_deg": 350}).lon_deg == -10
+    assert utm_epsg(-33.9, 18.4) == 32734  # Cape Town, zone 34 south
+    assert utm_epsg(51.5, -0.1) == 32630  # London, zone 30 north
+    assert utm_epsg(10.0, 179.99) == 32660
