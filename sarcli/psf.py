@@ -373,7 +373,8 @@ def predicted_ipr(acq, *, window="none", nbar=4, sll_db=-35.0, samples_per_cell=
     -------
     dict
         ``range`` / ``cross_range``: ``irw_m``, ``pslr_db``, ``islr_db``, ``first_nulls_m``,
-        ``resolution_m`` (ρ of CONVENTIONS.md); ``textbook``: the continuous 1-D values for the
+        ``resolution_m`` (ρ of CONVENTIONS.md), ``cell_m`` (the resolution cell of the sidelobe
+        extent: ``min(ρ, IRW / 0.886)``); ``textbook``: the continuous 1-D values for the
         window where known (``irw_factor`` × ρ; uniform: 0.886, -13.26 dB, -9.68 dB);
         ``range_direction_rad``, ``method`` ('theorem' or 'weighted sum'), ``window``.
     """
@@ -404,7 +405,13 @@ def predicted_ipr(acq, *, window="none", nbar=4, sll_db=-35.0, samples_per_cell=
             vals = _weighted_cut(freq, az, el, w, theta, step, s.size // 2)
         out["method"] = "theorem" if how == "theorem" else "weighted sum"
         met = profile_metrics(s, np.abs(vals), sidelobe_extent=min(sidelobe_extent_cells * r, float(s[-1])))
+        # the resolution cell that sets the sidelobe extent: the formula's ρ, or IRW/0.886 where
+        # the kernel is much sharper than the formula says (wide apertures, narrow bands)
+        cell = r if met["irw_m"] is None else min(r, met["irw_m"] / 0.886)
+        if cell < r:
+            met = profile_metrics(s, np.abs(vals), sidelobe_extent=min(sidelobe_extent_cells * cell, float(s[-1])))
         met["resolution_m"] = float(r)
+        met["cell_m"] = float(cell)
         out[name] = met
     key = "none" if weights is None else (window.lower() if isinstance(window, str) else None)
     tb = TEXTBOOK_IPR.get(key)

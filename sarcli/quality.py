@@ -19,14 +19,19 @@ images are band-pass), and take two cuts through the peak, along the range direc
 from __future__ import annotations
 
 import math
+import warnings
 
 import numpy as np
 from scipy import ndimage
 
-from .errors import SarcliInputError
+from .errors import AliasingWarning, SarcliInputError
 
 __all__ = ["profile_metrics", "measure_ipr", "image_quality", "load_reference", "center_azimuth",
            "ISLR_DEFINITION"]
+
+#: Largest neighbourhood (pixels a side) and interpolated patch (samples a side) measure_ipr uses.
+MAX_PATCH = 257
+MAX_FINE = 2056
 
 #: How the ISLR is defined here (printed with every result).
 ISLR_DEFINITION = ("1-D ISLR on each cut: energy of |f|^2 outside the main lobe (first nulls) "
@@ -174,10 +179,11 @@ def measure_ipr(image, x_m, y_m, at=None, *, range_direction_rad=0.0, resolution
         Azimuth θc of the range direction ``ξ_θc`` (the centre look azimuth); cross-range is
         ``θc + π/2``.
     resolution_m : (float, float), optional
-        Range and cross-range resolution ρ (m); sets the search radius, the patch size and
+        Range and cross-range resolution cells ρ (m); set the search radius, the patch size and
         the sidelobe extent. Default: estimated from a first measurement as ``IRW / 0.886``.
     oversample : int
-        FFT zero-padding factor of the band-limited interpolation.
+        FFT zero-padding factor of the band-limited interpolation (lowered, not below 2, to keep
+        the interpolated patch within ``MAX_FINE`` samples a side; the result says which).
     search_radius_m : float, optional
         Default: 3 resolution cells (at least 1.5 pixels).
     sidelobe_extent_cells : float
@@ -229,9 +235,13 @@ def measure_ipr(image, x_m, y_m, at=None, *, range_direction_rad=0.0, resolution
         masked = np.where(near, mag, -1.0)
         r0, c0 = np.unravel_index(int(np.argmax(masked)), mag.shape)
 
-    # 2. neighbourhood and band-limited interpolation
+    # 2. neighbourhood and band-limited interpolation (at most MAX_PATCH pixels a side before,
+    #    MAX_FINE after interpolation: the oversampling drops to 2 before the patch shrinks)
     half = (sidelobe_extent_cells + 2.0) * max(rho)
-    hx, hy = int(math.ceil(half / dx)), int(math.ceil(half / dy))
+    hx = min(int(math.ceil(half / dx)), MAX_PATCH // 2)
+    hy = min(int(math.ceil(half / dy)), MAX_PATCH // 2)
+    half = min(half, hx * dx, hy * dy)
+    oversample = max(min(oversample, MAX_FINE // (2 * max(hx, hy) + 1)), 2)
     rlo, rhi = max(0, r0 - hy), min(ny, r0 + hy + 1)
     clo, chi = max(0, c0 - hx), min(nx, c0 + hx + 1)
     truncated = bool(rlo > r0 - hy or rhi < r0 + hy + 1 or clo > c0 - hx or chi < c0 + hx + 1)
@@ -366,7 +376,8 @@ def image_quality(img, ph_or_acq, *, at=None, truth=None, window=None, nbar=None
         One per target: ``name``, ``expected_at_m``, ``expected_peak_magnitude`` (|a_s| of the
         truth, the normalised matched filter's peak), the :func:`measure_ipr` result under
         ``measured``, the :func:`sarcli.psf.predicted_ipr` cut figures under ``predicted``, and
-        ``irw_ratio`` = measured / predicted per direction. Plain JSON types only.
+        ``irw_ratio`` = measured / predicted per direction, ``undersampled`` (pixel larger
+        than the predicted resolution cell; also an :class:`AliasingWarning`). Plain JSON types.
     """
     from .psf import predicted_ipr  # psf imports this module for profile_metrics
 
@@ -381,11 +392,18 @@ def image_quality(img, ph_or_acq, *, at=None, truth=None, window=None, nbar=None
     pred = predicted_ipr(acq, window=window, nbar=nbar, sll_db=sll_db,
                          sidelobe_extent_cells=sidelobe_extent_cells)
     theta_c = pred["range_direction_rad"]
-    rho = (pred["range"]["resolution_m"], pred["cross_range"]["resolution_m"])
+    rho = (pred["range"].get("cell_m"), pred["cross_range"].get("cell_m"))
     rho = None if None in rho else rho
-    keep = ("irw_m", "pslr_db", "islr_db", "first_nulls_m", "resolution_m", "sidelobe_extent_m")
+    keep = ("irw_m", "pslr_db", "islr_db", "first_nulls_m", "resolution_m", "cell_m", "sidelobe_extent_m")
     predicted = {d: {k: pred[d].get(k) for k in keep} for d in ("range", "cross_range")}
     predicted.update(method=pred.get("method"), window=pred["window"], textbook=pred.get("textbook"))
+    pixel = max(float(x[1] - x[0]), float(y[1] - y[0]))
+    finest = min(c for c in (rho or (np.inf,)))
+    undersampled = bool(pixel > finest)
+    if undersampled:
+        warnings.warn(f"pixel {pixel:.4g} m exceeds the resolution cell {finest:.4g} m of the predicted "
+                      "PSF: the image undersamples its main lobe and the measured widths follow the grid",
+                      AliasingWarning, stacklevel=2)
     results = []
     for name, pos, amp in targets:
         m = measure_ipr(img.image, x, y, at=pos, range_direction_rad=theta_c, resolution_m=rho,
@@ -396,6 +414,7 @@ def image_quality(img, ph_or_acq, *, at=None, truth=None, window=None, nbar=None
             ratio[d] = None if mi is None or not pi else float(mi / pi)
         results.append({"name": name, "expected_at_m": list(pos), "expected_peak_magnitude": amp,
                         "measured": m, "predicted": predicted, "irw_ratio": ratio,
+                        "undersampled": undersampled,
                         "image_method": getattr(img, "method", "")})
     return results
 

@@ -177,3 +177,16 @@ def test_simulated_three_points_through_form_image(window, write_config):
         assert r["measured"]["peak_position_error_m"] < pixel
         assert r["measured"]["peak_magnitude"] == pytest.approx(1.0, abs=0.02)
         assert r["predicted"]["window"] == window
+
+
+def test_undersampled_image_is_flagged():
+    from sarcli.errors import AliasingWarning
+
+    coarse = Grid.square(5.0, 24)  # 42 cm pixels > 29 cm resolution
+    d, img = exact_mf_image(POINTS[:1], grid=coarse)
+    image = Image(image=img, x_m=coarse.x, y_m=coarse.y, method="direct")
+    with pytest.warns(AliasingWarning, match="undersamples"):
+        res = image_quality(image, _acq(), at=(0.0, 0.0))
+    assert res[0]["undersampled"] is True
+    ph, fine = _ph_and_image()
+    assert image_quality(fine, ph, at=(0.0, 0.0))[0]["undersampled"] is False
