@@ -24,6 +24,7 @@ predicted_ipr(acq, *, window='none', ...) -> dict
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -36,14 +37,7 @@ from .progress import progress
 from .quality import ISLR_DEFINITION, center_azimuth, profile_metrics
 
 __all__ = ["psf_kernel", "grid_method", "kernel_at", "dirichlet_ratio", "theorem_parameters", "predicted_ipr",
-           "psf_image", "plot_psf", "window_weights_for", "TEXTBOOK_IPR"]
-
-#: Textbook 1-D figures of a continuous window: (IRW / ρ, PSLR dB, ISLR dB over an infinite extent).
-TEXTBOOK_IPR = {
-    "none": (0.886, -13.26, -9.68),
-    "hamming": (1.30, -42.7, None),
-    "hann": (1.44, -31.5, None),
-}
+           "psf_image", "plot_psf", "window_weights_for", "window_textbook"]
 
 _CHUNK_ELEMENTS = 4_000_000  # complex elements per temporary block (64 MB)
 
@@ -374,8 +368,8 @@ def predicted_ipr(acq, *, window="none", nbar=4, sll_db=-35.0, samples_per_cell=
     dict
         ``range`` / ``cross_range``: ``irw_m``, ``pslr_db``, ``islr_db``, ``first_nulls_m``,
         ``resolution_m`` (ρ of CONVENTIONS.md), ``cell_m`` (the resolution cell of the sidelobe
-        extent: ``min(ρ, IRW / 0.886)``); ``textbook``: the continuous 1-D values for the
-        window where known (``irw_factor`` × ρ; uniform: 0.886, -13.26 dB, -9.68 dB);
+        extent: ``min(ρ, IRW / 0.886)``); ``textbook``: the continuous 1-D values of the window
+        (:func:`window_textbook`; ``irw_factor`` × ρ; uniform: 0.886, -13.26 dB, -9.68 dB);
         ``range_direction_rad``, ``method`` ('theorem' or 'weighted sum'), ``window``.
     """
     freq, az, el = _as_arrays(acq)
@@ -414,18 +408,41 @@ def predicted_ipr(acq, *, window="none", nbar=4, sll_db=-35.0, samples_per_cell=
         met["cell_m"] = float(cell)
         out[name] = met
     key = "none" if weights is None else (window.lower() if isinstance(window, str) else None)
-    tb = TEXTBOOK_IPR.get(key)
-    if key == "taylor":
-        tb = (None, float(sll_db), None)
-    if tb is not None:
+    if key is not None:
+        factor, pslr, islr = window_textbook(key, nbar=nbar, sll_db=sll_db)
         out["textbook"] = {
-            "irw_factor": tb[0],
-            "irw_range_m": None if tb[0] is None or not np.isfinite(rho[0]) else tb[0] * rho[0],
-            "irw_cross_range_m": None if tb[0] is None or not np.isfinite(rho[1]) else tb[0] * rho[1],
-            "pslr_db": tb[1], "islr_db": tb[2],
-            "note": "continuous 1-D window values; ISLR over an infinite extent",
+            "irw_factor": factor,
+            "irw_range_m": factor * rho[0] if np.isfinite(rho[0]) else None,
+            "irw_cross_range_m": factor * rho[1] if np.isfinite(rho[1]) else None,
+            "pslr_db": pslr, "islr_db": islr,
+            "note": "1-D continuous-limit values of the window (IRW factor x rho); ISLR over an "
+                    "infinite extent; they ignore the polar shape of the 2-D k-space support",
         }
     return out
+
+
+@functools.lru_cache(maxsize=32)
+def window_textbook(kind="none", *, nbar=4, sll_db=-35.0, n=2048, pad=64):
+    """Continuous-limit 1-D figures of a window: ``(IRW / ρ, PSLR dB, ISLR dB)``.
+
+    The window (:func:`sarcli.windows.window_1d`, ``n`` samples) is transformed with ``pad``-fold
+    zero padding; widths are in bins (1 bin = the resolution ρ of an unweighted aperture of the
+    same length). ISLR counts every sidelobe (infinite extent). Uniform gives 0.886, -13.26 dB,
+    -9.68 dB; Hamming 1.30, -42.7 dB; Hann 1.44, -31.5 dB (Harris, Proc. IEEE 66, 1978, Table 1).
+    """
+    if kind in (None, "none", "uniform", "rect"):
+        w = np.ones(n)
+    else:
+        from .windows import window_1d
+
+        try:
+            w = window_1d(n, kind, nbar=nbar, sll_db=sll_db)
+        except ValueError as exc:
+            raise SarcliInputError(str(exc)) from None
+    spec = np.abs(np.fft.fftshift(np.fft.fft(w, n * pad)))
+    s = (np.arange(spec.size) - spec.size // 2) / pad  # in bins
+    met = profile_metrics(s, spec)
+    return float(met["irw_m"]), float(met["pslr_db"]), float(met["islr_db"])
 
 
 # --------------------------------------------------------------------------------------------
