@@ -13,6 +13,8 @@ import numbers
 
 import numpy as np
 
+from ._reduce import norm2
+
 __all__ = ["Linop", "Identity", "Diagonal", "MatrixLinop", "Compose", "Sum", "Scaled", "Adjoint",
            "power_norm", "gram_eigmax"]
 
@@ -228,11 +230,11 @@ def gram_eigmax(gram: Linop, *, iters: int = 30, seed: int = 0) -> float:
     """
     rng = np.random.default_rng(seed)
     x = rng.standard_normal(gram.ishape) + 1j * rng.standard_normal(gram.ishape)
-    x /= np.linalg.norm(x)
+    x /= np.sqrt(norm2(x))
     lam = 0.0
     for _ in range(iters):
         y = gram.forward(x)
-        lam = float(np.linalg.norm(y))
+        lam = float(np.sqrt(norm2(y)))
         if lam == 0.0 or not np.isfinite(lam):
             return lam
         x = y / lam

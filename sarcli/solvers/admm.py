@@ -29,6 +29,7 @@ from typing import Callable
 import numpy as np
 
 from ..errors import ConvergenceWarning
+from ..linops._reduce import norm2, norm2_diff, rdot, rdot_diff, rdot_diff2, shrink_update
 from ..linops.base import Linop
 from ..linops.toeplitz import NormalEquations
 from .shrink import shrink
@@ -39,10 +40,6 @@ HISTORY_KEYS = ("objective", "data_residual", "reg_norm", "relative_change", "st
                 "elapsed_s")
 
 _ARMIJO = 1e-4
-
-
-def _norm2(x) -> float:
-    return float(np.vdot(x, x).real)
 
 
 class ADMM:
@@ -134,7 +131,7 @@ class ADMM:
     # -- the state machine --------------------------------------------------------------------------
     def _f_step(self):
         grad = self.gradient()
-        gg = _norm2(grad)
+        gg = norm2(grad)
         if gg == 0.0 or not np.isfinite(gg):
             self.tau = 0.0
             return
@@ -142,22 +139,23 @@ class ADMM:
         if self._prev is None:
             # exact minimiser along -grad of the quadratic f-subproblem
             Gd, Td = gram.forward(grad), self.T.forward(grad)
-            curv = 2.0 * np.vdot(grad, Gd).real + beta * _norm2(Td)
+            curv = 2.0 * rdot(grad, Gd) + beta * norm2(Td)
             tau = gg / curv if curv > 0 else 0.0
             f_new, Gf_new, Tf_new = self.f - tau * grad, self.Gf - tau * Gd, self.Tf - tau * Td
         else:
+            # Barzilai-Borwein: τ = ‖s‖² / Re⟨s, H s⟩ with H s = 2AᴴA s + βTᴴT s from stored products
             f_p, Gf_p, Tf_p = self._prev
-            s = self.f - f_p
-            curv = 2.0 * np.vdot(s, self.Gf - Gf_p).real + beta * _norm2(self.Tf - Tf_p)
-            ss = _norm2(s)
+            ss = norm2_diff(self.f, f_p)
+            curv = 2.0 * rdot_diff2(self.f, f_p, self.Gf, Gf_p) + beta * norm2_diff(self.Tf, Tf_p)
             tau = ss / curv if (curv > 0 and ss > 0) else self.tau
             f_new = self.f - tau * grad
             Gf_new, Tf_new = gram.forward(f_new), self.T.forward(f_new)
             if tau > 0:
-                # backtracking: the f-subproblem is quadratic, so its decrease is known exactly
-                Gd, Td = (self.Gf - Gf_new) / tau, (self.Tf - Tf_new) / tau
-                curv_d = 2.0 * np.vdot(grad, Gd).real + beta * _norm2(Td)
+                # backtracking: the f-subproblem is quadratic, so its decrease along -grad is known
+                # exactly: τ²·curv_d = 2τ Re⟨∇, AᴴA(f - f_new)⟩ + β‖T(f - f_new)‖²
+                curv_d = (2.0 * tau * rdot_diff(grad, self.Gf, Gf_new) + beta * norm2_diff(self.Tf, Tf_new)) / tau**2
                 if not 0.5 * tau * curv_d <= (1.0 - _ARMIJO) * gg:
+                    Gd, Td = (self.Gf - Gf_new) / tau, (self.Tf - Tf_new) / tau
                     tau = gg / curv_d
                     f_new, Gf_new, Tf_new = self.f - tau * grad, self.Gf - tau * Gd, self.Tf - tau * Td
         self._prev = (self.f, self.Gf, self.Tf)
@@ -168,11 +166,10 @@ class ADMM:
         f_old = self.f
         for _ in range(self.inner_iters):
             self._f_step()
-        self.g = shrink(self.Tf - self.sigma / self.beta, self.lam / self.beta,
-                        group_axis=self.group_axis)
-        self.sigma = self.sigma - self.beta * (self.Tf - self.g)
+        self.g, self.sigma, reg = shrink_update(self.Tf, self.sigma, self.beta, self.lam / self.beta,
+                                                self.group_axis is not None)
         self.iteration += 1
-        nf, nd = np.linalg.norm(self.f), np.linalg.norm(self.f - f_old)
+        nf, nd = np.sqrt(norm2(self.f)), np.sqrt(norm2_diff(self.f, f_old))
         self.relative_change = float(nd / nf) if nf > 0 else (0.0 if nd == 0 else np.inf)
         if self.reestimate is not None and self.reestimate_every > 0 \
                 and self.iteration % self.reestimate_every == 0:
@@ -180,8 +177,8 @@ class ADMM:
             self._prev = None
             self.g = shrink(self.Tf - self.sigma / self.beta, self.lam / self.beta,
                             group_axis=self.group_axis)
+            reg = self.reg_norm()
         r2 = self.data_residual2()
-        reg = self.reg_norm()
         h = self.history
         h["objective"].append(r2 + self.lam * reg)
         h["data_residual"].append(float(np.sqrt(r2 / self.normal.bnorm2)) if self.normal.bnorm2 > 0

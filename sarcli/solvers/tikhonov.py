@@ -13,6 +13,7 @@ import numpy as np
 from scipy.sparse.linalg import LinearOperator, cg
 
 from ..errors import ConvergenceWarning
+from ..linops._reduce import norm2
 from ..linops.base import Linop
 from ..linops.toeplitz import NormalEquations
 
@@ -66,11 +67,11 @@ def tikhonov(normal: NormalEquations, D: Linop, lam: float, *, x0=None, tol: flo
     def _log(xk):
         x = xk.reshape(shape)
         r2 = normal.residual_norm2(x, normal.gram.forward(x))
-        obj = r2 + lam * float(np.sum(np.abs(D.forward(x)) ** 2))
-        nx = np.linalg.norm(xk)
+        obj = r2 + lam * norm2(D.forward(x))
+        nx = np.sqrt(norm2(xk))
         hist["objective"].append(obj)
         hist["data_residual"].append(float(np.sqrt(r2 / normal.bnorm2)) if normal.bnorm2 > 0 else 0.0)
-        hist["relative_change"].append(float(np.linalg.norm(xk - prev[0]) / nx) if nx > 0 else 0.0)
+        hist["relative_change"].append(float(np.sqrt(norm2(xk - prev[0])) / nx) if nx > 0 else 0.0)
         hist["elapsed_s"].append(time.perf_counter() - t0)
         prev[0] = xk.copy()
         if callback is not None:
