@@ -54,4 +54,8 @@ def command(ctx, source, output, window, nbar, sll_db, method, png, dynamic_rang
         if p.get("irw_m") is not None:
             lines.append(f"  {d:<11s} IRW {p['irw_m']:.4g} m  PSLR {p['pslr_db']:.2f} dB  "
                          f"ISLR {p['islr_db']:.2f} dB  (resolution {p['resolution_m']:.4g} m)")
+    tb = pred.get("textbook")
+    if tb:
+        lines.append(f"  textbook (1-D window): IRW {tb['irw_factor']:.3f} x resolution, "
+                     f"PSLR {tb['pslr_db']:.2f} dB, ISLR {tb['islr_db']:.2f} dB (infinite extent)")
     echo_info(ctx, "\n".join(lines))

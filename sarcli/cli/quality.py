@@ -15,8 +15,8 @@ def _num(v, fmt):
 
 def _table(results) -> str:
     head = (f"{'target':<7s} {'x_m':>8s} {'y_m':>8s} {'err_m':>8s} {'peak':>7s} | "
-            f"{'IRW_r m':>8s} {'pred':>8s} {'PSLR_r':>7s} {'pred':>7s} {'ISLR_r':>7s} | "
-            f"{'IRW_cr m':>8s} {'pred':>8s} {'PSLR_cr':>7s} {'pred':>7s} {'ISLR_cr':>7s}")
+            f"{'IRW_r m':>8s} {'pred':>8s} {'PSLR_r':>7s} {'pred':>7s} {'ISLR_r':>7s} {'pred':>7s} | "
+            f"{'IRW_cr m':>8s} {'pred':>8s} {'PSLR_cr':>7s} {'pred':>7s} {'ISLR_cr':>7s} {'pred':>7s}")
     rows = [head, "-" * len(head)]
     for r in results:
         m, p = r["measured"], r["predicted"]
@@ -24,7 +24,7 @@ def _table(results) -> str:
                  _num(m["peak_position_error_m"], "8.4f"), _num(m["peak_magnitude"], "7.4f") + " |"]
         for d in ("range", "cross_range"):
             cells += [_num(m[d]["irw_m"], "8.4f"), _num(p[d]["irw_m"], "8.4f"), _num(m[d]["pslr_db"], "7.2f"),
-                      _num(p[d]["pslr_db"], "7.2f"), _num(m[d]["islr_db"], "7.2f")]
+                      _num(p[d]["pslr_db"], "7.2f"), _num(m[d]["islr_db"], "7.2f"), _num(p[d]["islr_db"], "7.2f")]
             if d == "range":
                 cells[-1] += " |"
         rows.append(" ".join(cells))
