@@ -1,0 +1,427 @@
+"""Error against run time: every image former and its accuracy knobs, measured (``sar bench``).
+
+For one phase history, :func:`run_benchmark` forms the image with each method over a sweep of its
+accuracy knobs and records, per setting,
+
+- ``error``: the relative error ``‖f − f_ref‖₂ / ‖f_ref‖₂`` (CONVENTIONS.md, :func:`sarcli.formation.image_error`)
+  of the complex image against the exact matched filter ``f_ref = form_image(ph, 'direct')`` with
+  the same window. ``direct`` costs ``P·M·pixels`` exponentials; when that exceeds
+  ``max_reference_cost`` the reference is formed on a centred sub-grid (same pixels) and every image
+  is compared on that sub-grid only (``reference_grid`` in the result says which);
+- ``error_truth``: for simulated data, ``‖|f| − |t|‖₂ / ‖t‖₂`` with ``t`` the truth on the image
+  grid: for extended scenes ``|ph.truth.scene|`` over every pixel; for point-only scenes the target
+  amplitudes at their nearest pixels (the peak-amplitude error; see :func:`truth_on_grid`). For
+  extended scenes a matched filter is the truth blurred by the PSF (Theorem ``main-theorem``) and
+  speckled, so this number is dominated by the PSF and nearly equal for the fast formers; it is the
+  meaningful axis for the regularisers, which try to undo the PSF;
+- ``seconds``: the median of ``repeat`` calls after one warm-up call; ``compile_s`` = warm-up time
+  minus that median (numba compilation, FFTW/FINUFFT planning, caches), floored at 0;
+- ``peak_mb``: peak of Python-visible allocations (``tracemalloc``, which sees NumPy arrays) during
+  one extra call. Memory that FINUFFT (C++) and numba's runtime allocate themselves is *not* seen,
+  so for ``nufft`` and ``backprojection`` it is a lower bound.
+
+For the regularisers (:mod:`sarcli.regularize`, when present) the sweep is over the iteration cap:
+the image after ``n`` iterations is formed by a run capped at ``n`` (the solvers are deterministic,
+so it is the ``n``-th iterate), and its error to the truth and its run time give one point each.
+
+Outputs: :func:`write_csv` (``error_vs_time.csv``), :func:`plot` (``error_vs_time.png``: log-log,
+one marker per method, the Pareto front of error against time drawn) and :func:`format_table`.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import statistics
+import time
+import tracemalloc
+import warnings
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ._atomic import atomic_path
+from .errors import SarcliInputError
+from .formation import form_image, image_error
+from .grid import Grid, resolve_grid
+from .io import PhaseHistory
+from .progress import progress
+
+__all__ = ["BenchRow", "BenchResult", "sweep", "run_benchmark", "regularizer_sweep", "measure",
+           "reference_grid", "truth_on_grid", "pareto_front", "write_csv", "plot", "format_table",
+           "load_input", "NUFFT_EPS", "PFA_OVERSAMPLE", "PFA_WIDTH", "BP_UPSAMPLE", "BP_INTERP",
+           "BP_PRECISION", "MAX_REFERENCE_COST", "CSV_COLUMNS"]
+
+NUFFT_EPS = tuple(10.0 ** -k for k in range(2, 13))
+PFA_OVERSAMPLE = (1.25, 1.5, 2.0, 3.0)
+PFA_WIDTH = (2, 4, 6, 8)
+BP_UPSAMPLE = (1, 2, 4, 8, 16)
+BP_INTERP = ("linear", "cubic", "lanczos")
+BP_PRECISION = ("float32", "float64")
+FAST_METHODS = ("nufft", "pfa", "backprojection")
+#: Largest P·M·pixels the exact reference is computed for (about 10 s on one core); beyond it a sub-grid.
+MAX_REFERENCE_COST = 1.0e9
+CSV_COLUMNS = ("method", "knobs", "error", "error_truth", "seconds", "compile_s", "peak_mb", "warnings")
+
+
+@dataclass
+class BenchRow:
+    """One measured setting: method, its knobs and the four numbers of the module docstring."""
+
+    method: str
+    knobs: dict
+    error: float
+    error_truth: float
+    seconds: float
+    compile_s: float
+    peak_mb: float
+    warnings: list = field(default_factory=list)
+
+    def as_dict(self) -> dict:
+        return {"method": self.method, "knobs": json.dumps(self.knobs, sort_keys=True),
+                "error": self.error, "error_truth": self.error_truth, "seconds": self.seconds,
+                "compile_s": self.compile_s, "peak_mb": self.peak_mb, "warnings": ";".join(self.warnings)}
+
+
+@dataclass
+class BenchResult:
+    """Rows plus how the reference was obtained (``notes`` is printed and written to the CSV header)."""
+
+    rows: list
+    grid: Grid
+    reference_grid: Grid
+    reference_cost: float
+    notes: list = field(default_factory=list)
+
+
+def load_input(paths, *, seed: int = 0, snr_db="config", model=None) -> PhaseHistory:
+    """A phase history from a YAML config (simulated with ``seed``, and ``model`` if given: the
+    far-field model isolates the numerical knobs from the far-field approximation's own error),
+    a ``.h5`` phase-history file, or GOTCHA ``.mat`` files (read with :func:`sarcli.gotcha.read_gotcha`)."""
+    paths = [Path(p) for p in ([paths] if isinstance(paths, (str, Path)) else paths)]
+    if not paths:
+        raise SarcliInputError("no input given")
+    suffix = paths[0].suffix.lower()
+    if suffix == ".mat":
+        from .gotcha import read_gotcha
+
+        return read_gotcha([str(p) for p in paths])
+    if len(paths) > 1:
+        raise SarcliInputError("several inputs are only accepted for GOTCHA .mat files")
+    if suffix in (".yaml", ".yml"):
+        from .config import load_acquisition
+        from .simulate import simulate
+
+        return simulate(load_acquisition(paths[0]), seed=seed, snr_db=snr_db, model=model)
+    from .io import read_phase_history
+
+    return read_phase_history(paths[0])
+
+
+def sweep(methods=FAST_METHODS, *, windows=("none", "taylor")) -> list:
+    """The (method, knobs) settings of the issue: each knob of each method, and a window on/off.
+
+    The knob grids are :data:`NUFFT_EPS`, PFA kernel × :data:`PFA_OVERSAMPLE` × :data:`PFA_WIDTH`
+    (the linear kernel has a fixed width of 2 cells), backprojection :data:`BP_UPSAMPLE` ×
+    :data:`BP_INTERP` × :data:`BP_PRECISION`, all without a window; every window other than
+    'none' is added once per method at the method's default knobs.
+    """
+    out = []
+    for m in methods:
+        if m == "nufft":
+            out += [("nufft", {"eps": e}) for e in NUFFT_EPS]
+        elif m == "pfa":
+            out += [("pfa", {"kernel": "kaiser", "oversample": s, "width": w})
+                    for s in PFA_OVERSAMPLE for w in PFA_WIDTH]
+            out += [("pfa", {"kernel": "linear", "oversample": s, "width": 2}) for s in PFA_OVERSAMPLE]
+        elif m == "backprojection":
+            out += [("backprojection", {"upsample": u, "interp": i, "precision": p})
+                    for u in BP_UPSAMPLE for i in BP_INTERP for p in BP_PRECISION]
+        elif m != "direct":
+            raise SarcliInputError(f"unknown method {m!r}; choose from direct, {', '.join(FAST_METHODS)}")
+        out += [(m, {"window": w}) for w in windows if w != "none" and m != "direct"]
+    return out
+
+
+def measure(fn, repeat: int = 3, *, memory: bool = True):
+    """Call ``fn`` once (warm-up), ``repeat`` times (timed), once more under tracemalloc.
+
+    Returns ``(result, median_s, compile_s, peak_mb, warning_names)``; the warnings of the warm-up
+    call are collected (class names, once each) and not re-emitted.
+    """
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        t0 = time.perf_counter()
+        out = fn()
+        first = time.perf_counter() - t0
+    times = []
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        for _ in range(max(0, int(repeat))):
+            t0 = time.perf_counter()
+            out = fn()
+            times.append(time.perf_counter() - t0)
+        peak = float("nan")
+        if memory:
+            tracemalloc.start()
+            try:
+                fn()
+                peak = tracemalloc.get_traced_memory()[1] / 2 ** 20
+            finally:
+                tracemalloc.stop()
+    med = statistics.median(times) if times else first
+    names = sorted({w.category.__name__ for w in caught})
+    return out, med, max(0.0, first - med), peak, names
+
+
+def reference_grid(ph: PhaseHistory, grid: Grid, max_cost: float = MAX_REFERENCE_COST):
+    """The grid the exact reference is formed on: ``grid`` itself, or a centred sub-grid of it.
+
+    The sub-grid keeps the pixel size and centres (so its pixels are pixels of ``grid``) and has
+    as many pixels as ``max_cost / (P·M)`` allows (at least 8 × 8). Returns ``(sub_grid, rows,
+    cols, cost)`` with ``rows``/``cols`` the slices of ``grid`` it covers and ``cost = P·M·pixels``
+    of the full grid.
+    """
+    P, M = ph.data.shape
+    cost = float(P) * M * grid.nx * grid.ny
+    if cost <= max_cost:
+        return grid, slice(0, grid.ny), slice(0, grid.nx), cost
+    frac = np.sqrt(max_cost / cost)
+    nx = min(grid.nx, max(8, int(grid.nx * frac) // 2 * 2))
+    ny = min(grid.ny, max(8, int(grid.ny * frac) // 2 * 2))
+    c0 = grid.nx // 2 - nx // 2
+    r0 = grid.ny // 2 - ny // 2
+    sub = Grid(nx, ny, grid.dx, grid.dy, float(grid.x[c0 + nx // 2]), float(grid.y[r0 + ny // 2]))
+    return sub, slice(r0, r0 + ny), slice(c0, c0 + nx), cost
+
+
+def truth_on_grid(ph: PhaseHistory, grid: Grid):
+    """The truth on ``grid`` as ``(values, mask)``, or None when unknown.
+
+    Extended scenes: ``|ph.truth.scene|`` when its grid is ``grid`` (mask None: every pixel counts).
+    Point-only scenes: ``|a_s|`` at each target's nearest pixel with ``mask`` selecting those
+    pixels, so the error is that of the peak amplitudes (a matched filter blurs a point into its
+    PSF, which a pixel-wise comparison with a one-pixel truth would only measure the width of).
+    """
+    t = ph.truth
+    if t is None:
+        return None
+    scene = ph.acquisition.scene or {}
+    extended = any(k in scene for k in ("phantom", "image_file"))
+    if extended or t.point_amplitude.size == 0:
+        if t.scene is not None and t.x_m is not None and t.x_m.shape == grid.x.shape and \
+                t.y_m.shape == grid.y.shape and np.allclose(t.x_m, grid.x) and np.allclose(t.y_m, grid.y):
+            mag = np.abs(t.scene)
+            return (mag, None) if np.any(mag) else None
+        return None
+    out = np.zeros(grid.shape)
+    for (x, y, _), a in zip(t.point_position_m, t.point_amplitude):
+        r, c = grid.index_of(x, y)
+        if 0 <= r < grid.ny and 0 <= c < grid.nx:
+            out[r, c] += abs(a)
+    return (out, out > 0) if np.any(out) else None
+
+
+def _truth_error(img, truth):
+    """``‖|f| − |t|‖₂ / ‖t‖₂`` over the truth's pixels (see :func:`truth_on_grid`)."""
+    if truth is None:
+        return float("nan")
+    t, mask = truth
+    f = np.abs(np.asarray(img))
+    if mask is not None:
+        f, t = f[mask], t[mask]
+    return float(np.linalg.norm(f - t) / np.linalg.norm(t))
+
+
+def run_benchmark(ph: PhaseHistory, *, methods=("direct",) + FAST_METHODS, repeat: int = 3, grid: Grid | None = None,
+                  center=None, extent=None, pixel_size=None, max_reference_cost: float = MAX_REFERENCE_COST,
+                  windows=("none", "taylor"), settings=None, regularizers=(), reg_iters=(1, 2, 5, 10, 20, 50),
+                  memory: bool = True, nthreads=None) -> BenchResult:
+    """Measure error, time and memory of every method over its knob sweep (module docstring).
+
+    Parameters
+    ----------
+    ph : PhaseHistory
+    methods : sequence of str
+        Among 'direct', 'nufft', 'pfa', 'backprojection' ('direct' adds the reference's own row).
+    repeat : int
+        Timed calls per setting (after one warm-up).
+    grid, center, extent, pixel_size :
+        Image grid (default the acquisition's), as in :func:`sarcli.form_image`.
+    max_reference_cost : float
+        Largest ``P·M·pixels`` for the exact reference on the full grid (else a centred sub-grid).
+    windows : sequence of str
+        Windows to measure ('none' is the knob sweep; others at default knobs).
+    settings : list of (method, knobs), optional
+        Replace :func:`sweep` (used by tests and reduced runs).
+    regularizers : sequence of str
+        Priors of :func:`sarcli.regularize.regularize` to sweep over ``reg_iters`` (needs a truth).
+    memory : bool
+        Measure peak memory (one extra call per setting).
+
+    Returns
+    -------
+    BenchResult
+    """
+    if int(repeat) < 1:
+        raise SarcliInputError(f"repeat must be >= 1, got {repeat}")
+    grid = resolve_grid(grid or ph.acquisition.grid, center=center, extent=extent, pixel_size=pixel_size)
+    sub, rs, cs, cost = reference_grid(ph, grid, max_reference_cost)
+    notes = [f"reference: exact matched filter ('direct') on {sub.ny} x {sub.nx} pixels"
+             + ("" if sub == grid else
+                f" (centred sub-grid of the {grid.ny} x {grid.nx} image: P*M*pixels = {cost:.3g} > "
+                f"{max_reference_cost:.3g}; errors are measured on that sub-grid)")]
+    truth = truth_on_grid(ph, grid)
+    if truth is None:
+        notes.append("error_truth: not available (no truth on this grid)")
+    elif truth[1] is None:
+        notes.append("error_truth: || |f| - |truth| || / ||truth|| over the grid (truth: the simulated scene)")
+    else:
+        notes.append(f"error_truth: || |f| - |a| || / ||a|| at the {int(truth[1].sum())} point targets' pixels "
+                     "(peak amplitudes)")
+    notes.append("peak_mb: tracemalloc (Python/NumPy allocations; FINUFFT and numba-internal memory not seen)")
+    settings = list(settings) if settings is not None else sweep([m for m in methods if m != "direct"],
+                                                                 windows=windows)
+    refs = {}
+    rows = []
+
+    def ref_for(window):
+        if window not in refs:
+            out, sec, comp, peak, wn = measure(
+                lambda: form_image(ph, "direct", grid=sub, window=window), 1 if sub.nx * sub.ny < 4096 else 0,
+                memory=False)
+            refs[window] = out.image
+            if "direct" in methods:
+                rows.append(BenchRow("direct", {"window": window, "pixels": sub.nx * sub.ny}, 0.0,
+                                     _truth_error(out.image, truth) if sub == grid else float("nan"),
+                                     sec, comp, float("nan"), wn))
+        return refs[window]
+
+    for method, knobs in progress(settings, desc="bench", unit="setting"):
+        window = knobs.get("window", "none")
+        ref = ref_for(window)
+        kw = dict(knobs)
+        kw.setdefault("window", window)
+        out, sec, comp, peak, wn = measure(lambda: form_image(ph, method, grid=grid, nthreads=nthreads, **kw),
+                                           repeat, memory=memory)
+        img = out.image
+        rows.append(BenchRow(method, knobs, image_error(img[rs, cs], ref), _truth_error(img, truth),
+                             sec, comp, peak, wn))
+    for prior in regularizers:
+        rows += regularizer_sweep(ph, prior, grid=grid, iters=reg_iters, truth=truth)
+    return BenchResult(rows, grid, sub, cost, notes)
+
+
+def regularizer_sweep(ph: PhaseHistory, prior: str, *, grid: Grid, iters=(1, 2, 5, 10, 20, 50), truth=None,
+                      **kwargs) -> list:
+    """Error to the truth against iteration and time for one prior of :func:`sarcli.regularize.regularize`.
+
+    One run per cap ``n`` in ``iters`` (``tol`` tiny, so each runs exactly ``n`` iterations);
+    ``seconds`` is that run's ``runtime_s`` (set-up included), ``error`` is NaN (a regularised image
+    is not the matched filter). The knobs record ``iters`` and the run's last ``objective``.
+    """
+    try:
+        from .regularize import regularize
+    except ImportError:  # pragma: no cover - module not present in this checkout
+        return []
+    truth = truth_on_grid(ph, grid) if truth is None else truth
+    rows = []
+    for n in progress(list(iters), desc=f"regularize {prior}", unit="cap"):
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            img = regularize(ph, prior=prior, iters=int(n), tol=1e-300, grid=grid, **kwargs)
+        hist = img.history or {}
+        obj = hist.get("objective")
+        knobs = {"iters": int(n), **{k: v for k, v in kwargs.items() if np.isscalar(v)}}
+        if obj is not None and len(obj):
+            knobs["objective"] = float(obj[-1])
+        rows.append(BenchRow(f"regularize-{prior}", knobs, float("nan"), _truth_error(img.image, truth),
+                             float(img.runtime_s), 0.0, float("nan"),
+                             sorted({w.category.__name__ for w in caught})))
+    return rows
+
+
+def pareto_front(errors, seconds) -> np.ndarray:
+    """Indices of the settings no other setting beats in both error and time, by increasing time."""
+    e = np.asarray(errors, float)
+    s = np.asarray(seconds, float)
+    ok = np.flatnonzero(np.isfinite(e) & np.isfinite(s))
+    order = ok[np.lexsort((e[ok], s[ok]))]
+    front, best = [], np.inf
+    for i in order:
+        if e[i] < best:
+            front.append(i)
+            best = e[i]
+    return np.asarray(front, dtype=int)
+
+
+def write_csv(result: BenchResult, path) -> Path:
+    """``error_vs_time.csv``: the notes as ``#`` lines, then one row per setting (:data:`CSV_COLUMNS`)."""
+    path = Path(path)
+    with atomic_path(path) as tmp:
+        with open(tmp, "w", newline="") as fh:
+            for note in result.notes:
+                fh.write(f"# {note}\n")
+            w = csv.DictWriter(fh, fieldnames=CSV_COLUMNS)
+            w.writeheader()
+            for row in result.rows:
+                w.writerow({k: (f"{v:.6g}" if isinstance(v, float) else v) for k, v in row.as_dict().items()})
+    return path
+
+
+def plot(result: BenchResult, path, *, title: str = "") -> Path:
+    """``error_vs_time.png``: error vs time (log-log), one marker per method, Pareto front drawn;
+    a second panel with the error to the truth when one is known."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    rows = result.rows
+    has_truth = any(np.isfinite(r.error_truth) for r in rows)
+    fig, axes = plt.subplots(1, 2 if has_truth else 1, figsize=(12 if has_truth else 7, 5), squeeze=False)
+    markers = {"direct": "*", "nufft": "o", "pfa": "s", "backprojection": "^"}
+    floor = 1e-16  # error 0 (the reference itself) drawn at the float64 floor
+    panels = [("error", "relative error vs exact matched filter")]
+    if has_truth:
+        panels.append(("error_truth", "relative error of |f| vs |truth|"))
+    for ax, (attr, label) in zip(axes[0], panels):
+        methods = list(dict.fromkeys(r.method for r in rows))
+        for i, m in enumerate(methods):
+            pts = [(r.seconds, getattr(r, attr)) for r in rows if r.method == m and np.isfinite(getattr(r, attr))]
+            if not pts:
+                continue
+            t, e = np.array(pts).T
+            ax.loglog(t, np.maximum(e, floor), markers.get(m, "DvPX"[i % 4]), ls="none", alpha=0.75, label=m)
+        err = np.array([max(getattr(r, attr), floor) if np.isfinite(getattr(r, attr)) else np.nan for r in rows])
+        sec = np.array([r.seconds for r in rows])
+        front = pareto_front(err, sec)
+        if front.size:
+            ax.step(sec[front], err[front], where="post", color="k", lw=1, label="Pareto front")
+        ax.set_xlabel("run time (s, median)")
+        ax.set_ylabel(label)
+        ax.grid(True, which="both", alpha=0.3)
+        ax.legend(fontsize=8)
+    fig.suptitle(title or "error against run time")
+    fig.tight_layout()
+    path = Path(path)
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=110, format="png")
+    plt.close(fig)
+    return path
+
+
+def format_table(result: BenchResult, *, front_only: bool = False) -> str:
+    """A short text table: per method the Pareto-optimal settings (or all with ``front_only=False``)."""
+    rows = result.rows
+    front = set(pareto_front([r.error for r in rows], [r.seconds for r in rows]).tolist())
+    lines = [f"{'method':<16} {'knobs':<52} {'error':>9} {'err_truth':>9} {'seconds':>9} {'compile':>8} "
+             f"{'peak MB':>8}  front"]
+    for i, r in enumerate(rows):
+        if front_only and i not in front:
+            continue
+        knobs = ",".join(f"{k}={v:g}" if isinstance(v, float) else f"{k}={v}" for k, v in r.knobs.items())
+        lines.append(f"{r.method:<16} {knobs[:52]:<52} {r.error:9.2e} {r.error_truth:9.2e} {r.seconds:9.3g} "
+                     f"{r.compile_s:8.3g} {r.peak_mb:8.3g}  {'*' if i in front else ''}")
+    return "\n".join(result.notes + lines)
