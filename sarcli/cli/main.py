@@ -25,6 +25,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "quality": ("quality", "Measure IRW, PSLR, ISLR and peak position of point targets."),
     "export": ("export", "Export an image to GeoTIFF, PNG or SICD."),
     "export-cphd": ("export_cphd", "Export a phase history to a CPHD file."),
+    "bench": ("bench", "Error against run time for every method and knob."),
     "plot": ("plot", "Diagnostic figures: PSF cuts, k-space samples, image spectrum."),
     "import": ("import_", "Import real phase history (GOTCHA .mat, CPHD)."),
     "regularize": ("regularize", "Regularised image: TV, higher-order TV, l1, phase-corrected TV, Tikhonov."),
