@@ -215,16 +215,22 @@ def _method_signatures() -> dict:
     """Keyword options each method accepts (the plan's ``options`` are checked against them)."""
     from .formation import METHODS, form_image
 
-    skip = {"ph", "method", "grid", "center", "extent", "pixel_size"}
-    ff = [p for p in inspect.signature(form_image).parameters if p not in skip]
-    sigs = {m: set(ff) for m in METHODS}
+    skip = {"ph", "method", "grid", "center", "extent", "pixel_size", "init", "callback"}
+
+    def options(func):
+        return {n: p.default for n, p in inspect.signature(func).parameters.items() if n not in skip}
+
+    sigs = {m: options(form_image) for m in METHODS}
     try:
         from .regularize import regularize
     except ImportError:  # pragma: no cover - regularize is optional for batches
         return sigs
-    sigs["regularize"] = {p for p in inspect.signature(regularize).parameters
-                          if p not in skip | {"init", "callback"}}
+    sigs["regularize"] = options(regularize)
     return sigs
+
+
+def _is_number(v) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool)
 
 
 def _check_keys(err, where, section, mapping) -> bool:
@@ -396,10 +402,14 @@ def _expand_entry(err, key, section, spec, defaults, sigs, threads, base) -> lis
         err.add(f"{key}.options", f"expected a mapping of options, got {opts!r}")
         opts, ok = {}, False
     options = {**(defaults.get("options") or {}), **opts}
-    for k in options if ok else ():
+    for k, v in options.items() if ok else ():
+        where = f"{key}.options.{k}" if k in opts else f"defaults.options.{k}"
         if k not in sigs[method]:
-            where = f"{key}.options.{k}" if k in opts else f"defaults.options.{k}"
             err.add(where, f"not an option of method {method!r}; valid: {', '.join(sorted(sigs[method]))}")
+            ok = False
+        elif _is_number(sigs[method][k]) and not _is_number(v) and v is not None:
+            hint = " (YAML reads 1e-6 as text: write 1.0e-6)" if isinstance(v, str) else ""
+            err.add(where, f"expected a number, got {v!r}{hint}")
             ok = False
     grid = {**defaults.get("grid", {}), **_check_grid(err, f"{key}.grid", spec.get("grid"))}
     inputs = []
@@ -612,33 +622,47 @@ def _form(job: Job) -> Image:
 
 
 def _combine(job: Job, outdir: Path) -> Image:
-    parts = [read_image(outdir / name) for name in job.depends]
+    """Composite or stitch the outputs of ``job.depends``, reading one at a time."""
     full = Grid(**job.grid)
-    if job.kind == "composite":
-        for name, p in zip(job.depends, parts):
+    acc, runtime, first = None, 0.0, None
+    for n, name in enumerate(job.depends):
+        p = read_image(outdir / name)
+        first = first or p
+        runtime += p.runtime_s
+        if job.kind == "composite":
             if p.image.shape != full.shape or not np.allclose(p.x_m, full.x) or not np.allclose(p.y_m, full.y):
-                raise errors.SarcliInputError(f"{name}: grid differs from the composite's")
-        mags = np.abs(np.stack([p.image for p in parts]))
-        comp = mags.max(axis=0) if job.extra["composite"] == "max" else mags.mean(axis=0)
-        image = comp.astype(np.result_type(parts[0].image.dtype, np.complex64))
-        params = {"composite": job.extra["composite"], "quantity": "magnitude", "n_windows": len(parts),
+                raise errors.SarcliInputError(f"{name}: its grid differs from the composite's")
+            mag = np.abs(p.image)
+            if acc is None:
+                acc = mag
+            elif job.extra["composite"] == "max":
+                np.maximum(acc, mag, out=acc)
+            else:
+                acc += mag
+        else:
+            t = job.extra["layout"][n]
+            (r0, r1), (c0, c1), m = t["rows"], t["cols"], t["margin_px"]
+            if acc is None:
+                acc = np.zeros(full.shape, dtype=p.image.dtype)
+            acc[r0:r1, c0:c1] = p.image[m:m + r1 - r0, m:m + c1 - c0]
+    if job.kind == "composite":
+        mode = job.extra["composite"]
+        image = (acc if mode == "max" else acc / len(job.depends)).astype(np.result_type(first.image.dtype, np.complex64))
+        params = {"composite": mode, "quantity": "magnitude", "n_windows": len(job.depends),
                   "window_deg": job.extra["window_deg"], "overlap_deg": job.extra["overlap_deg"],
-                  "windows": list(job.depends), "window_parameters": parts[0].parameters}
-        method = f"composite-{job.extra['composite']}"
-        attrs = {"composite": f"per-pixel {'maximum' if job.extra['composite'] == 'max' else 'incoherent mean'} "
+                  "windows": list(job.depends), "window_parameters": first.parameters}
+        method = f"composite-{mode}"
+        attrs = {"composite": f"per-pixel {'maximum' if mode == 'max' else 'incoherent mean'} "
                               "of sub-aperture magnitudes (imaginary part 0)"}
     else:
-        image = np.zeros(full.shape, dtype=parts[0].image.dtype)
-        for p, t in zip(parts, job.extra["layout"]):
-            (r0, r1), (c0, c1), m = t["rows"], t["cols"], t["margin_px"]
-            image[r0:r1, c0:c1] = p.image[m:m + r1 - r0, m:m + c1 - c0]
-        params = {**parts[0].parameters, "grid": full.as_dict(), "tiles": job.extra["tiles"],
-                  "margin_px": job.extra["margin_px"],
+        image = acc
+        params = {**{k: v for k, v in first.parameters.items() if k != "tile"}, "grid": full.as_dict(),
+                  "tiles": job.extra["tiles"], "margin_px": job.extra["margin_px"],
                   "stitch": "exact" if job.method in POINTWISE_METHODS else "approximate (method not pointwise)"}
-        method = parts[0].method
+        method = first.method
         attrs = {"tiles": int(job.extra["tiles"])}
-    return Image(image=image, x_m=full.x, y_m=full.y, method=method, parameters=params,
-                 runtime_s=float(sum(p.runtime_s for p in parts)), attrs=attrs)
+    return Image(image=image, x_m=full.x, y_m=full.y, method=method, parameters=params, runtime_s=runtime,
+                 attrs=attrs)
 
 
 def run_job(job: Job, outdir, force: bool = False) -> JobResult:

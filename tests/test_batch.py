@@ -85,6 +85,10 @@ def test_duplicate_outputs_rejected(tmp_path, data):
         {"input": str(data / "ph1.h5"), "method": "direct", "output": "a.h5"}]})
     with pytest.raises(ConfigError, match=r"jobs\[1\]'.*'a.h5' is also written by jobs\[0\]"):
         load_plan(plan)
+    text = tmp_path / "text.yaml"
+    text.write_text(f"jobs:\n  - {{input: {data / 'ph0.h5'}, method: nufft, options: {{eps: 1e-6}}}}\n")
+    with pytest.raises(ConfigError, match=r"text.yaml: key 'jobs\[0\].options.eps': expected a number, got '1e-6'"):
+        load_plan(text)
 
 
 def test_windows_and_tiles_cover_everything():
@@ -142,11 +146,12 @@ def test_subapertures_circular_360(client, tmp_path):
     cfg["image"]["pixels"] = 48
     ph = sarcli.simulate(parse_acquisition(cfg), seed=1, snr_db=None)
     sarcli.write_phase_history(tmp_path / "circ.h5", ph)
-    plan = _write_plan(tmp_path / "sub.yaml", {"jobs": [{"subapertures": {
-        "input": "circ.h5", "window_deg": 30, "overlap_deg": 0, "composite": "max", "method": "backprojection",
-        "name": "circ"}}]})
+    plan = _write_plan(tmp_path / "sub.yaml", {"defaults": {"method": "backprojection"}, "jobs": [
+        {"subapertures": {"input": "circ.h5", "window_deg": 30, "overlap_deg": 0, "composite": "max", "name": "circ"}},
+        {"subapertures": {"input": "circ.h5", "window_deg": 30, "overlap_deg": 15, "composite": "mean",
+                          "name": "circ-mean"}}]})
     report = run_plan(plan, tmp_path / "out", client=client)
-    assert report.ok and report.count("done") == 13
+    assert report.ok and report.count("done") == 13 + 24
     mags = []
     wins = subaperture_windows(ph.acquisition.azimuth_rad, 30.0, 0.0)
     assert len(wins) == 12
@@ -165,6 +170,13 @@ def test_subapertures_circular_360(client, tmp_path):
     row, col = comp.grid.index_of(0.0, 0.0)
     assert abs(comp.image[row, col]) == pytest.approx(1.0, abs=0.02)
     assert abs(comp.image[row, col]) == np.abs(comp.image).max()
+    # incoherent mean over 23 windows advancing by 15 degrees
+    wins = sorted((tmp_path / "out" / "circ-mean").glob("window_*.h5"))
+    assert len(wins) == 23
+    mean = np.mean([np.abs(read_image(w).image) for w in wins], axis=0)
+    comp = read_image(tmp_path / "out" / "circ-mean" / "composite.h5")
+    assert "incoherent mean" in comp.attrs["composite"]
+    assert np.max(np.abs(comp.image - mean)) <= 1e-12
 
 
 def test_resume_after_failure_only_missing_outputs_made(client, tmp_path, data):
