@@ -1,0 +1,88 @@
+"""The paper's numerical claims at CI sizes (the full-size figures run in ``make paper``).
+
+Each test calls the same ``compute`` function as the figure script in ``scripts/paper/``, with
+smaller sizes, and asserts the number that docs/paper.md reports.
+"""
+
+from __future__ import annotations
+
+import sys
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO / "scripts" / "paper"))
+
+import fig01_kspace  # noqa: E402
+import fig02_scene_size  # noqa: E402
+import fig03_1dconv  # noqa: E402
+import fig04_kernel  # noqa: E402
+import fig05_phase1d  # noqa: E402
+import fig06_phase  # noqa: E402
+from _common import GOTCHA_DIR, acquisition  # noqa: E402
+
+
+def test_fig01_wrapped_frequencies_alias_exactly():
+    acq = acquisition("three-points", image={"pixels": 64}, frequencies={"count": 64}, azimuths={"count": 32})
+    res = fig01_kspace.compute(acq, n_pixels_checked=8)
+    assert res["in_box"]
+    assert res["aliased_fraction"] > 0.5  # 15.6 cm pixels: the X-band samples lie far beyond π
+    assert res["shift_residual"] < 1e-12
+    assert res["exp_error"] < 1e-9
+    assert res["operator_error"] < 1e-8
+
+
+def test_fig02_alias_free_radii_match_the_formulas_and_the_replicas():
+    r = fig02_scene_size.radii(acquisition("three-points"))
+    assert r["rel_range"] < 1e-10 and r["rel_cross"] < 1e-10
+    assert r["r_pi"] == pytest.approx(73.705, abs=1e-3)  # c / (4 · 600 MHz/511 · cos 30°)
+    rep = fig02_scene_size.replicas(acquisition("three-points", **fig02_scene_size.DEMO), n_range=281, n_cross=201)
+    assert rep["range_replica_error"] <= max(rep["range_step"], 0.5 * rep["rho_r"])
+    assert rep["cross_in_band"]
+
+
+def test_fig03_proposition_1_partial_sum_is_convolution():
+    res = fig03_1dconv.compute(n_points=101, n_discrete=128)
+    for kc in (0, 125):
+        assert res[kc]["error"] < 1e-12
+        assert res[kc]["discrete_error"] < 1e-12
+    # the real step at K_c = 125: flat parts vanish, the jump does not
+    x, mag = res["x"], np.abs(res[125]["sum"])
+    assert mag[np.abs(np.abs(x) - np.pi / 2) < 0.5].max() < 0.1 * mag[np.abs(x) < 0.2].max()
+
+
+def test_fig04_three_targets_are_three_shifted_kernels():
+    acq = fig04_kernel.farfield_three_points(48, frequencies={"count": 64}, azimuths={"count": 32})
+    res = fig04_kernel.superposition_error(acq)
+    assert res["rel_l2"] < 1e-10
+
+
+def test_fig05_random_phase_theorem_monte_carlo():
+    res = fig05_phase1d.compute(n=128, n_draws=4000, seed=7)
+    for kc in (0, 125):
+        assert res[kc]["max_z"] <= 3.0
+        # neighbouring samples are strongly correlated, so the mean of z² over the samples scatters
+        # (0.6-1.3 across seeds); a formula off by 10 % would give mean z² in the dozens
+        assert 0.3 < res[kc]["mean_z2"] < 3.0
+
+
+def test_fig05_formula_is_independent_of_the_band_centre():
+    mag = fig05_phase1d.step_magnitude(64)
+    rng = np.random.default_rng(0)
+    f = mag * np.exp(1j * rng.uniform(-np.pi, np.pi, (3000, 64)))
+    p0 = np.mean(np.abs(fig05_phase1d.band_sum(f, 0, 20)) ** 2, axis=0)
+    p1 = np.mean(np.abs(fig05_phase1d.band_sum(f, 40, 20)) ** 2, axis=0)
+    expected = fig05_phase1d.expected_power(mag, 20)
+    assert np.max(np.abs(p0 - expected)) / expected.max() < 0.1
+    assert np.max(np.abs(p1 - expected)) / expected.max() < 0.1
+
+
+def test_fig06_random_phase_recovers_the_interior_real_phase_only_edges():
+    res = fig06_phase.compute(pixels=64, n_freq=64, n_pulses=64, n_draws=150)
+    assert 0.8 < res["mean_z2"] < 1.25
+    assert res["interior_expected"] > 0.7
+    assert res["interior_random"] > 0.7
+    assert res["interior_real"] < 0.5 * res["interior_expected"]
