@@ -15,14 +15,14 @@ import yaml
 from click.testing import CliRunner
 
 import sarcli
-from sarcli.batch import load_plan, run_plan, subaperture_windows, tile_layout
+from sarcli.batch import load_plan, run_job, run_plan, subaperture_windows, tile_layout
 from sarcli.cli.main import cli
 from sarcli.config import parse_acquisition
 from sarcli.errors import ConfigError
 from sarcli.formation import form_image, image_error
 from sarcli.io import PhaseHistory, read_image, read_phase_history
 
-from .conftest import CONFIGS, small_config
+from .conftest import CONFIGS, GOTCHA_DIR, small_config
 
 distributed = pytest.importorskip("distributed")
 
@@ -206,3 +206,20 @@ def test_resume_after_failure_only_missing_outputs_made(client, tmp_path, data):
     report = run_plan(plan_path, out, client=client)
     assert [r.status for r in report.results] == ["skipped"] * 3 + ["done"]
     assert read_image(out / "broken.h5").parameters["window"] == "hann"
+
+
+def test_gotcha_file_job_serial(tmp_path):
+    files = sorted(GOTCHA_DIR.glob("*.mat"))
+    if not files:
+        pytest.skip(f"GOTCHA files not found in {GOTCHA_DIR} (the shared data folder is absent)")
+    from sarcli.gotcha import read_gotcha
+
+    plan = _write_plan(tmp_path / "g.yaml", {"jobs": [{"input": str(GOTCHA_DIR / "*.mat"), "method": "backprojection",
+                                                       "grid": {"extent": 20.0, "pixel_size": 0.5}}]})
+    jobs = load_plan(plan).jobs
+    assert [j.name for j in jobs] == [f"{f.stem}_backprojection.h5" for f in files]
+    res = run_job(jobs[0], tmp_path / "out")
+    assert res.status == "done", res.error
+    ref = form_image(read_gotcha(files[0]), "backprojection", extent=20.0, pixel_size=0.5, nthreads=1)
+    assert np.array_equal(read_image(tmp_path / "out" / jobs[0].name).image, ref.image)
+    assert run_job(jobs[0], tmp_path / "out").status == "skipped"
