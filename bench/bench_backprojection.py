@@ -5,7 +5,9 @@ at the same image side and pulse count, and prints a markdown table of
 
 - pixel-pulses per second per core, and the ratio to the anchor (target >= 0.5),
 - the 1 -> 2 thread speed-up as a fraction of linear (target >= 0.7),
-- peak Python-heap memory of one call (tracemalloc) vs 3 x (phase history + image) bytes,
+- peak Python-heap memory of one call (tracemalloc; numpy buffers, not numba's small per-row
+  scratch) vs 3 x (phase history + image) bytes, the phase history complex64 and the image as
+  returned (complex128),
 - numba compile time: the first call in a fresh process with an empty cache, reported
   separately (timed runs use the compiled kernels).
 
@@ -123,7 +125,8 @@ def main(argv=None):
             anchor = run_anchor(exe, n, pulses, opts.repeat) if exe else float("nan")
             args = problem(n, pulses)
             data, grid = args[0], args[4]
-            budget = 3 * (data.nbytes + n * n * np.dtype(np.complex64).itemsize)
+            # backproject returns complex128 whatever the working precision
+            budget = 3 * (data.nbytes + n * n * np.dtype(np.complex128).itemsize)
             for name, kw in variants:
                 backproject(*problem(16, 2)[:4], Grid(16, 16, 0.25, 0.25), **kw)  # compile / load cache
                 t1 = time_ours(args, kw, 1, opts.repeat)

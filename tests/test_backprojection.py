@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from sarcli import geometry
-from sarcli.errors import SarcliInputError
+from sarcli.errors import AliasingWarning, SarcliInputError
 from sarcli.formers.backprojection import (DEFAULT_INTERP, DEFAULT_UPSAMPLE, backproject,
                                            profile_length, reproject)
 from sarcli.grid import Grid
@@ -125,12 +125,16 @@ def test_reproject_is_exact_adjoint(interp):
     f = rng.normal(size=grid.shape) + 1j * rng.normal(size=grid.shape)
     w = rng.uniform(0.1, 1.0, size=(P, M))
     kw = dict(upsample=3, interp=interp)
-    lhs = np.vdot(f, backproject(d, freq, a, r0, grid, w, **kw))
-    rhs = np.vdot(reproject(f, freq, a, r0, grid, w, **kw), d)
-    assert abs(lhs - rhs) / abs(lhs) < 1e-10
-    assert reproject(f, freq, a, r0, grid, w, **kw).shape == (P, M)
+    # the grid pokes out of the unambiguous window (±7.7 m): skipped pixels are transposed too
+    with pytest.warns(AliasingWarning):
+        lhs = np.vdot(f, backproject(d, freq, a, r0, grid, w, **kw))
+    with pytest.warns(AliasingWarning):
+        rhs = np.vdot(reproject(f, freq, a, r0, grid, w, **kw), d)
+    assert abs(lhs - rhs) / abs(lhs) < 1e-10  # measured ~3e-16
+    assert rhs != 0
 
 
+@pytest.mark.filterwarnings("ignore::sarcli.errors.AliasingWarning")  # corners only; x0 is inside
 def test_reproject_scaled_by_w_approximates_forward_model():
     """W · reproject(δ at x0) is the spherical data of a unit point at x0 (to interpolation error)."""
     P, M = 16, 32
@@ -149,9 +153,24 @@ def test_grid_outside_unambiguous_window_gives_zeros(scene):
     far = Grid(16, 16, 0.5, 0.5, -1000.0, 0.0)     # about 1 km down-range: far outside
     assert window < 100
     for prec in ("float64", "float32"):
-        img = backproject(data, freq, a, r0, far, precision=prec)
+        with pytest.warns(AliasingWarning, match="unambiguous range window"):
+            img = backproject(data, freq, a, r0, far, precision=prec)
         assert np.count_nonzero(img) == 0
-    assert np.count_nonzero(reproject(np.ones(far.shape), freq, a, r0, far)) == 0
+    with pytest.warns(AliasingWarning):
+        assert np.count_nonzero(reproject(np.ones(far.shape), freq, a, r0, far)) == 0
+    # a grid straddling the window edge: inside pixels match the reference, outside are zero
+    edge = Grid(8, 8, 1.0, 1.0, -window / np.cos(np.radians(30.0)), 0.0)
+    with pytest.warns(AliasingWarning):
+        img = backproject(data, freq, a, r0, edge)
+    dr = geometry.differential_range(a, r0, edge.points())
+    assert np.all(img[np.all(np.abs(dr) >= window * 1.001, axis=0)] == 0)
+    assert np.count_nonzero(img[np.all(np.abs(dr) < window * 0.999, axis=0)]) > 0
+
+
+def test_decreasing_frequencies_give_the_same_image(scene):
+    data, freq, a, r0, ref = scene
+    img = backproject(data[:, ::-1], freq[::-1], a, r0, GRID)
+    assert rel_err(img, ref) < 1e-3
 
 
 def test_thread_count_does_not_change_result(scene):

@@ -51,6 +51,7 @@ the exact matched filter and unit-point peaks within 1e-4 of 1). Linear interpol
 from __future__ import annotations
 
 import math
+import warnings
 from decimal import Decimal, localcontext
 
 import numba
@@ -59,8 +60,8 @@ import scipy.fft
 from numba import njit, prange, types
 from numba.extending import overload
 
-from ..errors import SarcliInputError
-from ..geometry import C
+from ..errors import AliasingWarning, SarcliInputError
+from ..geometry import C, differential_range
 from ..grid import Grid
 
 __all__ = ["backproject", "reproject", "profile_length", "INTERPOLATORS", "DEFAULT_UPSAMPLE",
@@ -421,7 +422,26 @@ class _Setup:
         self.xx = (grid.x * grid.x).astype(dt)
         self.y = grid.y.astype(dt)
         self.shape = grid.shape
+        self._check_window(a, r0, grid, np.abs(bin_m) * self.n_len / 2.0)
         self.scalars = (dt(self.n_len // 2), dt(self.n_len), _PAD, self.kind)
+
+    @staticmethod
+    def _check_window(a, r0, grid, half_window):
+        """Warn when the grid's corners leave some pulse's unambiguous window ``|Δr| < c/(4Δα)``.
+
+        ``|a - x|`` is convex in x, so its maximum over the rectangle is at a corner; the corners
+        are also where the minimum lies unless an antenna is right above the grid.
+        """
+        xs = [grid.x[0] - grid.dx / 2, grid.x[-1] + grid.dx / 2]
+        ys = [grid.y[0] - grid.dy / 2, grid.y[-1] + grid.dy / 2]
+        corners = np.array([[x, y, 0.0] for x in xs for y in ys])
+        excess = np.abs(differential_range(a, r0, corners)) / half_window[:, None]
+        if np.max(excess) >= 1.0:
+            worst = int(np.argmax(np.max(excess, axis=1)))
+            warnings.warn(
+                f"the grid reaches {np.max(excess):.3g} times the unambiguous range window "
+                f"|Δr| < c/(4Δα) = {half_window[worst]:.4g} m (pulse {worst}); backprojection leaves "
+                f"pixels outside it out of those pulses", AliasingWarning, stacklevel=4)
 
     def geometry_args(self, sl):
         """Kernel arguments for the pulses in slice ``sl``."""
