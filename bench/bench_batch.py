@@ -3,7 +3,8 @@
 Simulates ``--jobs`` independent phase histories, then runs the same plan (backprojection, one
 thread per job) on a LocalCluster of 1 worker and of 2 workers (each after a warm-up run that
 starts the workers and loads the compiled kernels), every job redone (``force``); prints the wall
-times and the throughput ratio. Then times one backprojection job on one GOTCHA file (``.mat``,
+times, the throughput ratio, the load average and the CPU share each job got (``cpu_s / wall_s``:
+below 1 when other processes competed for the cores). Then times one backprojection job on one GOTCHA file (``.mat``,
 default 100 m grid at 0.25 m, one thread) when ``sarcli.gotcha`` and ``../shared/data/gotcha``
 exist, else a comparable simulated job, and projects a 360-file pass on N workers.
 
@@ -49,7 +50,9 @@ def _timed_run(plan, out, n_workers):
         report = run_plan(plan, out, client=client, force=True)
         wall = time.perf_counter() - t0
     assert report.ok, report.summary()
-    return wall
+    cpu = sum(r.cpu_s for r in report.results)
+    busy = sum(r.wall_s for r in report.results)
+    return wall, cpu / busy
 
 
 def _gotcha_job_cost(tmp, repeat=3):
@@ -95,17 +98,19 @@ def main(argv=None):
             sarcli.write_phase_history(tmp / f"ph{i:02d}.h5", ph)
         plan = parse_plan({"jobs": [{"input": "ph*.h5", "method": "backprojection"}]}, source="bench",
                           base_dir=tmp)
-        t1 = _timed_run(plan, tmp / "out", 1)
-        t2 = _timed_run(plan, tmp / "out", 2)
+        load0 = os.getloadavg()[0]
+        t1, share1 = _timed_run(plan, tmp / "out", 1)
+        t2, share2 = _timed_run(plan, tmp / "out", 2)
+        load1 = os.getloadavg()[0]
         what, job_wall, job_form = _gotcha_job_cost(tmp)
 
-    print(f"machine: {cpu}; {os.cpu_count()} cores")
+    print(f"machine: {cpu}; {os.cpu_count()} cores; 1-min load average {load0:.1f} before, {load1:.1f} after")
     print(f"plan: {args.jobs} independent backprojection jobs, {args.pulses} pulses x {args.freqs} "
           f"frequencies -> {args.n} x {args.n} pixels, 1 thread per job")
-    print("| workers | wall (s) | jobs/s |")
-    print("|---|---|---|")
-    print(f"| 1 | {t1:.2f} | {args.jobs / t1:.2f} |")
-    print(f"| 2 | {t2:.2f} | {args.jobs / t2:.2f} |")
+    print("| workers | wall (s) | jobs/s | CPU share of a job (cpu_s / wall_s) |")
+    print("|---|---|---|---|")
+    print(f"| 1 | {t1:.2f} | {args.jobs / t1:.2f} | {share1:.2f} |")
+    print(f"| 2 | {t2:.2f} | {args.jobs / t2:.2f} | {share2:.2f} |")
     print(f"throughput ratio 2 vs 1 workers: {t1 / t2:.2f}x")
     print(f"per-job cost of {what}: {job_wall:.2f} s wall (read + form + write), {job_form:.2f} s formation")
     print("projected 360-file pass (one job per file, perfect scaling): "

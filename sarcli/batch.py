@@ -148,7 +148,12 @@ class Plan:
 
 @dataclass
 class JobResult:
-    """Outcome of one job: ``status`` is 'done', 'skipped' (valid output existed) or 'failed'."""
+    """Outcome of one job: ``status`` is 'done', 'skipped' (valid output existed) or 'failed'.
+
+    ``runtime_s`` is the image formation alone, ``wall_s`` and ``cpu_s`` the whole job (read, form,
+    write) in wall-clock and CPU seconds of the worker process: ``cpu_s < wall_s`` on a single-threaded
+    job means the worker waited for a core.
+    """
 
     name: str
     input: str
@@ -156,6 +161,7 @@ class JobResult:
     error: str = ""
     runtime_s: float = 0.0
     wall_s: float = 0.0
+    cpu_s: float = 0.0
     warnings: list = field(default_factory=list)
 
 
@@ -682,7 +688,7 @@ def run_job(job: Job, outdir, force: bool = False) -> JobResult:
     """
     import numba
 
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     out = Path(outdir) / job.name
     fp = job.fingerprint
     if not force and _valid_output(out, fp):
@@ -708,7 +714,7 @@ def run_job(job: Job, outdir, force: bool = False) -> JobResult:
         numba.set_num_threads(old_threads)
     msgs = [(w.category.__name__, str(w.message)) for w in caught]
     return JobResult(job.name, job.input, "done", runtime_s=img.runtime_s, wall_s=time.perf_counter() - t0,
-                     warnings=msgs)
+                     cpu_s=time.process_time() - c0, warnings=msgs)
 
 
 # ---------------------------------------------------------------------------------------------
