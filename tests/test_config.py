@@ -120,22 +120,26 @@ def test_units_converted_once(write_config):
 def test_explicit_lists_and_full_circle(write_config):
     cfg = small_config(frequencies={"list_ghz": [9.9, 10.0, 10.1]},
                        azimuths={"list_deg": [10, 11, 12.5]})
-    acq = sarcli.load_acquisition(write_config(cfg))
+    with pytest.warns(AliasingWarning):  # 3 frequencies, 3 looks: a tiny alias-free scene
+        acq = sarcli.load_acquisition(write_config(cfg))
     assert np.allclose(acq.frequency_hz, [9.9e9, 10e9, 10.1e9])
     assert np.allclose(np.degrees(acq.azimuth_rad), [10, 11, 12.5])
     cfg = small_config(azimuths={"full_circle": True, "count": 8})
-    acq = sarcli.load_acquisition(write_config(cfg))
+    with pytest.warns(AliasingWarning, match="cross-range 0.0107 m"):
+        acq = sarcli.load_acquisition(write_config(cfg))
     assert np.isclose(np.degrees(acq.total_aperture_rad()), 360.0)
 
 
 def test_geometry_paths(write_config):
     for path in ("circle", "line"):
         acq = sarcli.load_acquisition(write_config(small_config(geometry={"path": path, "standoff_range_m": 5000.0})))
+        assert np.degrees(np.ptp(acq.azimuth_rad)) == pytest.approx(3.0)
         # the look directions recomputed from the antenna positions reproduce the requested azimuths
         assert np.allclose(np.degrees(acq.azimuth_rad), np.linspace(48.5, 51.5, 32), atol=1e-9)
         assert np.isclose(acq.range_to_center_m[16], 5000.0, rtol=1e-3)
     pos = [[-5000.0, float(y), 3000.0] for y in np.linspace(-100, 100, 5)]
-    acq = sarcli.load_acquisition(write_config(small_config(geometry={"path": "positions", "antenna_position_m": pos},
+    with pytest.warns(AliasingWarning):  # five pulses over 2.3°: cross-range radius 0.85 m
+        acq = sarcli.load_acquisition(write_config(small_config(geometry={"path": "positions", "antenna_position_m": pos},
                                                             azimuths={"center_deg": 0, "extent_deg": 1, "count": 5})))
     assert acq.n_pulses == 5 and np.allclose(acq.antenna_position_m, pos)
 
