@@ -241,6 +241,7 @@ def _bp_rows(pre, pim, x, xx, y, two_ax, two_ay, a2, na, off, inv_bin, kc,
         frac = np.empty_like(x)
         cr = np.empty_like(x)
         ci = np.empty_like(x)
+        kw = np.empty((4, nx), dtype=x.dtype) if kind == 1 else np.empty((4, 0), dtype=x.dtype)
         for p in range(n_pulses):
             cy = yv * yv - two_ay[p] * yv
             tax = two_ax[p]
@@ -267,9 +268,18 @@ def _bp_rows(pre, pim, x, xx, y, two_ax, two_ay, a2, na, off, inv_bin, kc,
                     acc_re[ix] += vr * cr[ix] - vi * ci[ix]
                     acc_im[ix] += vr * ci[ix] + vi * cr[ix]
             elif kind == 1:
+                k0 = kw[0]
+                k1 = kw[1]
+                k2 = kw[2]
+                k3 = kw[3]
+                for ix in range(nx):  # weights in a vectorisable pass of their own
+                    k0[ix], k1[ix], k2[ix], k3[ix] = _keys(frac[ix])
                 for ix in range(nx):
                     i = idx[ix]
-                    w0, w1, w2, w3 = _keys(frac[ix])
+                    w0 = k0[ix]
+                    w1 = k1[ix]
+                    w2 = k2[ix]
+                    w3 = k3[ix]
                     vr = w0 * rp[i - 1] + w1 * rp[i] + w2 * rp[i + 1] + w3 * rp[i + 2]
                     vi = w0 * ip[i - 1] + w1 * ip[i] + w2 * ip[i + 1] + w3 * ip[i + 2]
                     acc_re[ix] += vr * cr[ix] - vi * ci[ix]
