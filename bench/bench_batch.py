@@ -52,7 +52,7 @@ def _timed_run(plan, out, n_workers):
     assert report.ok, report.summary()
     cpu = sum(r.cpu_s for r in report.results)
     busy = sum(r.wall_s for r in report.results)
-    return wall, cpu / busy
+    return wall, cpu / busy, cpu / len(report.results)
 
 
 def _gotcha_job_cost(tmp, repeat=3):
@@ -99,18 +99,18 @@ def main(argv=None):
         plan = parse_plan({"jobs": [{"input": "ph*.h5", "method": "backprojection"}]}, source="bench",
                           base_dir=tmp)
         load0 = os.getloadavg()[0]
-        t1, share1 = _timed_run(plan, tmp / "out", 1)
-        t2, share2 = _timed_run(plan, tmp / "out", 2)
+        t1, share1, cpu1 = _timed_run(plan, tmp / "out", 1)
+        t2, share2, cpu2 = _timed_run(plan, tmp / "out", 2)
         load1 = os.getloadavg()[0]
         what, job_wall, job_form = _gotcha_job_cost(tmp)
 
     print(f"machine: {cpu}; {os.cpu_count()} cores; 1-min load average {load0:.1f} before, {load1:.1f} after")
     print(f"plan: {args.jobs} independent backprojection jobs, {args.pulses} pulses x {args.freqs} "
           f"frequencies -> {args.n} x {args.n} pixels, 1 thread per job")
-    print("| workers | wall (s) | jobs/s | CPU share of a job (cpu_s / wall_s) |")
-    print("|---|---|---|---|")
-    print(f"| 1 | {t1:.2f} | {args.jobs / t1:.2f} | {share1:.2f} |")
-    print(f"| 2 | {t2:.2f} | {args.jobs / t2:.2f} | {share2:.2f} |")
+    print("| workers | wall (s) | jobs/s | CPU s per job | CPU share of a job (cpu_s / wall_s) |")
+    print("|---|---|---|---|---|")
+    print(f"| 1 | {t1:.2f} | {args.jobs / t1:.2f} | {cpu1:.2f} | {share1:.2f} |")
+    print(f"| 2 | {t2:.2f} | {args.jobs / t2:.2f} | {cpu2:.2f} | {share2:.2f} |")
     print(f"throughput ratio 2 vs 1 workers: {t1 / t2:.2f}x")
     print(f"per-job cost of {what}: {job_wall:.2f} s wall (read + form + write), {job_form:.2f} s formation")
     print("projected 360-file pass (one job per file, perfect scaling): "

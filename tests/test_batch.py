@@ -15,7 +15,7 @@ import yaml
 from click.testing import CliRunner
 
 import sarcli
-from sarcli.batch import load_plan, run_job, run_plan, subaperture_windows, tile_layout
+from sarcli.batch import load_plan, parse_plan, run_job, run_plan, subaperture_windows, tile_layout
 from sarcli.cli.main import cli
 from sarcli.config import parse_acquisition
 from sarcli.errors import ConfigError
@@ -89,6 +89,16 @@ def test_duplicate_outputs_rejected(tmp_path, data):
     text.write_text(f"jobs:\n  - {{input: {data / 'ph0.h5'}, method: nufft, options: {{eps: 1e-6}}}}\n")
     with pytest.raises(ConfigError, match=r"text.yaml: key 'jobs\[0\].options.eps': expected a number, got '1e-6'"):
         load_plan(text)
+
+
+def test_fingerprint_ignores_plan_order_and_threads(data):
+    a = {"input": str(data / "ph0.h5"), "method": "direct"}
+    b = {"tiles": {"input": str(data / "ph1.h5"), "tiles": 2, "method": "backprojection"}}
+    one = {j.name: j.fingerprint for j in parse_plan({"jobs": [a, b]}).jobs}
+    two = {j.name: j.fingerprint for j in parse_plan({"jobs": [b, a], "threads_per_job": 2}).jobs}
+    assert one == two and len(one) == 1 + 4 + 1
+    changed = parse_plan({"jobs": [{**a, "options": {"window": "hann"}}]}).jobs[0]
+    assert changed.fingerprint != one["ph0_direct.h5"]
 
 
 def test_windows_and_tiles_cover_everything():
