@@ -107,8 +107,9 @@ def matched_filter(ph: PhaseHistory, grid: Grid | None = None, *, operator: str 
 
 def regularize(ph: PhaseHistory, *, prior: str = "ptv", order: int = 1, lam: float | None = None,
                beta: float | None = None, iters: int = 300, tol: float = 1e-4, operator: str = "auto",
-               grid: Grid | None = None, center=None, extent=None, pixel_size=None, init=None, isotropic: bool = True, callback=None,
-               inner_iters: int = 1, reestimate_every: int = 0, eps: float = 1e-9) -> Image:
+               grid: Grid | None = None, center=None, extent=None, pixel_size=None, init=None,
+               isotropic: bool = True, callback=None, inner_iters: int = 1, reestimate_every: int = 0,
+               eps: float = 1e-9) -> Image:
     """Regularised image of a phase history (paper eq. ``eq: reg`` / ``eq: main-L1``).
 
     Parameters
@@ -188,7 +189,7 @@ def regularize(ph: PhaseHistory, *, prior: str = "ptv", order: int = 1, lam: flo
         if init.shape != grid.shape:
             raise SarcliInputError(f"initial image shape {init.shape} does not match the grid {grid.shape}")
     operator, phase_err = _choose_operator(ph, grid, operator)
-    op, normal = _build(ph, grid, operator, eps)
+    _, normal = _build(ph, grid, operator, eps)
     n_samples = ph.data.size
     mf = normal.atb / n_samples
     # the spherical AᴴA is two backprojections: fewer power iterations (the far-field forms share 30
@@ -201,7 +202,8 @@ def regularize(ph: PhaseHistory, *, prior: str = "ptv", order: int = 1, lam: flo
               "grid": grid.as_dict(), "init": init is not None, "scale_operator": s_a,
               "scale_data": s_b, "scale_power_iterations": power_iters,
               "farfield_phase_error_rad": phase_err, "model": ph.model,
-              "normalisation": "pixel reflectivity (unit point at a pixel centre -> 1, as the matched filter)"}
+              "normalisation": "pixel-model reflectivity f = u * scale_data / scale_operator: a unit point "
+                               "at a pixel centre recovered exactly is 1, the matched filter's peak"}
     if scaled is None:
         # no data (or no operator): the solution of every prior is 0
         return Image(np.zeros(grid.shape, np.complex128), grid.x, grid.y, method=f"regularize-{prior}",
@@ -209,8 +211,7 @@ def regularize(ph: PhaseHistory, *, prior: str = "ptv", order: int = 1, lam: flo
     u0 = None if init is None else init * (s_a / s_b)
     if prior == "tikhonov":
         D = FiniteDifference(grid.shape, order)
-        cb = None if callback is None else (lambda it, obj: callback(it, obj))
-        u, hist = tikhonov(scaled, D, lam, x0=u0, tol=tol, max_iter=iters, callback=cb)
+        u, hist = tikhonov(scaled, D, lam, x0=u0, tol=tol, max_iter=iters, callback=callback)
     else:
         f0 = init if init is not None else mf
         T = sparsifying_operator(prior, grid.shape, order=order, f0=f0 if prior == "ptv" else None)
