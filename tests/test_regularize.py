@@ -220,3 +220,21 @@ def test_gotcha_ptv_patch_runs():
     assert np.all(np.isfinite(img.image)) and np.max(np.abs(img.image)) > 0
     obj = img.history["objective"]
     assert obj[-1] < obj[0]
+
+
+def test_ptv_phase_reestimation_runs_and_records(scene):
+    ph, truth = scene
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ConvergenceWarning)
+        img = regularize(ph, prior="ptv", iters=60, reestimate_every=20)
+    assert img.parameters["reestimate_every"] == 20
+    assert np.all(np.isfinite(img.image))
+    assert _mag_error(img.image, truth) < _mag_error(matched_filter(ph), truth)
+
+
+def test_cli_help_lists_options():
+    res = CliRunner().invoke(cli, ["regularize", "--help"])
+    assert res.exit_code == 0
+    for opt in ("--prior", "--order", "--lam", "--beta", "--iters", "--tol", "--operator", "--init",
+                "--history-png", "--extent", "--pixel-size", "--center"):
+        assert opt in res.output
