@@ -299,7 +299,13 @@ def _bp_rows(pre, pim, x, xx, y, two_ax, two_ay, a2, na, off, inv_bin, kc,
 @njit(parallel=True, cache=True)
 def _rp_pulses(fre, fim, x, xx, y, two_ax, two_ay, a2, na, off, inv_bin, kc,
                half_len, n_len, pad, kind, h_re, h_im):
-    """Transpose of :func:`_bp_rows`: scatter every pixel into each pulse's profile (pulses in parallel)."""
+    """Transpose of :func:`_bp_rows`: scatter every pixel into each pulse's profile.
+
+    Pulses run in parallel (each owns its profile). Per pulse and row, the same vectorisable
+    pass as the forward kernel gives positions and masked carriers; the pixel values times the
+    conjugate carrier are then scattered with the same interpolation weights (pixels outside
+    the window carry a zero carrier, so they add nothing, exactly as they receive nothing).
+    """
     ny = y.size
     nx = x.size
     n_pulses = h_re.shape[0]
@@ -313,26 +319,38 @@ def _rp_pulses(fre, fim, x, xx, y, two_ax, two_ay, a2, na, off, inv_bin, kc,
         kcp = kc[p]
         hr = h_re[p]
         hi = h_im[p]
+        idx = np.empty(nx, np.int64)
+        frac = np.empty_like(x)
+        ur = np.empty_like(x)
+        ui = np.empty_like(x)
         for row in range(ny):
             yv = y[row]
             cy = yv * yv - two_ay[p] * yv
             fr = fre[row]
             fi = fim[row]
             for ix in range(nx):
-                i, t, c, sn, inside = _pixel(x[ix], xx[ix], cy, tax, ap2, nap, offp, ib, kcp,
-                                             half_len, n_len, top, pad)
-                if not inside:
-                    continue
-                # pixel value times the conjugate carrier exp(-i kc dr)
-                vr = fr[ix] * c + fi[ix] * sn
-                vi = fi[ix] * c - fr[ix] * sn
-                if kind == 0:
+                i, t, c, sn, _ = _pixel(x[ix], xx[ix], cy, tax, ap2, nap, offp, ib, kcp,
+                                        half_len, n_len, top, pad)
+                idx[ix] = i
+                frac[ix] = t
+                ur[ix] = fr[ix] * c + fi[ix] * sn   # f · exp(-i kc Δr) (masked)
+                ui[ix] = fi[ix] * c - fr[ix] * sn
+            if kind == 0:
+                for ix in range(nx):
+                    i = idx[ix]
+                    t = frac[ix]
+                    vr = ur[ix]
+                    vi = ui[ix]
                     hr[i] += vr - t * vr
                     hi[i] += vi - t * vi
                     hr[i + 1] += t * vr
                     hi[i + 1] += t * vi
-                elif kind == 1:
-                    w0, w1, w2, w3 = _keys(t)
+            elif kind == 1:
+                for ix in range(nx):
+                    i = idx[ix]
+                    vr = ur[ix]
+                    vi = ui[ix]
+                    w0, w1, w2, w3 = _keys(frac[ix])
                     hr[i - 1] += w0 * vr
                     hi[i - 1] += w0 * vi
                     hr[i] += w1 * vr
@@ -341,8 +359,12 @@ def _rp_pulses(fre, fim, x, xx, y, two_ax, two_ay, a2, na, off, inv_bin, kc,
                     hi[i + 1] += w2 * vi
                     hr[i + 2] += w3 * vr
                     hi[i + 2] += w3 * vi
-                else:
-                    w0, w1, w2, w3, w4, w5 = _lanczos(t)
+            else:
+                for ix in range(nx):
+                    i = idx[ix]
+                    vr = ur[ix]
+                    vi = ui[ix]
+                    w0, w1, w2, w3, w4, w5 = _lanczos(frac[ix])
                     hr[i - 2] += w0 * vr
                     hi[i - 2] += w0 * vi
                     hr[i - 1] += w1 * vr
