@@ -120,12 +120,12 @@ def test_reproject_is_exact_adjoint(interp):
     rng = np.random.default_rng(7)
     P, M = 20, 32
     data, freq, a, r0 = collection([[0.0, 0.0, 0.0]], [1.0], P=P, M=M)
-    grid = Grid(40, 36, 0.4, 0.5, 1.0, -2.0)
+    grid = Grid(40, 36, 0.5, 0.6, 3.0, -2.0)  # x up to 13 m: 19% of pixel-pulses skipped
     d = rng.normal(size=(P, M)) + 1j * rng.normal(size=(P, M))
     f = rng.normal(size=grid.shape) + 1j * rng.normal(size=grid.shape)
     w = rng.uniform(0.1, 1.0, size=(P, M))
     kw = dict(upsample=3, interp=interp)
-    # the grid pokes out of the unambiguous window (±7.7 m): skipped pixels are transposed too
+    # the grid reaches past the unambiguous window (±7.7 m): skipped pixels are transposed too
     with pytest.warns(AliasingWarning):
         lhs = np.vdot(f, backproject(d, freq, a, r0, grid, w, **kw))
     with pytest.warns(AliasingWarning):
