@@ -22,6 +22,10 @@ import fig03_1dconv  # noqa: E402
 import fig04_kernel  # noqa: E402
 import fig05_phase1d  # noqa: E402
 import fig06_phase  # noqa: E402
+import fig07_1d  # noqa: E402
+import fig08_admm2d  # noqa: E402
+import fig09_opt  # noqa: E402
+import fig10_gotcha  # noqa: E402
 from _common import GOTCHA_DIR, acquisition  # noqa: E402
 
 
@@ -86,3 +90,46 @@ def test_fig06_random_phase_recovers_the_interior_real_phase_only_edges():
     assert res["interior_expected"] > 0.7
     assert res["interior_random"] > 0.7
     assert res["interior_real"] < 0.5 * res["interior_expected"]
+
+
+def test_fig07_tv_removes_gibbs_and_fills_coefficients():
+    assert fig07_1d.quadrature_check((1, 2, 7)) < 1e-10  # f̂_k = i/(πk)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # the iteration cap is part of the setting
+        res = fig07_1d.compute(n=256, k_max=40, iters=1500)
+    o, e = res["overshoot"], res["error"]
+    assert o["partial"] > 0.1  # Gibbs: about 9 % of the jump of 2
+    assert o["tv"] < 0.3 * o["partial"]
+    assert e["tv"] < min(e["partial"], e["hann"])
+    assert res["coef_err"] < 0.5  # coefficients beyond the band: partial/filtered sums are 100 % off
+
+
+def test_fig08_admm_objective_is_monotone_for_the_most_part():
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        res = fig08_admm2d.compute(n=48, iters=100)
+    assert res["rise_fraction"] < 0.01
+    assert res["objective"][-1] < 0.5 * res["objective0"]
+    assert res["error_admm"] < res["error_zero_filled"]
+
+
+def test_fig09_optimality_conditions_hold_after_admm():
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        res = fig09_opt.compute(m=80, n=100, lam=0.5, iters=2000)
+    assert res["grad_rel"] < 1e-3
+    assert res["cond2_nonzero"] < 1e-2
+    assert res["cond2_zero"] <= 1 + 1e-2
+    assert res["constraint"] < 1e-3
+    assert res["cond4_max"] <= 1 + 1e-2
+    assert res["cond4_lsq"] < 1e-2
+
+
+def test_fig10_regularisation_fills_k_space_on_gotcha():
+    if not fig10_gotcha.gotcha_files(1):
+        pytest.skip(f"GOTCHA files not found in {GOTCHA_DIR} (the shared data folder beside the repository)")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        res = fig10_gotcha.compute(n_files=1, extent_m=24.0, pixel_m=0.25, iters=10, priors=("tv",))
+    assert res["outside"]["mf"] < 0.05  # the matched filter's spectrum sits on the data
+    assert res["outside"]["tv"] > 2 * res["outside"]["mf"]
