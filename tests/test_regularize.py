@@ -15,7 +15,7 @@ from sarcli.acquisition import Acquisition
 from sarcli.cli.main import cli
 from sarcli.errors import ConvergenceWarning, DefocusWarning, SarcliInputError
 from sarcli.grid import Grid
-from sarcli.io import PhaseHistory, read_image, write_image, write_phase_history
+from sarcli.io import PhaseHistory, read_image, write_phase_history
 from sarcli.linops import NufftOperator
 from sarcli.regularize import PRIORS, matched_filter, regularize
 

@@ -66,9 +66,6 @@ class ToeplitzGram(Linop):
     def _adjoint(self, y):
         return self._forward(y)  # Hermitian
 
-    def gram(self):  # pragma: no cover - not used: AᴴA of a Gram operator is never needed
-        return super().gram()
-
 
 class NormalEquations:
     """What a least-squares solver needs of ``‖Af - b‖²``: ``AᴴA``, ``Aᴴb`` and ``‖b‖²``.
