@@ -303,8 +303,13 @@ def run_benchmark(ph: PhaseHistory, *, methods=("direct",) + FAST_METHODS, repea
         ref = ref_for(window)
         kw = dict(knobs)
         kw.setdefault("window", window)
-        out, sec, comp, peak, wn = measure(lambda: form_image(ph, method, grid=grid, nthreads=nthreads, **kw),
-                                           repeat, memory=memory)
+        try:
+            out, sec, comp, peak, wn = measure(lambda: form_image(ph, method, grid=grid, nthreads=nthreads, **kw),
+                                               repeat, memory=memory)
+        except SarcliInputError as exc:  # a method that refuses these data (e.g. one frequency): say so
+            nan = float("nan")
+            rows.append(BenchRow(method, knobs, nan, nan, nan, nan, nan, [f"refused: {exc}"]))
+            continue
         img = out.image
         rows.append(BenchRow(method, knobs, image_error(img[rs, cs], ref), _truth_error(img, truth),
                              sec, comp, peak, wn))

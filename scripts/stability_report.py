@@ -124,6 +124,15 @@ def case_circular():
     out.append(Outcome("pfa", "warning: " + (msgs[0][:110] if msgs else "none"), float(len(msgs)),
                        "warns (SarcliWarning) that the keystone picture fails", bool(msgs) and exc is None))
     out.append(_bounded("pfa", img, ref, 1e-4, exc))
+    from sarcli.formation import regrid
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        kg = regrid(ph)
+    cells = int(np.prod(kg.samples.shape))
+    npix = ph.acquisition.grid.nx * ph.acquisition.grid.ny
+    out.append(Outcome("pfa", f"k-grid cells ({kg.samples.shape[1]} x {kg.samples.shape[0]}) per image pixel",
+                       cells / npix, "measured (the price of the bounding box)", True))
     return out
 
 
@@ -220,7 +229,8 @@ def case_dynamic_range():
             w = 20 * np.log10(abs(img[weak]))
             ok = abs(s) < DR_BOUND_DB and abs(w + 100) < DR_BOUND_DB
             expected = ok if window == "hann" and m in ("direct", "nufft") else None
-            out.append(Outcome(f"{m} {window}", f"0 dB target {s:+.3f} dB; -100 dB target measured (dB)", float(w),
+            out.append(Outcome(f"{m} {window}", f"0 dB target {s:+.3f} dB; -100 dB target measured (dB), "
+                                                f"{w + 100:+.3f} dB off", float(w),
                                "within 1 dB" if expected is not None else "measured (not required)",
                                ok if expected is not None else True))
     return out
@@ -430,10 +440,10 @@ def bad_inputs(tmp: Path):
 
 #: Bad inputs the library accepts on purpose or does not detect yet: label -> (expected exit code, note).
 BAD_INPUT_EXCEPTIONS = {
-    "duplicated pulses": (0, "not detected: the reader has no check for repeated (azimuth, position) pulses "
-                             "(reported to the lead)"),
-    "wrong dtype (integer frequencies)": (0, "accepted on purpose: integers are exact frequencies in Hz, "
-                                             "converted to float64"),
+    "duplicated pulses": (0, "**not detected**", "the reader has no check for repeated pulses "
+                                                 "(reported to the lead)"),
+    "wrong dtype (integer frequencies)": (0, "accepted", "integers are exact frequencies in Hz and are converted "
+                                                         "to float64; the contract says float64 (lead to decide)"),
 }
 
 
@@ -484,16 +494,64 @@ def render(results, bad_rows, elapsed) -> str:
             measured = o.measured.replace("|", "\\|").replace("\n", " ")
             lines.append(f"| {head} | {what} | {o.method} | {measured} | {_fmt(o.value)} | {o.criterion} | "
                          f"{'pass' if o.passed else '**FAIL**'} |")
-    lines += ["", "## Bad input", "",
+    lines += ["", "## What the numbers say", ""] + _findings(results) + ["", "## Bad input", "",
               "Broken phase-history files built with h5py from a valid one; each command must print one line",
               "and exit with code 2.", "",
               "| input | command | exit code | stderr lines | message | pass |", "|---|---|---|---|---|---|"]
     for label, cmd, code, n, first, ok in bad_rows:
         msg = re.sub(r"/\S*/", "", first).replace("|", "\\|")
+        status = "pass" if ok else "**FAIL**"
         if label in BAD_INPUT_EXCEPTIONS and not ok:
-            msg = f"{msg} — {BAD_INPUT_EXCEPTIONS[label][1]}"
-        lines.append(f"| {label} | `sar {cmd}` | {code} | {n} | {msg} | {'pass' if ok else '**FAIL**'} |")
+            _, status, note = BAD_INPUT_EXCEPTIONS[label]
+            msg = f"{msg} — {note}"
+        lines.append(f"| {label} | `sar {cmd}` | {code} | {n} | {msg} | {status} |")
     return "\n".join(lines) + "\n"
+
+
+def _value(results, key, method, measured=""):
+    for case, outcomes in results:
+        if case.key == key:
+            for o in outcomes:
+                if o.method == method and o.measured.startswith(measured):
+                    return o.value
+    return float("nan")
+
+
+def _findings(results):
+    """Short reading of the table; numbers are taken from this run (NaN where a case was not run)."""
+    v = lambda *a: _fmt(_value(results, *a))  # noqa: E731
+    return [
+        f"- Narrowband (1) and tiny aperture (2) are benign for every former: the nearly rank-one "
+        f"forward operator matters to the regularisers, not to the matched filter (nufft {v('01', 'nufft')}, "
+        f"pfa {v('01', 'pfa')}, backprojection {v('01', 'backprojection')}).",
+        f"- Full circle (3): PFA warns (the keystone picture fails) and stays accurate "
+        f"({v('03', 'pfa', 'relative')}) only by gridding onto the k-space bounding box, "
+        f"{v('03', 'pfa', 'k-grid')} k-cells per image pixel; the NUFFT former is the better choice.",
+        f"- Near field (4): nufft and pfa warn with the predicted phase error ({v('04', 'nufft')} rad) and "
+        "are wrong (error ~1.2), backprojection is exact to its interpolation error.",
+        f"- Long range (5): a naive float32 `|a − x| − r0` at 100 km is off by {v('05', '-')} m; the "
+        f"backprojection kernel's cancellation-free form keeps the float32 phase error at "
+        f"{v('05', 'backprojection float32', 'phase')} rad.",
+        f"- Huge phase (6): k·x = {v('06', '-')} rad and k·h ≈ 13 rad (wrapped) cost nothing: phases are "
+        f"float64 and wrapping is exact on the pixel grid (nufft {v('06', 'nufft')}).",
+        f"- Dynamic range (7): with a Hann window every former measures the −100 dB target at "
+        f"{v('07', 'direct hann')} dB (nufft {v('07', 'nufft hann')}, pfa {v('07', 'pfa hann')}, "
+        f"backprojection {v('07', 'backprojection hann')}); with the Taylor window (n̄ = 4, −35 dB) the "
+        f"strong target's far sidelobes at that spot read {v('07', 'direct taylor')} dB, so Taylor cannot "
+        "show 100 dB at 32 pixels' diagonal separation — a property of the window, the same for all formers.",
+        "- One pulse (8) and one frequency (9) give finite images with peak 1 in every former that accepts "
+        "them; backprojection refuses one frequency with a one-line SarcliInputError (no range profile).",
+        "- Jitter (10): direct, nufft and pfa accept non-uniform sampling and agree; backprojection refuses "
+        "non-uniform frequencies with a one-line SarcliInputError (its range FFT needs equal spacing).",
+        "- Regulariser extremes (12), 10 iterations: β = 1e6 stalls the f-update (|f| ≤ "
+        f"{v('12', 'regularize ptv lam=1e-12 beta=1e+06')} even with λ = 1e-12); β = 1e-6 switches the "
+        f"penalty off in practice (|f| = {v('12', 'regularize ptv lam=1e+12 beta=1e-06')} for λ = 1e12, the "
+        "least-squares iterate); λ = 1e12 with β = 1e6 gives f ≈ 0 (ℓ1: "
+        f"{v('12', 'regularize l1 lam=1e+12 beta=1e+06')}); Tikhonov λ = 1e12 gives "
+        f"{v('12', 'regularize tikhonov lam=1e+12')}. Everything stays finite.",
+        f"- Aliasing (13): loading warns (AliasingWarning, range radius {v('13', 'load')} m) and the target at "
+        f"x = 12 m appears within {v('13', 'nufft')} m of x − 2R, in every former.",
+    ]
 
 
 def main(argv=None):

@@ -151,3 +151,14 @@ def test_gotcha_bench_on_a_subgrid():
     assert errs["direct"] == 0.0
     assert errs["backprojection"] < 1e-2  # spherical and exact up to interpolation
     assert np.isfinite(errs["nufft"])  # far-field model error only (GOTCHA r0 ~ 10 km)
+
+
+def test_refusing_method_is_a_row_not_a_crash(write_config):
+    cfg = _farfield_cfg()
+    cfg["frequencies"] = {"center_frequency_ghz": 10.0, "bandwidth_mhz": 0.0, "count": 1}
+    ph = bm.load_input(write_config(cfg))
+    res = bm.run_benchmark(ph, repeat=1, settings=[("backprojection", {"upsample": 2}), ("nufft", {"eps": 1e-12})],
+                           memory=False)
+    bp = [r for r in res.rows if r.method == "backprojection"][0]
+    assert np.isnan(bp.error) and bp.warnings[0].startswith("refused: backprojection needs at least two")
+    assert [r for r in res.rows if r.method == "nufft"][0].error < 1e-10
