@@ -134,3 +134,17 @@ def test_phase_operator_makes_f0_real_positive():
 
 def test_power_norm_of_unitary_subsampled_dft_is_one():
     assert abs(power_norm(SubsampledDFT(RNG.random((8, 8)) < 0.5)) - 1.0) < 1e-12
+
+
+def test_single_precision_toeplitz_at_loose_eps():
+    """At eps ≥ 1e-6 the Toeplitz FFTs run in complex64 and still agree with the pair to 1e-5."""
+    freq, az, el = _kspace(P=40, M=48, ext_deg=6.0)
+    kx, ky = geometry.kspace_coordinates(freq, az, el)
+    op = NufftOperator(kx, ky, GRID, eps=1e-6)
+    gram = op.toeplitz_gram()
+    assert gram.fft_dtype == np.complex64
+    f = _crandn(GRID.shape)
+    ref = NufftOperator(kx, ky, GRID, eps=1e-12).gram().forward(f)
+    out = gram.forward(f)
+    assert out.dtype == np.complex128
+    assert np.linalg.norm(out - ref) / np.linalg.norm(ref) < 1e-5

@@ -82,11 +82,14 @@ class NufftOperator(Linop):
         c = np.ascontiguousarray(y, dtype=np.complex128).ravel() * np.conj(self.center_phase)
         return self._plan1.execute(c).reshape(self.ishape)
 
-    def toeplitz_gram(self) -> "ToeplitzGram":
-        """``AᴴA`` in the pre-gridded (Toeplitz-embedded) form on the same points."""
+    def toeplitz_gram(self, fft_dtype=None) -> "ToeplitzGram":
+        """``AᴴA`` in the pre-gridded (Toeplitz-embedded) form on the same points and ``eps``.
+
+        ``fft_dtype``: see :class:`~sarcli.linops.toeplitz.ToeplitzGram` (default by ``eps``).
+        """
         from .toeplitz import ToeplitzGram
 
-        return ToeplitzGram(self.k1, self.k2, self.ishape, eps=self.eps)
+        return ToeplitzGram(self.k1, self.k2, self.ishape, eps=self.eps, fft_dtype=fft_dtype)
 
 
 class SubsampledDFT(Linop):

@@ -37,10 +37,19 @@ class ToeplitzGram(Linop):
         Per-sample weights ``w_l`` (``AᴴWA``); default 1.
     eps : float
         FINUFFT tolerance of the kernel.
+    fft_dtype : numpy dtype, optional
+        Precision of the FFTs: complex128, or complex64 (≈ 2.5× faster at 2N = 2048, relative
+        error ~1e-7, enough for an operator requested at ``eps ≥ 1e-6``). Default: complex64 when
+        ``eps ≥ 1e-6``, else complex128. Outputs are complex128 either way.
     """
 
-    def __init__(self, k1, k2, shape, *, weights=None, eps: float = 1e-9):
+    def __init__(self, k1, k2, shape, *, weights=None, eps: float = 1e-9, fft_dtype=None):
         super().__init__(shape, shape, np.complex128)
+        if fft_dtype is None:
+            fft_dtype = np.complex64 if eps >= 1e-6 else np.complex128
+        self.fft_dtype = np.dtype(fft_dtype)
+        if self.fft_dtype not in (np.complex64, np.complex128):
+            raise ValueError(f"fft_dtype must be complex64 or complex128, got {fft_dtype}")
         ny, nx = self.ishape
         k1 = np.ascontiguousarray(np.asarray(k1, np.float64).ravel())
         k2 = np.ascontiguousarray(np.asarray(k2, np.float64).ravel())
@@ -49,19 +58,20 @@ class ToeplitzGram(Linop):
         # K[m2, m1] for m in [-N, N): modes in increasing order (FINUFFT modeord 0)
         kernel = finufft.nufft2d1(k2, k1, w, (2 * ny, 2 * nx), eps=eps, isign=+1)
         # circulant first column: move m = 0 to index 0
-        self.kernel_hat = scipy.fft.fft2(np.fft.ifftshift(kernel), workers=_WORKERS)
+        self.kernel_hat = scipy.fft.fft2(np.fft.ifftshift(kernel), workers=_WORKERS).astype(self.fft_dtype)
         self.padded_shape = (2 * ny, 2 * nx)
 
     def _forward(self, x):
         ny, nx = self.ishape
         # the padded input is zero in rows ny..2ny: transform its nonzero rows along x first,
         # and of the inverse only the rows that are kept (3/4 of two full 2-D FFTs)
-        xf = np.zeros(self.padded_shape, np.complex128)
-        xf[:ny] = scipy.fft.fft(x, n=2 * nx, axis=1, workers=_WORKERS)
+        xf = np.zeros(self.padded_shape, self.fft_dtype)
+        xf[:ny] = scipy.fft.fft(x.astype(self.fft_dtype, copy=False), n=2 * nx, axis=1, workers=_WORKERS)
         xf = scipy.fft.fft(xf, axis=0, workers=_WORKERS, overwrite_x=True)
         xf *= self.kernel_hat
         xf = scipy.fft.ifft(xf, axis=0, workers=_WORKERS, overwrite_x=True)
-        return scipy.fft.ifft(xf[:ny], axis=1, workers=_WORKERS, overwrite_x=True)[:, :nx].copy()
+        out = scipy.fft.ifft(xf[:ny], axis=1, workers=_WORKERS, overwrite_x=True)[:, :nx]
+        return out.astype(np.complex128)
 
     def _adjoint(self, y):
         return self._forward(y)  # Hermitian
