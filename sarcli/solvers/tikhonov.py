@@ -46,7 +46,8 @@ def tikhonov(normal: NormalEquations, D: Linop, lam: float, *, x0=None, tol: flo
         The image (shape of ``Aᴴb``).
     history : dict of str -> ndarray
         Per-iteration ``objective`` (``‖Af-b‖² + λ‖Df‖²``), ``data_residual`` (relative),
-        ``relative_change`` and ``elapsed_s``.
+        ``reg_norm`` (``‖Df‖²``), ``relative_change`` and ``elapsed_s`` (ADMM's keys but
+        ``step_size``, which scipy's CG keeps to itself).
     """
     shape = normal.atb.shape
     n = int(np.prod(shape))
@@ -61,15 +62,18 @@ def tikhonov(normal: NormalEquations, D: Linop, lam: float, *, x0=None, tol: flo
 
     op = LinearOperator((n, n), matvec=matvec, rmatvec=matvec, dtype=np.complex128)
     t0 = time.perf_counter()
-    hist = {"objective": [], "data_residual": [], "relative_change": [], "elapsed_s": []}
+    hist = {"objective": [], "data_residual": [], "reg_norm": [], "relative_change": [],
+            "elapsed_s": []}
     prev = [np.zeros(n, np.complex128) if x0 is None else np.asarray(x0, np.complex128).reshape(-1)]
 
     def _log(xk):
         x = xk.reshape(shape)
         r2 = normal.residual_norm2(x, normal.gram.forward(x))
-        obj = r2 + lam * norm2(D.forward(x))
+        reg = norm2(D.forward(x))
+        obj = r2 + lam * reg
         nx = np.sqrt(norm2(xk))
         hist["objective"].append(obj)
+        hist["reg_norm"].append(reg)
         hist["data_residual"].append(float(np.sqrt(r2 / normal.bnorm2)) if normal.bnorm2 > 0 else 0.0)
         hist["relative_change"].append(float(np.sqrt(norm2(xk - prev[0])) / nx) if nx > 0 else 0.0)
         hist["elapsed_s"].append(time.perf_counter() - t0)
