@@ -11,7 +11,7 @@ from sarcli.cli.main import COMMANDS, cli
 
 
 def _walk(cmd, path):
-    ctx = click.Context(cmd, info_name=" ".join(path))
+    ctx = click.Context(cmd, info_name=" ".join(path), terminal_width=80, max_content_width=80)
     yield " ".join(path), cmd.get_help(ctx)
     if isinstance(cmd, click.Group):
         for name in sorted(cmd.list_commands(ctx)):
