@@ -4,7 +4,8 @@ Simulates ``--jobs`` independent phase histories, then runs the same plan (backp
 thread per job) on a LocalCluster of 1 worker and of 2 workers (each after a warm-up run that
 starts the workers and loads the compiled kernels), every job redone (``force``); prints the wall
 times, the throughput ratio, the load average and the CPU share each job got (``cpu_s / wall_s``:
-below 1 when other processes competed for the cores). Then times one backprojection job on one GOTCHA file (``.mat``,
+below 1 when other processes competed for the cores), and the ratio of the CPU the 2 workers got to
+what the single worker got, against which the throughput ratio is judged on a busy machine. Then times one backprojection job on one GOTCHA file (``.mat``,
 default 100 m grid at 0.25 m, one thread) when ``sarcli.gotcha`` and ``../shared/data/gotcha``
 exist, else a comparable simulated job, and projects a 360-file pass on N workers.
 
@@ -71,13 +72,14 @@ def _gotcha_job_cost(tmp, repeat=3):
         job = Job(name="gotcha.h5", input=str(path), method="backprojection", threads=1)
         what = "a simulated GOTCHA-sized job (117 pulses x 424 frequencies, 400 x 400 grid): no GOTCHA data here"
     run_job(job, tmp, force=True)  # warm-up
-    walls, forms = [], []
+    walls, forms, cpus = [], [], []
     for _ in range(repeat):
         res = run_job(job, tmp, force=True)
         assert res.status == "done", res.error
         walls.append(res.wall_s)
         forms.append(res.runtime_s)
-    return what, float(np.median(walls)), float(np.median(forms))
+        cpus.append(res.cpu_s)
+    return what, float(np.median(walls)), float(np.median(forms)), float(np.median(cpus))
 
 
 def main(argv=None):
@@ -102,7 +104,7 @@ def main(argv=None):
         t1, share1, cpu1 = _timed_run(plan, tmp / "out", 1)
         t2, share2, cpu2 = _timed_run(plan, tmp / "out", 2)
         load1 = os.getloadavg()[0]
-        what, job_wall, job_form = _gotcha_job_cost(tmp)
+        what, job_wall, job_form, job_cpu = _gotcha_job_cost(tmp)
 
     print(f"machine: {cpu}; {os.cpu_count()} cores; 1-min load average {load0:.1f} before, {load1:.1f} after")
     print(f"plan: {args.jobs} independent backprojection jobs, {args.pulses} pulses x {args.freqs} "
@@ -112,9 +114,14 @@ def main(argv=None):
     print(f"| 1 | {t1:.2f} | {args.jobs / t1:.2f} | {cpu1:.2f} | {share1:.2f} |")
     print(f"| 2 | {t2:.2f} | {args.jobs / t2:.2f} | {cpu2:.2f} | {share2:.2f} |")
     print(f"throughput ratio 2 vs 1 workers: {t1 / t2:.2f}x")
-    print(f"per-job cost of {what}: {job_wall:.2f} s wall (read + form + write), {job_form:.2f} s formation")
-    print("projected 360-file pass (one job per file, perfect scaling): "
-          + ", ".join(f"N={n}: {360 * job_wall / n:.0f} s" for n in (1, 2, 8, 16, 64)))
+    # what the cores allowed: the 2 workers together got 2*share2 cores, the single worker share1
+    allowed = 2 * share2 / share1
+    print(f"CPU the workers got, 2 vs 1 workers: {allowed:.2f}x; scaling efficiency against it: "
+          f"{t1 / t2 / allowed:.2f} (1.0 = the batch scaled as far as free cores allowed)")
+    print(f"per-job cost of {what}: {job_wall:.2f} s wall (read + form + write), {job_form:.2f} s formation, "
+          f"{job_cpu:.2f} CPU s")
+    print("projected 360-file pass (one job per file on a free core each, from the CPU s): "
+          + ", ".join(f"N={n}: {360 * job_cpu / n:.0f} s" for n in (1, 2, 8, 16, 64)))
 
 
 if __name__ == "__main__":

@@ -233,3 +233,16 @@ def test_gotcha_file_job_serial(tmp_path):
     ref = form_image(read_gotcha(files[0]), "backprojection", extent=20.0, pixel_size=0.5, nthreads=1)
     assert np.array_equal(read_image(tmp_path / "out" / jobs[0].name).image, ref.image)
     assert run_job(jobs[0], tmp_path / "out").status == "skipped"
+
+
+def test_cli_embedded_local_cluster(tmp_path, data):
+    plan = _write_plan(tmp_path / "one.yaml", {"jobs": [{"input": str(data / "ph1.h5"), "method": "direct",
+                                                         "output": "one/{stem}.h5"}]})
+    out = tmp_path / "out"
+    res = CliRunner().invoke(cli, ["batch", str(plan), "-o", str(out), "--workers", "1"])
+    assert res.exit_code == 0, res.output
+    assert "1 jobs: 1 done" in res.output and "on 1 worker(s)" in res.output
+    ref = form_image(read_phase_history(data / "ph1.h5"), "direct")
+    assert np.array_equal(read_image(out / "one" / "ph1.h5").image, ref.image)
+    both = CliRunner().invoke(cli, ["batch", str(plan), "-o", str(out), "--workers", "1", "--scheduler", "tcp://x:1"])
+    assert both.exit_code == 2 and "--workers" in both.output
