@@ -133,6 +133,15 @@ def test_six_jobs_equal_serial_images(client, tmp_path, data):
         assert out_bp.attrs["batch_input"] == str((data / f"ph{i}.h5").resolve())
 
 
+def test_job_warnings_reach_the_driver_with_the_job_name(client, tmp_path, data):
+    from sarcli.errors import DefocusWarning
+
+    plan = parse_plan({"jobs": [{"input": str(data / "ph0.h5"), "method": "nufft"}]})
+    with pytest.warns(DefocusWarning, match=r"^ph0_nufft.h5: far-field method 'nufft' on spherical data"):
+        report = run_plan(plan, tmp_path / "out", client=client)
+    assert report.ok and report.results[0].warnings[0][0] == "DefocusWarning"
+
+
 def test_tiles_4x4_backprojection_equals_single_grid(client, tmp_path, data):
     plan = _write_plan(tmp_path / "tiles.yaml", {"jobs": [
         {"tiles": {"input": str(data / "ph0.h5"), "tiles": 4, "method": "backprojection", "name": "t0"}},
