@@ -5,9 +5,10 @@ thread per job) on a LocalCluster of 1 worker and of 2 workers (each after a war
 starts the workers and loads the compiled kernels), every job redone (``force``); prints the wall
 times, the throughput ratio, the load average and the CPU share each job got (``cpu_s / wall_s``:
 below 1 when other processes competed for the cores), and the ratio of the CPU the 2 workers got to
-what the single worker got, against which the throughput ratio is judged on a busy machine. Then times one backprojection job on one GOTCHA file (``.mat``,
-default 100 m grid at 0.25 m, one thread) when ``sarcli.gotcha`` and ``../shared/data/gotcha``
-exist, else a comparable simulated job, and projects a 360-file pass on N workers.
+what the single worker got, against which the throughput ratio is judged on a busy machine.
+Then times one backprojection job on one GOTCHA file (``.mat``, default 100 m grid at 0.25 m, one
+thread) when ``sarcli.gotcha`` and ``../shared/data/gotcha`` exist, else a comparable simulated job,
+and projects a 360-file pass on N workers from its CPU seconds.
 
 Usage: ``python bench/bench_batch.py [--jobs 8] [--pulses 512] [--freqs 512] [--n 384]``
 """

@@ -177,7 +177,8 @@ def _combine(job: Job, outdir: Path) -> Image:
             acc[r0:r1, c0:c1] = p.image[m:m + r1 - r0, m:m + c1 - c0]
     if job.kind == "composite":
         mode = job.extra["composite"]
-        image = (acc if mode == "max" else acc / len(job.depends)).astype(np.result_type(first.image.dtype, np.complex64))
+        comp = acc if mode == "max" else acc / len(job.depends)
+        image = comp.astype(np.result_type(first.image.dtype, np.complex64))
         params = {"composite": mode, "quantity": "magnitude", "n_windows": len(job.depends),
                   "window_deg": job.extra["window_deg"], "overlap_deg": job.extra["overlap_deg"],
                   "windows": list(job.depends), "window_parameters": first.parameters}
