@@ -4,7 +4,9 @@ Builds the anchor into a temporary folder, runs it and :func:`sarcli.formers.bac
 at the same image side and pulse count, and prints a markdown table of
 
 - pixel-pulses per second per core, and the ratio to the anchor (target >= 0.5),
-- the 1 -> 2 thread speed-up as a fraction of linear (target >= 0.7),
+- the 1 -> 2 thread speed-up as a fraction of linear (target >= 0.7), and, because a shared
+  machine may not give the process two cores, the ratio of process CPU seconds with 1 and 2
+  threads (the speed-up fraction two free cores would give: 1.0 = no parallel overhead),
 - peak Python-heap memory of one call (tracemalloc; numpy buffers, not numba's small per-row
   scratch) vs 3 x (phase history + image) bytes, the phase history complex64 and the image as
   returned (complex128),
@@ -98,13 +100,16 @@ def compile_seconds(precision: str, tmp: Path) -> float:
     return float(out.split()[1])
 
 
-def time_ours(args, kwargs, threads: int, repeat: int) -> float:
-    best = np.inf
+def time_ours(args, kwargs, threads: int, repeat: int):
+    """Best wall seconds and best process CPU seconds over ``repeat`` calls."""
+    best, best_cpu = np.inf, np.inf
     for _ in range(repeat):
+        c = time.process_time()
         t = time.perf_counter()
         backproject(*args, nthreads=threads, **kwargs)
         best = min(best, time.perf_counter() - t)
-    return best
+        best_cpu = min(best_cpu, time.process_time() - c)
+    return best, best_cpu
 
 
 def main(argv=None):
@@ -118,6 +123,7 @@ def main(argv=None):
                 ("float32 cubic u=8", dict(precision="float32", interp="cubic", upsample=8)),
                 ("default (float64 cubic u=8)", dict())]
     rows = []
+    load_start = os.getloadavg()[0]
     with tempfile.TemporaryDirectory() as tmp:
         exe = build_anchor(Path(tmp))
         compile_s = {p: compile_seconds(p, Path(tmp)) for p in ("float32", "float64")}
@@ -129,24 +135,27 @@ def main(argv=None):
             budget = 3 * (data.nbytes + n * n * np.dtype(np.complex128).itemsize)
             for name, kw in variants:
                 backproject(*problem(16, 2)[:4], Grid(16, 16, 0.25, 0.25), **kw)  # compile / load cache
-                t1 = time_ours(args, kw, 1, opts.repeat)
-                t2 = time_ours(args, kw, cores, opts.repeat) if cores > 1 else t1
+                t1, c1 = time_ours(args, kw, 1, opts.repeat)
+                t2, c2 = time_ours(args, kw, cores, opts.repeat) if cores > 1 else (t1, c1)
                 tracemalloc.start()
                 backproject(*args, nthreads=cores, **kw)
                 peak = tracemalloc.get_traced_memory()[1]
                 tracemalloc.stop()
                 rate1 = n * n * pulses / t1
                 rows.append((f"{n}² × {pulses}", name, anchor, rate1, rate1 / anchor,
-                             t1, t2, t1 / t2 / cores, compile_s[kw.get("precision", "float64")],
+                             t1, t2, t1 / t2 / cores, c1 / c2, compile_s[kw.get("precision", "float64")],
                              peak / 2**20, budget / 2**20))
     print(f"machine: {os.cpu_count()} cores; numba threads {numba.config.NUMBA_NUM_THREADS}; "
-          f"python {sys.version.split()[0]}; numba {numba.__version__}\n")
+          f"python {sys.version.split()[0]}; numba {numba.__version__}; load average "
+          f"{load_start:.1f} at start, {os.getloadavg()[0]:.1f} at end (a shared machine: a load "
+          f"above the core count slows both codes and makes the thread speed-up meaningless)\n")
     print("| size | ours | anchor px·pulse/s/core | ours px·pulse/s/core | ratio | t 1 thr (s) "
-          "| t 2 thr (s) | speed-up / linear | numba compile (s) | peak MiB | 3×(PH+img) MiB |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|")
+          "| t 2 thr (s) | speed-up / linear | CPU s 1 thr / CPU s 2 thr | numba compile (s) | peak MiB "
+          "| 3×(PH+img) MiB |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|")
     for r in rows:
         print(f"| {r[0]} | {r[1]} | {r[2]:.3g} | {r[3]:.3g} | {r[4]:.2f} | {r[5]:.3f} | {r[6]:.3f} "
-              f"| {r[7]:.2f} | {r[8]:.2f} | {r[9]:.1f} | {r[10]:.1f} |")
+              f"| {r[7]:.2f} | {r[8]:.2f} | {r[9]:.2f} | {r[10]:.1f} | {r[11]:.1f} |")
 
 
 if __name__ == "__main__":
