@@ -26,7 +26,9 @@ import fig07_1d  # noqa: E402
 import fig08_admm2d  # noqa: E402
 import fig09_opt  # noqa: E402
 import fig10_gotcha  # noqa: E402
-from _common import GOTCHA_DIR, acquisition  # noqa: E402
+from _common import acquisition  # noqa: E402
+
+GOTCHA_DIR = Path(__file__).resolve().parents[2] / "shared" / "data" / "gotcha"
 
 
 def test_fig01_wrapped_frequencies_alias_exactly():
@@ -126,7 +128,7 @@ def test_fig09_optimality_conditions_hold_after_admm():
 
 
 def test_fig10_regularisation_fills_k_space_on_gotcha():
-    if not fig10_gotcha.gotcha_files(1):
+    if not sorted(GOTCHA_DIR.glob("data_3dsar_pass1_az00*_HH.mat")):
         pytest.skip(f"GOTCHA files not found in {GOTCHA_DIR} (the shared data folder beside the repository)")
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")

@@ -13,6 +13,7 @@ import numpy as np
 
 from sarcli.linops import FiniteDifference, SubsampledDFT, normal_equations
 from sarcli.scenes import shepp_logan
+from sarcli.simulate import add_noise
 from sarcli.solvers import ADMM
 
 from _common import Result, fmt
@@ -29,8 +30,7 @@ def compute(*, n: int = 128, snr: float = 2.0, lam: float = 0.05, iters: int = 3
     mask = rng.random((n, n)) < 0.5
     op = SubsampledDFT(mask)
     clean = op.forward(f.astype(complex))
-    sigma2 = float(np.mean(np.abs(clean) ** 2)) / snr
-    b = clean + np.sqrt(sigma2 / 2) * (rng.standard_normal(clean.shape) + 1j * rng.standard_normal(clean.shape))
+    b, _ = add_noise(clean, 10 * np.log10(snr), rng)  # SNR = mean signal power / noise power
     solver = ADMM(normal_equations(op, b), FiniteDifference((n, n), 1), lam=lam, beta=32 * lam, tol=0.0, max_iter=iters)
     snaps = {}
 

@@ -44,11 +44,17 @@ def _run_one(name: str) -> tuple[Result, float]:
 
 
 def _save(fig, full: Path, small: Path):
+    """Full-size PNG into ``out/``; a small one (< 100 kB: lower dpi, then a 64-colour palette) for git."""
+    from PIL import Image as PILImage
+
     fig.savefig(full, dpi=110)
-    for dpi in (60, 50, 40, 32):
+    for dpi in (60, 50, 40):
         fig.savefig(small, dpi=dpi)
         if small.stat().st_size < MAX_SMALL_BYTES:
-            break
+            return
+        PILImage.open(small).convert("RGB").quantize(colors=64).save(small, optimize=True)
+        if small.stat().st_size < MAX_SMALL_BYTES:
+            return
 
 
 def _verdict(passed) -> str:
@@ -64,7 +70,7 @@ def write_markdown(results, md_path: Path, out_dir: Path):
              "The same checks run at reduced sizes in `tests/test_paper.py`.", "",
              "| figure | label | verdict | time (s) |", "|---|---|---|---|"]
     for res, secs in results:
-        lines.append(f"| [{res.title}](#{res.key.replace('_', '-')}) | `{res.label}` | {_verdict(res.passed)} | {secs:.0f} |")
+        lines.append(f"| [{res.title}](#{res.key}) | `{res.label}` | {_verdict(res.passed)} | {secs:.0f} |")
     lines.append("")
     for res, secs in results:
         lines += [f"## {res.key}", "", f"**{res.title}** — `{res.label}`", "", f"**Paper:** {res.claim}", ""]
