@@ -156,6 +156,12 @@ def read_gotcha(paths, *, autofocus: bool = False, grid: Grid | None = None) -> 
     if not items:
         raise InputFileError("<none>", "no GOTCHA files given")
     files = [Path(p) for p in items]
+    seen = set()
+    for f in files:
+        key = f.resolve()
+        if key in seen:
+            raise InputFileError(f, "given twice; each GOTCHA file may appear once")
+        seen.add(key)
     loaded = [_load_one(p, autofocus) for p in files]
     order = _azimuth_order(np.array([d["th"][0] for d in loaded]))
     files = [files[i] for i in order]

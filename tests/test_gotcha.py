@@ -83,6 +83,8 @@ def test_reader_refuses_foreign_broken_and_mismatched_files(tmp_path):
         assert "\n" not in str(err.value) and name in str(err.value)
     with pytest.raises(InputFileError, match="frequencies"):
         read_gotcha([tmp_path / "ok.mat", tmp_path / "other_band.mat"])
+    with pytest.raises(InputFileError, match="twice"):
+        read_gotcha([tmp_path / "ok.mat", tmp_path / "ok.mat"])
     read_gotcha(tmp_path / "noaf.mat")  # fine without --autofocus
 
 
