@@ -64,10 +64,30 @@ def compute(acq, *, n_pixels_checked: int = 64, seed: int = 0) -> dict:
                 in_box=in_box, exp_error=exp_error, operator_error=worst, pixel_m=g.dx)
 
 
-def plot(res):
+def plot(res, acq):
     import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(figsize=(6, 5.2))
+    fig = plt.figure(figsize=(15, 5.0))
+    ax3 = fig.add_subplot(1, 3, 1, projection="3d")
+    a = acq.antenna_position_m / float(np.mean(acq.range_to_center_m))  # unit stand-off: a schematic
+    ax3.plot(a[:, 0], a[:, 1], a[:, 2], color="C3", lw=2, label="flight path (antenna phase centres)")
+    for p in (0, a.shape[0] // 2, a.shape[0] - 1):
+        ax3.plot([a[p, 0], 0], [a[p, 1], 0], [a[p, 2], 0], color="0.5", lw=0.8)
+    t = np.linspace(0, 2 * np.pi, 100)
+    ax3.plot(0.15 * np.cos(t), 0.15 * np.sin(t), 0 * t, color="k", lw=1, label="scene (z = 0)")
+    ax3.set_xlabel("x (east)")
+    ax3.set_ylabel("y (north)")
+    ax3.set_zlabel("z (up)")
+    ax3.set_title("acquisition (stand-off range scaled to 1)")
+    ax3.legend(fontsize=8, loc="upper left")
+    ax = fig.add_subplot(1, 3, 3)
+    s = (slice(None, None, 8), slice(None, None, 32))
+    ax.plot(res["k1"][s].ravel() / res["pixel_m"], res["k2"][s].ravel() / res["pixel_m"], ".", ms=3)
+    ax.set_xlabel("$k_x$ (rad/m)")
+    ax.set_ylabel("$k_y$ (rad/m)")
+    ax.set_aspect("equal")
+    ax.set_title("the polar grid (every 8th look, 32nd frequency)")
+    ax = fig.add_subplot(1, 3, 2)
     s = (slice(None, None, 4), slice(None, None, 16))
     ax.plot(res["k1"][s].ravel(), res["k2"][s].ravel(), ".", ms=2, color="C0", label="data  $k h\\,\\xi_\\theta$")
     ax.plot(res["w1"][s].ravel(), res["w2"][s].ravel(), ".", ms=2, color="C1", label="aliased into $[-\\pi,\\pi)^2$")
@@ -99,4 +119,4 @@ def run(out_dir=None) -> Result:
             f"sarcli's pixel-model operator (FINUFFT on the wrapped frequencies, eps 1e-12) against "
             f"exp(-i k ξ·x) of eq. `eq1` at 64 random pixel centres: max error {fmt(res['operator_error'])} (bound 1e-8).",
         ],
-        passed=ok, figure=plot(res))
+        passed=ok, figure=plot(res, acq))

@@ -37,6 +37,20 @@ def superposition_error(acq) -> dict:
                 max_abs=float(np.max(np.abs(mf - ref))), points=pos)
 
 
+def spherical_comparison(pixels: int = 250) -> float:
+    """The actual (spherical, 10 km stand-off) Gorham-Moore demo: backprojection vs the sum of kernels.
+
+    Returns the relative L2 difference between sarcli's backprojection image of the spherical data
+    and ``Σ_s a_s K(x - x_s)/(MP)`` of the far-field theorem.
+    """
+    acq = acquisition("three-points", image={"pixels": pixels})
+    ph = sarcli.simulate(acq, snr_db=None)
+    img = sarcli.form_image(ph, "backprojection").image
+    ref = sum(a * psf.psf_kernel(acq, acq.grid, center=p[:2], method="theorem")
+              for p, a in zip(ph.truth.point_position_m, ph.truth.point_amplitude))
+    return float(np.linalg.norm(img - ref) / np.linalg.norm(ref))
+
+
 def plot(kern, grid, sup, sup_grid):
     import matplotlib.pyplot as plt
 
@@ -62,8 +76,9 @@ def run(out_dir=None) -> Result:
     kern = psf.psf_kernel(acq, acq.grid, method="theorem")
     sacq = farfield_three_points(250)  # 4 cm pixels: the exact O(MPN²) former on 62 500 pixels
     sup = superposition_error(sacq)
+    sph = spherical_comparison(250)
     peak = float(np.abs(kern).max())
-    ok = sup["rel_l2"] < 1e-10 and abs(peak - 1) < 1e-12
+    ok = sup["rel_l2"] < 1e-10 and abs(peak - 1) < 1e-12 and sph < 0.1
     return Result(
         KEY, LABEL, "the 2-D kernel of Theorem main-theorem",
         claim=("Theorem `main-theorem`: the matched filter (eq. `mf`) is f * K with "
@@ -75,8 +90,11 @@ def run(out_dir=None) -> Result:
             f"Three unit points (0,0), (-3,2), (1,4) m, far-field data, sarcli's exact ('direct') matched filter on "
             f"250 × 250 pixels (4 cm) vs Σ_s K(x - x_s)/(MP): relative L2 error {fmt(sup['rel_l2'])}, "
             f"max abs error {fmt(sup['max_abs'])} (bound 1e-10).",
+            f"The Gorham-Moore demo itself (spherical data, 10 km stand-off, sarcli's backprojection, same 250 × 250 grid) "
+            f"against the same sum of far-field kernels: relative L2 difference {fmt(sph)} — 'somewhat a superposition "
+            f"of three kernels' (pass < 0.1).",
         ],
         passed=ok, figure=plot(kern, acq.grid, sup, sacq.grid),
-        notes=("The theorem is exact for the far-field model; the Gorham-Moore demo itself is spherical "
-               "(10 km stand-off), where the far-field phase error at 5 m is about 0.5 rad, so we check "
-               "the theorem on far-field data."))
+        notes=("The theorem is exact for the far-field model, so the 1e-10 check uses far-field data; the "
+               "Gorham-Moore demo itself is spherical (far-field phase error about 0.5 rad at 5 m), hence "
+               "the few-percent difference in the last line."))
