@@ -10,14 +10,15 @@ import click
 from sarcli.cli.main import COMMANDS, cli
 
 
-def _walk(cmd, path):
-    ctx = click.Context(cmd, info_name=" ".join(path), terminal_width=80, max_content_width=80)
+def _walk(cmd, path, parent=None):
+    ctx = click.Context(cmd, info_name=path[-1], parent=parent, terminal_width=80, max_content_width=80,
+                        help_option_names=["-h", "--help"])
     yield " ".join(path), cmd.get_help(ctx)
     if isinstance(cmd, click.Group):
         for name in sorted(cmd.list_commands(ctx)):
             sub = cmd.get_command(ctx, name)
             if sub is not None:
-                yield from _walk(sub, path + [name])
+                yield from _walk(sub, path + [name], ctx)
 
 
 def render() -> str:
