@@ -307,6 +307,7 @@ def _read_ph(path, f) -> PhaseHistory:
     el = _dataset(path, f, "elevation_rad", kind="float", ndim=1, shape=(P,))
     if np.any(np.abs(el) >= np.pi / 2):
         raise InputFileError(path, "dataset 'elevation_rad' holds |φ| >= 90°")
+    _check_duplicate_pulses(path, az, el)
     need = model == "spherical"
     pos = _dataset(path, f, "antenna_position_m", kind="float", ndim=2, shape=(P, 3), required=need)
     r0 = _dataset(path, f, "range_to_center_m", kind="float", ndim=1, shape=(P,), required=need or pos is not None)
@@ -343,6 +344,19 @@ def _read_ph(path, f) -> PhaseHistory:
             scene=scene, x_m=tx, y_m=ty, magnitude=mag,
         )
     return PhaseHistory(data=data, acquisition=acq, truth=truth, attrs=attrs)
+
+
+def _check_duplicate_pulses(path, az, el):
+    """Refuse two pulses looking from the same azimuth and elevation (a duplicated pulse)."""
+    if az.size < 2:
+        return
+    key = np.round(np.column_stack([np.mod(az, 2 * np.pi), el]) * 1e12)
+    _, first, counts = np.unique(key, axis=0, return_index=True, return_counts=True)
+    if np.any(counts > 1):
+        i = int(first[np.argmax(counts > 1)])
+        same = np.flatnonzero(np.all(key == key[i], axis=1))
+        raise InputFileError(path, f"pulses {int(same[0])} and {int(same[1])} look from the same azimuth and "
+                                   f"elevation ({np.degrees(az[i]):.6g}°, {np.degrees(el[i]):.6g}°): duplicated pulses")
 
 
 def _default_grid(freq, az, el) -> Grid:

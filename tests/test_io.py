@@ -84,12 +84,17 @@ def _corrupt(path, how):
             f["frequency_hz"][0] = -1.0
         elif how == "model":
             f.attrs["model"] = "wavy"
+        elif how == "duplicate":
+            az = f["azimuth_rad"][()]
+            az[3] = az[2]
+            f["azimuth_rad"][...] = az
 
 
 @pytest.mark.parametrize("how,needle", [
     ("format", "format"), ("version", "version 7"), ("missing", "missing dataset 'azimuth_rad'"),
     ("shape", "'elevation_rad' has shape (3,)"), ("dtype", "expected complex"), ("nan", "NaN"),
     ("frequency", "non-positive"), ("model", "model"), ("truncate", "ph.h5"),
+    ("duplicate", "pulses 2 and 3 look from the same azimuth"),
 ])
 def test_broken_files_refused_with_one_line(ph_file, how, needle):
     _, path = ph_file
