@@ -440,8 +440,6 @@ def bad_inputs(tmp: Path):
 
 #: Bad inputs the library accepts on purpose or does not detect yet: label -> (expected exit code, note).
 BAD_INPUT_EXCEPTIONS = {
-    "duplicated pulses": (0, "**not detected**", "the reader has no check for repeated pulses "
-                                                 "(reported to the lead)"),
     "wrong dtype (integer frequencies)": (0, "accepted", "integers are exact frequencies in Hz and are converted "
                                                          "to float64; the contract says float64 (lead to decide)"),
 }

@@ -81,16 +81,15 @@ def test_bad_inputs_one_line_exit_2(bad_rows):
 
 
 def test_bad_inputs_known_gaps_are_as_documented(bad_rows):
-    """Duplicated pulses are not detected and integer frequencies are accepted (reported to the lead)."""
+    """Integer frequencies are accepted on purpose: they are exact values in Hz, converted to float64."""
     for label, (code, _, _) in report.BAD_INPUT_EXCEPTIONS.items():
         rows = [r for r in bad_rows if r[0] == label]
         assert rows and all(r[2] == code for r in rows), rows
 
 
-@pytest.mark.xfail(strict=True, reason="the phase-history reader does not detect duplicated pulses yet "
-                                       "(proposal sent to the lead)")
 def test_duplicated_pulses_rejected(bad_rows):
-    assert all(r[2] == 2 for r in bad_rows if r[0] == "duplicated pulses")
+    rows = [r for r in bad_rows if r[0] == "duplicated pulses"]
+    assert rows and all(r[2] == 2 and "duplicated pulses" in r[4] for r in rows), rows
 
 
 def test_report_renders_every_case(tmp_path):
@@ -98,6 +97,6 @@ def test_report_renders_every_case(tmp_path):
     assert report.main(["-o", str(out), "08", "13"]) == 0
     text = out.read_text()
     assert "| 08 `08-one-pulse.yaml`" in text and "| 13 `13-aliasing.yaml`" in text
-    assert "## Bad input" in text and "**not detected**" in text  # the duplicated-pulses gap is shown
+    assert "## Bad input" in text and "duplicated pulses" in text and "accepted" in text
     assert "**FAIL**" not in text
     assert np.isfinite(float(text.split("Total run time of the suite: ")[1].split(" s")[0]))
