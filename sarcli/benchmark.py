@@ -260,7 +260,7 @@ def run_benchmark(ph: PhaseHistory, *, methods=("direct",) + FAST_METHODS, repea
     grid, center, extent, pixel_size :
         Image grid (default the acquisition's), as in :func:`sarcli.form_image`.
     max_reference_cost : float
-        Largest ``P·M·pixels`` for the exact reference on the full grid (else a centred sub-grid).
+        Largest ``P·M·pixels`` for the exact reference on the full grid (else a strided sub-grid over the whole image).
     windows : sequence of str
         Windows to measure ('none' is the knob sweep; others at default knobs).
     settings : list of (method, knobs), optional

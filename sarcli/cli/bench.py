@@ -20,7 +20,7 @@ from ._common import echo_info, grid_options, handle_errors, parse_pair
 @click.option("--regularizers", default="", help="Priors to sweep over iterations, e.g. 'ptv,tv' (needs a truth).")
 @click.option("--reg-iters", default="1,2,5,10,20,50", show_default=True, help="Iteration caps for --regularizers.")
 @click.option("--max-reference-cost", type=float, default=1e9, show_default=True,
-              help="Largest P*M*pixels for the exact reference; beyond it a centred sub-grid is used.")
+              help="Largest P*M*pixels for the exact reference; beyond it every s-th pixel is used.")
 @click.option("--model", type=click.Choice(["farfield", "spherical"]), default=None,
               help="Data model when simulating a YAML config (default: the config's).")
 @click.option("--seed", type=int, default=0, show_default=True, help="Seed when simulating a YAML config.")
