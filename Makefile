@@ -40,13 +40,14 @@ test-fast: $(VENV)/.installed
 # -- demo: three points ------------------------------------------------------------------------
 # spherical data (r0 = 10 km) for backprojection; the far-field model of the same scene for the
 # far-field methods and the regulariser (nufft on the spherical file would warn of 1.1 rad defocus).
+DEMO_CONFIG ?= configs/three-points.yaml
 DEMO := $(OUT)/three-points
 
-$(DEMO).h5: configs/three-points.yaml $(VENV)/.installed
+$(DEMO).h5: $(DEMO_CONFIG) $(VENV)/.installed
 	@mkdir -p $(OUT)
 	$(SAR) simulate $< -o $@ --seed 1
 
-$(DEMO)-ff.h5: configs/three-points.yaml $(VENV)/.installed
+$(DEMO)-ff.h5: $(DEMO_CONFIG) $(VENV)/.installed
 	@mkdir -p $(OUT)
 	$(SAR) simulate $< -o $@ --seed 1 --model farfield
 

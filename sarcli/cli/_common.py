@@ -10,7 +10,7 @@ import click
 
 from ..errors import NumericalError, SarcliInputError, SarcliWarning
 
-__all__ = ["handle_errors", "grid_options", "parse_pair", "echo_info"]
+__all__ = ["handle_errors", "grid_options", "export_options", "write_side_outputs", "parse_pair", "echo_info"]
 
 
 def _show_warning(message, category, filename, lineno, file=None, line=None):
@@ -82,3 +82,23 @@ def echo_info(ctx, text):
     """Print informational output unless ``--quiet``."""
     if not (ctx.obj or {}).get("quiet"):
         click.echo(text)
+
+
+def export_options(func):
+    """``--png F`` and ``--geotiff F``: also export the image written by the command."""
+    func = click.option("--geotiff", "tif_path", type=click.Path(dir_okay=False), default=None,
+                        help="Also write a GeoTIFF of the magnitude.")(func)
+    func = click.option("--png", "png_path", type=click.Path(dir_okay=False), default=None,
+                        help="Also write a dB PNG (50 dB, north up).")(func)
+    return func
+
+
+def write_side_outputs(img, png_path=None, tif_path=None):
+    """Write the ``--png`` / ``--geotiff`` shortcuts of a command (atomic, like every output)."""
+    if png_path or tif_path:
+        from ..export import export_image
+
+        if png_path:
+            export_image(img, png_path, kind="db")
+        if tif_path:
+            export_image(img, tif_path, kind="magnitude")

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from ._common import echo_info, grid_options, handle_errors, parse_pair
+from ._common import echo_info, export_options, grid_options, handle_errors, parse_pair, write_side_outputs
 
 
 def window_options(func):
@@ -36,8 +36,7 @@ def window_options(func):
 @click.option("--precision", type=click.Choice(["float64", "float32"]), default="float64", show_default=True,
               help="Backprojection arithmetic.")
 @click.option("--threads", "nthreads", type=int, default=None, help="Threads (default: all cores).")
-@click.option("--png", "png_path", type=click.Path(dir_okay=False), default=None, help="Also write a dB PNG.")
-@click.option("--geotiff", "tif_path", type=click.Path(dir_okay=False), default=None, help="Also write a GeoTIFF.")
+@export_options
 @click.pass_context
 @handle_errors
 def command(ctx, input_path, output, method, window, taylor_nbar, taylor_sll_db, center, extent, pixel_size,
@@ -54,7 +53,7 @@ def command(ctx, input_path, output, method, window, taylor_nbar, taylor_sll_db,
                      eps=eps, kernel=kernel, oversample=oversample, width=width, upsample=upsample,
                      interp=interp, precision=precision, nthreads=nthreads)
     write_image(output, img)
-    _side_outputs(img, png_path, tif_path)
+    write_side_outputs(img, png_path, tif_path)
     echo_info(ctx, f"wrote {output}: {method}, {img.image.shape[1]} x {img.image.shape[0]} pixels, "
                    f"{img.runtime_s:.3g} s")
 
@@ -72,13 +71,3 @@ def _read_input(path, h5py, read_phase_history):
 
         return KGrid.from_hdf5(path)
     return read_phase_history(path)
-
-
-def _side_outputs(img, png_path, tif_path):
-    if png_path or tif_path:
-        from ..export import export_image
-
-        if png_path:
-            export_image(img, png_path, kind="db")
-        if tif_path:
-            export_image(img, tif_path, kind="magnitude")

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from ._common import echo_info, grid_options, handle_errors, parse_pair
+from ._common import echo_info, export_options, grid_options, handle_errors, parse_pair, write_side_outputs
 
 
 @click.command("regularize")
@@ -29,10 +29,11 @@ from ._common import echo_info, grid_options, handle_errors, parse_pair
 @grid_options
 @click.option("--history-png", "history_png", type=click.Path(dir_okay=False), default=None,
               help="Plot objective and relative change against iteration and time.")
+@export_options
 @click.pass_context
 @handle_errors
 def command(ctx, input_path, output, prior, order, lam, beta, iters, tol, operator, anisotropic,
-            reestimate_every, init_path, center, extent, pixel_size, history_png):
+            reestimate_every, init_path, center, extent, pixel_size, history_png, png_path, tif_path):
     """Regularised image of a phase history: min ‖Af − b‖² + λ‖Tf‖₁ (ADMM) or Tikhonov (CG)."""
     from ..io import read_image, read_phase_history, write_image
     from ..progress import progress
@@ -54,6 +55,7 @@ def command(ctx, input_path, output, prior, order, lam, beta, iters, tol, operat
     finally:
         bar.close()
     write_image(output, img)
+    write_side_outputs(img, png_path, tif_path)
     if history_png:
         plot_history(img.history, history_png)
     p = img.parameters
