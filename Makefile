@@ -78,7 +78,7 @@ GOTCHA_FILES := $(wildcard $(GOTCHA)/data_3dsar_pass1_az00*_HH.mat)
 $(OUT)/gotcha.h5: $(GOTCHA_FILES) $(VENV)/.installed
 	@mkdir -p $(OUT)
 	@test -n "$(GOTCHA_FILES)" || { echo "no GOTCHA files in $(GOTCHA)"; exit 2; }
-	$(SAR) import gotcha $(GOTCHA_FILES) -o $@
+	$(SAR) import gotcha $(GOTCHA_FILES) -o $@ --autofocus
 
 $(OUT)/gotcha-bp.h5: $(OUT)/gotcha.h5
 	$(SAR) form-image $< -o $@ --method backprojection --extent 100 --pixel-size 0.25 --png $(OUT)/gotcha-bp.png
