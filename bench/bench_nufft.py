@@ -2,7 +2,7 @@
 
 Times the whole former (weighting, centre phase, wrapping, plan, transform, normalisation) and
 ``finufft.nufft2d1`` alone on the same prepared points with the same eps, in the same run
-(median of ``--repeat`` runs after one warm-up each), and prints a markdown table.
+(medians of ``--repeat`` runs after a warm-up, the two calls alternating so load drift hits both), and prints a markdown table.
 
 Usage: ``python bench/bench_nufft.py [--pulses 512] [--freqs 512] [--n 512] [--eps 1e-9]``
 """
@@ -21,14 +21,16 @@ from sarcli.formers.nufft import FFTW_FLAGS, _wrap, nufft_farfield
 from sarcli.grid import Grid
 
 
-def _median_time(fn, repeat):
-    fn()  # warm-up
-    times = []
+def _interleaved_medians(fa, fb, repeat):
+    """Median times of two calls measured alternately, so load drift hits both equally."""
+    fa(), fb()  # warm-up
+    ta, tb = [], []
     for _ in range(repeat):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return statistics.median(times)
+        for fn, acc in ((fa, ta), (fb, tb)):
+            t0 = time.perf_counter()
+            fn()
+            acc.append(time.perf_counter() - t0)
+    return statistics.median(ta), statistics.median(tb)
 
 
 def main(argv=None):
@@ -37,7 +39,7 @@ def main(argv=None):
     ap.add_argument("--freqs", type=int, default=512)
     ap.add_argument("--n", type=int, default=512, help="image side in pixels")
     ap.add_argument("--eps", type=float, default=1e-9)
-    ap.add_argument("--repeat", type=int, default=5)
+    ap.add_argument("--repeat", type=int, default=21)
     ap.add_argument("--nthreads", type=int, default=None)
     args = ap.parse_args(argv)
 
@@ -58,10 +60,9 @@ def main(argv=None):
     k2 = np.ascontiguousarray(_wrap(ky.ravel() * grid.dy))
     c = np.ascontiguousarray(data.ravel())
 
-    t_raw = _median_time(lambda: finufft.nufft2d1(k2, k1, c, (grid.ny, grid.nx), eps=args.eps,
-                                                  isign=1, **opts), args.repeat)
-    t_sar = _median_time(lambda: nufft_farfield(data, kx, ky, grid, eps=args.eps,
-                                                nthreads=args.nthreads), args.repeat)
+    raw = lambda: finufft.nufft2d1(k2, k1, c, (grid.ny, grid.nx), eps=args.eps, isign=1, **opts)  # noqa: E731
+    ours = lambda: nufft_farfield(data, kx, ky, grid, eps=args.eps, nthreads=args.nthreads)  # noqa: E731
+    t_raw, t_sar = _interleaved_medians(raw, ours, args.repeat)
     print(f"## nufft_farfield vs raw finufft.nufft2d1 ({p} pulses x {m} freqs -> {grid.ny} x {grid.nx}, "
           f"eps {args.eps:g}, median of {args.repeat})\n")
     print("| call | median time (s) |")
