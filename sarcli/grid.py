@@ -11,7 +11,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .errors import SarcliInputError
+
 __all__ = ["Grid", "resolve_grid"]
+
+
+#: Largest grid accepted (pixels): 2^28, i.e. 4 GiB per complex128 image.
+MAX_PIXELS = 1 << 28
 
 
 @dataclass(frozen=True)
@@ -37,9 +43,14 @@ class Grid:
 
     def __post_init__(self):
         if int(self.nx) < 1 or int(self.ny) < 1:
-            raise ValueError(f"grid needs at least one pixel per side, got {self.ny} x {self.nx}")
+            raise SarcliInputError(f"grid needs at least one pixel per side, got {self.ny} x {self.nx}")
         if not (self.dx > 0 and self.dy > 0 and np.isfinite(self.dx) and np.isfinite(self.dy)):
-            raise ValueError(f"pixel size must be positive and finite, got {self.dx}, {self.dy}")
+            raise SarcliInputError(f"pixel size must be positive and finite, got {self.dx}, {self.dy}")
+        if int(self.nx) * int(self.ny) > MAX_PIXELS:
+            raise SarcliInputError(
+                f"grid of {self.ny} x {self.nx} pixels is too large (> {MAX_PIXELS:.3g} pixels, "
+                f"{16 * int(self.nx) * int(self.ny) / 2**30:.3g} GiB as complex128): reduce --extent or "
+                "increase --pixel-size")
 
     # -- constructors -------------------------------------------------------------------------
     @classmethod
@@ -141,9 +152,13 @@ def resolve_grid(default: Grid, *, center=None, extent=None, pixel_size=None) ->
     h = default.dx if pixel_size is None else float(pixel_size)
     ext = default.extent if extent is None else extent
     if pixel_size is not None and not (h > 0 and np.isfinite(h)):
-        raise ValueError(f"pixel size must be positive, got {pixel_size}")
+        raise SarcliInputError(f"--pixel-size must be a positive number of metres, got {pixel_size}")
     if extent is not None:
         w, hh = (ext, ext) if np.isscalar(ext) else ext
-        if not (w > 0 and hh > 0):
-            raise ValueError(f"extent must be positive, got {extent}")
+        if not (w > 0 and hh > 0 and np.isfinite(w) and np.isfinite(hh)):
+            raise SarcliInputError(f"--extent must be positive side lengths in metres, got {extent}")
+        if (w / h) * (hh / h) > MAX_PIXELS:
+            raise SarcliInputError(f"--extent {w:g} x {hh:g} m at {h:g} m pixels is "
+                                   f"{(w / h) * (hh / h):.3g} pixels (more than {MAX_PIXELS:.3g}): "
+                                   "reduce --extent or increase --pixel-size")
     return Grid.from_extent(ext, h, center=c)

@@ -142,3 +142,20 @@ def test_cli_form_image_and_regrid(tmp_path, ff):
     assert res.exit_code == 2 and "k-grid" in res.output and not (tmp_path / "x.h5").exists()
     res = run(cli, ["form-image", str(phf), "-o", str(tmp_path / "y.h5"), "--extent", "a,b"])
     assert res.exit_code == 2 and "--extent" in res.output
+
+
+@pytest.mark.parametrize("args,needle", [
+    (["--pixel-size", "-1"], "--pixel-size"),
+    (["--extent", "0"], "--extent"),
+    (["--extent", "1e5", "--pixel-size", "0.001"], "pixels (more than"),
+    (["--eps", "5"], "--eps"),
+])
+def test_cli_bad_grid_and_knobs_one_line(tmp_path, ff, args, needle):
+    ph, _ = ff
+    phf = tmp_path / "ph.h5"
+    sarcli.write_phase_history(phf, ph)
+    out = tmp_path / "img.h5"
+    res = CliRunner().invoke(cli, ["form-image", str(phf), "-o", str(out), *args])
+    assert res.exit_code == 2, res.output
+    assert "Traceback" not in res.output and needle in res.output
+    assert len(res.output.strip().splitlines()) == 1 and not out.exists()

@@ -19,6 +19,7 @@ import finufft
 import numba
 import numpy as np
 
+from ..errors import SarcliInputError
 from .direct import _check_kspace, weighted_samples
 
 __all__ = ["nufft_farfield", "FFTW_FLAGS"]
@@ -88,7 +89,7 @@ def nufft_farfield(data, kx, ky, grid, weights=None, *, eps=1e-9, nthreads=None,
     if isinstance(flag, str):
         raise ValueError(f"unknown fftw planner {fftw!r}; choose one of {', '.join(FFTW_FLAGS)}")
     if not (0 < eps < 1):
-        raise ValueError(f"eps must lie in (0, 1), got {eps}")
+        raise SarcliInputError(f"NUFFT --eps must lie in (0, 1), got {eps}")
     c, k1, k2 = _prepare(np.ascontiguousarray(wd).ravel(), np.ascontiguousarray(kx).ravel(),
                          np.ascontiguousarray(ky).ravel(), float(grid.dx), float(grid.dy),
                          float(grid.cx), float(grid.cy))
