@@ -386,8 +386,9 @@ def write_csv(result: BenchResult, path) -> Path:
 
 
 def plot(result: BenchResult, path, *, title: str = "") -> Path:
-    """``error_vs_time.png``: error vs time (log-log), one marker per method, Pareto front drawn;
-    a second panel with the error to the truth when one is known."""
+    """``error_vs_time.png``: error vs time (log-log), one marker per method, each method's own
+    frontier drawn thin in its colour and the overall Pareto front in black; a second panel with
+    the error to the truth when one is known."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -408,12 +409,16 @@ def plot(result: BenchResult, path, *, title: str = "") -> Path:
             if not pts:
                 continue
             t, e = np.array(pts).T
-            ax.loglog(t, np.maximum(e, floor), markers.get(m, "DvPX"[i % 4]), ls="none", alpha=0.75, label=m)
+            e = np.maximum(e, floor)
+            (line,) = ax.loglog(t, e, markers.get(m, "DvPX"[i % 4]), ls="none", alpha=0.75, label=m)
+            own = pareto_front(e, t)
+            if own.size > 1:  # the method's own frontier, in its colour
+                ax.step(t[own], e[own], where="post", color=line.get_color(), lw=0.8, alpha=0.6)
         err = np.array([max(getattr(r, attr), floor) if np.isfinite(getattr(r, attr)) else np.nan for r in rows])
         sec = np.array([r.seconds for r in rows])
         front = pareto_front(err, sec)
         if front.size:
-            ax.step(sec[front], err[front], where="post", color="k", lw=1, label="Pareto front")
+            ax.step(sec[front], err[front], where="post", color="k", lw=1.5, label="Pareto front (all)")
         ax.set_xlabel("run time (s, median)")
         ax.set_ylabel(label)
         ax.grid(True, which="both", alpha=0.3)
