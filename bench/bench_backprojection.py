@@ -37,9 +37,9 @@ from pathlib import Path
 import numba
 import numpy as np
 
-from sarcli import geometry
+from sarcli.core import geometry
 from sarcli.formers.backprojection import backproject
-from sarcli.grid import Grid
+from sarcli.core.grid import Grid
 
 ANCHOR = Path("/work/shared/bench/bp_anchor.c")
 
@@ -83,7 +83,7 @@ _COMPILE_SNIPPET = """
 import time, numpy as np
 t0 = time.perf_counter()
 from sarcli.formers.backprojection import backproject
-from sarcli.grid import Grid
+from sarcli.core.grid import Grid
 t1 = time.perf_counter()
 a = np.array([[-1e4, 0.0, 5e3], [-1e4, 10.0, 5e3]]); r0 = np.linalg.norm(a, axis=1)
 f = 1e10 + 1e6 * np.arange(8); d = np.ones((2, 8), complex)

@@ -7,7 +7,7 @@ times, the throughput ratio, the load average and the CPU share each job got (``
 below 1 when other processes competed for the cores), and the ratio of the CPU the 2 workers got to
 what the single worker got, against which the throughput ratio is judged on a busy machine.
 Then times one backprojection job on one GOTCHA file (``.mat``, default 100 m grid at 0.25 m, one
-thread) when ``sarcli.gotcha`` and ``../shared/data/gotcha`` exist, else a comparable simulated job,
+thread) when ``sarcli.io.gotcha`` and ``../shared/data/gotcha`` exist, else a comparable simulated job,
 and projects a 360-file pass on N workers from its CPU seconds.
 
 Usage: ``python bench/bench_batch.py [--jobs 8] [--pulses 512] [--freqs 512] [--n 384]``
@@ -26,8 +26,8 @@ from pathlib import Path
 import numpy as np
 
 import sarcli
-from sarcli.batch import Job, parse_plan, run_job, run_plan
-from sarcli.config import parse_acquisition
+from sarcli.batch.run import Job, parse_plan, run_job, run_plan
+from sarcli.io.config import parse_acquisition
 
 GOTCHA_DIR = Path(__file__).resolve().parents[2] / "shared" / "data" / "gotcha"
 
@@ -60,7 +60,7 @@ def _timed_run(plan, out, n_workers):
 def _gotcha_job_cost(tmp, repeat=3):
     files = sorted(GOTCHA_DIR.glob("*.mat"))
     try:
-        import sarcli.gotcha  # noqa: F401
+        import sarcli.io.gotcha  # noqa: F401
     except ImportError:
         files = []
     if files:

@@ -16,9 +16,9 @@ import time
 import finufft
 import numpy as np
 
-from sarcli import geometry
+from sarcli.core import geometry
 from sarcli.formers.nufft import FFTW_FLAGS, _wrap, nufft_farfield
-from sarcli.grid import Grid
+from sarcli.core.grid import Grid
 
 
 def _interleaved_medians(fa, fb, repeat):

@@ -26,9 +26,9 @@ from pathlib import Path
 import numpy as np
 import scipy.fft
 
-from sarcli import geometry
+from sarcli.core import geometry
 from sarcli.errors import ConvergenceWarning
-from sarcli.grid import Grid
+from sarcli.core.grid import Grid
 from sarcli.linops import NufftOperator, normal_equations, sparsifying_operator
 from sarcli.regularize import DEFAULT_BETA_RATIO, DEFAULT_LAM, scale_problem
 from sarcli.solvers import ADMM
@@ -108,9 +108,9 @@ def toeplitz_vs_nufft(sizes, samples, eps, repeat):
 
 
 def shepp_logan(tol):
-    from sarcli.config import load_acquisition
+    from sarcli.io.config import load_acquisition
     from sarcli.regularize import regularize
-    from sarcli.simulate import simulate
+    from sarcli.simulation.simulator import simulate
 
     acq = load_acquisition(REPO / "configs" / "shepp-logan.yaml")
     ph = simulate(acq)

@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from sarcli.formers.backprojection import backproject
-from sarcli.gotcha import default_gotcha_grid, read_gotcha
+from sarcli.io.gotcha import default_gotcha_grid, read_gotcha
 
 
 def focus(img):

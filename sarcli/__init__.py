@@ -6,9 +6,16 @@ Public API (function-first; the ``sar`` CLI only calls these):
 - :func:`simulate` — acquisition -> :class:`PhaseHistory`
 - :func:`read_phase_history`, :func:`write_phase_history` — the HDF5 phase-history contract
 - :func:`read_image`, :func:`write_image` — the HDF5 image contract
+- :func:`open_input` — any file sarcli reads, recognised by its content
 - :func:`form_image` — phase history -> :class:`Image` (direct, nufft, pfa, backprojection)
+- :func:`regularize` — phase history -> regularised :class:`Image` (TV, HOTV, ℓ1, ptv, Tikhonov)
 
-Names are imported lazily so ``import sarcli`` stays cheap.
+The layers, bottom up: :mod:`sarcli.core` (geometry, acquisition, grid, windows, data types; no
+I/O), :mod:`sarcli.io` (every file format), :mod:`sarcli.simulation`, :mod:`sarcli.formers`,
+:mod:`sarcli.linops` / :mod:`sarcli.solvers` / :mod:`sarcli.regularize`, :mod:`sarcli.analysis`,
+:mod:`sarcli.viz` (every figure), :mod:`sarcli.batch` and :mod:`sarcli.cli`.
+
+Names and subpackages are imported lazily so ``import sarcli`` stays cheap.
 """
 
 from __future__ import annotations
@@ -18,32 +25,37 @@ import importlib
 from ._version import __version__
 
 _LAZY = {
-    "Acquisition": "acquisition",
-    "Grid": "grid",
-    "resolve_grid": "grid",
-    "load_acquisition": "config",
-    "parse_acquisition": "config",
-    "PhaseHistory": "io",
-    "Image": "io",
-    "Truth": "io",
-    "read_phase_history": "io",
-    "write_phase_history": "io",
-    "read_image": "io",
-    "write_image": "io",
-    "form_image": "formation",
+    "Acquisition": "core.acquisition",
+    "Grid": "core.grid",
+    "resolve_grid": "core.grid",
+    "PhaseHistory": "core.types",
+    "Image": "core.types",
+    "Truth": "core.types",
+    "KGrid": "core.types",
+    "load_acquisition": "io.config",
+    "parse_acquisition": "io.config",
+    "read_phase_history": "io.hdf5",
+    "write_phase_history": "io.hdf5",
+    "read_image": "io.hdf5",
+    "write_image": "io.hdf5",
+    "open_input": "io",
+    "simulate": "simulation.simulator",
+    "form_image": "formers.formation",
+    "regrid": "formers.formation",
 }
 
-# ``simulate`` is both a submodule and its main function: bind the function eagerly so that
-# ``sarcli.simulate(...)`` works whichever is imported first.
-from .simulate import simulate  # noqa: E402
+_SUBPACKAGES = ("core", "io", "simulation", "formers", "linops", "solvers", "analysis", "batch", "cli",
+                "viz", "errors")
 
-__all__ = ["__version__", "simulate", *_LAZY]
+__all__ = ["__version__", *_LAZY]
 
 
 def __getattr__(name):
     if name in _LAZY:
         module = importlib.import_module(f".{_LAZY[name]}", __name__)
         return getattr(module, name)
+    if name in _SUBPACKAGES:
+        return importlib.import_module(f".{name}", __name__)
     raise AttributeError(f"module 'sarcli' has no attribute {name!r}")
 
 

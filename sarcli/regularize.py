@@ -31,16 +31,17 @@ import warnings
 
 import numpy as np
 
+from .core import geometry
 from .errors import DefocusWarning, SarcliInputError
-from .grid import Grid, resolve_grid
-from .io import Image, PhaseHistory
+from .core.grid import Grid, resolve_grid
+from .core.types import Image, PhaseHistory
 from .linops import (NufftOperator, SphericalOperator, gram_eigmax, normal_equations,
                      sparsifying_operator)
 from .linops.finite_diff import FiniteDifference
 from .solvers import ADMM, tikhonov
 
 __all__ = ["regularize", "PRIORS", "OPERATORS", "DEFAULT_LAM", "DEFAULT_BETA_RATIO",
-           "matched_filter", "scale_problem", "plot_history"]
+           "matched_filter", "scale_problem"]
 
 PRIORS = ("l1", "tv", "hotv", "ptv", "tikhonov")
 OPERATORS = ("auto", "nufft", "toeplitz", "spherical")
@@ -50,7 +51,7 @@ DEFAULT_LAM = {"l1": 0.05, "tv": 0.02, "hotv": 0.02, "ptv": 0.02, "tikhonov": 0.
 #: the reference solver's β = 2⁵ (with its data term μ/2 = 1/λ).
 DEFAULT_BETA_RATIO = 32.0
 #: Phase error (rad) above which 'auto' picks the spherical pair (and a far-field pair warns).
-DEFOCUS_WARN_RAD = 0.1
+DEFOCUS_WARN_RAD = geometry.DEFOCUS_WARN_RAD
 
 
 def _choose_operator(ph: PhaseHistory, grid: Grid, operator: str) -> tuple[str, float]:
@@ -132,7 +133,7 @@ def regularize(ph: PhaseHistory, *, prior: str = "ptv", order: int = 1, lam: flo
     grid : Grid, optional
         Image grid; default the acquisition's, modified by ``center``/``extent``/``pixel_size``.
     center, extent, pixel_size : optional
-        Grid overrides (m), as for :func:`sarcli.formation.form_image`.
+        Grid overrides (m), as for :func:`sarcli.formers.formation.form_image`.
     init : ndarray or Image, optional
         Initial image (physical units); for 'ptv' also the f0 whose phases define Θ
         (default f0: the matched filter).
@@ -227,38 +228,3 @@ def regularize(ph: PhaseHistory, *, prior: str = "ptv", order: int = 1, lam: flo
     params["iterations"] = int(len(hist.get("objective", [])))
     return Image(f, grid.x, grid.y, method=f"regularize-{prior}", parameters=params,
                  runtime_s=time.perf_counter() - t0, history=hist)
-
-
-def plot_history(history: dict, path) -> None:
-    """Plot objective and relative change against iteration and elapsed time (PNG, atomic).
-
-    Parameters
-    ----------
-    history : dict of str -> ndarray
-        An :class:`~sarcli.io.Image`'s ``history`` (needs ``objective``, ``relative_change``,
-        ``elapsed_s``).
-    path : str or Path
-    """
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from ._atomic import atomic_path
-
-    if not history or "objective" not in history:
-        raise SarcliInputError("the image has no iteration history to plot")
-    obj = np.asarray(history["objective"])
-    rel = np.asarray(history.get("relative_change", np.full(obj.size, np.nan)))
-    t = np.asarray(history.get("elapsed_s", np.arange(obj.size)))
-    it = np.arange(1, obj.size + 1)
-    fig, axes = plt.subplots(2, 2, figsize=(9, 6), constrained_layout=True)
-    for col, (xv, xlabel) in enumerate([(it, "iteration"), (t, "elapsed (s)")]):
-        axes[0, col].semilogy(xv, np.maximum(obj, np.finfo(float).tiny))
-        axes[0, col].set_ylabel("objective")
-        axes[1, col].semilogy(xv, np.maximum(rel, np.finfo(float).tiny))
-        axes[1, col].set_ylabel("relative change")
-        axes[1, col].set_xlabel(xlabel)
-    with atomic_path(path) as tmp:
-        fig.savefig(tmp, format="png", dpi=100)
-    plt.close(fig)

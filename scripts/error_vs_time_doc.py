@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from sarcli.benchmark import pareto_front
+from sarcli.analysis.benchmark import pareto_front
 
 COMMANDS = {
     "three-points": "sar bench configs/three-points.yaml -o docs/bench/three-points --repeat 3",

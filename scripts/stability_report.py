@@ -60,7 +60,7 @@ def _load(config):
 
 def _form(ph, method, **kw):
     """Form an image; returns (image or None, warnings, exception or None)."""
-    from sarcli.formation import form_image
+    from sarcli.formers.formation import form_image
 
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
@@ -71,7 +71,7 @@ def _form(ph, method, **kw):
 
 
 def _err(a, b):
-    from sarcli.formation import image_error
+    from sarcli.formers.formation import image_error
 
     return image_error(a, b)
 
@@ -124,7 +124,7 @@ def case_circular():
     out.append(Outcome("pfa", "warning: " + (msgs[0][:110] if msgs else "none"), float(len(msgs)),
                        "warns (SarcliWarning) that the keystone picture fails", bool(msgs) and exc is None))
     out.append(_bounded("pfa", img, ref, 1e-4, exc))
-    from sarcli.formation import regrid
+    from sarcli.formers.formation import regrid
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
@@ -137,7 +137,7 @@ def case_circular():
 
 
 def case_near_field():
-    from sarcli import geometry
+    from sarcli.core import geometry
     from sarcli.errors import DefocusWarning
 
     ph, _ = _load("04-near-field.yaml")
@@ -390,7 +390,7 @@ CASES = [
 
 def _valid_file(path):
     """A small valid phase-history file (case 11a's acquisition)."""
-    from sarcli.io import write_phase_history
+    from sarcli.io.hdf5 import write_phase_history
 
     ph, _ = _load("11-low-snr.yaml")
     write_phase_history(path, ph)
@@ -572,7 +572,7 @@ def main(argv=None):
     out = Path(args.output)
     out.parent.mkdir(parents=True, exist_ok=True)
     sys.path.insert(0, str(ROOT))
-    from sarcli._atomic import atomic_path
+    from sarcli._util.atomic import atomic_path
 
     with atomic_path(out) as tmp_path:
         tmp_path.write_text(text)

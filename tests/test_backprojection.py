@@ -10,11 +10,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from sarcli import geometry
+from sarcli.core import geometry
 from sarcli.errors import AliasingWarning, SarcliInputError
 from sarcli.formers.backprojection import (DEFAULT_INTERP, DEFAULT_UPSAMPLE, backproject,
                                            profile_length, reproject)
-from sarcli.grid import Grid
+from sarcli.core.grid import Grid
 
 GRID = Grid.square(10.0, 80)  # 20 m x 20 m, 0.25 m pixels
 
@@ -199,7 +199,7 @@ def test_polynomial_carrier_matches_libm():
     """The vectorisable sine/cosine of the carrier, against numpy in float64."""
     import numba
 
-    from sarcli.formers.backprojection import _sincos
+    from sarcli.formers._bp_kernels import _sincos
 
     @numba.njit
     def both(x):

@@ -15,12 +15,13 @@ import yaml
 from click.testing import CliRunner
 
 import sarcli
-from sarcli.batch import load_plan, parse_plan, run_job, run_plan, subaperture_windows, tile_layout
+from sarcli.batch.run import load_plan, parse_plan, run_job, run_plan, subaperture_windows, tile_layout
 from sarcli.cli.main import cli
-from sarcli.config import parse_acquisition
+from sarcli.io.config import parse_acquisition
 from sarcli.errors import ConfigError
-from sarcli.formation import form_image, image_error
-from sarcli.io import PhaseHistory, read_image, read_phase_history
+from sarcli.formers.formation import form_image, image_error
+from sarcli.core.types import PhaseHistory
+from sarcli.io.hdf5 import read_image, read_phase_history
 
 from .conftest import CONFIGS, GOTCHA_DIR, small_config
 
@@ -231,7 +232,7 @@ def test_gotcha_file_job_serial(tmp_path):
     files = sorted(GOTCHA_DIR.glob("*.mat"))
     if not files:
         pytest.skip(f"GOTCHA files not found in {GOTCHA_DIR} (the shared data folder is absent)")
-    from sarcli.gotcha import read_gotcha
+    from sarcli.io.gotcha import read_gotcha
 
     plan = _write_plan(tmp_path / "g.yaml", {"jobs": [{"input": str(GOTCHA_DIR / "*.mat"), "method": "backprojection",
                                                        "grid": {"extent": 20.0, "pixel_size": 0.5}}]})

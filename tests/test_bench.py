@@ -1,4 +1,4 @@
-"""``sarcli.benchmark`` and ``sar bench``: error against run time, Pareto front, CSV/PNG."""
+"""``sarcli.analysis.benchmark`` and ``sar bench``: error against run time, Pareto front, CSV/PNG."""
 
 from __future__ import annotations
 
@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from sarcli import benchmark as bm
+from sarcli.analysis import benchmark as bm
+from sarcli.viz import plot_benchmark
 from sarcli.cli.main import cli
 
 from .conftest import small_config
@@ -106,7 +107,7 @@ def test_csv_png_and_table(ph, tmp_path):
     rows = list(csv.DictReader(line for line in lines if not line.startswith("#")))
     assert tuple(rows[0]) == bm.CSV_COLUMNS and len(rows) == 3
     assert float(rows[1]["error"]) == pytest.approx(res.rows[1].error, rel=1e-5)
-    png = bm.plot(res, tmp_path / "error_vs_time.png")
+    png = plot_benchmark(res, tmp_path / "error_vs_time.png")
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 10_000
     table = bm.format_table(res)
     assert "nufft" in table and "eps=0.001" in table

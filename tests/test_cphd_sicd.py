@@ -8,13 +8,14 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from sarcli import geometry
-from sarcli.acquisition import Acquisition
+from sarcli.core import geometry
+from sarcli.core.acquisition import Acquisition
 from sarcli.cli.main import cli
-from sarcli.cphd import read_cphd, write_cphd
+from sarcli.io.cphd import read_cphd, write_cphd
 from sarcli.errors import InputFileError, SarcliInputError
-from sarcli.grid import Grid
-from sarcli.io import PhaseHistory, Truth, read_phase_history, write_phase_history
+from sarcli.core.grid import Grid
+from sarcli.core.types import PhaseHistory, Truth
+from sarcli.io.hdf5 import read_phase_history, write_phase_history
 
 pytestmark = [
     # a schema-invalid SICD makes sarkit's NitfWriter warn: treat that as a failure
@@ -94,7 +95,7 @@ def test_cphd_passes_sarkit_consistency(tmp_path):
 def _form(ph, grid):
     """form_image when the lead's module exists, else the brute-force matched filter."""
     try:
-        from sarcli.formation import form_image
+        from sarcli.formers.formation import form_image
     except ImportError:
         return matched_filter(ph, grid)
     return np.asarray(form_image(ph, method="direct", grid=grid).image)
@@ -169,7 +170,7 @@ def _sicd_case(look_azimuth_rad, attrs=OHIO):
     ph = PhaseHistory(np.zeros((P, M), np.complex64), acq, attrs=dict(attrs or {}))
     rng = np.random.default_rng(3)
     im = (rng.standard_normal(grid.shape) + 1j * rng.standard_normal(grid.shape)).astype(np.complex64)
-    from sarcli.io import Image
+    from sarcli.core.types import Image
 
     return Image(im, grid.x, grid.y, method="backprojection", attrs=dict(attrs or {})), ph
 
@@ -192,8 +193,8 @@ def _sicd_failures(path):
 def test_sicd_round_trip_and_consistency(tmp_path, look_deg, row_name, to_sicd):
     import sarkit.sicd as sksicd
 
-    from sarcli.export import export_image
-    from sarcli.export.sicd import read_sicd
+    from sarcli.io.export import export_image
+    from sarcli.io.sicd import read_sicd
 
     img, ph = _sicd_case(np.radians(look_deg))
     out = tmp_path / "a.sicd"
@@ -223,7 +224,7 @@ def test_sicd_round_trip_and_consistency(tmp_path, look_deg, row_name, to_sicd):
 def test_sicd_without_phase_history_is_nominal_and_consistent(tmp_path):
     import sarkit.sicd as sksicd
 
-    from sarcli.export.sicd import write_sicd
+    from sarcli.io.sicd import write_sicd
 
     img, _ = _sicd_case(0.0, attrs=None)
     out = tmp_path / "n.nitf"
@@ -238,8 +239,8 @@ def test_sicd_without_phase_history_is_nominal_and_consistent(tmp_path):
 
 
 def test_sicd_rejects_real_kinds_and_corrupt_input(tmp_path):
-    from sarcli.export import export_image
-    from sarcli.io import write_image
+    from sarcli.io.export import export_image
+    from sarcli.io.hdf5 import write_image
 
     img, ph = _sicd_case(-np.pi / 2)
     with pytest.raises(SarcliInputError, match="complex"):
@@ -274,7 +275,7 @@ def test_cphd_round_trip_gotcha(tmp_path):
     files = sorted(GOTCHA.glob("data_3dsar_pass1_az001_HH.mat")) if GOTCHA.is_dir() else []
     if not files:
         pytest.skip(f"GOTCHA data not found at {GOTCHA}")
-    from sarcli.gotcha import read_gotcha
+    from sarcli.io.gotcha import read_gotcha
 
     ph = read_gotcha(files, autofocus=True)
     ph = PhaseHistory(ph.data, ph.acquisition, attrs={**ph.attrs, **OHIO})
@@ -298,7 +299,7 @@ def test_cphd_round_trip_gotcha(tmp_path):
 def test_sicd_window_broadens_impulse_response_width(tmp_path):
     import sarkit.sicd as sksicd
 
-    from sarcli.export.sicd import write_sicd
+    from sarcli.io.sicd import write_sicd
 
     img, ph = _sicd_case(-np.pi / 2)
     widths = {}

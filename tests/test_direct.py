@@ -3,10 +3,10 @@
 import numpy as np
 import pytest
 
-from sarcli import geometry
+from sarcli.core import geometry
 from sarcli.formers.direct import direct_farfield, direct_spherical
-from sarcli.grid import Grid
-from sarcli.windows import window_weights
+from sarcli.core.grid import Grid
+from sarcli.core.windows import window_weights
 
 
 def _tiny(p=5, m=4, r0=2.0e3):

@@ -11,11 +11,12 @@ from click.testing import CliRunner
 
 from sarcli.cli.main import cli
 from sarcli.errors import SarcliInputError
-from sarcli.export import export_image
-from sarcli.export.geotiff import LOCAL_CITATION
-from sarcli.export.georef import utm_epsg
-from sarcli.grid import Grid
-from sarcli.io import Image, write_image
+from sarcli.io.export import export_image
+from sarcli.io.geotiff import LOCAL_CITATION
+from sarcli.io.georef import utm_epsg
+from sarcli.core.grid import Grid
+from sarcli.core.types import Image
+from sarcli.io.hdf5 import write_image
 
 NORTH_POINT = (10.0, 30.0)  # x east, y north (m): a point well north of the centre
 
@@ -156,7 +157,7 @@ def test_cli_export(tmp_path):
 
 
 def test_georef_enu_ecf_and_utm_zones():
-    from sarcli.export.georef import DEFAULT_REFERENCE, ReferencePoint, ecf_to_enu, enu_to_ecf, reference_point
+    from sarcli.io.georef import DEFAULT_REFERENCE, ReferencePoint, ecf_to_enu, enu_to_ecf, reference_point
 
     # at 0N 0E: east is +Y, north is +Z, up is +X of ECF; the origin sits on the equator, a = 6378137 m
     enu = np.array([[0, 0, 0], [10.0, 0, 0], [0, 20.0, 0], [0, 0, 30.0]])

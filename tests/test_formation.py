@@ -10,7 +10,7 @@ from click.testing import CliRunner
 import sarcli
 from sarcli.cli.main import cli
 from sarcli.errors import DefocusWarning
-from sarcli.formation import image_error
+from sarcli.formers.formation import image_error
 
 from .conftest import CONFIGS
 
@@ -62,7 +62,7 @@ def test_farfield_method_on_spherical_data_warns_with_phase_error(sph):
 @pytest.mark.parametrize("method", ["direct", "nufft", "pfa", "backprojection"])
 def test_unit_points_on_pixel_centres_peak_at_one(ff, sph, method):
     """Each target alone (another target's sidelobes would shift the peak by ~1e-3)."""
-    from sarcli.simulate import point_phase_history
+    from sarcli.simulation.simulator import point_phase_history
 
     ph0 = sph[0] if method in ("direct", "backprojection") else ff[0]
     acq = ph0.acquisition
@@ -101,7 +101,7 @@ def test_random_extended_scene(ff):
     rng = np.random.default_rng(4)
     pts = np.column_stack([rng.uniform(-4, 4, 300), rng.uniform(-4, 4, 300), np.zeros(300)])
     amp = rng.standard_normal(300) + 1j * rng.standard_normal(300)
-    from sarcli.simulate import point_phase_history
+    from sarcli.simulation.simulator import point_phase_history
 
     for model in ("farfield", "spherical"):
         ph = sarcli.PhaseHistory(point_phase_history(acq, pts, amp, model=model), acq.with_(model=model))

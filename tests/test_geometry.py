@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import sarcli
-from sarcli import geometry
+from sarcli.core import geometry
 
 from .conftest import CONFIGS
 

@@ -13,10 +13,10 @@ from click.testing import CliRunner
 
 from sarcli.cli.main import cli
 from sarcli.errors import InputFileError
-from sarcli.geometry import angles_from_positions
-from sarcli.gotcha import read_gotcha
-from sarcli.grid import Grid
-from sarcli.io import read_phase_history
+from sarcli.core.geometry import angles_from_positions
+from sarcli.io.gotcha import read_gotcha
+from sarcli.core.grid import Grid
+from sarcli.io.hdf5 import read_phase_history
 
 GOTCHA = Path(__file__).resolve().parents[2] / "shared" / "data" / "gotcha"
 REAL = [GOTCHA / f"data_3dsar_pass1_az00{i}_HH.mat" for i in (1, 2)]

@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from sarcli import geometry
-from sarcli.acquisition import Acquisition
-from sarcli.grid import Grid
+from sarcli.core import geometry
+from sarcli.core.acquisition import Acquisition
+from sarcli.core.grid import Grid
 from sarcli.linops import (Diagonal, FiniteDifference, Identity, MatrixLinop, NufftOperator,
                            SphericalOperator, SubsampledDFT, gram_eigmax, phase_operator,
                            power_norm, sparsifying_operator)

@@ -8,12 +8,13 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from sarcli import geometry
-from sarcli.acquisition import Acquisition
+from sarcli.core import geometry
+from sarcli.core.acquisition import Acquisition
 from sarcli.cli.main import cli
-from sarcli.grid import Grid
-from sarcli.io import Image, PhaseHistory, write_image, write_phase_history
-from sarcli.plots import plot_image_fft, plot_kspace, plot_psf_cuts
+from sarcli.core.grid import Grid
+from sarcli.core.types import Image, PhaseHistory
+from sarcli.io.hdf5 import write_image, write_phase_history
+from sarcli.viz import plot_image_fft, plot_kspace, plot_psf_cuts
 
 CONFIGS = Path(__file__).resolve().parents[1] / "configs"
 
@@ -33,7 +34,7 @@ def _png_ok(path):
 
 
 def test_psf_cuts_widths_match_prediction(tmp_path):
-    from sarcli.psf import predicted_ipr, psf_image
+    from sarcli.analysis.psf import predicted_ipr, psf_image
 
     acq = _acq(0.0)  # range along x, cross-range along y
     out = plot_psf_cuts(psf_image(acq), tmp_path / "cuts.png")
@@ -90,7 +91,7 @@ def test_image_fft_finds_a_plane_wave(tmp_path):
 
 
 def test_cli_plot(tmp_path):
-    from sarcli.psf import psf_image
+    from sarcli.analysis.psf import psf_image
 
     runner = CliRunner()
     acq = _acq(0.3)

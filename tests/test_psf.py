@@ -7,13 +7,13 @@ import pytest
 from click.testing import CliRunner
 from scipy.signal import windows as sw
 
-from sarcli import geometry
-from sarcli.acquisition import Acquisition
+from sarcli.core import geometry
+from sarcli.core.acquisition import Acquisition
 from sarcli.cli.main import cli
 from sarcli.errors import SarcliInputError
-from sarcli.grid import Grid
-from sarcli.io import read_image
-from sarcli.psf import dirichlet_ratio, kernel_at, predicted_ipr, psf_image, psf_kernel
+from sarcli.core.grid import Grid
+from sarcli.io.hdf5 import read_image
+from sarcli.analysis.psf import dirichlet_ratio, kernel_at, predicted_ipr, psf_image, psf_kernel
 
 F = np.linspace(9.7e9, 10.3e9, 48)
 AZ = np.radians(np.linspace(48.5, 51.5, 24))
@@ -125,7 +125,8 @@ def test_psf_image_peaks_at_the_grid_centre():
 
 
 def test_cli_psf_writes_an_image_and_png(tmp_path):
-    from sarcli.io import PhaseHistory, write_phase_history
+    from sarcli.core.types import PhaseHistory
+    from sarcli.io.hdf5 import write_phase_history
 
     acq = _acq()
     ph_path = tmp_path / "ph.h5"
@@ -144,7 +145,7 @@ def test_cli_psf_writes_an_image_and_png(tmp_path):
 
 
 def test_cli_psf_taylor_window(tmp_path, write_config):
-    pytest.importorskip("sarcli.windows")
+    pytest.importorskip("sarcli.core.windows")
     from .conftest import small_config
 
     cfg = write_config(small_config(image={"half_width_m": 1.0, "pixels": 16}))
@@ -157,7 +158,7 @@ def test_cli_psf_taylor_window(tmp_path, write_config):
 
 
 def test_predicted_weighted_cut_matches_direct_sum():
-    from sarcli.psf import _weighted_cut
+    from sarcli.analysis.psf import _weighted_cut
 
     w = np.outer(sw.taylor(AZ.size, nbar=4, sll=35), sw.taylor(F.size, nbar=4, sll=35))
     theta, step = 0.9, 0.013
@@ -184,7 +185,7 @@ def test_predicted_ipr_on_gotcha_geometry_matches_the_textbook():
     files = sorted(GOTCHA.glob("data_3dsar_pass1_az00*_HH.mat")) if GOTCHA.is_dir() else []
     if not files:
         pytest.skip(f"GOTCHA data not found at {GOTCHA}")
-    gotcha = pytest.importorskip("sarcli.gotcha")
+    gotcha = pytest.importorskip("sarcli.io.gotcha")
     acq = gotcha.read_gotcha(files[:1]).acquisition
     pred = predicted_ipr(acq)
     # float32-stored frequencies are not exactly equally spaced: the exact sum is used
@@ -200,7 +201,7 @@ def test_predicted_ipr_on_gotcha_geometry_matches_the_textbook():
 def test_window_textbook_matches_harris_1978(kind, irw, pslr):
     # F. J. Harris, "On the use of windows for harmonic analysis with the DFT", Proc. IEEE 66 (1978),
     # Table 1: 3-dB bandwidth (bins) and highest sidelobe level (dB)
-    from sarcli.psf import window_textbook
+    from sarcli.analysis.psf import window_textbook
 
     factor, got_pslr, _ = window_textbook(kind)
     assert factor == pytest.approx(irw, abs=0.01)

@@ -10,14 +10,16 @@ import yaml
 from click.testing import CliRunner
 from scipy.signal import windows as sw
 
-from sarcli import geometry
-from sarcli.acquisition import Acquisition
+from sarcli.core import geometry
+from sarcli.core.acquisition import Acquisition
 from sarcli.cli.main import cli
 from sarcli.errors import SarcliInputError
-from sarcli.grid import Grid
-from sarcli.io import Image, PhaseHistory, Truth, write_image, write_phase_history
-from sarcli.psf import predicted_ipr
-from sarcli.quality import image_quality, measure_ipr, profile_metrics
+from sarcli.core.grid import Grid
+from sarcli.core.types import Image, PhaseHistory, Truth
+from sarcli.io.hdf5 import write_image, write_phase_history
+from sarcli.analysis.psf import predicted_ipr
+from sarcli.analysis.quality import image_quality, measure_ipr
+from sarcli.analysis.ipr import profile_metrics
 
 # the three-points demo (configs/three-points.yaml) at a reduced size: 128 frequencies, 64 pulses
 F = np.linspace(9.7e9, 10.3e9, 128)
@@ -157,9 +159,9 @@ def test_cli_quality_with_a_config(tmp_path):
 @pytest.mark.parametrize("window", ["none", "taylor"])
 def test_simulated_three_points_through_form_image(window, write_config):
     """End to end: YAML -> simulate (spherical) -> direct matched filter -> measured vs predicted."""
-    from sarcli.config import load_acquisition
-    from sarcli.formation import form_image
-    from sarcli.simulate import simulate
+    from sarcli.io.config import load_acquisition
+    from sarcli.formers.formation import form_image
+    from sarcli.simulation.simulator import simulate
 
     from .conftest import CONFIGS
 

@@ -10,12 +10,13 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from sarcli import geometry
-from sarcli.acquisition import Acquisition
+from sarcli.core import geometry
+from sarcli.core.acquisition import Acquisition
 from sarcli.cli.main import cli
 from sarcli.errors import ConvergenceWarning, DefocusWarning, SarcliInputError
-from sarcli.grid import Grid
-from sarcli.io import PhaseHistory, read_image, write_phase_history
+from sarcli.core.grid import Grid
+from sarcli.core.types import PhaseHistory
+from sarcli.io.hdf5 import read_image, write_phase_history
 from sarcli.linops import NufftOperator
 from sarcli.regularize import PRIORS, matched_filter, regularize
 
@@ -209,7 +210,7 @@ def test_cli_regularize_writes_image_history_and_png(tmp_path, scene):
 
 @pytest.mark.skipif(not GOTCHA_DIR.exists(), reason=f"GOTCHA data not found at {GOTCHA_DIR}")
 def test_gotcha_ptv_patch_runs():
-    from sarcli.gotcha import read_gotcha
+    from sarcli.io.gotcha import read_gotcha
 
     ph = read_gotcha([GOTCHA_DIR / "data_3dsar_pass1_az001_HH.mat"], grid=Grid.square(10.0, 64))
     ph = PhaseHistory(ph.data[::4], ph.acquisition.subset(pulses=slice(None, None, 4)))

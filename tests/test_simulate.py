@@ -8,7 +8,7 @@ from click.testing import CliRunner
 
 import sarcli
 from sarcli.cli.main import cli
-from sarcli.simulate import point_phase_history
+from sarcli.simulation.simulator import point_phase_history
 
 from .conftest import CONFIGS, small_config
 
@@ -95,7 +95,7 @@ def test_extended_scene_no_inverse_crime_and_truth(write_config):
     # truth is the block mean of the 2x finer synthesis: values between 0 and 1, edges fractional
     assert t.scene.real.max() == pytest.approx(1.0) and np.any((t.scene.real > 0.05) & (t.scene.real < 0.95))
     # the data are NOT those of the truth on the reconstruction grid (no inverse crime)
-    from sarcli.simulate import _farfield_extended
+    from sarcli.simulation.simulator import _farfield_extended
 
     same_grid = _farfield_extended(ph.acquisition, t.scene, ph.acquisition.grid)
     rel = np.linalg.norm(same_grid - ph.data) / np.linalg.norm(ph.data)

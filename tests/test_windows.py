@@ -3,10 +3,10 @@
 import numpy as np
 import pytest
 
-from sarcli import geometry
+from sarcli.core import geometry
 from sarcli.formers.direct import direct_farfield
-from sarcli.grid import Grid
-from sarcli.windows import WINDOW_KINDS, window_1d, window_weights
+from sarcli.core.grid import Grid
+from sarcli.core.windows import WINDOW_KINDS, window_1d, window_weights
 
 
 def _peak_sidelobe_db(w, pad=64):

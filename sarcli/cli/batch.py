@@ -6,7 +6,7 @@ import sys
 
 import click
 
-from ._common import echo_info, handle_errors
+from .options import echo_info, handle_errors
 
 
 @click.command("batch")
@@ -30,7 +30,7 @@ def command(ctx, plan_path, outdir, scheduler, n_workers, force):
 
     import distributed  # noqa: F401 - configures its loggers on import; quieten them after
 
-    from ..batch import load_plan, run_plan
+    from ..batch.run import load_plan, run_plan
 
     if not (ctx.obj or {}).get("verbose"):  # dask's INFO lines about its own start-up and shutdown
         logging.getLogger("distributed").setLevel(logging.ERROR)

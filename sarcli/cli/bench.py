@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from ._common import echo_info, grid_options, handle_errors, parse_pair
+from .options import echo_info, grid_options, handle_errors, parse_pair
 
 
 @click.command("bench")
@@ -34,7 +34,8 @@ def command(ctx, inputs, out_dir, methods, repeat, windows, regularizers, reg_it
     """Form the image with every method and knob setting; write error against run time (CSV, PNG)."""
     from pathlib import Path
 
-    from .. import benchmark as bm
+    from ..analysis import benchmark as bm
+    from ..viz import plot_benchmark
     from ..errors import SarcliInputError
 
     def split(text):
@@ -52,7 +53,7 @@ def command(ctx, inputs, out_dir, methods, repeat, windows, regularizers, reg_it
                            nthreads=nthreads)
     out = Path(out_dir)
     csv_path = bm.write_csv(res, out / "error_vs_time.csv")
-    png_path = bm.plot(res, out / "error_vs_time.png", title=f"{ph.acquisition.name or Path(inputs[0]).name}: "
+    png_path = plot_benchmark(res, out / "error_vs_time.png", title=f"{ph.acquisition.name or Path(inputs[0]).name}: "
                        f"P={ph.data.shape[0]}, M={ph.data.shape[1]}, {res.grid.ny}x{res.grid.nx} px")
     echo_info(ctx, bm.format_table(res))
     echo_info(ctx, f"wrote {csv_path} and {png_path}")

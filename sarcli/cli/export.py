@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from ._common import handle_errors
+from .options import handle_errors
 
 
 @click.command("export")
@@ -22,8 +22,8 @@ from ._common import handle_errors
 @handle_errors
 def command(image, output, kind, dynamic_range_db, cmap, annotate, phase_history):
     """Export IMAGE (a sarcli image file, or a SICD) to GeoTIFF, PNG or SICD."""
-    from ..export import export_image, load_image
-    from ..io import read_phase_history
+    from ..io.export import export_image, load_image
+    from ..io.hdf5 import read_phase_history
 
     img = load_image(image)
     ph = read_phase_history(phase_history) if phase_history else None

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from ._common import handle_errors
+from .options import handle_errors
 
 
 @click.command("export-cphd")
@@ -14,7 +14,7 @@ from ._common import handle_errors
 @handle_errors
 def command(phase_history, output):
     """Export PHASE_HISTORY (needs antenna positions and equally spaced frequencies) to CPHD."""
-    from ..cphd import write_cphd
-    from ..io import read_phase_history
+    from ..io.cphd import write_cphd
+    from ..io.hdf5 import read_phase_history
 
     write_cphd(read_phase_history(phase_history), output)

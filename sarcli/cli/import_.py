@@ -11,7 +11,7 @@ import importlib.util
 
 import click
 
-from ._common import echo_info, grid_options, handle_errors, parse_pair
+from .options import echo_info, grid_options, handle_errors, parse_pair
 
 #: subcommand name -> module under sarcli.cli exposing a click command ``command``
 _LAZY = {"cphd": "import_cphd"}
@@ -57,9 +57,9 @@ def gotcha(ctx, files, output, autofocus, center, extent, pixel_size):
     The default image grid stored with the data is 100 m x 100 m with 0.25 m pixels, centred
     on the scene centre, unless --center/--extent/--pixel-size say otherwise.
     """
-    from ..gotcha import default_gotcha_grid, read_gotcha
-    from ..grid import resolve_grid
-    from ..io import write_phase_history
+    from ..io.gotcha import default_gotcha_grid, read_gotcha
+    from ..core.grid import resolve_grid
+    from ..io.hdf5 import write_phase_history
 
     try:
         grid = resolve_grid(default_gotcha_grid(), center=parse_pair(center, "--center"),

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from ._common import echo_info, handle_errors
+from .options import echo_info, handle_errors
 
 
 @click.command("cphd")
@@ -15,8 +15,8 @@ from ._common import echo_info, handle_errors
 @handle_errors
 def command(ctx, cphd_file, output):
     """Import CPHD_FILE (FX domain, monostatic; first channel) as a spherical phase history."""
-    from ..cphd import read_cphd
-    from ..io import write_phase_history
+    from ..io.cphd import read_cphd
+    from ..io.hdf5 import write_phase_history
 
     ph = read_cphd(cphd_file)
     write_phase_history(output, ph)

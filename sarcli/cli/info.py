@@ -7,7 +7,7 @@ import warnings
 
 import click
 
-from ._common import handle_errors
+from .options import handle_errors
 
 
 def _fmt(v):
@@ -26,8 +26,8 @@ def describe(path) -> dict:
 
     import h5py
 
-    from ..config import load_acquisition
-    from ..io import IMAGE_FORMAT, read_image, read_phase_history
+    from ..io.config import load_acquisition
+    from ..io.hdf5 import IMAGE_FORMAT, read_image, read_phase_history
 
     p = Path(path)
     if p.suffix.lower() in (".yaml", ".yml"):
@@ -63,13 +63,13 @@ def describe(path) -> dict:
 @handle_errors
 def command(path, as_json):
     """Describe a YAML acquisition, a phase-history file or an image file."""
-    from ..acquisition import Acquisition  # noqa: F401  (fail early on broken installs)
+    from ..core.geometry import DEFOCUS_WARN_RAD
 
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         info = describe(path)
     ww = [str(w.message) for w in caught]
-    if "farfield_phase_error_rad_at_grid_corner" in info and info["farfield_phase_error_rad_at_grid_corner"] > 0.25:
+    if "farfield_phase_error_rad_at_grid_corner" in info and info["farfield_phase_error_rad_at_grid_corner"] > DEFOCUS_WARN_RAD:
         ww.append(f"a far-field method on this collection defocuses the grid corner by "
                   f"{info['farfield_phase_error_rad_at_grid_corner']:.3g} rad (use backprojection or direct)")
     ext = info.get("grid_extent_m")

@@ -13,7 +13,7 @@ import logging
 import click
 
 from .._version import __version__
-from ..progress import set_quiet
+from .._util.progress import set_quiet
 
 #: command name -> (module under sarcli.cli, one-line help)
 COMMANDS: dict[str, tuple[str, str]] = {

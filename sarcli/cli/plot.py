@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from ._common import grid_options, handle_errors, parse_pair
+from .options import grid_options, handle_errors, parse_pair
 
 WHATS = ("psf-cuts", "kspace", "image-fft")
 
@@ -27,19 +27,19 @@ def command(what, input_path, output, at, dynamic_range_db, center, extent, pixe
                frequencies (k1, k2) = k h ξ with their aliased copies (grid options set h)
     image-fft  INPUT an image: the image beside log|2-D FFT|
     """
-    from .. import plots
+    from .. import viz as plots
 
     if what == "kspace":
         from pathlib import Path
 
-        from ..grid import resolve_grid
+        from ..core.grid import resolve_grid
 
         if Path(input_path).suffix.lower() in (".yaml", ".yml"):
-            from ..config import load_acquisition
+            from ..io.config import load_acquisition
 
             acq = load_acquisition(input_path)
         else:
-            from ..io import read_phase_history
+            from ..io.hdf5 import read_phase_history
 
             acq = read_phase_history(input_path).acquisition
         try:
@@ -49,7 +49,7 @@ def command(what, input_path, output, at, dynamic_range_db, center, extent, pixe
             raise click.BadParameter(str(exc)) from None
         plots.plot_kspace(acq, grid, output)
         return
-    from ..export import load_image
+    from ..io.export import load_image
 
     img = load_image(input_path)
     if what == "psf-cuts":

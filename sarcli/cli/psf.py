@@ -4,21 +4,14 @@ from __future__ import annotations
 
 import click
 
-from ._common import echo_info, grid_options, handle_errors, parse_pair
-
-WINDOWS = ("none", "hann", "hamming", "taylor")
+from .options import echo_info, grid_options, handle_errors, parse_pair, window_options
 
 
 @click.command("psf")
 @click.argument("source", type=click.Path(dir_okay=False))
 @click.option("-o", "--output", required=True, type=click.Path(dir_okay=False),
               help="Image file to write (.h5), method 'psf'.")
-@click.option("--window", type=click.Choice(WINDOWS), default="none", show_default=True,
-              help="Window (taper) of the matched filter.")
-@click.option("--taylor-nbar", "nbar", type=int, default=4, show_default=True,
-              help="Taylor window number of nearly constant sidelobes.")
-@click.option("--taylor-sll-db", "sll_db", type=float, default=-35.0, show_default=True,
-              help="Taylor window peak sidelobe level (dB).")
+@window_options(nbar_dest="nbar", sll_dest="sll_db")
 @click.option("--method", type=click.Choice(["auto", "theorem", "direct", "nufft"]), default="auto",
               show_default=True, help="Theorem closed form, exact sum, or FINUFFT (windows need a sum).")
 @click.option("--png", type=click.Path(dir_okay=False), default=None, help="Also write a PNG of 20 log10|K|.")
@@ -32,10 +25,11 @@ def command(ctx, source, output, window, nbar, sll_db, method, png, dynamic_rang
 
     Prints the predicted -3 dB widths, PSLR and ISLR (also stored in the file's attributes).
     """
-    from ..grid import resolve_grid
-    from ..io import write_image
-    from ..psf import plot_psf, psf_image
-    from ..quality import load_reference
+    from ..core.grid import resolve_grid
+    from ..io.hdf5 import write_image
+    from ..viz import plot_psf
+    from ..analysis.psf import psf_image
+    from ..analysis.quality import load_reference
 
     acq, _ = load_reference(source)
     try:

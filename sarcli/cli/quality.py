@@ -6,7 +6,7 @@ import json
 
 import click
 
-from ._common import handle_errors, parse_pair
+from .options import handle_errors, parse_pair, window_choice
 
 
 def _num(v, fmt):
@@ -44,7 +44,7 @@ def _table(results) -> str:
 @click.option("--config", "config_path", type=click.Path(dir_okay=False), default=None,
               help="YAML acquisition giving the geometry and the scene's point targets.")
 @click.option("--at", "at", multiple=True, help="Target position X,Y in metres (repeatable).")
-@click.option("--window", type=click.Choice(["none", "hann", "hamming", "taylor"]), default=None,
+@window_choice(default=None,
               help="Window of the prediction (default: the one recorded in the image).")
 @click.option("--oversample", type=int, default=8, show_default=True, help="FFT interpolation factor.")
 @click.option("--sidelobe-extent", "extent_cells", type=float, default=10.0, show_default=True,
@@ -54,8 +54,9 @@ def _table(results) -> str:
 def command(image, ph_path, config_path, at, window, oversample, extent_cells, as_json):
     """Measure IRW, PSLR, ISLR and peak position of point targets in IMAGE, beside the predicted values."""
     from ..errors import SarcliInputError
-    from ..io import read_image, to_json
-    from ..quality import image_quality, load_reference
+    from ..io.hdf5 import read_image
+    from ..core.types import to_json
+    from ..analysis.quality import image_quality, load_reference
 
     if (ph_path is None) == (config_path is None):
         raise SarcliInputError("give exactly one of --ph PH.h5 or --config CONFIG.yaml (the geometry)")

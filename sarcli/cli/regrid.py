@@ -4,8 +4,7 @@ from __future__ import annotations
 
 import click
 
-from ._common import echo_info, grid_options, handle_errors, parse_pair
-from .form_image import window_options
+from .options import echo_info, grid_options, handle_errors, parse_pair, window_options
 
 
 @click.command("regrid")
@@ -21,14 +20,14 @@ from .form_image import window_options
 def command(ctx, input_path, output, window, taylor_nbar, taylor_sll_db, center, extent, pixel_size,
             kernel, oversample, width):
     """Interpolate polar phase history onto a Cartesian k-grid covering only the data's support."""
-    from ..formation import regrid
-    from ..grid import resolve_grid
-    from ..io import read_phase_history
+    from ..formers.formation import regrid
+    from ..core.grid import resolve_grid
+    from ..io.hdf5 import read_phase_history, write_kgrid
 
     ph = read_phase_history(input_path)
     grid = resolve_grid(ph.acquisition.grid, center=parse_pair(center, "--center"),
                         extent=parse_pair(extent, "--extent"), pixel_size=pixel_size)
     kg = regrid(ph, grid=grid, window=window, taylor_nbar=taylor_nbar, taylor_sll_db=taylor_sll_db,
                 kernel=kernel, oversample=oversample, width=width)
-    kg.to_hdf5(output)
+    write_kgrid(output, kg)
     echo_info(ctx, f"wrote {output}: k-grid {kg.shape[1]} x {kg.shape[0]}")

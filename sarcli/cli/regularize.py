@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from ._common import echo_info, export_options, grid_options, handle_errors, parse_pair, write_side_outputs
+from .options import echo_info, export_options, grid_options, handle_errors, parse_pair, write_side_outputs
 
 
 @click.command("regularize")
@@ -35,9 +35,10 @@ from ._common import echo_info, export_options, grid_options, handle_errors, par
 def command(ctx, input_path, output, prior, order, lam, beta, iters, tol, operator, anisotropic,
             reestimate_every, init_path, center, extent, pixel_size, history_png, png_path, tif_path):
     """Regularised image of a phase history: min ‖Af − b‖² + λ‖Tf‖₁ (ADMM) or Tikhonov (CG)."""
-    from ..io import read_image, read_phase_history, write_image
-    from ..progress import progress
-    from ..regularize import plot_history, regularize
+    from ..io.hdf5 import read_image, read_phase_history, write_image
+    from .._util.progress import progress
+    from ..viz import plot_history
+    from ..regularize import regularize
 
     ph = read_phase_history(input_path)
     init = read_image(init_path) if init_path else None

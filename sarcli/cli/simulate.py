@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from ._common import echo_info, handle_errors
+from .options import echo_info, handle_errors
 
 
 @click.command("simulate")
@@ -22,9 +22,9 @@ def command(ctx, config, output, seed, snr_db, noiseless, model, single):
     """Simulate the phase history of CONFIG's scene and write it to OUTPUT."""
     import numpy as np
 
-    from ..config import load_acquisition
-    from ..io import write_phase_history
-    from ..simulate import simulate
+    from ..io.config import load_acquisition
+    from ..io.hdf5 import write_phase_history
+    from ..simulation.simulator import simulate
 
     acq = load_acquisition(config)
     snr = None if noiseless else ("config" if snr_db is None else snr_db)

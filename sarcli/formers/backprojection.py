@@ -53,17 +53,15 @@ from __future__ import annotations
 
 import math
 import warnings
-from decimal import Decimal, localcontext
 
 import numba
 import numpy as np
 import scipy.fft
-from numba import njit, prange, types
-from numba.extending import overload
 
 from ..errors import AliasingWarning, SarcliInputError
-from ..geometry import C, differential_range
-from ..grid import Grid
+from ..core.geometry import C, differential_range
+from ..core.grid import Grid
+from ._bp_kernels import _bp_rows, _rp_pulses
 
 __all__ = ["backproject", "reproject", "profile_length", "INTERPOLATORS", "DEFAULT_UPSAMPLE",
            "DEFAULT_INTERP", "FREQUENCY_SPACING_TOLERANCE"]
@@ -83,300 +81,6 @@ _PAD = 3
 _PRECISIONS = {"float64": np.float64, "float32": np.float32}
 #: Pulses range-compressed and backprojected together (bounds the profile memory).
 _BLOCK = 32
-
-
-# ---------------------------------------------------------------------------------------------
-# compiled helpers
-# ---------------------------------------------------------------------------------------------
-def _sincos(ph):  # pragma: no cover - replaced by the overload inside compiled code
-    return math.cos(ph), math.sin(ph)
-
-
-def _taylor(n_terms, first, dtype):
-    """Taylor coefficients (-1)^k / (2k + first)! for k = 1..n_terms, as ``dtype``."""
-    return tuple(dtype((-1.0) ** k / math.factorial(2 * k + first)) for k in range(1, n_terms + 1))
-
-
-def _two_pi_split(dtype, hi_bits):
-    """2π = hi + mid + lo with ``hi`` short enough that ``k·hi`` is exact (Cody-Waite reduction)."""
-    with localcontext() as ctx:
-        ctx.prec = 60
-        two_pi = Decimal("6.28318530717958647692528676655900576839433879875021164194988918")
-        scale = 2 ** (hi_bits - 3)
-        hi = Decimal(round(two_pi * scale)) / scale
-        mid = dtype(float(two_pi - hi))
-        lo = dtype(float(two_pi - hi - Decimal(float(mid))))
-    return dtype(float(hi)), mid, lo
-
-
-@overload(_sincos, inline="always")
-def _ov_sincos(ph):
-    """(cos, sin) by a vectorisable polynomial.
-
-    Cody-Waite reduction ``r = ph - k 2π`` (``k = rint(ph / 2π)``, 2π split in three so ``k·hi``
-    is exact), Taylor series of sin and cos of the half angle ``h = r/2`` in [-π/2, π/2], then the
-    double-angle formulas. float32: series to h⁹ / h¹⁰, error ~3e-6 rad for |ph| < 1e5 (the
-    float32 phase itself is rounded by up to 4e-3 rad there); float64: series to h²¹ / h²²,
-    error ~1e-15 rad plus the reduction's ~1e-15·|k|.
-    """
-    if not isinstance(ph, types.Float):
-        return None
-    dt = np.float32 if ph.bitwidth == 32 else np.float64
-    n_sin, n_cos = (4, 5) if dt is np.float32 else (10, 11)
-    hi, mid, lo = _two_pi_split(dt, 10 if dt is np.float32 else 26)
-    inv2pi, half, one, two = dt(1.0 / (2.0 * np.pi)), dt(0.5), dt(1.0), dt(2.0)
-    s1, s2, s3, s4, s5, s6, s7, s8, s9, s10 = _taylor(n_sin, 1, dt) + (dt(0),) * (10 - n_sin)
-    c1, c2, c3, c4, c5, c6, c7, c8, c9, c10, c11 = _taylor(n_cos, 0, dt) + (dt(0),) * (11 - n_cos)
-
-    if dt is np.float32:
-        def poly(h2):
-            ps = s1 + h2 * (s2 + h2 * (s3 + h2 * s4))
-            pc = c1 + h2 * (c2 + h2 * (c3 + h2 * (c4 + h2 * c5)))
-            return ps, pc
-    else:
-        def poly(h2):
-            ps = s1 + h2 * (s2 + h2 * (s3 + h2 * (s4 + h2 * (s5 + h2 * (s6 + h2 * (s7 + h2 * (
-                s8 + h2 * (s9 + h2 * s10))))))))
-            pc = c1 + h2 * (c2 + h2 * (c3 + h2 * (c4 + h2 * (c5 + h2 * (c6 + h2 * (c7 + h2 * (
-                c8 + h2 * (c9 + h2 * (c10 + h2 * c11)))))))))
-            return ps, pc
-    poly = njit(inline="always")(poly)
-
-    def impl(ph):
-        k = np.rint(ph * inv2pi)
-        h = (((ph - k * hi) - k * mid) - k * lo) * half   # half angle in [-π/2, π/2]
-        h2 = h * h
-        ps, pc = poly(h2)
-        sh = h * (one + h2 * ps)
-        ch = one + h2 * pc
-        return ch * ch - sh * sh, two * sh * ch
-
-    return impl
-
-
-# Constants of the interpolation kernels, float32 so they keep float32 arithmetic float32 (they
-# are exact binary fractions, so the float64 path loses nothing).
-_F0 = np.float32(0.0)
-_F1 = np.float32(1.0)
-_F2 = np.float32(2.0)
-_F4 = np.float32(4.0)
-_FH = np.float32(0.5)
-_F15 = np.float32(1.5)
-_F25 = np.float32(2.5)
-
-
-@njit(inline="always")
-def _pixel(xv, xxv, cy, tax, ap2, nap, offp, ib, kcp, half_len, n_len, top, pad):
-    """Per pixel and pulse: profile index, fraction, masked carrier ``m·exp(+i kc Δr)``, mask.
-
-    Δr is the cancellation-free ``(|x|² - 2 a·x) / (|a - x| + |a|) + (|a| - r0)``; the profile
-    position is ``Δr / bin + L/2``; ``m`` is 1 inside the unambiguous window, else 0 (the
-    position is then clamped so every access stays in bounds).
-    """
-    num = xxv - tax * xv + cy
-    dr = num / (math.sqrt(ap2 + num) + nap) + offp
-    s = dr * ib + half_len
-    inside = (s >= _F0) & (s < n_len)
-    s = min(max(s, _F0), top)
-    fl = np.floor(s)
-    c, sn = _sincos(kcp * dr)
-    m = _F1 if inside else _F0
-    return int(fl) + pad, s - fl, m * c, m * sn, inside
-
-
-@njit(inline="always")
-def _keys(t):
-    """Keys cubic (a = -1/2) weights for offsets -1, 0, 1, 2 at fraction ``t``."""
-    d0 = t + _F1
-    d2 = _F1 - t
-    d3 = _F2 - t
-    w0 = ((_F25 - _FH * d0) * d0 - _F4) * d0 + _F2
-    w1 = (_F15 * t - _F25) * t * t + _F1
-    w2 = (_F15 * d2 - _F25) * d2 * d2 + _F1
-    w3 = ((_F25 - _FH * d3) * d3 - _F4) * d3 + _F2
-    return w0, w1, w2, w3
-
-
-@njit(inline="always")
-def _lanczos3(d):
-    """``sinc(d) sinc(d/3)`` for ``|d| < 3`` (0 beyond), float64."""
-    if abs(d) < 1e-12:
-        return 1.0
-    if abs(d) >= 3.0:
-        return 0.0
-    return 3.0 * math.sin(math.pi * d) * math.sin(math.pi * d / 3.0) / (math.pi * math.pi * d * d)
-
-
-@njit(inline="always")
-def _lanczos(t):
-    """Normalised Lanczos-3 weights for offsets -2..3 at fraction ``t`` (float64)."""
-    t = np.float64(t)
-    w0 = _lanczos3(t + 2.0)
-    w1 = _lanczos3(t + 1.0)
-    w2 = _lanczos3(t)
-    w3 = _lanczos3(t - 1.0)
-    w4 = _lanczos3(t - 2.0)
-    w5 = _lanczos3(t - 3.0)
-    tot = w0 + w1 + w2 + w3 + w4 + w5
-    return w0 / tot, w1 / tot, w2 / tot, w3 / tot, w4 / tot, w5 / tot
-
-
-@njit(parallel=True, cache=True)
-def _bp_rows(pre, pim, x, xx, y, two_ax, two_ay, a2, na, off, inv_bin, kc,
-             half_len, n_len, pad, kind, out_re, out_im):
-    """Accumulate a block of pulses into every image row (rows in parallel).
-
-    Per row and pulse, a vectorisable pass computes positions and carriers, then a gather pass
-    interpolates the profile and accumulates.
-    """
-    ny = y.size
-    nx = x.size
-    n_pulses = pre.shape[0]
-    top = n_len - _F1
-    for row in prange(ny):
-        yv = y[row]
-        acc_re = out_re[row]
-        acc_im = out_im[row]
-        idx = np.empty(nx, np.int64)
-        frac = np.empty_like(x)
-        cr = np.empty_like(x)
-        ci = np.empty_like(x)
-        kw = np.empty((4, nx), dtype=x.dtype) if kind == 1 else np.empty((4, 0), dtype=x.dtype)
-        for p in range(n_pulses):
-            cy = yv * yv - two_ay[p] * yv
-            tax = two_ax[p]
-            ap2 = a2[p]
-            nap = na[p]
-            offp = off[p]
-            ib = inv_bin[p]
-            kcp = kc[p]
-            for ix in range(nx):
-                i, t, c, sn, _ = _pixel(x[ix], xx[ix], cy, tax, ap2, nap, offp, ib, kcp,
-                                        half_len, n_len, top, pad)
-                idx[ix] = i
-                frac[ix] = t
-                cr[ix] = c
-                ci[ix] = sn
-            rp = pre[p]
-            ip = pim[p]
-            if kind == 0:
-                for ix in range(nx):
-                    i = idx[ix]
-                    t = frac[ix]
-                    vr = rp[i] + t * (rp[i + 1] - rp[i])
-                    vi = ip[i] + t * (ip[i + 1] - ip[i])
-                    acc_re[ix] += vr * cr[ix] - vi * ci[ix]
-                    acc_im[ix] += vr * ci[ix] + vi * cr[ix]
-            elif kind == 1:
-                k0 = kw[0]
-                k1 = kw[1]
-                k2 = kw[2]
-                k3 = kw[3]
-                for ix in range(nx):  # weights in a vectorisable pass of their own
-                    k0[ix], k1[ix], k2[ix], k3[ix] = _keys(frac[ix])
-                for ix in range(nx):
-                    i = idx[ix]
-                    w0 = k0[ix]
-                    w1 = k1[ix]
-                    w2 = k2[ix]
-                    w3 = k3[ix]
-                    vr = w0 * rp[i - 1] + w1 * rp[i] + w2 * rp[i + 1] + w3 * rp[i + 2]
-                    vi = w0 * ip[i - 1] + w1 * ip[i] + w2 * ip[i + 1] + w3 * ip[i + 2]
-                    acc_re[ix] += vr * cr[ix] - vi * ci[ix]
-                    acc_im[ix] += vr * ci[ix] + vi * cr[ix]
-            else:
-                for ix in range(nx):
-                    i = idx[ix]
-                    w0, w1, w2, w3, w4, w5 = _lanczos(frac[ix])
-                    vr = (w0 * rp[i - 2] + w1 * rp[i - 1] + w2 * rp[i] + w3 * rp[i + 1]
-                          + w4 * rp[i + 2] + w5 * rp[i + 3])
-                    vi = (w0 * ip[i - 2] + w1 * ip[i - 1] + w2 * ip[i] + w3 * ip[i + 1]
-                          + w4 * ip[i + 2] + w5 * ip[i + 3])
-                    acc_re[ix] += vr * cr[ix] - vi * ci[ix]
-                    acc_im[ix] += vr * ci[ix] + vi * cr[ix]
-
-
-@njit(parallel=True, cache=True)
-def _rp_pulses(fre, fim, x, xx, y, two_ax, two_ay, a2, na, off, inv_bin, kc,
-               half_len, n_len, pad, kind, h_re, h_im):
-    """Transpose of :func:`_bp_rows`: scatter every pixel into each pulse's profile.
-
-    Pulses run in parallel (each owns its profile). Per pulse and row, the same vectorisable
-    pass as the forward kernel gives positions and masked carriers; the pixel values times the
-    conjugate carrier are then scattered with the same interpolation weights (pixels outside
-    the window carry a zero carrier, so they add nothing, exactly as they receive nothing).
-    """
-    ny = y.size
-    nx = x.size
-    n_pulses = h_re.shape[0]
-    top = n_len - _F1
-    for p in prange(n_pulses):
-        tax = two_ax[p]
-        ap2 = a2[p]
-        nap = na[p]
-        offp = off[p]
-        ib = inv_bin[p]
-        kcp = kc[p]
-        hr = h_re[p]
-        hi = h_im[p]
-        idx = np.empty(nx, np.int64)
-        frac = np.empty_like(x)
-        ur = np.empty_like(x)
-        ui = np.empty_like(x)
-        for row in range(ny):
-            yv = y[row]
-            cy = yv * yv - two_ay[p] * yv
-            fr = fre[row]
-            fi = fim[row]
-            for ix in range(nx):
-                i, t, c, sn, _ = _pixel(x[ix], xx[ix], cy, tax, ap2, nap, offp, ib, kcp,
-                                        half_len, n_len, top, pad)
-                idx[ix] = i
-                frac[ix] = t
-                ur[ix] = fr[ix] * c + fi[ix] * sn   # f · exp(-i kc Δr) (masked)
-                ui[ix] = fi[ix] * c - fr[ix] * sn
-            if kind == 0:
-                for ix in range(nx):
-                    i = idx[ix]
-                    t = frac[ix]
-                    vr = ur[ix]
-                    vi = ui[ix]
-                    hr[i] += vr - t * vr
-                    hi[i] += vi - t * vi
-                    hr[i + 1] += t * vr
-                    hi[i + 1] += t * vi
-            elif kind == 1:
-                for ix in range(nx):
-                    i = idx[ix]
-                    vr = ur[ix]
-                    vi = ui[ix]
-                    w0, w1, w2, w3 = _keys(frac[ix])
-                    hr[i - 1] += w0 * vr
-                    hi[i - 1] += w0 * vi
-                    hr[i] += w1 * vr
-                    hi[i] += w1 * vi
-                    hr[i + 1] += w2 * vr
-                    hi[i + 1] += w2 * vi
-                    hr[i + 2] += w3 * vr
-                    hi[i + 2] += w3 * vi
-            else:
-                for ix in range(nx):
-                    i = idx[ix]
-                    vr = ur[ix]
-                    vi = ui[ix]
-                    w0, w1, w2, w3, w4, w5 = _lanczos(frac[ix])
-                    hr[i - 2] += w0 * vr
-                    hi[i - 2] += w0 * vi
-                    hr[i - 1] += w1 * vr
-                    hi[i - 1] += w1 * vi
-                    hr[i] += w2 * vr
-                    hi[i] += w2 * vi
-                    hr[i + 1] += w3 * vr
-                    hi[i + 1] += w3 * vi
-                    hr[i + 2] += w4 * vr
-                    hi[i + 2] += w4 * vi
-                    hr[i + 3] += w5 * vr
-                    hi[i + 3] += w5 * vi
 
 
 # ---------------------------------------------------------------------------------------------
@@ -401,7 +105,7 @@ class _Setup:
         if not (np.isfinite(upsample) and upsample >= 1):
             raise SarcliInputError(f"upsample must be a number >= 1, got {upsample!r}")
         if not isinstance(grid, Grid):
-            raise SarcliInputError(f"grid must be a sarcli.grid.Grid, got {type(grid).__name__}")
+            raise SarcliInputError(f"grid must be a sarcli.core.grid.Grid, got {type(grid).__name__}")
         if m < 2:
             raise SarcliInputError("backprojection needs at least two frequencies per pulse; "
                                    "use method 'direct'")
@@ -559,7 +263,7 @@ def backproject(data, freq_hz, antenna_position_m, range_to_center_m, grid, weig
     --------
     >>> import numpy as np
     >>> from sarcli import geometry
-    >>> from sarcli.grid import Grid
+    >>> from sarcli.core.grid import Grid
     >>> freq = 9.8e9 + 5e6 * np.arange(64)
     >>> az = np.radians(np.linspace(-1.5, 1.5, 32))
     >>> a = geometry.antenna_positions_circle(az, np.radians(30), 10e3)

@@ -12,8 +12,8 @@ import math
 import numba
 import numpy as np
 
-from .. import geometry
-from ..progress import progress
+from ..core import geometry
+from .._util.progress import progress
 
 __all__ = ["weighted_samples", "direct_farfield", "direct_spherical"]
 
@@ -74,11 +74,11 @@ def direct_farfield(data, kx, ky, grid, weights=None, *, chunk=None) -> np.ndarr
     data : array_like, shape (P, M)
         Phase history.
     kx, ky : array_like, shape (P, M)
-        k-space coordinates (rad/m) from :func:`sarcli.geometry.kspace_coordinates`.
-    grid : sarcli.grid.Grid
+        k-space coordinates (rad/m) from :func:`sarcli.core.geometry.kspace_coordinates`.
+    grid : sarcli.core.grid.Grid
         Output pixel grid.
     weights : array_like, shape (P, M), optional
-        Window weights (:func:`sarcli.windows.window_weights`).
+        Window weights (:func:`sarcli.core.windows.window_weights`).
     chunk : int, optional
         Samples per matrix product; default keeps each exponential block near 32 MiB.
 
@@ -129,7 +129,7 @@ def direct_spherical(data, freq_hz, antenna_position_m, range_to_center_m, grid,
     """Exact spherical-wave matched filter (eq. ``mf`` with the exact range of every pixel).
 
     ``f(x) = (1/W) Σ_pj w_pj d[p, j] exp(+i (4π α_pj / c)(|a_p - x| - r0_p))``, the differential
-    range from :func:`sarcli.geometry.differential_range` (cancellation-free), the phase in
+    range from :func:`sarcli.core.geometry.differential_range` (cancellation-free), the phase in
     float64, summed by a compiled loop (numba, parallel over pixels, no fast-math) over chunks
     of pulses so memory stays bounded.
 
@@ -140,7 +140,7 @@ def direct_spherical(data, freq_hz, antenna_position_m, range_to_center_m, grid,
         Frequencies α (Hz).
     antenna_position_m : array_like, shape (P, 3)
     range_to_center_m : array_like, shape (P,)
-    grid : sarcli.grid.Grid
+    grid : sarcli.core.grid.Grid
         Output grid (pixels in the plane z = 0).
     weights : array_like, shape (P, M), optional
     chunk : int, optional

@@ -19,6 +19,7 @@ import finufft
 import numba
 import numpy as np
 
+from ..core import geometry
 from ..errors import SarcliInputError
 from .direct import _check_kspace, weighted_samples
 
@@ -28,9 +29,8 @@ __all__ = ["nufft_farfield", "FFTW_FLAGS"]
 FFTW_FLAGS = {"estimate": 64, "measure": 0, "patient": 32, "exhaustive": 8}
 
 
-def _wrap(k):
-    """Wrap dimensionless frequencies into [-π, π) (exact on the pixel lattice, ``sec: alias``)."""
-    return k - 2.0 * np.pi * np.floor((k + np.pi) / (2.0 * np.pi))
+#: The lattice wrap of :func:`sarcli.core.geometry.wrap_phase`, compiled for the loop below.
+_wrap = numba.njit(inline="always", cache=True)(geometry.wrap_phase)
 
 
 @numba.njit(parallel=False, fastmath=False, cache=True)
@@ -44,14 +44,11 @@ def _prepare(c, kx, ky, dx, dy, cx, cy):  # pragma: no cover - compiled
     out = np.empty(n, dtype=np.complex128)
     k1 = np.empty(n, dtype=np.float64)
     k2 = np.empty(n, dtype=np.float64)
-    two_pi = 2.0 * math.pi
     for i in range(n):
         ph = kx[i] * cx + ky[i] * cy
         out[i] = c[i] if ph == 0.0 else c[i] * complex(math.cos(ph), math.sin(ph))
-        a = kx[i] * dx
-        b = ky[i] * dy
-        k1[i] = a - two_pi * math.floor((a + math.pi) / two_pi)
-        k2[i] = b - two_pi * math.floor((b + math.pi) / two_pi)
+        k1[i] = _wrap(kx[i] * dx)
+        k2[i] = _wrap(ky[i] * dy)
     return out, k1, k2
 
 
@@ -64,8 +61,8 @@ def nufft_farfield(data, kx, ky, grid, weights=None, *, eps=1e-9, nthreads=None,
     data : array_like, shape (P, M)
         Phase history.
     kx, ky : array_like, shape (P, M)
-        k-space coordinates (rad/m), :func:`sarcli.geometry.kspace_coordinates`.
-    grid : sarcli.grid.Grid
+        k-space coordinates (rad/m), :func:`sarcli.core.geometry.kspace_coordinates`.
+    grid : sarcli.core.grid.Grid
         Output grid; any centre ``(cx, cy)`` and rectangular pixels. The centre offset is applied
         as the float64 phase factor ``exp(i (kx cx + ky cy))`` on the data.
     weights : array_like, shape (P, M), optional

@@ -33,104 +33,26 @@ former instead.
 
 from __future__ import annotations
 
-import json
 import warnings
-from dataclasses import dataclass, field
 
-import h5py
 import numba
 import numpy as np
 from scipy import fft as sfft
 from scipy.special import i0
 
-from .. import geometry
-from .._atomic import atomic_path
-from ..errors import InputFileError, SarcliInputError, SarcliWarning
-from ..progress import progress
+from ..core import geometry
+from ..core.types import KGrid
+from ..errors import SarcliInputError, SarcliWarning
+from .._util.progress import progress
 from .direct import _check_kspace, weighted_samples
 
-__all__ = ["KGrid", "regrid_polar", "pfa_image", "check_aperture", "PFA_KERNELS", "MAX_KGRID_CELLS"]
+__all__ = ["regrid_polar", "pfa_image", "check_aperture", "PFA_KERNELS", "MAX_KGRID_CELLS"]
 
 PFA_KERNELS = ("kaiser", "linear")
 #: largest k-grid (cells) regrid_polar builds (2**25 cells = 512 MiB of complex128)
 MAX_KGRID_CELLS = 1 << 25
 #: samples whose kernel taps are evaluated at once (bounds the memory of the gridding step)
 _SPREAD_CHUNK = 1 << 18
-_FORMAT = "sarcli-kgrid"
-_VERSION = 1
-
-
-@dataclass
-class KGrid:
-    """Phase history gridded onto a Cartesian k-grid (the product of :func:`regrid_polar`).
-
-    Attributes
-    ----------
-    samples : ndarray, shape (nky, nkx), complex128
-        Gridded (kernel-spread) samples, ``samples[iy, ix]`` at ``(kx0 + ix dkx, ky0 + iy dky)``.
-    kx0, ky0 : float
-        Absolute k of ``samples[0, 0]`` (rad/m).
-    dkx, dky : float
-        Grid spacing (rad/m).
-    kc : (float, float)
-        Centre of the sample support (rad/m), the baseband shift.
-    weights_sum : float
-        ``W = Σ ρ_s w_s``, the matched-filter normaliser.
-    parameters : dict
-        ``kernel``, ``width``, ``beta``, ``oversample``, ``density``, ``pixel_m`` (dx, dy),
-        ``shape`` (ny, nx), ``center_m`` (cx, cy), ``n_fft`` (nfy, nfx), ``aperture_deg``.
-    """
-
-    samples: np.ndarray
-    kx0: float
-    ky0: float
-    dkx: float
-    dky: float
-    kc: tuple
-    weights_sum: float
-    parameters: dict = field(default_factory=dict)
-
-    @property
-    def shape(self):
-        return self.samples.shape
-
-    def to_hdf5(self, path) -> None:
-        """Write the k-grid (format ``sarcli-kgrid``, version 1), atomically."""
-        with atomic_path(path) as tmp, h5py.File(tmp, "w") as h5:
-            h5.attrs["format"] = _FORMAT
-            h5.attrs["version"] = _VERSION
-            h5.create_dataset("samples", data=np.asarray(self.samples, dtype=np.complex128))
-            for name in ("kx0", "ky0", "dkx", "dky", "weights_sum"):
-                h5.attrs[name] = float(getattr(self, name))
-            h5.attrs["kc"] = np.asarray(self.kc, dtype=np.float64)
-            h5.attrs["parameters"] = json.dumps(self.parameters)
-
-    @classmethod
-    def from_hdf5(cls, path) -> "KGrid":
-        """Read a k-grid; a missing, broken or foreign file raises :class:`InputFileError`."""
-        try:
-            with h5py.File(path, "r") as h5:
-                fmt = h5.attrs.get("format")
-                fmt = fmt.decode() if isinstance(fmt, bytes) else fmt
-                if fmt != _FORMAT:
-                    raise InputFileError(path, f"not a k-grid file (format {fmt!r}, expected {_FORMAT!r})")
-                version = int(h5.attrs.get("version", -1))
-                if version != _VERSION:
-                    raise InputFileError(path, f"k-grid version {version} is not supported (expected {_VERSION})")
-                samples = h5["samples"][()]
-                attrs = {n: float(h5.attrs[n]) for n in ("kx0", "ky0", "dkx", "dky", "weights_sum")}
-                kc = tuple(float(v) for v in h5.attrs["kc"])
-                parameters = json.loads(h5.attrs["parameters"])
-        except InputFileError:
-            raise
-        except (OSError, KeyError, ValueError, TypeError) as exc:
-            raise InputFileError(path, f"cannot read k-grid: {exc}") from exc
-        if samples.ndim != 2 or not np.iscomplexobj(samples):
-            raise InputFileError(path, f"k-grid samples must be a complex 2-D array, got {samples.dtype} {samples.shape}")
-        for key in ("kernel", "width", "pixel_m", "shape", "center_m", "n_fft"):
-            if key not in parameters:
-                raise InputFileError(path, f"k-grid parameters lack {key!r}")
-        return cls(samples.astype(np.complex128), kc=kc, parameters=parameters, **attrs)
 
 
 def check_aperture(kx, ky) -> float:
@@ -326,8 +248,8 @@ def pfa_image(kgrid: KGrid, grid) -> np.ndarray:
     Parameters
     ----------
     kgrid : KGrid
-        From :func:`regrid_polar` or :meth:`KGrid.from_hdf5`.
-    grid : sarcli.grid.Grid
+        From :func:`regrid_polar` or :func:`sarcli.io.read_kgrid`.
+    grid : sarcli.core.grid.Grid
         Output grid. Its pixel size must be the k-grid's design pixel; its centre may be anywhere
         within the FFT field of view (sub-pixel offsets are exact phase shifts). Accuracy is
         designed for the design window (``shape`` around ``center_m``).

@@ -17,8 +17,8 @@ from __future__ import annotations
 import numpy as np
 import finufft
 
-from .. import geometry
-from ..grid import Grid
+from ..core import geometry
+from ..core.grid import Grid
 from .base import Linop
 
 __all__ = ["NufftOperator", "SubsampledDFT", "wrapped_pixel_frequencies"]
@@ -26,8 +26,8 @@ __all__ = ["NufftOperator", "SubsampledDFT", "wrapped_pixel_frequencies"]
 
 def wrapped_pixel_frequencies(kx, ky, grid: Grid):
     """Dimensionless frequencies ``(k1, k2) = (kx hx, ky hy)`` wrapped into [-π, π) (eq. ``fund-freq``)."""
-    k1 = np.mod(np.asarray(kx, np.float64) * grid.dx + np.pi, 2 * np.pi) - np.pi
-    k2 = np.mod(np.asarray(ky, np.float64) * grid.dy + np.pi, 2 * np.pi) - np.pi
+    k1 = geometry.wrap_phase(np.asarray(kx, np.float64) * grid.dx)
+    k2 = geometry.wrap_phase(np.asarray(ky, np.float64) * grid.dy)
     return k1, k2
 
 
@@ -66,7 +66,7 @@ class NufftOperator(Linop):
 
     @classmethod
     def from_acquisition(cls, acq, grid: Grid | None = None, **kwargs) -> "NufftOperator":
-        """The operator of an :class:`~sarcli.acquisition.Acquisition` on ``grid`` (default its own)."""
+        """The operator of an :class:`~sarcli.core.acquisition.Acquisition` on ``grid`` (default its own)."""
         kx, ky = geometry.kspace_coordinates(acq.frequency_hz, acq.azimuth_rad, acq.elevation_rad)
         return cls(kx, ky, acq.grid if grid is None else grid, **kwargs)
 

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..grid import Grid
+from ..core.grid import Grid
 from .base import Linop
 
 __all__ = ["SphericalOperator"]

@@ -212,5 +212,5 @@ class ADMM:
         return self.f
 
     def history_arrays(self) -> dict[str, np.ndarray]:
-        """The history as float64 arrays (for :class:`sarcli.io.Image`)."""
+        """The history as float64 arrays (for :class:`sarcli.core.types.Image`)."""
         return {k: np.asarray(v, np.float64) for k, v in self.history.items()}

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from sarcli import geometry
+from sarcli.core import geometry
 from sarcli.linops import NufftOperator
 
 from _common import Result, acquisition, fmt

@@ -2,7 +2,7 @@
 
 Section ``sec: size``: ``R = π/Δk = c / (4 Δα cos φ)`` (eq. ``scene-size``) and
 ``R_cr = π / (k_M Δθ) = c / (4 α_M cos φ Δθ)`` (from ``Δk_θ ≈ k_M Δθ``). We compare
-:func:`sarcli.geometry.alias_free_radii` with both forms computed here from the wavenumbers, give
+:func:`sarcli.core.geometry.alias_free_radii` with both forms computed here from the wavenumbers, give
 the exact ``Δk_θ = k_M sin Δθ / sin((π - Δθ)/2)``, and show where the aliases actually appear:
 the matched-filter PSF (Theorem ``main-theorem``) of a small acquisition has its first replica in
 range at ``t = 2R`` and in cross-range between ``2π/(k_M Δθ) = 2 R_cr`` and ``2π/(k_1 Δθ)``.
@@ -12,8 +12,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from sarcli import geometry, psf
-from sarcli.grid import Grid
+from sarcli.core import geometry
+from sarcli.analysis import psf
+from sarcli.core.grid import Grid
 
 from _common import Result, acquisition, db, fmt
 

@@ -7,7 +7,7 @@
 Two independent routes are compared: the partial sum from the step's exact Fourier coefficients
 ``f̂_k = (1 - e^{-iπk}) / (2π i k)`` (``f̂_0 = 1/2``) and the convolution integral
 ``(1/2π) ∫_0^π G(x - y) dy`` by Gauss-Legendre quadrature of the closed-form kernel (evaluated
-with :func:`sarcli.psf.dirichlet_ratio`). The discrete statement (eq. ``dirchlet-off-4``) is
+with :func:`sarcli.analysis.psf.dirichlet_ratio`). The discrete statement (eq. ``dirchlet-off-4``) is
 checked too: the inverse DFT of a band of DFT coefficients equals the circular convolution with
 ``g_m = N⁻¹ e^{i 2π K_c m / N} D_{B/2}(2π m / N)``.
 """
@@ -17,7 +17,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.special import roots_legendre
 
-from sarcli.psf import dirichlet_ratio
+from sarcli.analysis.psf import dirichlet_ratio
 
 from _common import Result, fmt
 

@@ -3,7 +3,7 @@
 For the Gorham-Moore parameters (M = 512, φ = 30°, α_c = 10 GHz, B = 600 MHz, θ_c = 50°, 128 looks
 over 3°, R = 5 m, N = 500: ``configs/three-points.yaml``) the kernel
 ``K(x) = Σ_θ H(ξ_θ·x)`` (eq. ``main-2D-conv``) is drawn on a log scale with
-:func:`sarcli.psf.psf_kernel`. The theorem says the matched filter of a scene is ``f * K``; for
+:func:`sarcli.analysis.psf.psf_kernel`. The theorem says the matched filter of a scene is ``f * K``; for
 the three point targets it is the sum of three shifted kernels. We form the matched filter with
 sarcli's exact ('direct') former from far-field data simulated by :func:`sarcli.simulate` and
 compare it with that sum.
@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 
 import sarcli
-from sarcli import psf
+from sarcli.analysis import psf
 
 from _common import Result, acquisition, db, fmt
 

@@ -18,10 +18,11 @@ import numpy as np
 from scipy.ndimage import binary_dilation
 from scipy.signal import fftconvolve
 
-from sarcli import geometry, psf
-from sarcli.grid import Grid
+from sarcli.core import geometry
+from sarcli.analysis import psf
+from sarcli.core.grid import Grid
 from sarcli.linops import NufftOperator
-from sarcli.scenes import shepp_logan
+from sarcli.simulation.scenes import shepp_logan
 
 from _common import Result, acquisition, fmt
 

@@ -2,7 +2,7 @@
 
 The periodic ``f(x) = 2x + 2`` on [-1/2, 0), ``2x`` on [0, 1/2) has ``f̂_k = i/(πk)`` (``f̂_0 = 1``),
 which we confirm by quadrature. From the 151 coefficients |k| ≤ 75 we form on N = 512 samples:
-the partial sum, a Hann-filtered sum (:func:`sarcli.windows.window_1d`), and the TV-regularised
+the partial sum, a Hann-filtered sum (:func:`sarcli.core.windows.window_1d`), and the TV-regularised
 solution of ``min ‖Af - b‖² + λ‖Df‖₁`` (eq. ``eq: reg``) by sarcli's ADMM (:class:`sarcli.solvers.ADMM`,
 Appendix A) with ``A`` the 151 rows of the DFT (scaled to ``‖A‖ = 1``) and ``D`` the
 first difference of eq. ``eq: Dmatrix`` (periodic). The claim: TV removes the Gibbs ringing
@@ -16,7 +16,7 @@ from scipy.integrate import quad
 
 from sarcli.linops import FiniteDifference, MatrixLinop, normal_equations
 from sarcli.solvers import ADMM
-from sarcli.windows import window_1d
+from sarcli.core.windows import window_1d
 
 from _common import Result, fmt
 

@@ -12,8 +12,8 @@ from __future__ import annotations
 import numpy as np
 
 from sarcli.linops import FiniteDifference, SubsampledDFT, normal_equations
-from sarcli.scenes import shepp_logan
-from sarcli.simulate import add_noise
+from sarcli.simulation.scenes import shepp_logan
+from sarcli.simulation.simulator import add_noise
 from sarcli.solvers import ADMM
 
 from _common import Result, fmt

@@ -1,13 +1,13 @@
 """Figure ``fig: final-reg``: matched filter vs regularised GOTCHA images and their 2-D FFTs.
 
 The four one-degree AFRL GOTCHA files in ``../shared/data/gotcha`` (pass 1, HH) are read with
-:func:`sarcli.gotcha.read_gotcha`, imaged with the spherical matched filter
+:func:`sarcli.io.gotcha.read_gotcha`, imaged with the spherical matched filter
 (:func:`sarcli.regularize.matched_filter`, the same operator the regulariser uses, so both images
 share one scale) and with :func:`sarcli.regularize.regularize` (TV and phase-corrected TV,
 spherical operator). The paper's claim is read off the FFTs of the images: the matched filter's
 spectrum is dark where no data were collected, the regularised images 'fill in these k-space
 regions'. We measure it as the share of the image spectrum's energy outside the data's
-(aliased) k-space support, rasterised from :func:`sarcli.geometry.dimensionless_frequencies`.
+(aliased) k-space support, rasterised from :func:`sarcli.core.geometry.dimensionless_frequencies`.
 """
 
 from __future__ import annotations
@@ -15,8 +15,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.ndimage import binary_dilation
 
-from sarcli import geometry
-from sarcli.grid import Grid
+from sarcli.core import geometry
+from sarcli.core.grid import Grid
 
 from _common import GOTCHA_DIR, Result, db, fmt
 
@@ -49,7 +49,7 @@ def outside_share(img, mask) -> float:
 
 
 def compute(*, n_files: int = 4, extent_m: float = 40.0, pixel_m: float = 0.25, iters: int = 50, priors=("tv", "ptv")) -> dict:
-    from sarcli.gotcha import read_gotcha
+    from sarcli.io.gotcha import read_gotcha
     from sarcli.regularize import matched_filter, regularize
 
     files = gotcha_files(n_files)

@@ -15,7 +15,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from ..errors import SarcliInputError
-from ..io import Image
+from ..core.types import Image
 
 __all__ = ["export_image", "load_image", "FORMATS", "format_from_suffix"]
 
@@ -43,7 +43,7 @@ def export_image(img: Image, path, *, kind: str | None = None, dynamic_range_db:
 
     Parameters
     ----------
-    img : sarcli.io.Image
+    img : sarcli.core.types.Image
     path : str or Path
     kind : {'magnitude', 'db', 'complex'}, optional
         What is written; default per format: GeoTIFF 'magnitude', PNG 'db', SICD 'complex'
@@ -56,7 +56,7 @@ def export_image(img: Image, path, *, kind: str | None = None, dynamic_range_db:
         PNG only: a figure with metre axes and a colour bar.
     fmt : {'geotiff', 'png', 'sicd'}, optional
         Overrides the suffix.
-    phase_history : sarcli.io.PhaseHistory or Acquisition, optional
+    phase_history : sarcli.core.types.PhaseHistory or Acquisition, optional
         SICD only: the collection the image came from (antenna positions, frequencies).
 
     Returns
@@ -87,12 +87,12 @@ def export_image(img: Image, path, *, kind: str | None = None, dynamic_range_db:
 
 
 def load_image(path) -> Image:
-    """Read an image: a SICD (``.sicd``/``.nitf``/``.ntf``, see :func:`sarcli.export.sicd.read_sicd`)
+    """Read an image: a SICD (``.sicd``/``.nitf``/``.ntf``, see :func:`sarcli.io.sicd.read_sicd`)
     or a sarcli image file (anything else)."""
     if Path(path).suffix.lower() in FORMATS["sicd"]:
         from .sicd import read_sicd
 
         return read_sicd(path)
-    from ..io import read_image
+    from .hdf5 import read_image
 
     return read_image(path)

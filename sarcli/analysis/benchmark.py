@@ -3,7 +3,7 @@
 For one phase history, :func:`run_benchmark` forms the image with each method over a sweep of its
 accuracy knobs and records, per setting,
 
-- ``error``: the relative error ``‖f − f_ref‖₂ / ‖f_ref‖₂`` (CONVENTIONS.md, :func:`sarcli.formation.image_error`)
+- ``error``: the relative error ``‖f − f_ref‖₂ / ‖f_ref‖₂`` (CONVENTIONS.md, :func:`sarcli.formers.formation.image_error`)
   of the complex image against the exact matched filter ``f_ref = form_image(ph, 'direct')`` with
   the same window. ``direct`` costs ``P·M·pixels`` exponentials; when that exceeds
   ``max_reference_cost`` the reference is formed on a strided sub-grid (every ``s``-th pixel, over
@@ -42,15 +42,15 @@ from pathlib import Path
 
 import numpy as np
 
-from ._atomic import atomic_path
-from .errors import SarcliInputError
-from .formation import form_image, image_error
-from .grid import Grid, resolve_grid
-from .io import PhaseHistory
-from .progress import progress
+from .._util.atomic import atomic_path
+from ..errors import SarcliInputError
+from ..formers.formation import form_image, image_error
+from ..core.grid import Grid, resolve_grid
+from ..core.types import PhaseHistory
+from .._util.progress import progress
 
 __all__ = ["BenchRow", "BenchResult", "sweep", "run_benchmark", "regularizer_sweep", "measure",
-           "reference_grid", "truth_on_grid", "pareto_front", "write_csv", "plot", "format_table",
+           "reference_grid", "truth_on_grid", "pareto_front", "write_csv", "format_table",
            "load_input", "NUFFT_EPS", "PFA_OVERSAMPLE", "PFA_WIDTH", "BP_UPSAMPLE", "BP_INTERP",
            "BP_PRECISION", "MAX_REFERENCE_COST", "CSV_COLUMNS"]
 
@@ -99,23 +99,23 @@ class BenchResult:
 def load_input(paths, *, seed: int = 0, snr_db="config", model=None) -> PhaseHistory:
     """A phase history from a YAML config (simulated with ``seed``, and ``model`` if given: the
     far-field model isolates the numerical knobs from the far-field approximation's own error),
-    a ``.h5`` phase-history file, or GOTCHA ``.mat`` files (read with :func:`sarcli.gotcha.read_gotcha`)."""
+    a ``.h5`` phase-history file, or GOTCHA ``.mat`` files (read with :func:`sarcli.io.gotcha.read_gotcha`)."""
     paths = [Path(p) for p in ([paths] if isinstance(paths, (str, Path)) else paths)]
     if not paths:
         raise SarcliInputError("no input given")
     suffix = paths[0].suffix.lower()
     if suffix == ".mat":
-        from .gotcha import read_gotcha
+        from ..io.gotcha import read_gotcha
 
         return read_gotcha([str(p) for p in paths])
     if len(paths) > 1:
         raise SarcliInputError("several inputs are only accepted for GOTCHA .mat files")
     if suffix in (".yaml", ".yml"):
-        from .config import load_acquisition
-        from .simulate import simulate
+        from ..io.config import load_acquisition
+        from ..simulation.simulator import simulate
 
         return simulate(load_acquisition(paths[0]), seed=seed, snr_db=snr_db, model=model)
-    from .io import read_phase_history
+    from ..io.hdf5 import read_phase_history
 
     return read_phase_history(paths[0])
 
@@ -337,7 +337,7 @@ def regularizer_sweep(ph: PhaseHistory, prior: str, *, grid: Grid, iters=(1, 2, 
     is not the matched filter). The knobs record ``iters`` and the run's last ``objective``.
     """
     try:
-        from .regularize import regularize
+        from ..regularize import regularize
     except ImportError:  # pragma: no cover - module not present in this checkout
         return []
     truth = truth_on_grid(ph, grid) if truth is None else truth
@@ -382,53 +382,6 @@ def write_csv(result: BenchResult, path) -> Path:
             w.writeheader()
             for row in result.rows:
                 w.writerow({k: (f"{v:.6g}" if isinstance(v, float) else v) for k, v in row.as_dict().items()})
-    return path
-
-
-def plot(result: BenchResult, path, *, title: str = "") -> Path:
-    """``error_vs_time.png``: error vs time (log-log), one marker per method, each method's own
-    frontier drawn thin in its colour and the overall Pareto front in black; a second panel with
-    the error to the truth when one is known."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    rows = result.rows
-    has_truth = any(np.isfinite(r.error_truth) for r in rows)
-    fig, axes = plt.subplots(1, 2 if has_truth else 1, figsize=(12 if has_truth else 7, 5), squeeze=False)
-    markers = {"direct": "*", "nufft": "o", "pfa": "s", "backprojection": "^"}
-    floor = 1e-16  # error 0 (the reference itself) drawn at the float64 floor
-    panels = [("error", "relative error vs exact matched filter")]
-    if has_truth:
-        panels.append(("error_truth", "relative error of |f| vs |truth|"))
-    for ax, (attr, label) in zip(axes[0], panels):
-        methods = list(dict.fromkeys(r.method for r in rows))
-        for i, m in enumerate(methods):
-            pts = [(r.seconds, getattr(r, attr)) for r in rows if r.method == m and np.isfinite(getattr(r, attr))]
-            if not pts:
-                continue
-            t, e = np.array(pts).T
-            e = np.maximum(e, floor)
-            (line,) = ax.loglog(t, e, markers.get(m, "DvPX"[i % 4]), ls="none", alpha=0.75, label=m)
-            own = pareto_front(e, t)
-            if own.size > 1:  # the method's own frontier, in its colour
-                ax.step(t[own], e[own], where="post", color=line.get_color(), lw=0.8, alpha=0.6)
-        err = np.array([max(getattr(r, attr), floor) if np.isfinite(getattr(r, attr)) else np.nan for r in rows])
-        sec = np.array([r.seconds for r in rows])
-        front = pareto_front(err, sec)
-        if front.size:
-            ax.step(sec[front], err[front], where="post", color="k", lw=1.5, label="Pareto front (all)")
-        ax.set_xlabel("run time (s, median)")
-        ax.set_ylabel(label)
-        ax.grid(True, which="both", alpha=0.3)
-        ax.legend(fontsize=8)
-    fig.suptitle(title or "error against run time")
-    fig.tight_layout()
-    path = Path(path)
-    with atomic_path(path) as tmp:
-        fig.savefig(tmp, dpi=110, format="png")
-    plt.close(fig)
     return path
 
 

@@ -83,6 +83,21 @@ def kspace_coordinates(freq_hz, azimuth_rad, elevation_rad):
     return k * np.cos(az)[:, None], k * np.sin(az)[:, None]
 
 
+def wrap_phase(t):
+    """Wrap phases or dimensionless frequencies into [-π, π): ``t - 2π floor((t + π) / 2π)``.
+
+    The pixel lattice sees frequencies modulo 2π (section ``sec: alias``), so on it the wrap is
+    exact. Works on arrays and scalars, and compiles unchanged under numba (the NUFFT former's
+    preparation pass calls it from compiled code): the one home of the lattice wrap.
+
+    Examples
+    --------
+    >>> float(wrap_phase(3 * np.pi / 2)) == -np.pi / 2
+    True
+    """
+    return t - 2.0 * np.pi * np.floor((t + np.pi) / (2.0 * np.pi))
+
+
 def dimensionless_frequencies(freq_hz, azimuth_rad, elevation_rad, pixel_m, *, wrap: bool = True):
     """Dimensionless frequencies ``(k1, k2) = k h ξ_θ`` of the pixel model (eq. ``fund-freq``).
 
@@ -102,8 +117,8 @@ def dimensionless_frequencies(freq_hz, azimuth_rad, elevation_rad, pixel_m, *, w
     kx, ky = kspace_coordinates(freq_hz, azimuth_rad, elevation_rad)
     k1, k2 = kx * hx, ky * hy
     if wrap:
-        k1 = np.mod(k1 + np.pi, 2.0 * np.pi) - np.pi
-        k2 = np.mod(k2 + np.pi, 2.0 * np.pi) - np.pi
+        k1 = wrap_phase(k1)
+        k2 = wrap_phase(k2)
     return k1, k2
 
 
@@ -260,6 +275,11 @@ def differential_range(antenna_position_m, range_to_center_m, points_m) -> np.nd
     offset = (norm_ld - r0.astype(np.longdouble)).astype(np.float64)
     dr = (xx - 2 * ax) / (dist + norm_a[:, None]) + offset[:, None]
     return dr.reshape((a.shape[0],) + x.shape[:-1])
+
+
+#: Far-field phase error (rad) at the grid corner above which a far-field method (or operator) on
+#: spherical data is warned about, and `sar info` says so: the one threshold every caller uses.
+DEFOCUS_WARN_RAD = 0.1
 
 
 def farfield_phase_error(range_to_center_m, freq_max_hz, radius_m) -> float:

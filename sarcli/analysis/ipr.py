@@ -1,4 +1,4 @@
-"""Image quality of point targets: impulse-response width, sidelobe ratios, peak position.
+"""Impulse-response measurement of point targets: width, sidelobe ratios, peak position.
 
 A point target's impulse response (IPR) is measured the way SAR image-quality tools do it:
 find the peak near the target, interpolate a neighbourhood by FFT zero-padding (band-limited
@@ -12,22 +12,22 @@ images are band-pass), and take two cuts through the peak, along the range direc
 - ``islr_db``: integrated sidelobe ratio, ``10 log10(sidelobe energy / main-lobe energy)`` on the
   1-D cut, sidelobes within ``±sidelobe_extent_cells`` resolution cells of the peak.
 
-:func:`image_quality` puts the values predicted from the acquisition (Theorem ``main-theorem``,
-:func:`sarcli.psf.predicted_ipr`) beside the measured ones. All outputs are plain JSON types.
+The predicted values live in :mod:`sarcli.analysis.psf`; :mod:`sarcli.analysis.quality` puts the
+two side by side. All outputs are plain JSON types.
 """
 
 from __future__ import annotations
 
+import functools
 import math
-import warnings
 
 import numpy as np
 from scipy import ndimage
 
-from .errors import AliasingWarning, SarcliInputError
+from ..core.windows import IRW_FACTOR_UNIFORM, window_1d
+from ..errors import SarcliInputError
 
-__all__ = ["profile_metrics", "measure_ipr", "image_quality", "load_reference", "center_azimuth",
-           "ISLR_DEFINITION"]
+__all__ = ["profile_metrics", "measure_ipr", "center_azimuth", "window_textbook", "ISLR_DEFINITION"]
 
 #: Largest neighbourhood (pixels a side) and interpolated patch (samples a side) measure_ipr uses.
 MAX_PATCH = 257
@@ -180,7 +180,7 @@ def measure_ipr(image, x_m, y_m, at=None, *, range_direction_rad=0.0, resolution
         ``θc + π/2``.
     resolution_m : (float, float), optional
         Range and cross-range resolution cells ρ (m); set the search radius, the patch size and
-        the sidelobe extent. Default: estimated from a first measurement as ``IRW / 0.886``.
+        the sidelobe extent. Default: estimated from a first measurement as ``IRW / IRW_FACTOR_UNIFORM`` (0.886).
     oversample : int
         FFT zero-padding factor of the band-limited interpolation (lowered, not below 2, to keep
         the interpolated patch within ``MAX_FINE`` samples a side; the result says which).
@@ -217,7 +217,7 @@ def measure_ipr(image, x_m, y_m, at=None, *, range_direction_rad=0.0, resolution
                             resolution_m=(4 * max(dx, dy),) * 2, oversample=oversample,
                             search_radius_m=search_radius_m, sidelobe_extent_cells=2.0)
         irws = [first[d]["irw_m"] or 2 * max(dx, dy) for d in ("range", "cross_range")]
-        resolution_m = tuple(w / 0.886 for w in irws)
+        resolution_m = tuple(w / IRW_FACTOR_UNIFORM for w in irws)
     rho = tuple(float(r) for r in resolution_m)
 
     # 1. coarse peak near `at`
@@ -310,140 +310,23 @@ def measure_ipr(image, x_m, y_m, at=None, *, range_direction_rad=0.0, resolution
     }
 
 
-# --------------------------------------------------------------------------------------------
-# measured beside predicted
-# --------------------------------------------------------------------------------------------
-def _window_from_parameters(parameters: dict):
-    """(kind, nbar, sll_db) recorded by an image former in ``Image.parameters``."""
-    par = parameters or {}
-    win = par.get("window", "none")
-    nbar = par.get("taylor_nbar", par.get("nbar", 4))
-    sll = par.get("taylor_sll_db", par.get("sll_db", -35.0))
-    if isinstance(win, dict):
-        nbar = win.get("nbar", nbar)
-        sll = win.get("sll_db", sll)
-        win = win.get("kind", win.get("name", "none"))
-    return (win or "none"), int(nbar), float(sll)
+@functools.lru_cache(maxsize=32)
+def window_textbook(kind="none", *, nbar=4, sll_db=-35.0, n=2048, pad=64):
+    """Continuous-limit 1-D figures of a window: ``(IRW / ρ, PSLR dB, ISLR dB)``.
 
-
-def _targets(at, truth, x, y):
-    """[(name, (x, y), expected |amplitude| or None)] from ``at`` or the truth points in the image."""
-    if at is not None:
-        pts = np.atleast_2d(np.asarray(at, dtype=np.float64))
-        if pts.shape[-1] != 2:
-            raise SarcliInputError(f"target positions must be (x, y) pairs, got shape {pts.shape}")
-        return [(f"T{i + 1}", (float(p[0]), float(p[1])), None) for i, p in enumerate(pts)]
-    if truth is None or np.size(truth.point_position_m) == 0:
-        raise SarcliInputError("no targets to measure: give positions (--at X,Y) or a phase history "
-                               "whose truth holds point targets")
-    out = []
-    pos = np.asarray(truth.point_position_m, dtype=np.float64).reshape(-1, 3)
-    amp = np.asarray(truth.point_amplitude).reshape(-1)
-    for i, (p, a) in enumerate(zip(pos, amp)):
-        if x[0] <= p[0] <= x[-1] and y[0] <= p[1] <= y[-1]:
-            out.append((f"T{i + 1}", (float(p[0]), float(p[1])), float(abs(a))))
-    if not out:
-        raise SarcliInputError(f"none of the {len(pos)} truth points lies inside the image "
-                               f"(x {x[0]:g}..{x[-1]:g}, y {y[0]:g}..{y[-1]:g} m)")
-    return out
-
-
-def image_quality(img, ph_or_acq, *, at=None, truth=None, window=None, nbar=None, sll_db=None,
-                  oversample=8, sidelobe_extent_cells=10.0) -> list[dict]:
-    """Measure every point target of an image and put the predicted figures beside them.
-
-    Parameters
-    ----------
-    img : sarcli.io.Image
-    ph_or_acq : sarcli.io.PhaseHistory or sarcli.acquisition.Acquisition
-        Geometry (range direction, resolution, prediction) and, for a phase history, the truth
-        point targets.
-    at : (x, y) or sequence of (x, y), optional
-        Target positions (m); default: every truth point inside the image.
-    truth : sarcli.io.Truth, optional
-        Point targets to use instead of those of ``ph_or_acq`` (see :func:`load_reference`).
-    window : str or array_like (P, M), optional
-        Window of the prediction; default: the one recorded in ``img.parameters`` ('none'
-        when absent).
-    nbar, sll_db : optional
-        Taylor parameters (default: those recorded, else 4 and -35 dB).
-    oversample, sidelobe_extent_cells :
-        As in :func:`measure_ipr`.
-
-    Returns
-    -------
-    list of dict
-        One per target: ``name``, ``expected_at_m``, ``expected_peak_magnitude`` (|a_s| of the
-        truth, the normalised matched filter's peak), the :func:`measure_ipr` result under
-        ``measured``, the :func:`sarcli.psf.predicted_ipr` cut figures under ``predicted``, and
-        ``irw_ratio`` = measured / predicted per direction, ``undersampled`` (pixel larger
-        than the predicted resolution cell; also an :class:`AliasingWarning`). Plain JSON types.
+    The window (:func:`sarcli.core.windows.window_1d`, ``n`` samples) is transformed with ``pad``-fold
+    zero padding; widths are in bins (1 bin = the resolution ρ of an unweighted aperture of the
+    same length). ISLR counts every sidelobe (infinite extent). Uniform gives 0.886, -13.26 dB,
+    -9.68 dB; Hamming 1.30, -42.7 dB; Hann 1.44, -31.5 dB (Harris, Proc. IEEE 66, 1978, Table 1).
     """
-    from .psf import predicted_ipr  # psf imports this module for profile_metrics
-
-    acq = getattr(ph_or_acq, "acquisition", ph_or_acq)
-    truth = getattr(ph_or_acq, "truth", None) if truth is None else truth
-    rec_win, rec_nbar, rec_sll = _window_from_parameters(getattr(img, "parameters", {}))
-    window = rec_win if window is None else window
-    nbar = rec_nbar if nbar is None else int(nbar)
-    sll_db = rec_sll if sll_db is None else float(sll_db)
-    x, y = np.asarray(img.x_m, dtype=np.float64), np.asarray(img.y_m, dtype=np.float64)
-    targets = _targets(at, truth, x, y)
-    pred = predicted_ipr(acq, window=window, nbar=nbar, sll_db=sll_db,
-                         sidelobe_extent_cells=sidelobe_extent_cells)
-    theta_c = pred["range_direction_rad"]
-    rho = (pred["range"].get("cell_m"), pred["cross_range"].get("cell_m"))
-    rho = None if None in rho else rho
-    keep = ("irw_m", "pslr_db", "islr_db", "first_nulls_m", "resolution_m", "cell_m", "sidelobe_extent_m")
-    predicted = {d: {k: pred[d].get(k) for k in keep} for d in ("range", "cross_range")}
-    predicted.update(method=pred.get("method"), window=pred["window"], textbook=pred.get("textbook"))
-    pixel = max(float(x[1] - x[0]), float(y[1] - y[0]))
-    finest = min(c for c in (rho or (np.inf,)))
-    undersampled = bool(pixel > finest)
-    if undersampled:
-        warnings.warn(f"pixel {pixel:.4g} m exceeds the resolution cell {finest:.4g} m of the predicted "
-                      "PSF: the image undersamples its main lobe and the measured widths follow the grid",
-                      AliasingWarning, stacklevel=2)
-    results = []
-    for name, pos, amp in targets:
-        m = measure_ipr(img.image, x, y, at=pos, range_direction_rad=theta_c, resolution_m=rho,
-                        oversample=oversample, sidelobe_extent_cells=sidelobe_extent_cells)
-        ratio = {}
-        for d in ("range", "cross_range"):
-            mi, pi = m[d]["irw_m"], predicted[d]["irw_m"]
-            ratio[d] = None if mi is None or not pi else float(mi / pi)
-        results.append({"name": name, "expected_at_m": list(pos), "expected_peak_magnitude": amp,
-                        "measured": m, "predicted": predicted, "irw_ratio": ratio,
-                        "undersampled": undersampled,
-                        "image_method": getattr(img, "method", "")})
-    return results
-
-
-def load_reference(path):
-    """Geometry and point targets from a YAML acquisition or a phase-history file.
-
-    Parameters
-    ----------
-    path : str or Path
-        ``.yaml``/``.yml``: :func:`sarcli.config.load_acquisition`, truth = the scene's points;
-        otherwise :func:`sarcli.io.read_phase_history`.
-
-    Returns
-    -------
-    acquisition : Acquisition
-    truth : sarcli.io.Truth or None
-    """
-    from pathlib import Path
-
-    from .io import Truth, read_phase_history
-
-    if Path(path).suffix.lower() in (".yaml", ".yml"):
-        from .config import load_acquisition
-        from .scenes import point_targets
-
-        acq = load_acquisition(path)
-        pos, amp = point_targets(acq.scene)
-        return acq, Truth(point_position_m=np.asarray(pos, dtype=np.float64).reshape(-1, 3),
-                          point_amplitude=np.asarray(amp, dtype=np.complex128).reshape(-1))
-    ph = read_phase_history(path)
-    return ph.acquisition, ph.truth
+    if kind in (None, "none", "uniform", "rect"):
+        w = np.ones(n)
+    else:
+        try:
+            w = window_1d(n, kind, nbar=nbar, sll_db=sll_db)
+        except ValueError as exc:
+            raise SarcliInputError(str(exc)) from None
+    spec = np.abs(np.fft.fftshift(np.fft.fft(w, n * pad)))
+    s = (np.arange(spec.size) - spec.size // 2) / pad  # in bins
+    met = profile_metrics(s, spec)
+    return float(met["irw_m"]), float(met["pslr_db"]), float(met["islr_db"])

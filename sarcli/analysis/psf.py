@@ -16,7 +16,6 @@ Public API
 psf_kernel(acq_or_arrays, grid, *, weights=None, center=(0, 0), method='auto') -> ndarray
 grid_method(acq_or_arrays, grid, *, weights=None, center=(0, 0), method='auto') -> str
 psf_image(acq, grid=None, *, window='none', nbar=4, sll_db=-35, center=None, method='auto') -> Image
-plot_psf(img, path, *, dynamic_range_db=60)
 kernel_at(acq_or_arrays, points_m, *, weights=None, center=(0, 0), method='auto') -> ndarray
 dirichlet_ratio(u, m) -> ndarray
 predicted_ipr(acq, *, window='none', ...) -> dict
@@ -24,20 +23,20 @@ predicted_ipr(acq, *, window='none', ...) -> dict
 
 from __future__ import annotations
 
-import functools
 import math
 
 import numpy as np
 
-from . import geometry
-from .acquisition import Acquisition
-from .errors import SarcliInputError
-from .grid import Grid
-from .progress import progress
-from .quality import ISLR_DEFINITION, center_azimuth, profile_metrics
+from ..core import geometry
+from ..core.acquisition import Acquisition
+from ..errors import SarcliInputError
+from ..core.grid import Grid
+from .._util.progress import progress
+from ..core.windows import IRW_FACTOR_UNIFORM
+from .ipr import ISLR_DEFINITION, center_azimuth, profile_metrics, window_textbook
 
 __all__ = ["psf_kernel", "grid_method", "kernel_at", "dirichlet_ratio", "theorem_parameters", "predicted_ipr",
-           "psf_image", "plot_psf", "window_weights_for", "window_textbook"]
+           "psf_image", "window_weights_for"]
 
 _CHUNK_ELEMENTS = 4_000_000  # complex elements per temporary block (64 MB)
 
@@ -148,7 +147,7 @@ def _weighted_cut(freq, az, el, weights, theta, step, n_half):
 
     kx, ky = geometry.kspace_coordinates(freq, az, el)
     kappa = (kx * math.cos(theta) + ky * math.sin(theta)).ravel() * step
-    x = np.mod(kappa + np.pi, 2 * np.pi) - np.pi
+    x = geometry.wrap_phase(kappa)
     w = np.asarray(weights, dtype=np.float64).ravel()
     out = finufft.nufft1d1(x, w.astype(np.complex128), 2 * n_half + 1, isign=1, eps=1e-12)
     return out / np.sum(w)
@@ -178,8 +177,8 @@ def _nufft_grid(freq, az, el, weights, grid: Grid, center):
     kx, ky, w = kx.ravel(), ky.ravel(), weights.ravel()
     # x = cx + n dx: exp(i kx (x - px)) = exp(i kx (cx - px)) exp(i (kx dx) n); wrapping kx dx is exact
     c = w * np.exp(1j * (kx * (grid.cx - float(center[0])) + ky * (grid.cy - float(center[1]))))
-    tx = np.mod(kx * grid.dx + np.pi, 2 * np.pi) - np.pi
-    ty = np.mod(ky * grid.dy + np.pi, 2 * np.pi) - np.pi
+    tx = geometry.wrap_phase(kx * grid.dx)
+    ty = geometry.wrap_phase(ky * grid.dy)
     out = finufft.nufft2d1(ty, tx, c.astype(np.complex128), grid.shape, isign=1, eps=1e-12)
     return out / np.sum(w)
 
@@ -296,7 +295,7 @@ def psf_kernel(acq_or_arrays, grid: Grid | None = None, *, weights=None, center=
     Examples
     --------
     >>> import numpy as np
-    >>> from sarcli.grid import Grid
+    >>> from sarcli.core.grid import Grid
     >>> f = np.linspace(9.7e9, 10.3e9, 64); az = np.radians(np.linspace(48.5, 51.5, 32))
     >>> k = psf_kernel((f, az, np.radians(30.0)), Grid.square(2.0, 64))
     >>> float(round(abs(k[32, 32]), 12))
@@ -321,7 +320,7 @@ def psf_kernel(acq_or_arrays, grid: Grid | None = None, *, weights=None, center=
 # predicted impulse-response figures
 # --------------------------------------------------------------------------------------------
 def window_weights_for(acq_or_arrays, window="none", *, nbar=4, sll_db=-35.0):
-    """Window weights ``w_pj`` [P, M] for a window name (None for 'none'), via :mod:`sarcli.windows`.
+    """Window weights ``w_pj`` [P, M] for a window name (None for 'none'), via :mod:`sarcli.core.windows`.
 
     An array is passed through (validated against P × M).
     """
@@ -331,7 +330,7 @@ def window_weights_for(acq_or_arrays, window="none", *, nbar=4, sll_db=-35.0):
         return None
     if not isinstance(window, str):
         return _weights_array(window, p, m)
-    from .windows import window_weights  # written alongside; imported only when a window is asked for
+    from ..core.windows import window_weights
 
     try:
         w = window_weights(p, m, window.lower(), nbar=nbar, sll_db=sll_db)
@@ -347,7 +346,7 @@ def predicted_ipr(acq, *, window="none", nbar=4, sll_db=-35.0, samples_per_cell=
     The normalised kernel (Theorem ``main-theorem``; the exact weighted sum with a window) is
     sampled along the range direction ``ξ_θc`` (θc the centre look azimuth) and along
     cross-range through its peak, ``samples_per_cell`` samples per (finer) resolution cell and
-    at most ``max_samples`` per cut, and measured with :func:`sarcli.quality.profile_metrics`.
+    at most ``max_samples`` per cut, and measured with :func:`sarcli.analysis.ipr.profile_metrics`.
     The kernel is exact, so the figures hold where the textbook ones do not (wide apertures,
     narrow bands: there the aperture curvature also sets the range width).
 
@@ -355,7 +354,7 @@ def predicted_ipr(acq, *, window="none", nbar=4, sll_db=-35.0, samples_per_cell=
     ----------
     acq : Acquisition or (frequency_hz, azimuth_rad, elevation_rad)
     window : str or array_like (P, M)
-        Window name for :func:`sarcli.windows.window_weights` ('none' = uniform) or the weights.
+        Window name for :func:`sarcli.core.windows.window_weights` ('none' = uniform) or the weights.
     nbar, sll_db : Taylor window parameters.
     samples_per_cell : int
     sidelobe_extent_cells : float
@@ -399,9 +398,9 @@ def predicted_ipr(acq, *, window="none", nbar=4, sll_db=-35.0, samples_per_cell=
             vals = _weighted_cut(freq, az, el, w, theta, step, s.size // 2)
         out["method"] = "theorem" if how == "theorem" else "weighted sum"
         met = profile_metrics(s, np.abs(vals), sidelobe_extent=min(sidelobe_extent_cells * r, float(s[-1])))
-        # the resolution cell that sets the sidelobe extent: the formula's ρ, or IRW/0.886 where
+        # the resolution cell that sets the sidelobe extent: the formula's ρ, or IRW/IRW_FACTOR_UNIFORM where
         # the kernel is much sharper than the formula says (wide apertures, narrow bands)
-        cell = r if met["irw_m"] is None else min(r, met["irw_m"] / 0.886)
+        cell = r if met["irw_m"] is None else min(r, met["irw_m"] / IRW_FACTOR_UNIFORM)
         if cell < r:
             met = profile_metrics(s, np.abs(vals), sidelobe_extent=min(sidelobe_extent_cells * cell, float(s[-1])))
         met["resolution_m"] = float(r)
@@ -421,36 +420,12 @@ def predicted_ipr(acq, *, window="none", nbar=4, sll_db=-35.0, samples_per_cell=
     return out
 
 
-@functools.lru_cache(maxsize=32)
-def window_textbook(kind="none", *, nbar=4, sll_db=-35.0, n=2048, pad=64):
-    """Continuous-limit 1-D figures of a window: ``(IRW / ρ, PSLR dB, ISLR dB)``.
-
-    The window (:func:`sarcli.windows.window_1d`, ``n`` samples) is transformed with ``pad``-fold
-    zero padding; widths are in bins (1 bin = the resolution ρ of an unweighted aperture of the
-    same length). ISLR counts every sidelobe (infinite extent). Uniform gives 0.886, -13.26 dB,
-    -9.68 dB; Hamming 1.30, -42.7 dB; Hann 1.44, -31.5 dB (Harris, Proc. IEEE 66, 1978, Table 1).
-    """
-    if kind in (None, "none", "uniform", "rect"):
-        w = np.ones(n)
-    else:
-        from .windows import window_1d
-
-        try:
-            w = window_1d(n, kind, nbar=nbar, sll_db=sll_db)
-        except ValueError as exc:
-            raise SarcliInputError(str(exc)) from None
-    spec = np.abs(np.fft.fftshift(np.fft.fft(w, n * pad)))
-    s = (np.arange(spec.size) - spec.size // 2) / pad  # in bins
-    met = profile_metrics(s, spec)
-    return float(met["irw_m"]), float(met["pslr_db"]), float(met["islr_db"])
-
-
 # --------------------------------------------------------------------------------------------
 # the PSF as an image file, and a picture of it
 # --------------------------------------------------------------------------------------------
 def psf_image(acq: Acquisition, grid: Grid | None = None, *, window="none", nbar=4, sll_db=-35.0,
               center=None, method="auto"):
-    """The normalised PSF of a unit point as a :class:`sarcli.io.Image`, with predicted IPR figures.
+    """The normalised PSF of a unit point as a :class:`sarcli.core.types.Image`, with predicted IPR figures.
 
     Parameters
     ----------
@@ -458,7 +433,7 @@ def psf_image(acq: Acquisition, grid: Grid | None = None, *, window="none", nbar
     grid : Grid, optional
         Default: the acquisition's grid.
     window : str
-        Window name ('none', 'hann', 'hamming', 'taylor'; see :mod:`sarcli.windows`).
+        Window name ('none', 'hann', 'hamming', 'taylor'; see :mod:`sarcli.core.windows`).
     nbar, sll_db : Taylor parameters.
     center : (float, float), optional
         Position of the unit point; default: the grid's centre ``(cx, cy)``.
@@ -467,13 +442,13 @@ def psf_image(acq: Acquisition, grid: Grid | None = None, *, window="none", nbar
 
     Returns
     -------
-    sarcli.io.Image
+    sarcli.core.types.Image
         ``method='psf'``; ``parameters`` holds the window, the point, the evaluation method and
         the grid; ``attrs['predicted_ipr']`` the output of :func:`predicted_ipr`.
     """
     import time
 
-    from .io import Image
+    from ..core.types import Image
 
     grid = acq.grid if grid is None else grid
     center = (grid.cx, grid.cy) if center is None else (float(center[0]), float(center[1]))
@@ -490,38 +465,3 @@ def psf_image(acq: Acquisition, grid: Grid | None = None, *, window="none", nbar
         params.update({"taylor_nbar": int(nbar), "taylor_sll_db": float(sll_db)})
     return Image(image=k, x_m=grid.x, y_m=grid.y, method="psf", parameters=params, runtime_s=runtime,
                  attrs={"predicted_ipr": pred})
-
-
-def plot_psf(img, path, *, dynamic_range_db=60.0):
-    """Write a PNG of ``20 log10 |K|`` (north up, axes in metres) with matplotlib.
-
-    Parameters
-    ----------
-    img : sarcli.io.Image
-    path : str or Path
-    dynamic_range_db : float
-        Colour scale from ``-dynamic_range_db`` to 0 dB (relative to the peak).
-    """
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from ._atomic import atomic_path
-
-    mag = np.abs(np.asarray(img.image))
-    db = 20 * np.log10(np.maximum(mag / max(float(mag.max()), 1e-300), 1e-300))
-    x, y = np.asarray(img.x_m), np.asarray(img.y_m)
-    dx = x[1] - x[0] if x.size > 1 else 1.0
-    dy = y[1] - y[0] if y.size > 1 else 1.0
-    fig, ax = plt.subplots(figsize=(6, 5))
-    im = ax.imshow(db, origin="lower", cmap="gray", vmin=-abs(dynamic_range_db), vmax=0,
-                   extent=(x[0] - dx / 2, x[-1] + dx / 2, y[0] - dy / 2, y[-1] + dy / 2))
-    ax.set_xlabel("x east (m)")
-    ax.set_ylabel("y north (m)")
-    ax.set_title("PSF 20 log10|K| (dB)")
-    fig.colorbar(im, ax=ax, label="dB")
-    with atomic_path(path) as tmp:
-        fig.savefig(tmp, dpi=100, format="png")
-    plt.close(fig)
-    return path

@@ -24,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .grid import Grid
+from ..core.grid import Grid
 
 __all__ = ["validate_scene", "scene_half_width", "point_targets", "synthesize_extended", "ExtendedScene",
            "shepp_logan", "disks"]

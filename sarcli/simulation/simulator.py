@@ -1,9 +1,9 @@
 """The simulator: acquisition + scene -> phase history, far-field or exact spherical.
 
 - Point targets: the closed form ``d[p, j] = Σ_s a_s exp(-i ψ_pjs)`` with ψ from
-  :func:`sarcli.geometry.signal_phase` (eq. ``eq1`` far-field, or the exact range), chunked over
+  :func:`sarcli.core.geometry.signal_phase` (eq. ``eq1`` far-field, or the exact range), chunked over
   pulses so memory stays below ``chunk_elements`` complex numbers.
-- Extended scenes (see :mod:`sarcli.scenes`): far-field data are the pixel model on the fine
+- Extended scenes (see :mod:`sarcli.simulation.scenes`): far-field data are the pixel model on the fine
   grid, evaluated by one type-2 NUFFT (FINUFFT, ``eps=1e-12``) at the wrapped dimensionless
   frequencies (exact on the fine grid, section ``sec: alias``); spherical data are the exact sum
   over fine cells, in a compiled loop over pulses that never holds P × M × cells.
@@ -14,11 +14,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import geometry
-from .acquisition import Acquisition
-from .errors import SarcliInputError
-from .io import PhaseHistory, Truth
-from .progress import progress
+from ..core import geometry
+from ..core.acquisition import Acquisition
+from ..errors import SarcliInputError
+from ..core.types import PhaseHistory, Truth
+from .._util.progress import progress
 from .scenes import point_targets, synthesize_extended
 
 __all__ = ["simulate", "point_phase_history", "add_noise"]
@@ -53,8 +53,8 @@ def _farfield_extended(acq: Acquisition, values, grid) -> np.ndarray:
     import finufft
 
     kx, ky = acq.kspace()
-    t1 = np.mod(kx * grid.dx + np.pi, 2 * np.pi) - np.pi
-    t2 = np.mod(ky * grid.dy + np.pi, 2 * np.pi) - np.pi
+    t1 = geometry.wrap_phase(kx * grid.dx)
+    t2 = geometry.wrap_phase(ky * grid.dy)
     # modes m = index - n//2 run over -n/2 .. n/2-1 for even n: finufft's modeord=0 ordering.
     v = np.ascontiguousarray(values, dtype=np.complex128)
     if grid.nx % 2 or grid.ny % 2:
@@ -66,7 +66,7 @@ def _farfield_extended(acq: Acquisition, values, grid) -> np.ndarray:
 
 def _spherical_extended(acq: Acquisition, values, grid) -> np.ndarray:
     """Exact spherical-model data of a fine grid (compiled loop, bounded memory)."""
-    from ._simkernels import spherical_sum
+    from ._kernels import spherical_sum
 
     mask = values != 0
     pts = grid.points()[mask]

@@ -20,13 +20,13 @@ import json
 import numpy as np
 import tifffile
 
-from .._atomic import atomic_path
+from .._util.atomic import atomic_path
 from .._version import __version__
-from ..io import Image
-from . import _common
+from ..core.types import Image
+from . import pixels as _common
 from .georef import DEFAULT_REFERENCE, reference_point, utm_epsg
 
-__all__ = ["write_geotiff", "LOCAL_CITATION", "geotiff_frame"]
+__all__ = ["write_geotiff", "read_geotiff", "LOCAL_CITATION", "geotiff_frame"]
 
 LOCAL_CITATION = "sarcli local ENU frame, origin at scene centre, metres"
 
@@ -142,3 +142,54 @@ def write_geotiff(img: Image, path, *, kind: str = "magnitude", dynamic_range_db
         tifffile.imwrite(tmp, data, photometric="minisblack", description=description,
                          metadata=None, software=f"sarcli {__version__}", extratags=extratags)
     return frame
+
+
+def read_geotiff(path) -> Image:
+    """Read a single-band GeoTIFF (ours or another tool's) as an :class:`Image`.
+
+    Rows are flipped back so row 0 is the southern edge. Pixel-centre coordinates come from the
+    ModelPixelScale and ModelTiepoint tags (a raster without them gets 1 m pixels centred on the
+    origin); for a file sarcli wrote in a UTM frame the scene centre's easting/northing is taken
+    off again, so ``x_m``/``y_m`` are local east/north metres as in the image it came from.
+    A dB raster is returned as read (real values in dB); ``parameters['kind']`` says which.
+    """
+    from ..errors import InputFileError
+
+    try:
+        with tifffile.TiffFile(path) as tif:
+            page = tif.pages[0]
+            data = page.asarray()
+            tags = {t.code: t.value for t in page.tags.values()}
+    except (OSError, ValueError, KeyError, IndexError, tifffile.TiffFileError) as exc:
+        raise InputFileError(path, f"not a readable TIFF ({str(exc).splitlines()[0] if str(exc) else exc})") from None
+    if data.ndim != 2:
+        raise InputFileError(path, f"expected a single-band raster, got shape {data.shape}")
+    try:
+        meta = json.loads(tags.get(270, "") or "{}")
+        meta = meta if isinstance(meta, dict) else {}
+    except (TypeError, ValueError):
+        meta = {}
+    dx, dy = (tuple(tags[_TAG_PIXEL_SCALE][:2]) if _TAG_PIXEL_SCALE in tags else (1.0, 1.0))
+    ny, nx = data.shape
+    if _TAG_TIEPOINT in tags:
+        tp = tags[_TAG_TIEPOINT]
+        x0, y0 = float(tp[3]) - float(tp[0]) * dx, float(tp[4]) + float(tp[1]) * dy
+    else:
+        x0, y0 = -nx * dx / 2, ny * dy / 2
+    e0 = n0 = 0.0
+    latlon = meta.get("scene_center_lat_lon_deg")
+    if latlon and str(meta.get("software", "")).startswith("sarcli"):
+        from pyproj import Transformer
+
+        epsg = utm_epsg(*latlon)
+        e0, n0 = Transformer.from_crs("EPSG:4326", f"EPSG:{epsg}", always_xy=True).transform(latlon[1], latlon[0])
+    x = x0 - e0 + dx / 2 + dx * np.arange(nx)
+    y = (y0 - n0 - dy / 2 - dy * np.arange(ny))[::-1]
+    image = np.asarray(data[::-1])
+    image = image.astype(np.complex128 if np.iscomplexobj(image) else np.float64)
+    params = {"kind": meta.get("kind", "unknown"), "crs": meta.get("crs"), "source": "geotiff"}
+    attrs = {}
+    if latlon:
+        attrs = {"scene_center_lat_deg": float(latlon[0]), "scene_center_lon_deg": float(latlon[1])}
+    return Image(image=image, x_m=x, y_m=y, method=str(meta.get("method", "geotiff")), parameters=params,
+                 attrs=attrs)

@@ -1,4 +1,6 @@
-"""Shared machinery of the commands: error mapping, warnings as one line, grid options."""
+"""Shared machinery of the commands: error mapping, warnings as one line, and the options several
+commands share, built from the library's own constants (window kinds, Taylor ranges, methods) so
+that a choice or a range is written once, where the library defines it."""
 
 from __future__ import annotations
 
@@ -8,9 +10,32 @@ import warnings
 
 import click
 
+from ..core import windows as _windows
 from ..errors import NumericalError, SarcliInputError, SarcliWarning
 
-__all__ = ["handle_errors", "grid_options", "export_options", "write_side_outputs", "parse_pair", "echo_info"]
+__all__ = ["handle_errors", "grid_options", "export_options", "write_side_outputs", "parse_pair", "echo_info",
+           "window_options", "window_choice"]
+
+
+def window_choice(default="none", help="Window in range and cross-range (peak of a unit point stays 1)."):
+    """``--window`` with the kinds of :data:`sarcli.core.windows.WINDOW_KINDS`."""
+    return click.option("--window", type=click.Choice(_windows.WINDOW_KINDS), default=default,
+                        show_default=default is not None, help=help)
+
+
+def window_options(func=None, *, nbar_dest="taylor_nbar", sll_dest="taylor_sll_db"):
+    """``--window``, ``--taylor-nbar`` and ``--taylor-sll-db``, with the ranges the window module
+    accepts (:func:`sarcli.core.windows.check_taylor`)."""
+    def decorate(f):
+        lo, hi = _windows.TAYLOR_SLL_DB_RANGE
+        f = click.option("--taylor-sll-db", sll_dest, type=click.FloatRange(lo, hi), default=_windows.TAYLOR_SLL_DB,
+                         show_default=True, help="Taylor window peak sidelobe level (dB, negative).")(f)
+        lo, hi = _windows.TAYLOR_NBAR_RANGE
+        f = click.option("--taylor-nbar", nbar_dest, type=click.IntRange(lo, hi), default=_windows.TAYLOR_NBAR,
+                         show_default=True, help="Taylor window number of nearly constant sidelobes.")(f)
+        return window_choice()(f)
+
+    return decorate if func is None else decorate(func)
 
 
 def _show_warning(message, category, filename, lineno, file=None, line=None):
@@ -96,7 +121,7 @@ def export_options(func):
 def write_side_outputs(img, png_path=None, tif_path=None):
     """Write the ``--png`` / ``--geotiff`` shortcuts of a command (atomic, like every output)."""
     if png_path or tif_path:
-        from ..export import export_image
+        from ..io.export import export_image
 
         if png_path:
             export_image(img, png_path, kind="db")

@@ -1,6 +1,6 @@
 """``sar batch``: run many imaging jobs on dask, resumably (issue 8).
 
-A plan (YAML, see ``docs/batch.md`` and :mod:`sarcli.batch_plan`) lists jobs: phase-history
+A plan (YAML, see ``docs/batch.md`` and :mod:`sarcli.batch.plan`) lists jobs: phase-history
 inputs (files or globs) with a method, its options and a grid, or the generators ``subapertures``
 (azimuth windows of W degrees with overlap O, one image each, plus their composite) and ``tiles``
 (T x T tiles of a large grid, stitched). :func:`run_plan` runs the expanded jobs on a dask
@@ -24,7 +24,7 @@ fingerprint, so an interrupted batch resumes where it stopped.
 
 Public API
 ----------
-load_plan(path) -> Plan                     (from :mod:`sarcli.batch_plan`)
+load_plan(path) -> Plan                     (from :mod:`sarcli.batch.plan`)
 run_plan(plan, outdir, *, client=None, scheduler=None, n_workers=None, force=False) -> BatchReport
 run_job(job, outdir, force=False) -> JobResult
 """
@@ -42,12 +42,13 @@ from pathlib import Path
 
 import numpy as np
 
-from . import errors
-from .batch_plan import (COMPOSITES, POINTWISE_METHODS, Job, Plan, load_plan, parse_plan, subaperture_windows,
-                         tile_layout)
-from .errors import SarcliError
-from .grid import Grid, resolve_grid
-from .io import Image, PhaseHistory, read_image, to_json, write_image
+from .. import errors
+from .layout import subaperture_windows, tile_layout
+from .plan import COMPOSITES, POINTWISE_METHODS, Job, Plan, load_plan, parse_plan
+from ..errors import SarcliError
+from ..core.grid import Grid, resolve_grid
+from ..core.types import Image, PhaseHistory, to_json
+from ..io.hdf5 import read_image, write_image
 
 __all__ = ["Job", "Plan", "JobResult", "BatchReport", "load_plan", "parse_plan", "run_plan", "run_job",
            "subaperture_windows", "tile_layout", "COMPOSITES", "POINTWISE_METHODS", "FINGERPRINT_ATTR"]
@@ -119,11 +120,11 @@ def _valid_output(path: Path, fingerprint: str) -> bool:
 
 def _read_input(job: Job) -> PhaseHistory:
     if job.input.lower().endswith(".mat"):
-        from .gotcha import read_gotcha
+        from ..io.gotcha import read_gotcha
 
         ph = read_gotcha(job.input)
     else:
-        from .io import read_phase_history
+        from ..io.hdf5 import read_phase_history
 
         ph = read_phase_history(job.input)
     if job.pulses is None:
@@ -141,10 +142,10 @@ def _form(job: Job) -> Image:
                             pixel_size=job.grid.get("pixel_size"))
     options = dict(job.options)
     if job.method == "regularize":
-        from .regularize import regularize
+        from ..regularize import regularize
 
         return regularize(ph, grid=grid, **options)
-    from .formation import form_image
+    from ..formers.formation import form_image
 
     if job.method in ("nufft", "backprojection"):
         options.setdefault("nthreads", job.threads)
@@ -292,7 +293,7 @@ def run_plan(plan, outdir, *, client=None, scheduler: str | None = None, n_worke
     """
     from distributed import Client, LocalCluster, as_completed
 
-    from .progress import progress
+    from .._util.progress import progress
 
     if not isinstance(plan, Plan):
         plan = load_plan(plan)
@@ -324,7 +325,7 @@ def run_plan(plan, outdir, *, client=None, scheduler: str | None = None, n_worke
             obj.close()
     report = BatchReport([results[j.name] for j in plan.jobs], wall_s=time.perf_counter() - t0, workers=n_workers)
     if report_file:
-        from ._atomic import atomic_path
+        from .._util.atomic import atomic_path
 
         with atomic_path(outdir / report_file) as tmp:
             Path(tmp).write_text(json.dumps({"plan": plan.source, **report.to_dict()}, indent=1))

@@ -26,14 +26,14 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from . import geometry
-from .acquisition import Acquisition
-from .errors import AliasingWarning, ConfigError
-from .grid import Grid
+from ..core import geometry
+from ..core.acquisition import Acquisition
+from ..errors import AliasingWarning, ConfigError
+from ..core.grid import Grid, derive_grid
 
 __all__ = ["load_acquisition", "parse_acquisition", "derive_grid", "SCHEMA"]
 
-#: Valid keys of each section (the schema); nested scene keys are checked in :mod:`sarcli.scenes`.
+#: Valid keys of each section (the schema); nested scene keys are checked in :mod:`sarcli.simulation.scenes`.
 SCHEMA = {
     "": {"name", "model", "frequencies", "elevation_deg", "azimuths", "geometry", "image", "noise",
          "scene", "location", "seed", "description"},
@@ -47,7 +47,6 @@ SCHEMA = {
 }
 REQUIRED = {"": ("frequencies", "azimuths")}
 PATHS = ("farfield", "circle", "line", "positions")
-MAX_DERIVED_PIXELS = 8192
 
 
 class _Ctx:
@@ -195,29 +194,6 @@ def _parse_geometry(ctx, sec, az, el_rad):
     return pos, az2, el2, path
 
 
-def derive_grid(freq_hz, azimuth_rad, elevation_rad, *, scene_half_width_m=None, oversampling=2.0) -> Grid:
-    """Default grid from the sampling: pixel = finest resolution / oversampling, extent = the
-    scene's half width or the alias-free radius, whichever is smaller (nothing computed that the
-    scene does not need).
-    """
-    rho = [r for r in geometry.resolutions(freq_hz, azimuth_rad, elevation_rad) if np.isfinite(r)]
-    radii = [r for r in geometry.alias_free_radii(freq_hz, azimuth_rad, elevation_rad) if np.isfinite(r)]
-    if not rho:
-        raise ConfigError("cannot derive a pixel size from a single frequency and a single pulse; "
-                          "give image.half_width_m and image.pixels", key="image")
-    h = min(rho) / float(oversampling)
-    limits = radii + ([scene_half_width_m] if scene_half_width_m else [])
-    if not limits:
-        raise ConfigError("cannot derive the scene extent; give image.half_width_m", key="image.half_width_m")
-    half = min(limits)
-    n = int(2 * math.ceil(half / h))
-    n = max(2, n + (n % 2))
-    if n > MAX_DERIVED_PIXELS:
-        n = MAX_DERIVED_PIXELS
-        h = 2 * half / n
-    return Grid.square(n * h / 2, n)
-
-
 def parse_acquisition(cfg, *, source=None, text=None) -> Acquisition:
     """Build an :class:`Acquisition` from an already-parsed YAML mapping.
 
@@ -229,7 +205,7 @@ def parse_acquisition(cfg, *, source=None, text=None) -> Acquisition:
     text : str, optional
         The YAML text, kept for provenance.
     """
-    from . import scenes  # scenes validates its own section
+    from ..simulation import scenes
 
     ctx = _Ctx(source)
     if cfg is None:

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from .geometry import C
+from ..core.geometry import C
 
 
 @numba.njit(parallel=True, cache=True, fastmath=False)

@@ -14,9 +14,9 @@ Mapping (``docs/formats.md`` has the table):
 * Signal format ``CF8`` (complex64; CPHD has no complex128 format, so complex128 data is rounded).
 * Our local ENU frame (x east, y north, z up, origin at the scene centre) is anchored on the Earth
   at ``scene_center_lat_deg`` / ``scene_center_lon_deg`` (/ ``scene_center_height_m``) from the
-  phase history's attrs, or at the placeholder :data:`sarcli.export.georef.DEFAULT_REFERENCE`
+  phase history's attrs, or at the placeholder :data:`sarcli.io.georef.DEFAULT_REFERENCE`
   (0° N, 0° E, 0 m; written into the file's ``CollectionID/CoreName`` note). The conversion is
-  :func:`sarcli.export.georef.enu_to_ecf`. The planar image area is spanned by East (IAX) and
+  :func:`sarcli.io.georef.enu_to_ecf`. The planar image area is spanned by East (IAX) and
   North (IAY), so image-area coordinates equal our x, y; ``SceneCoordinates/ImageGrid`` holds our grid.
 * Times are synthetic (CPHD needs them, our files have none): pulses are spaced so the platform
   moves at :data:`NOMINAL_SPEED_M_S`; velocities are finite differences of the positions.
@@ -35,14 +35,14 @@ import lxml.builder
 import lxml.etree
 import numpy as np
 
-from . import geometry
-from ._atomic import atomic_path
-from ._version import __version__
-from .acquisition import Acquisition
-from .errors import InputFileError, SarcliInputError
-from .export.georef import ReferencePoint, ecf_to_enu, enu_basis, enu_to_ecf, reference_point
-from .grid import Grid
-from .io import PhaseHistory
+from ..core import geometry
+from .._util.atomic import atomic_path
+from .._version import __version__
+from ..core.acquisition import Acquisition
+from ..errors import InputFileError, SarcliInputError
+from .georef import ReferencePoint, ecf_to_enu, enu_basis, enu_to_ecf, reference_point
+from ..core.grid import Grid
+from ..core.types import PhaseHistory
 
 __all__ = ["read_cphd", "write_cphd", "pulse_times", "UNIFORM_TOLERANCE", "NOMINAL_SPEED_M_S", "CPHD_NS"]
 
@@ -328,7 +328,7 @@ def read_cphd(path) -> PhaseHistory:
 
     Antenna positions are ``(TxPos + RcvPos) / 2`` converted to the local ENU frame of the
     image-area reference point (IARP); ``r0_p = |a_p - SRP_p|``; azimuth and elevation come from
-    :func:`sarcli.geometry.angles_from_positions`; frequencies are ``SC0 + n SCSS``. A file with
+    :func:`sarcli.core.geometry.angles_from_positions`; frequencies are ``SC0 + n SCSS``. A file with
     ``SGN = +1`` is conjugated into our sign convention; an ``AmpSF`` PVP scales its vector;
     vectors with ``SIGNAL = 0`` are dropped.
 
@@ -406,7 +406,7 @@ def _read_cphd(p: Path) -> PhaseHistory:
     az, el, _ = geometry.angles_from_positions(pos)
     grid = _grid_from_xml(xml)
     if grid is None:
-        from .config import derive_grid
+        from ..core.grid import derive_grid
 
         grid = derive_grid(freq, az, el)
     name = xml.findtext("{*}CollectionID/{*}CoreName") or ""

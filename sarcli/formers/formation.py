@@ -27,21 +27,18 @@ import warnings
 
 import numpy as np
 
-from . import geometry
-from .errors import DefocusWarning, SarcliInputError
-from .grid import Grid, resolve_grid
-from .io import Image, PhaseHistory
-from .windows import window_weights
+from ..core import geometry
+from ..errors import DefocusWarning, SarcliInputError
+from ..core.grid import Grid, resolve_grid
+from ..core.types import Image, PhaseHistory
+from ..core.windows import window_weights
 
-__all__ = ["form_image", "regrid", "METHODS", "WINDOWS", "image_error"]
+__all__ = ["form_image", "regrid", "METHODS", "image_error"]
 
 METHODS = ("direct", "nufft", "pfa", "backprojection")
-WINDOWS = ("none", "hann", "hamming", "taylor")
 FARFIELD_METHODS = ("nufft", "pfa")
 #: Virtual stand-off range per metre of grid half-diagonal used to backproject far-field data.
 VIRTUAL_RANGE_PER_M = 5.0e7
-#: Phase error (rad) above which a far-field method on spherical data is warned about.
-DEFOCUS_WARN_RAD = 0.1
 
 
 def image_error(image, reference) -> float:
@@ -51,10 +48,11 @@ def image_error(image, reference) -> float:
 
 
 def _weights(ph: PhaseHistory, window, nbar, sll_db):
-    if window not in WINDOWS:
-        raise SarcliInputError(f"unknown window {window!r}; choose one of {', '.join(WINDOWS)}")
     P, M = ph.data.shape
-    return window_weights(P, M, window, nbar=nbar, sll_db=sll_db)
+    try:
+        return window_weights(P, M, window, nbar=nbar, sll_db=sll_db)
+    except ValueError as exc:  # an unknown kind or Taylor parameters out of range
+        raise SarcliInputError(str(exc)) from None
 
 
 def _warn_defocus(ph: PhaseHistory, grid: Grid, method: str):
@@ -62,7 +60,7 @@ def _warn_defocus(ph: PhaseHistory, grid: Grid, method: str):
     if ph.model != "spherical" or not acq.has_positions:
         return
     err = geometry.farfield_phase_error(acq.range_to_center_m, acq.frequency_hz.max(), grid.half_diagonal)
-    if err > DEFOCUS_WARN_RAD:
+    if err > geometry.DEFOCUS_WARN_RAD:
         warnings.warn(f"far-field method '{method}' on spherical data: predicted phase error "
                       f"{err:.3g} rad at the grid corner ({grid.half_diagonal:.3g} m from the centre, "
                       f"r0 = {acq.range_to_center_m.min():.4g} m); use direct or backprojection",
@@ -85,7 +83,7 @@ def regrid(ph: PhaseHistory, *, grid: Grid | None = None, window="none", taylor_
     Returns a :class:`sarcli.formers.pfa.KGrid` designed for ``grid`` (default: the
     acquisition's); :func:`form_image` with ``method='pfa'`` accepts it in place of the phase history.
     """
-    from .formers.pfa import regrid_polar
+    from .pfa import regrid_polar
 
     grid = grid or ph.acquisition.grid
     _warn_defocus(ph, grid, "pfa")
@@ -131,7 +129,7 @@ def form_image(ph, method: str = "nufft", *, grid: Grid | None = None, center=No
         With ``method``, every setting in ``parameters`` and ``runtime_s`` (the formation alone,
         one-time compilation included).
     """
-    from .formers.pfa import KGrid
+    from ..core.types import KGrid
 
     if method not in METHODS:
         raise SarcliInputError(f"unknown method {method!r}; choose one of {', '.join(METHODS)}")
@@ -150,7 +148,7 @@ def form_image(ph, method: str = "nufft", *, grid: Grid | None = None, center=No
         params.update({"taylor_nbar": taylor_nbar, "taylor_sll_db": taylor_sll_db})
     t0 = time.perf_counter()
     if method == "direct":
-        from .formers.direct import direct_farfield, direct_spherical
+        from .direct import direct_farfield, direct_spherical
 
         if ph.model == "spherical":
             img = direct_spherical(ph.data, acq.frequency_hz, acq.antenna_position_m, acq.range_to_center_m,
@@ -159,21 +157,21 @@ def form_image(ph, method: str = "nufft", *, grid: Grid | None = None, center=No
             kx, ky = acq.kspace()
             img = direct_farfield(ph.data, kx, ky, grid, w)
     elif method == "nufft":
-        from .formers.nufft import nufft_farfield
+        from .nufft import nufft_farfield
 
         _warn_defocus(ph, grid, method)
         kx, ky = acq.kspace()
         img = nufft_farfield(ph.data, kx, ky, grid, w, eps=eps, nthreads=nthreads)
         params["eps"] = eps
     elif method == "pfa":
-        from .formers.pfa import pfa_image
+        from .pfa import pfa_image
 
         kg = regrid(ph, grid=grid, window=window, taylor_nbar=taylor_nbar, taylor_sll_db=taylor_sll_db,
                     kernel=kernel, oversample=oversample, width=width)
         img = pfa_image(kg, grid)
         params.update({"kernel": kernel, "oversample": oversample, "width": width})
     else:
-        from .formers import backprojection as bp
+        from . import backprojection as bp
 
         pos, r0 = _positions(ph, grid)
         up = bp.DEFAULT_UPSAMPLE if upsample is None else upsample
@@ -191,7 +189,7 @@ def form_image(ph, method: str = "nufft", *, grid: Grid | None = None, center=No
 
 
 def _form_from_kgrid(kg, grid, center, extent, pixel_size) -> Image:
-    from .formers.pfa import pfa_image
+    from .pfa import pfa_image
 
     design = kg.parameters.get("design_grid")
     base = grid or (Grid(**design) if design else None)

@@ -13,11 +13,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._atomic import atomic_path
+from .._util.atomic import atomic_path
 from .._version import __version__
 from ..errors import SarcliInputError
-from ..io import Image
-from . import _common
+from ..core.types import Image
+from . import pixels as _common
 
 __all__ = ["write_png", "display_values"]
 
@@ -82,28 +82,6 @@ def write_png(img: Image, path, *, kind: str = "db", dynamic_range_db: float = 5
 
 
 def _write_annotated(img, path, values, kind, dr, colormap):
-    import matplotlib
+    from ..viz import image_figure
 
-    matplotlib.use("Agg")
-    from matplotlib.figure import Figure
-
-    grid = img.grid
-    extent = (img.x_m[0] - grid.dx / 2, img.x_m[-1] + grid.dx / 2,
-              img.y_m[0] - grid.dy / 2, img.y_m[-1] + grid.dy / 2)
-    fig = Figure(figsize=(6.4, 5.2), dpi=100)
-    ax = fig.add_subplot()
-    if kind == "db":
-        shown = values.astype(np.float64) * (dr / 255.0) - dr
-        label, vmin, vmax = "dB relative to peak", -dr, 0.0
-    else:
-        shown = values.astype(np.float64) / 255.0
-        label, vmin, vmax = "|f| / max|f|", 0.0, 1.0
-    # origin='lower' puts our row 0 (south) at the bottom: the figure is north-up
-    im = ax.imshow(shown, origin="lower", extent=extent, cmap=colormap, vmin=vmin, vmax=vmax,
-                   interpolation="nearest")
-    ax.set_xlabel("x (east) [m]")
-    ax.set_ylabel("y (north) [m]")
-    ax.set_title(img.method or "image")
-    fig.colorbar(im, ax=ax, label=label)
-    with atomic_path(path) as tmp:
-        fig.savefig(tmp, format="png", bbox_inches="tight")
+    image_figure(img, path, values, kind, dr, colormap)

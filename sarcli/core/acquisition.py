@@ -2,8 +2,8 @@
 
 An :class:`Acquisition` is frozen and holds SI arrays only; everything derived from it
 (wavenumbers, k-space coordinates, sampling limits, ranges) is delegated to
-:mod:`sarcli.geometry`. It is built from a YAML file by :func:`sarcli.config.load_acquisition`
-or from a phase-history file by :func:`sarcli.io.read_phase_history`.
+:mod:`sarcli.core.geometry`. It is built from a YAML file by :func:`sarcli.io.config.load_acquisition`
+or from a phase-history file by :func:`sarcli.io.hdf5.read_phase_history`.
 """
 
 from __future__ import annotations
@@ -51,7 +51,7 @@ class Acquisition:
     snr_db : float, optional
         Requested signal-to-noise ratio of simulated data (None: noiseless).
     scene : dict, optional
-        The validated ``scene`` section of the config (see :mod:`sarcli.scenes`).
+        The validated ``scene`` section of the config (see :mod:`sarcli.simulation.scenes`).
     name, source, config_text : str, optional
         Provenance: a short name, the file it came from and its text.
     """

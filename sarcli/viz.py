@@ -1,45 +1,48 @@
-"""Diagnostic figures (matplotlib, Agg backend, no pyplot state): PSF cuts, k-space, image spectrum.
+"""Every matplotlib figure sarcli draws, in one module (``matplotlib.figure.Figure``, no pyplot
+state and no ``matplotlib.use``: a figure saved to a file needs no backend).
 
 Public API
 ----------
 plot_psf_cuts(img, path=None, *, at=None, oversample=8, dynamic_range_db=60) -> dict
 plot_kspace(acq, grid=None, path=None, *, max_points=20000, copies=1) -> dict
 plot_image_fft(img, path=None, *, dynamic_range_db=60) -> dict
+plot_psf(img, path, *, dynamic_range_db=60)
+plot_history(history, path)
+plot_benchmark(result, path, *, title='')
+image_figure(img, path, values, kind, dynamic_range_db, colormap)
 
-Each returns a dict with the matplotlib ``figure`` and the numbers it shows, and writes a PNG
-when ``path`` is given (atomically). Images are drawn north-up with axes in metres.
+The diagnostic plots return a dict with the matplotlib ``figure`` and the numbers it shows, and
+write a PNG when ``path`` is given (atomically). Images are drawn north-up with axes in metres.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from . import geometry
-from ._atomic import atomic_path
+from .core import geometry
+from ._util.atomic import atomic_path
 from .errors import SarcliInputError
-from .grid import Grid
-from .io import Image
+from .core.grid import Grid
+from .core.types import Image
 
-__all__ = ["plot_psf_cuts", "plot_kspace", "plot_image_fft"]
+__all__ = ["plot_psf_cuts", "plot_kspace", "plot_image_fft", "plot_psf", "plot_history", "plot_benchmark",
+           "image_figure"]
 
 _HALF_POWER_DB = 20 * np.log10(1 / np.sqrt(2))  # -3.01 dB
 
 
-def _figure(ncols=1, size=(6.4, 4.8)):
-    import matplotlib
-
-    matplotlib.use("Agg")
+def _figure(ncols=1, size=(6.4, 4.8), nrows=1, layout="constrained"):
     from matplotlib.figure import Figure
 
-    fig = Figure(figsize=size, dpi=100, layout="constrained")
-    axes = fig.subplots(1, ncols)
+    fig = Figure(figsize=size, dpi=100, layout=layout)
+    axes = fig.subplots(nrows, ncols)
     return fig, np.atleast_1d(axes)
 
 
-def _save(fig, path):
+def _save(fig, path, **kwargs):
     if path is not None:
         with atomic_path(path) as tmp:
-            fig.savefig(tmp, format="png")
+            fig.savefig(tmp, format="png", **kwargs)
 
 
 def _as_image(img_or_psf, grid=None) -> Image:
@@ -73,13 +76,13 @@ def plot_psf_cuts(img, path=None, *, at=None, oversample=8, dynamic_range_db=60.
     """Cuts through a point response along x (east) and y (north), with the -3 dB width marked.
 
     The image is interpolated band-limitedly (the demodulated FFT zero-padding of
-    :mod:`sarcli.quality`) ``oversample`` times before cutting through the brightest sample; the
-    -3 dB width (IRW) of each cut comes from :func:`sarcli.quality.profile_metrics`.
+    :mod:`sarcli.analysis.quality`) ``oversample`` times before cutting through the brightest sample; the
+    -3 dB width (IRW) of each cut comes from :func:`sarcli.analysis.ipr.profile_metrics`.
 
     Parameters
     ----------
     img : Image or ndarray
-        An image holding a point response, or a PSF (e.g. :func:`sarcli.psf.psf_image`); a bare
+        An image holding a point response, or a PSF (e.g. :func:`sarcli.analysis.psf.psf_image`); a bare
         array needs ``grid``.
     path : str or Path, optional
         PNG to write.
@@ -95,7 +98,7 @@ def plot_psf_cuts(img, path=None, *, at=None, oversample=8, dynamic_range_db=60.
         ``figure``, ``peak_xy_m``, and ``x`` / ``y`` cuts each with ``s_m``, ``db`` (arrays),
         ``irw_m``, ``peak_position_m``, ``half_power_m`` (the two -3 dB crossings marked).
     """
-    from .quality import _crossing, _upsample, profile_metrics
+    from .analysis.ipr import _crossing, _upsample, profile_metrics
 
     im = _as_image(img, grid)
     a = np.asarray(im.image, dtype=np.complex128)
@@ -270,3 +273,133 @@ def plot_image_fft(img, path=None, *, dynamic_range_db=60.0, grid: Grid | None =
     _save(fig, path)
     return {"figure": fig, "spectrum_db": sdb, "fx": fx, "fy": fy,
             "spectral_peak_cycles_per_m": (float(fx[c]), float(fy[r]))}
+
+
+# --------------------------------------------------------------------------------------------
+# the PSF as a picture, iteration histories, error against time, annotated images
+# --------------------------------------------------------------------------------------------
+def plot_psf(img, path, *, dynamic_range_db=60.0):
+    """Write a PNG of ``20 log10 |K|`` (north up, axes in metres).
+
+    Parameters
+    ----------
+    img : sarcli.core.types.Image
+    path : str or Path
+    dynamic_range_db : float
+        Colour scale from ``-dynamic_range_db`` to 0 dB (relative to the peak).
+    """
+    mag = np.abs(np.asarray(img.image))
+    db = 20 * np.log10(np.maximum(mag / max(float(mag.max()), 1e-300), 1e-300))
+    x, y = np.asarray(img.x_m), np.asarray(img.y_m)
+    fig, (ax,) = _figure(size=(6, 5), layout=None)
+    im = ax.imshow(db, origin="lower", cmap="gray", vmin=-abs(dynamic_range_db), vmax=0, extent=_extent(x, y))
+    ax.set_xlabel("x east (m)")
+    ax.set_ylabel("y north (m)")
+    ax.set_title("PSF 20 log10|K| (dB)")
+    fig.colorbar(im, ax=ax, label="dB")
+    _save(fig, path)
+    return path
+
+
+def plot_history(history: dict, path) -> None:
+    """Plot objective and relative change against iteration and elapsed time (PNG, atomic).
+
+    Parameters
+    ----------
+    history : dict of str -> ndarray
+        An :class:`~sarcli.core.types.Image`'s ``history`` (needs ``objective``, ``relative_change``,
+        ``elapsed_s``).
+    path : str or Path
+    """
+    if not history or "objective" not in history:
+        raise SarcliInputError("the image has no iteration history to plot")
+    obj = np.asarray(history["objective"])
+    rel = np.asarray(history.get("relative_change", np.full(obj.size, np.nan)))
+    t = np.asarray(history.get("elapsed_s", np.arange(obj.size)))
+    it = np.arange(1, obj.size + 1)
+    fig, axes = _figure(ncols=2, nrows=2, size=(9, 6))
+    for col, (xv, xlabel) in enumerate([(it, "iteration"), (t, "elapsed (s)")]):
+        axes[0, col].semilogy(xv, np.maximum(obj, np.finfo(float).tiny))
+        axes[0, col].set_ylabel("objective")
+        axes[1, col].semilogy(xv, np.maximum(rel, np.finfo(float).tiny))
+        axes[1, col].set_ylabel("relative change")
+        axes[1, col].set_xlabel(xlabel)
+    _save(fig, path)
+
+
+def plot_benchmark(result, path, *, title: str = ""):
+    """``error_vs_time.png``: error vs time (log-log), one marker per method, each method's own
+    frontier drawn thin in its colour and the overall Pareto front in black; a second panel with
+    the error to the truth when one is known.
+
+    Parameters
+    ----------
+    result : sarcli.analysis.benchmark.BenchResult
+    path : str or Path
+    title : str
+    """
+    from pathlib import Path
+
+    from .analysis.benchmark import pareto_front
+
+    rows = result.rows
+    has_truth = any(np.isfinite(r.error_truth) for r in rows)
+    fig, axes = _figure(ncols=2 if has_truth else 1, size=(12 if has_truth else 7, 5), layout="tight")
+    markers = {"direct": "*", "nufft": "o", "pfa": "s", "backprojection": "^"}
+    floor = 1e-16  # error 0 (the reference itself) drawn at the float64 floor
+    panels = [("error", "relative error vs exact matched filter")]
+    if has_truth:
+        panels.append(("error_truth", "relative error of |f| vs |truth|"))
+    for ax, (attr, label) in zip(axes, panels):
+        methods = list(dict.fromkeys(r.method for r in rows))
+        for i, m in enumerate(methods):
+            pts = [(r.seconds, getattr(r, attr)) for r in rows if r.method == m and np.isfinite(getattr(r, attr))]
+            if not pts:
+                continue
+            t, e = np.array(pts).T
+            e = np.maximum(e, floor)
+            (line,) = ax.loglog(t, e, markers.get(m, "DvPX"[i % 4]), ls="none", alpha=0.75, label=m)
+            own = pareto_front(e, t)
+            if own.size > 1:  # the method's own frontier, in its colour
+                ax.step(t[own], e[own], where="post", color=line.get_color(), lw=0.8, alpha=0.6)
+        err = np.array([max(getattr(r, attr), floor) if np.isfinite(getattr(r, attr)) else np.nan for r in rows])
+        sec = np.array([r.seconds for r in rows])
+        front = pareto_front(err, sec)
+        if front.size:
+            ax.step(sec[front], err[front], where="post", color="k", lw=1.5, label="Pareto front (all)")
+        ax.set_xlabel("run time (s, median)")
+        ax.set_ylabel(label)
+        ax.grid(True, which="both", alpha=0.3)
+        ax.legend(fontsize=8)
+    fig.suptitle(title or "error against run time")
+    path = Path(path)
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=110, format="png")
+    return path
+
+
+def image_figure(img, path, values, kind, dynamic_range_db, colormap):
+    """An image as a figure: metre axes (east, north), title, colour bar (PNG, atomic).
+
+    ``values`` are the 8-bit display values of :func:`sarcli.io.png.display_values` (row 0
+    south); ``kind`` is ``'db'`` or ``'magnitude'``.
+    """
+    dr = float(dynamic_range_db)
+    grid = img.grid
+    extent = (img.x_m[0] - grid.dx / 2, img.x_m[-1] + grid.dx / 2,
+              img.y_m[0] - grid.dy / 2, img.y_m[-1] + grid.dy / 2)
+    fig, (ax,) = _figure(size=(6.4, 5.2), layout=None)
+    if kind == "db":
+        shown = values.astype(np.float64) * (dr / 255.0) - dr
+        label, vmin, vmax = "dB relative to peak", -dr, 0.0
+    else:
+        shown = values.astype(np.float64) / 255.0
+        label, vmin, vmax = "|f| / max|f|", 0.0, 1.0
+    # origin='lower' puts our row 0 (south) at the bottom: the figure is north-up
+    im = ax.imshow(shown, origin="lower", extent=extent, cmap=colormap, vmin=vmin, vmax=vmax,
+                   interpolation="nearest")
+    ax.set_xlabel("x (east) [m]")
+    ax.set_ylabel("y (north) [m]")
+    ax.set_title(img.method or "image")
+    fig.colorbar(im, ax=ax, label=label)
+    _save(fig, path, bbox_inches="tight")

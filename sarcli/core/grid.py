@@ -7,17 +7,21 @@ CONVENTIONS.md: arrays are indexed ``[row, col] = [y, x]`` with ``x = cx + (col 
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
 
-from .errors import SarcliInputError
+from ..errors import ConfigError, SarcliInputError
+from . import geometry
 
-__all__ = ["Grid", "resolve_grid"]
+__all__ = ["Grid", "resolve_grid", "derive_grid"]
 
 
 #: Largest grid accepted (pixels): 2^28, i.e. 4 GiB per complex128 image.
 MAX_PIXELS = 1 << 28
+#: Largest side (pixels) of a grid derived from the sampling alone.
+MAX_DERIVED_PIXELS = 8192
 
 
 @dataclass(frozen=True)
@@ -162,3 +166,26 @@ def resolve_grid(default: Grid, *, center=None, extent=None, pixel_size=None) ->
                                    f"{(w / h) * (hh / h):.3g} pixels (more than {MAX_PIXELS:.3g}): "
                                    "reduce --extent or increase --pixel-size")
     return Grid.from_extent(ext, h, center=c)
+
+
+def derive_grid(freq_hz, azimuth_rad, elevation_rad, *, scene_half_width_m=None, oversampling=2.0) -> Grid:
+    """Default grid from the sampling: pixel = finest resolution / oversampling, extent = the
+    scene's half width or the alias-free radius, whichever is smaller (nothing computed that the
+    scene does not need).
+    """
+    rho = [r for r in geometry.resolutions(freq_hz, azimuth_rad, elevation_rad) if np.isfinite(r)]
+    radii = [r for r in geometry.alias_free_radii(freq_hz, azimuth_rad, elevation_rad) if np.isfinite(r)]
+    if not rho:
+        raise ConfigError("cannot derive a pixel size from a single frequency and a single pulse; "
+                          "give image.half_width_m and image.pixels", key="image")
+    h = min(rho) / float(oversampling)
+    limits = radii + ([scene_half_width_m] if scene_half_width_m else [])
+    if not limits:
+        raise ConfigError("cannot derive the scene extent; give image.half_width_m", key="image.half_width_m")
+    half = min(limits)
+    n = int(2 * math.ceil(half / h))
+    n = max(2, n + (n % 2))
+    if n > MAX_DERIVED_PIXELS:
+        n = MAX_DERIVED_PIXELS
+        h = 2 * half / n
+    return Grid.square(n * h / 2, n)

@@ -1,4 +1,4 @@
-"""Phase-history and image files (HDF5), exactly as CONVENTIONS.md "Files" specifies.
+"""Phase-history, image and k-grid files (HDF5), exactly as the file contract (docs/conventions.md) specifies.
 
 Readers validate the whole contract (format, version, datasets, dtypes, shapes, finiteness)
 and raise :class:`~sarcli.errors.InputFileError` with one line naming the file and what is wrong;
@@ -10,148 +10,45 @@ read_phase_history(path) -> PhaseHistory
 write_phase_history(path, ph)
 read_image(path) -> Image
 write_image(path, img)
+read_kgrid(path) -> KGrid
+write_kgrid(path, kgrid)
 """
 
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
 
 import h5py
 import numpy as np
 
-from ._atomic import atomic_path
-from ._version import __version__
-from .acquisition import MODELS, Acquisition
-from .errors import InputFileError
-from .grid import Grid
+from .._util.atomic import atomic_path
+from .._version import __version__
+from ..core.acquisition import MODELS, Acquisition
+from ..core.grid import Grid, derive_grid
+from ..core.types import Image, KGrid, PhaseHistory, Truth, to_json
+from ..errors import InputFileError
 
 __all__ = [
-    "PhaseHistory",
-    "Truth",
-    "Image",
     "read_phase_history",
     "write_phase_history",
     "read_image",
     "write_image",
+    "read_kgrid",
+    "write_kgrid",
     "PH_FORMAT",
     "IMAGE_FORMAT",
 ]
 
 PH_FORMAT = "sarcli-phase-history"
 IMAGE_FORMAT = "sarcli-image"
+KGRID_FORMAT = "sarcli-kgrid"
 FILE_VERSION = 1
-
-
-@dataclass(frozen=True, eq=False)
-class Truth:
-    """What a simulated scene really was.
-
-    Attributes
-    ----------
-    point_position_m : ndarray (S, 3)
-    point_amplitude : ndarray (S,) complex
-    scene : ndarray (ny, nx) complex, optional
-        The scene at reconstruction resolution (block average of the fine synthesis grid).
-    x_m, y_m : ndarray, optional
-        Pixel-centre coordinates of ``scene``.
-    magnitude : ndarray (ny, nx), optional
-        Block average of the reflectivity magnitude (what a speckle-free image should show).
-    """
-
-    point_position_m: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
-    point_amplitude: np.ndarray = field(default_factory=lambda: np.zeros(0, complex))
-    scene: np.ndarray | None = None
-    x_m: np.ndarray | None = None
-    y_m: np.ndarray | None = None
-    magnitude: np.ndarray | None = None
-
-    @property
-    def grid(self) -> Grid | None:
-        return None if self.scene is None else Grid.from_axes(self.x_m, self.y_m)
-
-
-@dataclass(frozen=True, eq=False)
-class PhaseHistory:
-    """A phase history ``d[p, j]`` with its acquisition geometry.
-
-    Attributes
-    ----------
-    data : ndarray (P, M) complex
-    acquisition : Acquisition
-        Geometry; ``acquisition.model`` is the data model the samples follow.
-    truth : Truth, optional
-    attrs : dict
-        Provenance read from or written to the file (``sarcli_version``, ``config_yaml``, ...).
-    """
-
-    data: np.ndarray
-    acquisition: Acquisition
-    truth: Truth | None = None
-    attrs: dict[str, Any] = field(default_factory=dict)
-
-    @property
-    def model(self) -> str:
-        return self.acquisition.model
-
-
-@dataclass(eq=False)
-class Image:
-    """A complex image on a grid, normalised so a unit point scatterer peaks at 1.
-
-    Attributes
-    ----------
-    image : ndarray (ny, nx) complex
-    x_m, y_m : ndarray
-        Increasing pixel-centre coordinates.
-    method : str
-    parameters : dict
-        Every setting that shaped the image (JSON-serialisable).
-    runtime_s : float
-        Wall seconds of the formation itself.
-    history : dict of str -> ndarray, optional
-        Per-iteration logs of iterative methods.
-    attrs : dict
-        Further root attributes.
-    """
-
-    image: np.ndarray
-    x_m: np.ndarray
-    y_m: np.ndarray
-    method: str = ""
-    parameters: dict[str, Any] = field(default_factory=dict)
-    runtime_s: float = 0.0
-    history: dict[str, np.ndarray] | None = None
-    attrs: dict[str, Any] = field(default_factory=dict)
-
-    @property
-    def grid(self) -> Grid:
-        return Grid.from_axes(self.x_m, self.y_m)
 
 
 # --------------------------------------------------------------------------------------------
 # helpers
 # --------------------------------------------------------------------------------------------
-def _json_default(o):
-    if isinstance(o, np.ndarray):
-        return o.tolist()
-    if isinstance(o, (np.floating, np.integer)):
-        return o.item()
-    if isinstance(o, (np.bool_,)):
-        return bool(o)
-    if isinstance(o, complex):
-        return [o.real, o.imag]
-    if isinstance(o, Path):
-        return str(o)
-    return str(o)
-
-
-def to_json(obj) -> str:
-    return json.dumps(obj, default=_json_default, sort_keys=True)
-
-
 def _open(path, kind: str) -> h5py.File:
     p = Path(path)
     if not p.exists():
@@ -361,8 +258,6 @@ def _check_duplicate_pulses(path, az, el):
 
 def _default_grid(freq, az, el) -> Grid:
     """A grid derived from the sampling for files written by other tools (no /grid group)."""
-    from .config import derive_grid  # local import: config depends on io-free modules only
-
     return derive_grid(freq, az, el)
 
 
@@ -418,3 +313,45 @@ def read_image(path) -> Image:
         raise
     except (OSError, KeyError, ValueError, TypeError) as exc:
         raise InputFileError(path, f"broken image file ({exc})") from None
+
+
+# --------------------------------------------------------------------------------------------
+# k-grid (the polar format algorithm's Cartesian samples)
+# --------------------------------------------------------------------------------------------
+def write_kgrid(path, kgrid: KGrid) -> Path:
+    """Write a k-grid (format ``sarcli-kgrid``, version 1), atomically."""
+    with atomic_path(path) as tmp, h5py.File(tmp, "w") as h5:
+        h5.attrs["format"] = KGRID_FORMAT
+        h5.attrs["version"] = FILE_VERSION
+        h5.create_dataset("samples", data=np.asarray(kgrid.samples, dtype=np.complex128))
+        for name in ("kx0", "ky0", "dkx", "dky", "weights_sum"):
+            h5.attrs[name] = float(getattr(kgrid, name))
+        h5.attrs["kc"] = np.asarray(kgrid.kc, dtype=np.float64)
+        h5.attrs["parameters"] = json.dumps(kgrid.parameters)
+    return Path(path)
+
+
+def read_kgrid(path) -> KGrid:
+    """Read a k-grid; a missing, broken or foreign file raises :class:`InputFileError`."""
+    try:
+        with _open(path, KGRID_FORMAT) as h5:
+            fmt = _attr_str(h5, "format")
+            if fmt != KGRID_FORMAT:
+                raise InputFileError(path, f"not a k-grid file (format {fmt!r}, expected {KGRID_FORMAT!r})")
+            version = int(h5.attrs.get("version", -1))
+            if version != FILE_VERSION:
+                raise InputFileError(path, f"k-grid version {version} is not supported (expected {FILE_VERSION})")
+            samples = h5["samples"][()]
+            attrs = {n: float(h5.attrs[n]) for n in ("kx0", "ky0", "dkx", "dky", "weights_sum")}
+            kc = tuple(float(v) for v in h5.attrs["kc"])
+            parameters = json.loads(h5.attrs["parameters"])
+    except InputFileError:
+        raise
+    except (OSError, KeyError, ValueError, TypeError) as exc:
+        raise InputFileError(path, f"cannot read k-grid: {exc}") from exc
+    if samples.ndim != 2 or not np.iscomplexobj(samples):
+        raise InputFileError(path, f"k-grid samples must be a complex 2-D array, got {samples.dtype} {samples.shape}")
+    for key in ("kernel", "width", "pixel_m", "shape", "center_m", "n_fft"):
+        if key not in parameters:
+            raise InputFileError(path, f"k-grid parameters lack {key!r}")
+    return KGrid(samples.astype(np.complex128), kc=kc, parameters=parameters, **attrs)

@@ -4,14 +4,13 @@
 and the key, all raised together as one :class:`~sarcli.errors.ConfigError`) and expands it into
 :class:`Job` records: one per input for plain jobs, one per azimuth window plus a composite for
 ``subapertures``, one per tile plus a stitch for ``tiles``. The plan language is documented in
-``docs/batch.md``; running the jobs is :mod:`sarcli.batch`.
+``docs/batch.md``; running the jobs is :mod:`sarcli.batch.run`; sub-aperture and tile
+layouts are :mod:`sarcli.batch.layout`.
 
 Public API
 ----------
 load_plan(path) -> Plan
 parse_plan(mapping, *, source, base_dir) -> Plan
-subaperture_windows(azimuth_rad, window_deg, overlap_deg) -> list of (start_deg, stop_deg, pulses)
-tile_layout(n, tiles) -> list of (start, stop)
 """
 
 from __future__ import annotations
@@ -24,12 +23,12 @@ import string
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
-import numpy as np
 import yaml
 
-from .errors import ConfigError, SarcliError
-from .grid import Grid, resolve_grid
-from .io import to_json
+from ..core.grid import Grid, resolve_grid
+from ..core.types import to_json
+from ..errors import ConfigError, SarcliError
+from .layout import input_geometry, subaperture_windows, tile_layout
 
 __all__ = ["Job", "Plan", "load_plan", "parse_plan", "subaperture_windows", "tile_layout", "COMPOSITES",
            "POINTWISE_METHODS", "DEFAULT_MARGIN_PX"]
@@ -125,9 +124,6 @@ class Plan:
         return len(self.jobs)
 
 
-@dataclass
-
-
 # ---------------------------------------------------------------------------------------------
 # plan validation and expansion
 # ---------------------------------------------------------------------------------------------
@@ -154,18 +150,16 @@ class _Errors:
 
 def _method_signatures() -> dict:
     """Keyword options each method accepts (the plan's ``options`` are checked against them)."""
-    from .formation import METHODS, form_image
+    from ..formers.formation import METHODS, form_image
 
     skip = {"ph", "method", "grid", "center", "extent", "pixel_size", "init", "callback"}
 
     def options(func):
         return {n: p.default for n, p in inspect.signature(func).parameters.items() if n not in skip}
 
+    from ..regularize import regularize
+
     sigs = {m: options(form_image) for m in METHODS}
-    try:
-        from .regularize import regularize
-    except ImportError:  # pragma: no cover - regularize is optional for batches
-        return sigs
     sigs["regularize"] = options(regularize)
     return sigs
 
@@ -385,68 +379,9 @@ def _expand_entry(err, key, section, spec, defaults, sigs, threads, base) -> lis
     return jobs
 
 
-def _input_geometry(path: Path):
-    """Azimuths (rad) and default grid of an input, reading as little as possible."""
-    if path.suffix.lower() == ".mat":
-        from .gotcha import read_gotcha
-
-        acq = read_gotcha(path).acquisition
-        return acq.azimuth_rad, acq.grid
-    import h5py
-
-    from .io import read_phase_history
-
-    try:
-        with h5py.File(path, "r") as f:
-            if "grid" in f and "azimuth_rad" in f:
-                g = f["grid"].attrs
-                grid = Grid(int(g["nx"]), int(g["ny"]), float(g["dx"]), float(g["dy"]),
-                            float(g["cx"]), float(g["cy"]))
-                return np.asarray(f["azimuth_rad"][()], np.float64), grid
-    except (OSError, KeyError):
-        pass
-    acq = read_phase_history(path).acquisition
-    return acq.azimuth_rad, acq.grid
-
-
-def subaperture_windows(azimuth_rad, window_deg: float, overlap_deg: float = 0.0) -> list:
-    """Split pulses into azimuth windows of ``window_deg`` overlapping by ``overlap_deg``.
-
-    Windows start at the first azimuth and advance by ``window_deg - overlap_deg``; a pulse
-    belongs to ``[start, start + W)`` measured with half a pulse spacing of slack. When the
-    windows leave pulses uncovered at the end, one more window is aligned to the end, so every
-    pulse is imaged. Azimuths are unwrapped in pulse order (a collection may cross 180°).
-
-    Returns
-    -------
-    list of (start_deg, stop_deg, pulses)
-        ``pulses`` a tuple of pulse indices; windows without pulses are dropped.
-    """
-    az = np.degrees(np.unwrap(np.asarray(azimuth_rad, np.float64)))
-    step = float(window_deg) - float(overlap_deg)
-    spacing = float(np.median(np.abs(np.diff(az)))) if az.size > 1 else 0.0
-    lo, total = float(az.min()), float(az.max() - az.min()) + spacing
-    n = 1 if total <= window_deg else int(np.floor((total - window_deg) / step + 1e-9)) + 1
-    starts = [lo + k * step for k in range(n)]
-    if starts[-1] + window_deg < lo + total - 0.5 * spacing - 1e-9:
-        starts.append(lo + total - window_deg)
-    out = []
-    for s in starts:
-        sel = np.flatnonzero((az >= s - 0.5 * spacing) & (az < s + window_deg - 0.5 * spacing))
-        if sel.size:
-            out.append((s, s + window_deg, tuple(int(i) for i in sel)))
-    return out
-
-
-def tile_layout(n: int, tiles: int) -> list:
-    """Split ``n`` pixels into ``tiles`` contiguous runs ``(start, stop)`` differing by at most one."""
-    edges = np.linspace(0, n, tiles + 1).round().astype(int)
-    return [(int(a), int(b)) for a, b in zip(edges[:-1], edges[1:])]
-
-
 def _base_grid(err, key, path, grid) -> tuple:
     try:
-        az, g0 = _input_geometry(path)
+        az, g0 = input_geometry(path)
         return az, resolve_grid(g0, center=grid.get("center"), extent=grid.get("extent"),
                                 pixel_size=grid.get("pixel_size"))
     except (SarcliError, ValueError, OSError) as exc:

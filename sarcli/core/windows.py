@@ -9,15 +9,51 @@ chosen; a window trades resolution for lower sidelobes.
 from __future__ import annotations
 
 import numpy as np
-from scipy.signal import windows as _sw
 
-__all__ = ["WINDOW_KINDS", "window_weights", "window_1d"]
+__all__ = ["WINDOW_KINDS", "window_weights", "window_1d", "check_taylor", "IRW_FACTOR_UNIFORM",
+           "TAYLOR_NBAR", "TAYLOR_SLL_DB", "TAYLOR_NBAR_RANGE", "TAYLOR_SLL_DB_RANGE"]
 
 #: The window kinds :func:`window_weights` understands.
 WINDOW_KINDS = ("none", "hann", "hamming", "taylor")
 
+#: -3 dB impulse-response width of the unweighted (uniform) aperture in resolution cells: the
+#: half-power width of ``sinc`` is 0.8859 / bandwidth (Harris, Proc. IEEE 66, 1978, Table 1).
+#: The IRW factor of any other window is measured by :func:`sarcli.analysis.ipr.window_textbook`.
+IRW_FACTOR_UNIFORM = 0.8859
 
-def window_1d(n: int, kind: str = "none", *, nbar: int = 4, sll_db: float = -35.0) -> np.ndarray:
+#: Taylor window defaults and the ranges accepted (the CLI's options are built from these).
+TAYLOR_NBAR = 4
+TAYLOR_NBAR_RANGE = (1, 64)
+TAYLOR_SLL_DB = -35.0
+TAYLOR_SLL_DB_RANGE = (-120.0, -13.0)
+
+
+def check_taylor(nbar, sll_db) -> tuple[int, float]:
+    """Validate the Taylor parameters: ``nbar`` an integer in ``TAYLOR_NBAR_RANGE`` and ``sll_db``
+    (sidelobe level, dB, negative) in ``TAYLOR_SLL_DB_RANGE``.
+
+    Raises
+    ------
+    ValueError
+        Naming the parameter, its value and the accepted range.
+
+    Examples
+    --------
+    >>> check_taylor(4, -35)
+    (4, -35.0)
+    """
+    lo, hi = TAYLOR_NBAR_RANGE
+    if isinstance(nbar, bool) or not float(nbar).is_integer() or not lo <= int(nbar) <= hi:
+        raise ValueError(f"Taylor nbar must be an integer from {lo} to {hi}, got {nbar!r}")
+    sll = float(sll_db)
+    lo, hi = TAYLOR_SLL_DB_RANGE
+    if not lo <= sll <= hi:
+        raise ValueError(f"Taylor sidelobe level must be from {lo:g} to {hi:g} dB (negative: below the "
+                         f"main lobe; a Taylor window cannot go above the uniform -13.3 dB), got {sll_db!r}")
+    return int(nbar), sll
+
+
+def window_1d(n: int, kind: str = "none", *, nbar: int = TAYLOR_NBAR, sll_db: float = TAYLOR_SLL_DB) -> np.ndarray:
     """One symmetric window of length ``n`` (float64), from :mod:`scipy.signal.windows`.
 
     Parameters
@@ -29,8 +65,8 @@ def window_1d(n: int, kind: str = "none", *, nbar: int = 4, sll_db: float = -35.
     nbar : int
         Number of nearly constant-level sidelobes of the Taylor window.
     sll_db : float
-        Taylor sidelobe level in dB below the main lobe; the sign is ignored (-35 and 35 both
-        mean sidelobes 35 dB down).
+        Taylor sidelobe level in dB relative to the main lobe (negative: -35 means sidelobes
+        35 dB down); see :func:`check_taylor`.
 
     Returns
     -------
@@ -41,15 +77,20 @@ def window_1d(n: int, kind: str = "none", *, nbar: int = 4, sll_db: float = -35.
     Raises
     ------
     ValueError
-        For an unknown kind (the message names the valid kinds) or ``n < 1``.
+        For an unknown kind (the message names the valid kinds), ``n < 1`` or Taylor
+        parameters out of range.
     """
     if kind not in WINDOW_KINDS:
         raise ValueError(f"unknown window {kind!r}; choose one of {', '.join(WINDOW_KINDS)}")
     n = int(n)
     if n < 1:
         raise ValueError(f"a window needs at least one sample, got {n}")
+    if kind == "taylor":
+        nbar, sll_db = check_taylor(nbar, sll_db)
     if n == 1 or kind == "none":
         return np.ones(n)
+    from scipy.signal import windows as _sw  # 0.5 s to import: only when a window is asked for
+
     if kind == "hann":
         w = _sw.hann(n, sym=True)
     elif kind == "hamming":
@@ -62,8 +103,8 @@ def window_1d(n: int, kind: str = "none", *, nbar: int = 4, sll_db: float = -35.
     return w
 
 
-def window_weights(n_pulses: int, n_freqs: int, kind: str = "none", *, nbar: int = 4,
-                   sll_db: float = -35.0) -> np.ndarray:
+def window_weights(n_pulses: int, n_freqs: int, kind: str = "none", *, nbar: int = TAYLOR_NBAR,
+                   sll_db: float = TAYLOR_SLL_DB) -> np.ndarray:
     """Separable window weights ``w[p, j] = w_cr[p] · w_r[j]`` for eq. ``mf``.
 
     Parameters

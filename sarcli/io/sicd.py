@@ -18,7 +18,7 @@ Mapping (``docs/formats.md`` has the table):
   ``ImpRespBW`` the extent (at most ``1/SS``), ``DeltaK1/2 = ∓ ImpRespBW / 2``, ``Sgn = -1``
   (our matched filter synthesises with ``exp(+i k ξ·x)``; CONVENTIONS.md eq. ``mf``).
 * Collection geometry (``Position/ARPPoly``, ``Timeline``, ``SCPCOA``) from the phase history's
-  antenna positions, timed as in :mod:`sarcli.cphd` (synthetic times at a nominal platform speed);
+  antenna positions, timed as in :mod:`sarcli.io.cphd` (synthetic times at a nominal platform speed);
   ``SCPCOA`` is computed by sarkit. Without a phase history a NOMINAL collection is written
   (10 GHz, 30° elevation, 10 km, looking south, band and aperture matched to the pixel size at an
   oversampling of 1.5) and stated in the file.
@@ -32,18 +32,17 @@ import lxml.builder
 import lxml.etree
 import numpy as np
 
-from .. import geometry
-from .._atomic import atomic_path
+from ..core import geometry
+from .._util.atomic import atomic_path
 from .._version import __version__
-from ..acquisition import Acquisition
+from ..core.acquisition import Acquisition
 from ..errors import SarcliInputError
-from ..io import Image
+from ..core.types import Image
 from .georef import enu_basis, enu_to_ecf, reference_point
 
 __all__ = ["write_sicd", "read_sicd", "sicd_orientation", "nominal_acquisition", "SICD_NS"]
 
 SICD_NS = "urn:SICD:1.4.0"
-KAPFAC = 0.8859  # -3 dB width of the uniform (sinc) response times its bandwidth
 _UP = np.array([0.0, 0.0, 1.0])
 
 
@@ -107,25 +106,22 @@ def nominal_acquisition(grid) -> Acquisition:
 def _ipr_factor(parameters: dict) -> tuple[str, float]:
     """(WindowName, -3 dB width × bandwidth) of the weighting recorded in the image parameters.
 
-    The window comes from :func:`sarcli.windows.window_1d` (``window``, ``taylor_nbar``,
-    ``taylor_sll_db`` as :func:`sarcli.formation.form_image` records them); its -3 dB width is
-    measured on a 64-fold zero-padded spectrum of 128 taps (uniform: 0.8859).
+    The window is the one :func:`sarcli.formers.formation.form_image` records (``window``,
+    ``taylor_nbar``, ``taylor_sll_db``); its IRW factor comes from
+    :func:`sarcli.analysis.ipr.window_textbook` (uniform: ``IRW_FACTOR_UNIFORM`` = 0.8859).
     """
-    from ..windows import WINDOW_KINDS, window_1d
+    from ..analysis.ipr import window_textbook
+    from ..core.windows import IRW_FACTOR_UNIFORM, TAYLOR_NBAR, TAYLOR_SLL_DB, WINDOW_KINDS
 
-    kind = (parameters or {}).get("window") or "none"
+    par = parameters or {}
+    kind = par.get("window") or "none"
     if kind in ("none", "uniform"):
-        return "UNIFORM", KAPFAC
+        return "UNIFORM", IRW_FACTOR_UNIFORM
     if kind not in WINDOW_KINDS:
-        return str(kind).upper(), KAPFAC
-    n, pad = 128, 64
-    w = window_1d(n, kind, nbar=int(parameters.get("taylor_nbar", 4)),
-                  sll_db=float(parameters.get("taylor_sll_db", -35.0)))
-    resp = np.abs(np.fft.fft(w, n * pad)) ** 2
-    resp /= resp[0]
-    first = int(np.argmax(resp < 0.5))  # first bin below half power
-    frac = (resp[first - 1] - 0.5) / (resp[first - 1] - resp[first])
-    return str(kind).upper(), float(2 * (first - 1 + frac) / pad)
+        return str(kind).upper(), IRW_FACTOR_UNIFORM
+    factor, _, _ = window_textbook(kind, nbar=int(par.get("taylor_nbar", TAYLOR_NBAR)),
+                                   sll_db=float(par.get("taylor_sll_db", TAYLOR_SLL_DB)))
+    return str(kind).upper(), float(factor)
 
 
 # --------------------------------------------------------------------------------------------
@@ -173,7 +169,7 @@ def _grid_dim(E, tag, uvect_ecf, ss, kctr, extent, parameters):
 def _build_xml(img: Image, acq: Acquisition, ref, orient, *, nominal: bool):
     from sarkit import wgs84
 
-    from ..cphd import pulse_times
+    from .cphd import pulse_times
 
     E = lxml.builder.ElementMaker(namespace=SICD_NS, nsmap={None: SICD_NS})
     grid = img.grid

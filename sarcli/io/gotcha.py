@@ -30,10 +30,10 @@ from pathlib import Path
 
 import numpy as np
 
-from .acquisition import Acquisition
-from .errors import InputFileError
-from .grid import Grid
-from .io import PhaseHistory
+from ..core.acquisition import Acquisition
+from ..errors import InputFileError
+from ..core.grid import Grid
+from ..core.types import PhaseHistory
 
 __all__ = ["read_gotcha", "default_gotcha_grid", "GOTCHA_FIELDS"]
 
