@@ -32,10 +32,10 @@ setup: $(VENV)/.installed
 
 # -- tests ---------------------------------------------------------------------------------------
 test: $(VENV)/.installed
-	$(BIN)/python -m pytest -q -n $(PYTEST_WORKERS) tests
+	$(BIN)/python -m pytest -q -n $(PYTEST_WORKERS)
 
 test-fast: $(VENV)/.installed
-	$(BIN)/python -m pytest -q -x tests
+	$(BIN)/python -m pytest -q -x
 
 # -- demo: three points ------------------------------------------------------------------------
 # spherical data (r0 = 10 km) for backprojection; the far-field model of the same scene for the

@@ -1,4 +1,4 @@
-"""Backprojection speed against the C anchor ``/work/shared/bench/bp_anchor.c`` (no assertions).
+"""Backprojection speed against the C anchor ``bp_anchor.c`` of the shared benchmark folder (no assertions).
 
 Builds the anchor into a temporary folder, runs it and :func:`sarcli.formers.backprojection.backproject`
 at the same image side and pulse count, and prints a markdown table of
@@ -41,7 +41,9 @@ from sarcli.core import geometry
 from sarcli.formers.backprojection import backproject
 from sarcli.core.grid import Grid
 
-ANCHOR = Path("/work/shared/bench/bp_anchor.c")
+#: The C yardstick, from the shared folder beside the repository (``$SARCLI_BP_ANCHOR`` overrides).
+ANCHOR = Path(os.environ.get("SARCLI_BP_ANCHOR",
+                            Path(__file__).resolve().parents[2] / "shared" / "bench" / "bp_anchor.c"))
 
 
 def build_anchor(tmp: Path) -> Path | None:

@@ -59,10 +59,6 @@ def _timed_run(plan, out, n_workers):
 
 def _gotcha_job_cost(tmp, repeat=3):
     files = sorted(GOTCHA_DIR.glob("*.mat"))
-    try:
-        import sarcli.io.gotcha  # noqa: F401
-    except ImportError:
-        files = []
     if files:
         job = Job(name="gotcha.h5", input=str(files[0]), method="backprojection", threads=1)
         what = f"one GOTCHA file ({files[0].name}), backprojection on the default 400 x 400 grid (0.25 m)"

@@ -7,7 +7,7 @@ sharpens data of the sign it was estimated for.
 
 Usage::
 
-    python bench/check_gotcha_sign.py [GOTCHA_DIR]
+    python scripts/check_gotcha_sign.py [GOTCHA_DIR]
 
 Prints, for each sign with and without autofocus, the peak-to-mean ratio of |f| (higher = more
 focused) and the entropy of |f|² (lower = more focused) on the 100 m × 100 m, 0.25 m grid.

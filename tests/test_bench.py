@@ -114,7 +114,6 @@ def test_csv_png_and_table(ph, tmp_path):
 
 
 def test_regularizer_sweep_rows(ph):
-    pytest.importorskip("sarcli.regularize")
     rows = bm.regularizer_sweep(ph, "ptv", grid=ph.acquisition.grid, iters=(1, 4))
     assert [r.knobs["iters"] for r in rows] == [1, 4]
     assert all(np.isnan(r.error) and np.isfinite(r.error_truth) for r in rows)

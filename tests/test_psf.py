@@ -145,7 +145,6 @@ def test_cli_psf_writes_an_image_and_png(tmp_path):
 
 
 def test_cli_psf_taylor_window(tmp_path, write_config):
-    pytest.importorskip("sarcli.core.windows")
     from .conftest import small_config
 
     cfg = write_config(small_config(image={"half_width_m": 1.0, "pixels": 16}))
@@ -185,7 +184,7 @@ def test_predicted_ipr_on_gotcha_geometry_matches_the_textbook():
     files = sorted(GOTCHA.glob("data_3dsar_pass1_az00*_HH.mat")) if GOTCHA.is_dir() else []
     if not files:
         pytest.skip(f"GOTCHA data not found at {GOTCHA}")
-    gotcha = pytest.importorskip("sarcli.io.gotcha")
+    from sarcli.io import gotcha
     acq = gotcha.read_gotcha(files[:1]).acquisition
     pred = predicted_ipr(acq)
     # float32-stored frequencies are not exactly equally spaced: the exact sum is used

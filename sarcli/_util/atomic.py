@@ -1,12 +1,86 @@
-"""Atomic file output: write to a temporary name in the same folder, rename at the end."""
+"""Atomic file output: write to a temporary name in the same folder, rename at the end.
+
+The temporary name of ``path`` is ``.<name>.tmp-<pid>`` beside it. A command may *reserve* its
+outputs before computing (:func:`reserve`): the temporary file is created at once, so a folder
+that cannot be written is found before any work, and :func:`atomic_path` later writes into that
+same temporary file. Every temporary file this process holds is listed in a registry, so an
+interruption (:mod:`sarcli._util.interrupt`) or a failed command (:func:`release_all`) removes
+them all; the rename onto the final name is the one commit point, taken under a lock.
+"""
 
 from __future__ import annotations
 
 import contextlib
 import os
+import threading
 from pathlib import Path
 
-__all__ = ["atomic_path"]
+from ..errors import SarcliInputError
+
+__all__ = ["atomic_path", "reserve", "release_all", "temp_path", "LOCK"]
+
+#: held while a temporary file is renamed onto its final name or removed by a clean-up
+LOCK = threading.RLock()
+_TEMPS: dict[Path, Path] = {}  # temporary path -> final path
+
+
+def temp_path(path) -> Path:
+    """The temporary name used for ``path`` by this process."""
+    final = Path(path)
+    return final.with_name(f".{final.name}.tmp-{os.getpid()}")
+
+
+def _first_line(exc: BaseException, limit: int = 200) -> str:
+    text = (getattr(exc, "strerror", None) or str(exc) or type(exc).__name__).splitlines()[0]
+    return text if len(text) <= limit else text[:limit] + "..."
+
+
+def _make_parent(final: Path) -> None:
+    parent = final.parent
+    if parent and not parent.exists():
+        try:
+            parent.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise SarcliInputError(f"{final}: cannot create the folder {parent} ({_first_line(exc)})") from None
+
+
+def reserve(path) -> Path:
+    """Create the temporary file of ``path`` now, before any work (fail before computing).
+
+    Raises
+    ------
+    SarcliInputError
+        The folder cannot be created or written, or ``path`` is a folder.
+    """
+    final = Path(path)
+    if final.is_dir():
+        raise SarcliInputError(f"{final}: is a folder, expected a file name to write")
+    _make_parent(final)
+    tmp = temp_path(final)
+    with LOCK:
+        try:
+            fd = os.open(tmp, os.O_CREAT | os.O_WRONLY | os.O_TRUNC, 0o644)
+        except OSError as exc:
+            raise SarcliInputError(f"{final}: cannot write in {final.parent or '.'} ({_first_line(exc)})") from None
+        os.close(fd)
+        _TEMPS[tmp] = final
+    return tmp
+
+
+def _discard(tmp: Path) -> None:
+    with LOCK:
+        _TEMPS.pop(tmp, None)
+        with contextlib.suppress(OSError):
+            tmp.unlink()
+
+
+def release_all() -> list[Path]:
+    """Remove every temporary file this process still holds (a failed or interrupted command)."""
+    with LOCK:
+        held = list(_TEMPS)
+        for tmp in held:
+            _discard(tmp)
+    return held
 
 
 @contextlib.contextmanager
@@ -14,16 +88,25 @@ def atomic_path(path):
     """Yield a temporary path next to ``path``; rename it onto ``path`` only on success.
 
     On any exception the temporary file is removed and ``path`` is left untouched, so a failing
-    command never leaves a partial output file.
+    command never leaves a partial output file. An operating-system error while writing (a full
+    disk, a permission or quota error) becomes one :class:`~sarcli.errors.SarcliInputError`.
     """
     final = Path(path)
-    if final.parent and not final.parent.exists():
-        final.parent.mkdir(parents=True, exist_ok=True)
-    tmp = final.with_name(f".{final.name}.tmp-{os.getpid()}")
+    _make_parent(final)
+    tmp = temp_path(final)
+    with LOCK:
+        _TEMPS[tmp] = final
     try:
         yield tmp
-        os.replace(tmp, final)
+        with LOCK:
+            if tmp not in _TEMPS:  # removed by an interruption in the meantime
+                raise KeyboardInterrupt
+            os.replace(tmp, final)
+            _TEMPS.pop(tmp, None)
+    except OSError as exc:
+        _discard(tmp)
+        raise SarcliInputError(f"{final}: could not be written ({_first_line(exc)}); "
+                               "any previous file is untouched") from None
     except BaseException:
-        with contextlib.suppress(FileNotFoundError):
-            tmp.unlink()
+        _discard(tmp)
         raise

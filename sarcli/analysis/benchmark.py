@@ -336,10 +336,8 @@ def regularizer_sweep(ph: PhaseHistory, prior: str, *, grid: Grid, iters=(1, 2, 
     ``seconds`` is that run's ``runtime_s`` (set-up included), ``error`` is NaN (a regularised image
     is not the matched filter). The knobs record ``iters`` and the run's last ``objective``.
     """
-    try:
-        from ..regularize import regularize
-    except ImportError:  # pragma: no cover - module not present in this checkout
-        return []
+    from ..regularize import regularize
+
     truth = truth_on_grid(ph, grid) if truth is None else truth
     rows = []
     for n in progress(list(iters), desc=f"regularize {prior}", unit="cap"):

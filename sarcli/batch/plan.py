@@ -23,10 +23,9 @@ import string
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
-import yaml
-
 from ..core.grid import Grid, resolve_grid
 from ..core.types import to_json
+from .._util.yamlsafe import short_repr as _short
 from ..errors import ConfigError, SarcliError
 from .layout import input_geometry, subaperture_windows, tile_layout
 
@@ -170,7 +169,7 @@ def _is_number(v) -> bool:
 
 def _check_keys(err, where, section, mapping) -> bool:
     if not isinstance(mapping, dict):
-        err.add(where, f"expected a mapping, got {type(mapping).__name__} {mapping!r}")
+        err.add(where, f"expected a mapping, got {type(mapping).__name__} {_short(mapping)}")
         return False
     for key in mapping:
         if key not in _KEYS[section]:
@@ -181,13 +180,13 @@ def _check_keys(err, where, section, mapping) -> bool:
 
 def _check_number(err, key, value, *, integer=False, lo=None, lo_open=False, hi=None, hi_open=False):
     if isinstance(value, bool) or not isinstance(value, (int, float)) or (integer and not isinstance(value, int)):
-        err.add(key, f"expected {'an integer' if integer else 'a number'}, got {value!r}")
+        err.add(key, f"expected {'an integer' if integer else 'a number'}, got {_short(value)}")
         return None
     if (lo is not None and (value <= lo if lo_open else value < lo)) or \
        (hi is not None and (value >= hi if hi_open else value > hi)):
         lo_s = "" if lo is None else f"{'>' if lo_open else '>='} {lo}"
         hi_s = "" if hi is None else f"{'<' if hi_open else '<='} {hi}"
-        err.add(key, f"expected a value {' and '.join(s for s in (lo_s, hi_s) if s)}, got {value!r}")
+        err.add(key, f"expected a value {' and '.join(s for s in (lo_s, hi_s) if s)}, got {_short(value)}")
         return None
     return value
 
@@ -196,7 +195,7 @@ def _check_grid(err, key, grid) -> dict:
     if grid is None:
         return {}
     if not isinstance(grid, dict):
-        err.add(key, f"expected a mapping with {', '.join(sorted(_GRID_KEYS))}, got {grid!r}")
+        err.add(key, f"expected a mapping with {', '.join(sorted(_GRID_KEYS))}, got {_short(grid)}")
         return {}
     out = {}
     for k, v in grid.items():
@@ -208,9 +207,9 @@ def _check_grid(err, key, grid) -> dict:
             vals = v if isinstance(v, list) else [v]
             n_ok = (1, 2) if k == "extent" else (2,)
             if len(vals) not in n_ok or any(isinstance(x, bool) or not isinstance(x, (int, float)) for x in vals):
-                err.add(f"{key}.{k}", f"expected {'W or [W, H]' if k == 'extent' else '[x, y]'} in metres, got {v!r}")
+                err.add(f"{key}.{k}", f"expected {'W or [W, H]' if k == 'extent' else '[x, y]'} in metres, got {_short(v)}")
             elif k == "extent" and min(vals) <= 0:
-                err.add(f"{key}.{k}", f"expected positive side lengths, got {v!r}")
+                err.add(f"{key}.{k}", f"expected positive side lengths, got {_short(v)}")
             else:
                 out[k] = [float(x) for x in vals] if len(vals) == 2 else float(vals[0])
     return out
@@ -218,7 +217,7 @@ def _check_grid(err, key, grid) -> dict:
 
 def _expand_inputs(err, key, pattern, base: Path) -> list[Path]:
     if not isinstance(pattern, str) or not pattern:
-        err.add(key, f"expected a file path or glob, got {pattern!r}")
+        err.add(key, f"expected a file path or glob, got {_short(pattern)}")
         return []
     full = Path(os.path.expanduser(pattern))
     full = full if full.is_absolute() else base / full
@@ -279,13 +278,13 @@ def parse_plan(plan: dict, *, source="<plan>", base_dir=None) -> Plan:
     sigs = _method_signatures()
     raw_jobs = plan.get("jobs") or []
     if "jobs" in plan and (not isinstance(raw_jobs, list) or not raw_jobs):
-        err.add("jobs", f"expected a non-empty list of jobs, got {raw_jobs!r}")
+        err.add("jobs", f"expected a non-empty list of jobs, got {_short(raw_jobs)}")
         raw_jobs = []
     jobs: list[Job] = []
     for i, entry in enumerate(raw_jobs):
         key = f"jobs[{i}]"
         if not isinstance(entry, dict):
-            err.add(key, f"expected a mapping, got {entry!r}")
+            err.add(key, f"expected a mapping, got {_short(entry)}")
             continue
         gens = [g for g in _GENERATORS if g in entry]
         if gens:
@@ -310,13 +309,12 @@ def parse_plan(plan: dict, *, source="<plan>", base_dir=None) -> Plan:
 
 def load_plan(path) -> Plan:
     """Read, validate and expand a plan file (relative inputs are taken from its folder)."""
+    from .._util.yamlsafe import load_yaml
+
     p = Path(path)
     if not p.is_file():
         raise ConfigError("no such plan file", source=str(path))
-    try:
-        data = yaml.safe_load(p.read_text())
-    except yaml.YAMLError as exc:
-        raise ConfigError(f"not valid YAML ({str(exc).splitlines()[0]})", source=str(path)) from None
+    data, _ = load_yaml(p, what="plan file")  # duplicate keys, aliases, NaN/Inf refused
     if not isinstance(data, dict):
         raise ConfigError(f"expected a mapping with 'jobs', got {type(data).__name__}", source=str(path))
     return parse_plan(data, source=str(path), base_dir=p.parent)
@@ -334,7 +332,7 @@ def _expand_entry(err, key, section, spec, defaults, sigs, threads, base) -> lis
         ok = False
     opts = spec.get("options") or {}
     if not isinstance(opts, dict):
-        err.add(f"{key}.options", f"expected a mapping of options, got {opts!r}")
+        err.add(f"{key}.options", f"expected a mapping of options, got {_short(opts)}")
         opts, ok = {}, False
     options = {**(defaults.get("options") or {}), **opts}
     for k, v in options.items() if ok else ():
@@ -344,7 +342,7 @@ def _expand_entry(err, key, section, spec, defaults, sigs, threads, base) -> lis
             ok = False
         elif _is_number(sigs[method][k]) and not _is_number(v) and v is not None:
             hint = " (YAML reads 1e-6 as text: write 1.0e-6)" if isinstance(v, str) else ""
-            err.add(where, f"expected a number, got {v!r}{hint}")
+            err.add(where, f"expected a number, got {_short(v)}{hint}")
             ok = False
     grid = {**defaults.get("grid", {}), **_check_grid(err, f"{key}.grid", spec.get("grid"))}
     inputs = []
@@ -355,7 +353,7 @@ def _expand_entry(err, key, section, spec, defaults, sigs, threads, base) -> lis
     out_key = f"{key}.output" if section == "job" else f"{key}.name"
     template = spec.get("output" if section == "job" else "name", _DEFAULT_OUTPUT[section])
     if not isinstance(template, str) or not template:
-        err.add(out_key, f"expected a file name template, got {template!r}")
+        err.add(out_key, f"expected a file name template, got {_short(template)}")
         ok = False
     params = {"job": lambda *_: (), "subapertures": _subaperture_params, "tiles": _tile_params}[section](
         err, key, spec, method)

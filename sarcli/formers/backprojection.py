@@ -59,7 +59,7 @@ import numpy as np
 import scipy.fft
 
 from ..errors import AliasingWarning, SarcliInputError
-from ..core.geometry import C, differential_range
+from ..core.geometry import C, bistatic_differential_range
 from ..core.grid import Grid
 from ._bp_kernels import _bp_rows, _rp_pulses
 
@@ -96,7 +96,7 @@ class _Setup:
     """Validated inputs, per-pulse constants (in the working precision) and the FFT layout."""
 
     def __init__(self, shape, freq_hz, antenna_position_m, range_to_center_m, grid, weights,
-                 upsample, interp, precision):
+                 upsample, interp, precision, receive_position_m=None):
         n_pulses, m = shape
         if interp not in INTERPOLATORS:
             raise SarcliInputError(f"unknown interpolation {interp!r}; choose one of {sorted(INTERPOLATORS)}")
@@ -120,6 +120,10 @@ class _Setup:
         if a.shape != (n_pulses, 3) or r0.shape != (n_pulses,):
             raise SarcliInputError(f"antenna positions {a.shape} / ranges {r0.shape} do not match "
                                    f"{n_pulses} pulses (expected ({n_pulses}, 3) and ({n_pulses},))")
+        b = a if receive_position_m is None else np.asarray(receive_position_m, dtype=np.float64)
+        if b.shape != a.shape:
+            raise SarcliInputError(f"receive positions {b.shape} do not match the transmit positions {a.shape}")
+        self.bistatic = not np.array_equal(a, b)
         dalpha = (f[:, -1] - f[:, 0]) / (m - 1)
         dev = np.abs(f - (f[:, :1] + np.arange(m) * dalpha[:, None]))
         rel = np.max(dev / np.abs(dalpha)[:, None]) if np.all(dalpha != 0) else np.inf
@@ -152,18 +156,24 @@ class _Setup:
         self.two_ay = (2.0 * a[:, 1]).astype(dt)
         self.a2 = (na * na).astype(dt)
         self.na = na.astype(dt)
-        self.off = (na - r0).astype(dt)
+        nb = np.linalg.norm(b, axis=1)
+        self.two_bx = (2.0 * b[:, 0]).astype(dt)
+        self.two_by = (2.0 * b[:, 1]).astype(dt)
+        self.b2 = (nb * nb).astype(dt)
+        self.nb = nb.astype(dt)
+        # (|a| + |b|)/2 - r0: exactly |a| - r0 when a = b
+        self.off = ((0.5 * (na + nb) if self.bistatic else na) - r0).astype(dt)
         self.inv_bin = (1.0 / bin_m).astype(dt)
         self.kc = (4.0 * np.pi * alpha_ref / C).astype(dt)
         self.x = grid.x.astype(dt)
         self.xx = (grid.x * grid.x).astype(dt)
         self.y = grid.y.astype(dt)
         self.shape = grid.shape
-        self._check_window(a, r0, grid, np.abs(bin_m) * self.n_len / 2.0)
-        self.scalars = (dt(self.n_len // 2), dt(self.n_len), _PAD, self.kind)
+        self._check_window(a, b, r0, grid, np.abs(bin_m) * self.n_len / 2.0)
+        self.scalars = (dt(self.n_len // 2), dt(self.n_len), _PAD, self.kind, self.bistatic)
 
     @staticmethod
-    def _check_window(a, r0, grid, half_window):
+    def _check_window(a, b, r0, grid, half_window):
         """Warn when the grid's corners leave some pulse's unambiguous window ``|Δr| < c/(4Δα)``.
 
         ``|a - x|`` is convex in x, so its maximum over the rectangle is at a corner; the corners
@@ -172,7 +182,7 @@ class _Setup:
         xs = [grid.x[0] - grid.dx / 2, grid.x[-1] + grid.dx / 2]
         ys = [grid.y[0] - grid.dy / 2, grid.y[-1] + grid.dy / 2]
         corners = np.array([[x, y, 0.0] for x in xs for y in ys])
-        excess = np.abs(differential_range(a, r0, corners)) / half_window[:, None]
+        excess = np.abs(bistatic_differential_range(a, b, r0, corners)) / half_window[:, None]
         if np.max(excess) >= 1.0:
             worst = int(np.argmax(np.max(excess, axis=1)))
             warnings.warn(
@@ -183,7 +193,8 @@ class _Setup:
     def geometry_args(self, sl):
         """Kernel arguments for the pulses in slice ``sl``."""
         return (self.x, self.xx, self.y, self.two_ax[sl], self.two_ay[sl], self.a2[sl],
-                self.na[sl], self.off[sl], self.inv_bin[sl], self.kc[sl]) + self.scalars
+                self.na[sl], self.off[sl], self.inv_bin[sl], self.kc[sl], self.two_bx[sl],
+                self.two_by[sl], self.b2[sl], self.nb[sl]) + self.scalars
 
     def blocks(self):
         """Slices of at most ``_BLOCK`` pulses: profiles live one block at a time."""
@@ -218,7 +229,7 @@ def _check_data(data):
 # ---------------------------------------------------------------------------------------------
 def backproject(data, freq_hz, antenna_position_m, range_to_center_m, grid, weights=None, *,
                 upsample=DEFAULT_UPSAMPLE, interp=DEFAULT_INTERP, precision="float64",
-                nthreads=None) -> np.ndarray:
+                nthreads=None, receive_position_m=None) -> np.ndarray:
     """Spherical matched-filter image by fast backprojection (paper eq. ``mf``, spherical ``e_pj``).
 
     Parameters
@@ -243,6 +254,9 @@ def backproject(data, freq_hz, antenna_position_m, range_to_center_m, grid, weig
         Working precision of profiles, pixel geometry, carrier and accumulation.
     nthreads : int, optional
         Threads for the kernel and the FFT (default: numba's current setting).
+    receive_position_m : array_like, shape (P, 3), optional
+        Separate receive positions q_p; then ``antenna_position_m`` holds the transmit positions
+        t_p and ``Δr = (|t_p - x| + |q_p - x|)/2 - r0_p`` (moving platform or bistatic).
 
     Returns
     -------
@@ -262,7 +276,7 @@ def backproject(data, freq_hz, antenna_position_m, range_to_center_m, grid, weig
     Examples
     --------
     >>> import numpy as np
-    >>> from sarcli import geometry
+    >>> from sarcli.core import geometry
     >>> from sarcli.core.grid import Grid
     >>> freq = 9.8e9 + 5e6 * np.arange(64)
     >>> az = np.radians(np.linspace(-1.5, 1.5, 32))
@@ -277,7 +291,7 @@ def backproject(data, freq_hz, antenna_position_m, range_to_center_m, grid, weig
     """
     d = _check_data(data)
     st = _Setup(d.shape, freq_hz, antenna_position_m, range_to_center_m, grid, weights,
-                upsample, interp, precision)
+                upsample, interp, precision, receive_position_m)
     cdt = np.complex64 if st.dtype == np.float32 else np.complex128
     out_re = np.zeros(st.shape, dtype=st.dtype)
     out_im = np.zeros(st.shape, dtype=st.dtype)
@@ -300,7 +314,7 @@ def backproject(data, freq_hz, antenna_position_m, range_to_center_m, grid, weig
 
 def reproject(image, freq_hz, antenna_position_m, range_to_center_m, grid, weights=None, *,
               upsample=DEFAULT_UPSAMPLE, interp=DEFAULT_INTERP, precision="float64",
-              nthreads=None) -> np.ndarray:
+              nthreads=None, receive_position_m=None) -> np.ndarray:
     """Exact adjoint of :func:`backproject`: image → phase history, shape (P, M).
 
     Parameters
@@ -310,7 +324,7 @@ def reproject(image, freq_hz, antenna_position_m, range_to_center_m, grid, weigh
     freq_hz, antenna_position_m, range_to_center_m, grid, weights
         As for :func:`backproject` (the number of pulses P is taken from the antenna positions,
         M from the frequencies).
-    upsample, interp, precision, nthreads
+    upsample, interp, precision, nthreads, receive_position_m
         As for :func:`backproject`; use the same values to get its exact adjoint.
 
     Returns
@@ -330,7 +344,7 @@ def reproject(image, freq_hz, antenna_position_m, range_to_center_m, grid, weigh
     if a.ndim != 2:
         raise SarcliInputError(f"antenna positions must be (P, 3), got {a.shape}")
     st = _Setup((a.shape[0], fr.shape[-1]), freq_hz, antenna_position_m, range_to_center_m, grid,
-                weights, upsample, interp, precision)
+                weights, upsample, interp, precision, receive_position_m)
     fre = np.ascontiguousarray(f.real, dtype=st.dtype)
     fim = np.ascontiguousarray(f.imag, dtype=st.dtype) if np.iscomplexobj(f) else np.zeros_like(fre)
     n_padded = st.n_len + 2 * _PAD

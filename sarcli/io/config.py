@@ -24,12 +24,13 @@ import warnings
 from pathlib import Path
 
 import numpy as np
-import yaml
 
 from ..core import geometry
 from ..core.acquisition import Acquisition
-from ..errors import AliasingWarning, ConfigError
+from ..errors import AliasingWarning, ConfigError, SarcliInputError
 from ..core.grid import Grid, derive_grid
+from .._util.resources import check_memory
+from .._util.yamlsafe import load_yaml, short_repr
 
 __all__ = ["load_acquisition", "parse_acquisition", "derive_grid", "SCHEMA"]
 
@@ -61,13 +62,14 @@ class _Ctx:
 
 def _check_keys(ctx, section: str, mapping):
     if not isinstance(mapping, dict):
-        ctx.fail(section or "(top level)", f"expected a mapping of keys, got {type(mapping).__name__} {mapping!r}")
+        ctx.fail(section or "(top level)", f"expected a mapping of keys, got {type(mapping).__name__} {short_repr(mapping)}")
     valid = SCHEMA[section]
     for key in mapping:
         if key not in valid:
-            close = difflib.get_close_matches(str(key), sorted(valid), n=1, cutoff=0.5)
+            close = difflib.get_close_matches(str(key)[:100], sorted(valid), n=1, cutoff=0.5)
             hint = f"; did you mean '{close[0]}'?" if close else f"; valid keys: {', '.join(sorted(valid))}"
-            ctx.fail(f"{section}.{key}" if section else str(key), f"unknown key{hint}")
+            key = short_repr(key, 80).strip("'")
+            ctx.fail(f"{section}.{key}" if section else key, f"unknown key{hint}")
     for key in REQUIRED.get(section, ()):
         if key not in mapping:
             ctx.fail(f"{section}.{key}" if section else key, "missing required key")
@@ -77,22 +79,29 @@ def _number(ctx, key, value, *, lo=None, hi=None, lo_open=False, hi_open=False, 
     """Validate a number (not a bool, not a string) against a range."""
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         kind = "an integer" if integer else "a number"
-        ctx.fail(key, f"value {value!r} is {type(value).__name__}, expected {kind}{what}")
+        hint = ""
+        if isinstance(value, str) and len(value) < 40:
+            try:
+                float(value)
+                hint = " (YAML reads a number without a decimal point, like 1e12, as text: write 1.0e12)"
+            except ValueError:
+                pass
+        ctx.fail(key, f"value {short_repr(value)} is {type(value).__name__}, expected {kind}{what}{hint}")
     if integer and (not float(value).is_integer()):
-        ctx.fail(key, f"value {value!r} is not an integer")
+        ctx.fail(key, f"value {short_repr(value)} is not an integer")
     v = int(value) if integer else float(value)
     if not math.isfinite(v):
-        ctx.fail(key, f"value {value!r} must be finite")
+        ctx.fail(key, f"value {short_repr(value)} must be finite")
     if lo is not None and (v < lo or (lo_open and v == lo)):
-        ctx.fail(key, f"value {value!r} out of range: expected {'>' if lo_open else '>='} {lo}{what}")
+        ctx.fail(key, f"value {short_repr(value)} out of range: expected {'>' if lo_open else '>='} {lo}{what}")
     if hi is not None and (v > hi or (hi_open and v == hi)):
-        ctx.fail(key, f"value {value!r} out of range: expected {'<' if hi_open else '<='} {hi}{what}")
+        ctx.fail(key, f"value {short_repr(value)} out of range: expected {'<' if hi_open else '<='} {hi}{what}")
     return v
 
 
 def _number_list(ctx, key, value, *, lo=None, hi=None, lo_open=False):
     if not isinstance(value, (list, tuple)) or len(value) == 0:
-        ctx.fail(key, f"value {value!r} must be a non-empty list of numbers")
+        ctx.fail(key, f"value {short_repr(value)} must be a non-empty list of numbers")
     return np.array([_number(ctx, f"{key}[{i}]", v, lo=lo, hi=hi, lo_open=lo_open) for i, v in enumerate(value)])
 
 
@@ -117,6 +126,7 @@ def _parse_frequencies(ctx, sec) -> np.ndarray:
     if bw > 1e6:
         ctx.fail("frequencies.bandwidth_mhz", f"value {bw:g} looks like Hz; the key expects MHz (e.g. 600 for 600 MHz)")
     m = _number(ctx, "frequencies.count", sec["count"], lo=1, integer=True)
+    check_count(ctx, "frequencies.count", m)
     if bw / 2e3 >= fc:
         ctx.fail("frequencies.bandwidth_mhz", f"value {bw:g} MHz reaches zero or negative frequencies around {fc:g} GHz")
     if m > 1 and bw == 0:
@@ -135,10 +145,11 @@ def _parse_azimuths(ctx, sec) -> np.ndarray:
         return np.radians(a)
     if sec.get("full_circle"):
         if not isinstance(sec["full_circle"], bool):
-            ctx.fail("azimuths.full_circle", f"value {sec['full_circle']!r} must be true or false")
+            ctx.fail("azimuths.full_circle", f"value {short_repr(sec['full_circle'])} must be true or false")
         if "count" not in sec:
             ctx.fail("azimuths.count", "missing required key")
         p = _number(ctx, "azimuths.count", sec["count"], lo=1, integer=True)
+        check_count(ctx, "azimuths.count", p)
         start = _number(ctx, "azimuths.start_deg", sec.get("start_deg", 0.0))
         return np.radians(start + 360.0 * np.arange(p) / p)
     for key in ("center_deg", "extent_deg", "count"):
@@ -147,6 +158,7 @@ def _parse_azimuths(ctx, sec) -> np.ndarray:
     c = _number(ctx, "azimuths.center_deg", sec["center_deg"])
     e = _number(ctx, "azimuths.extent_deg", sec["extent_deg"], lo=0, hi=360)
     p = _number(ctx, "azimuths.count", sec["count"], lo=1, integer=True)
+    check_count(ctx, "azimuths.count", p)
     if p > 1 and e == 0:
         ctx.fail("azimuths.extent_deg", "value 0 with count > 1 gives duplicated pulses: expected > 0")
     if p == 1:
@@ -161,7 +173,7 @@ def _parse_geometry(ctx, sec, az, el_rad):
     _check_keys(ctx, "geometry", sec)
     path = sec.get("path", "farfield")
     if path not in PATHS:
-        ctx.fail("geometry.path", f"value {path!r} unknown; expected one of {', '.join(PATHS)}")
+        ctx.fail("geometry.path", f"value {short_repr(path)} unknown; expected one of {', '.join(PATHS)}")
     if path == "farfield":
         if set(sec) - {"path"}:
             ctx.fail("geometry", "a far-field geometry takes no range or positions")
@@ -218,7 +230,7 @@ def parse_acquisition(cfg, *, source=None, text=None) -> Acquisition:
     pos, az, el_arr, path = _parse_geometry(ctx, cfg.get("geometry"), az, np.radians(el))
     model = cfg.get("model", "farfield" if pos is None else "spherical")
     if model not in ("farfield", "spherical"):
-        ctx.fail("model", f"value {model!r} unknown; expected 'farfield' or 'spherical'")
+        ctx.fail("model", f"value {short_repr(model)} unknown; expected 'farfield' or 'spherical'")
     if model == "spherical" and pos is None:
         ctx.fail("model", "value 'spherical' needs a flight path: set geometry.path to circle, line or positions")
     snr = None
@@ -282,27 +294,24 @@ def parse_acquisition(cfg, *, source=None, text=None) -> Acquisition:
     return acq
 
 
+def check_count(ctx, key, n, *, per_item_bytes=8 * 4):
+    """Refuse a sample count whose arrays would not fit in memory (before they are allocated)."""
+    try:
+        check_memory(n * per_item_bytes, f"value {n}")
+    except SarcliInputError as exc:
+        ctx.fail(key, str(exc))
+
+
 def load_acquisition(path) -> Acquisition:
     """Read a YAML acquisition file (the public entry point).
+
+    The file is read by :func:`sarcli._util.yamlsafe.load_yaml`: duplicate keys, anchors and
+    aliases, NaN and infinities are refused with the line they are on.
 
     Raises
     ------
     ConfigError
         Missing file, YAML syntax error, unknown/missing keys, wrong types, out-of-range values.
     """
-    p = Path(path)
-    if not p.exists():
-        raise ConfigError("no such file", source=str(path))
-    if p.is_dir():
-        raise ConfigError("is a directory, expected a YAML acquisition file", source=str(path))
-    try:
-        text = p.read_text()
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ConfigError(f"cannot read as text ({exc})", source=str(path)) from None
-    try:
-        cfg = yaml.safe_load(text)
-    except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark else ""
-        raise ConfigError(f"not valid YAML{where}: {getattr(exc, 'problem', exc)}", source=str(path)) from None
+    cfg, text = load_yaml(path, what="YAML acquisition file")
     return parse_acquisition(cfg, source=str(path), text=text)
