@@ -267,7 +267,7 @@ def test_sicd_rejects_real_kinds_and_corrupt_input(tmp_path):
     assert res.exit_code == 0, res.output
 
 
-GOTCHA = Path(__file__).resolve().parents[2] / "shared" / "data" / "gotcha"
+from .conftest import GOTCHA_DIR as GOTCHA  # noqa: E402
 
 
 def test_cphd_round_trip_gotcha(tmp_path):
@@ -331,3 +331,188 @@ def test_cphd_foreign_sign_convention(tmp_path):
         w.write_pvp("1", pvp)
     back = read_cphd(tmp_path / "b.cphd")
     assert np.max(np.abs(back.data - ph.data)) <= 1e-6 * np.max(np.abs(ph.data))
+
+
+# --------------------------------------------------------------------------------------------
+# Exact CPHD geometry: a fixture library built from the public example XML of the standard
+# --------------------------------------------------------------------------------------------
+EXAMPLE_XML = Path(__file__).resolve().parent / "data" / "example-cphd-1.1.0-small.xml"
+SITES = {"equator": (0.0, 0.0), "60N": (60.0, 25.0), "85S": (-85.0, 140.0), "antimeridian": (10.0, 180.0)}
+FIXTURE_POINTS = np.array([[0.0, 0.0], [4.0, -3.0], [-6.0, 5.0], [7.5, 6.5]])
+FIXTURE_AMPS = np.array([1.0, 0.8j, 0.6, -0.5])
+
+
+def _enu_rows(lat_deg, lon_deg):
+    """East, north, up of a geodetic point in ECF, written out here (independent of sarcli)."""
+    la, lo = np.radians(lat_deg), np.radians(lon_deg)
+    return np.array([[-np.sin(lo), np.cos(lo), 0.0],
+                     [-np.sin(la) * np.cos(lo), -np.sin(la) * np.sin(lo), np.cos(la)],
+                     [np.cos(la) * np.cos(lo), np.cos(la) * np.sin(lo), np.sin(la)]])
+
+
+def _two_way(tx, rcv, pts):
+    """|t - x| + |q - x| (m) for positions [P, 3] and ECF points [S, 3] -> [P, S]."""
+    return (np.linalg.norm(tx[:, None, :] - pts[None], axis=-1)
+            + np.linalg.norm(rcv[:, None, :] - pts[None], axis=-1))
+
+
+def make_cphd_fixture(path, *, site="equator", bistatic=False, enu_axes=True, P=48, M=48,
+                      grid=Grid(40, 40, 0.5, 0.5, 0.0, 0.0)):
+    """A small CPHD file: the example's orbit and band moved to ``site``, point targets inside.
+
+    Transmit and receive positions are solved at their own times (the receiver hears the SRP echo
+    ``|Tx - SRP| + |Rcv - SRP| = c (t_rcv - t_tx)`` later, ~80 m further along the orbit); with
+    ``bistatic`` the receiver is a second platform 20 km east and 3 km higher. Returns the ECF
+    geometry the signal was computed from (the independent matched filter uses only that).
+    """
+    import lxml.etree
+    import sarkit.cphd as skcphd
+    from sarkit import wgs84
+
+    tree = lxml.etree.parse(str(EXAMPLE_XML))
+    x = lambda p: tree.find(p)  # noqa: E731
+    vec = lambda p: np.array([float(x(f"{p}/{{*}}{c}").text) for c in "XYZ"])  # noqa: E731
+    iarp0 = vec("{*}SceneCoordinates/{*}IARP/{*}ECF")
+    arp0 = vec("{*}ReferenceGeometry/{*}Monostatic/{*}ARPPos")
+    vel0 = vec("{*}ReferenceGeometry/{*}Monostatic/{*}ARPVel")
+    tref = float(x("{*}ReferenceGeometry/{*}ReferenceTime").text)
+    b0 = _enu_rows(0.0, 0.0)
+    arp_l, vel_l = b0 @ (arp0 - iarp0), b0 @ vel0  # the example's orbit in its local frame
+    lat, lon = SITES[site]
+    iarp = wgs84.geodetic_to_cartesian([lat, lon, 0.0])
+    basis = _enu_rows(lat, lon)
+    rcv_offset = np.array([20e3, 0.0, 3e3]) if bistatic else np.zeros(3)
+    t_tx = np.linspace(0.0, float(x("{*}Global/{*}Timeline/{*}TxTime2").text), P)
+    tx_pos = lambda t: iarp + (arp_l + np.multiply.outer(t - tref, vel_l)) @ basis  # noqa: E731
+    rcv_pos = lambda t: tx_pos(t) + rcv_offset @ basis  # noqa: E731
+    tx = tx_pos(t_tx)
+    t_rcv = t_tx + 2 * np.linalg.norm(tx - iarp, axis=1) / geometry.C
+    for _ in range(5):  # fixed point of the echo time
+        t_rcv = t_tx + (np.linalg.norm(tx - iarp, axis=1) + np.linalg.norm(rcv_pos(t_rcv) - iarp, axis=1)) / geometry.C
+    rcv = rcv_pos(t_rcv)
+    fx_min, fx_max = float(x("{*}Global/{*}FxBand/{*}FxMin").text), float(x("{*}Global/{*}FxBand/{*}FxMax").text)
+    scss = (fx_max - fx_min) / (M - 1)
+    freq = fx_min + scss * np.arange(M)
+    pts = iarp + np.column_stack([FIXTURE_POINTS, np.zeros(len(FIXTURE_POINTS))]) @ basis
+    dr = _two_way(tx, rcv, pts) - _two_way(tx, rcv, iarp[None])  # [P, S], SGN = -1
+    sig = np.einsum("pjs,s->pj", np.exp(-2j * np.pi * freq[None, :, None] * dr[:, None, :] / geometry.C),
+                    FIXTURE_AMPS).astype(np.complex64)
+    # the XML: new site, sizes, grid, collect type
+    for c, v in zip("XYZ", iarp):
+        x(f"{{*}}SceneCoordinates/{{*}}IARP/{{*}}ECF/{{*}}{c}").text = repr(float(v))
+    for tag, v in zip(("Lat", "Lon", "HAE"), (lat, lon, 0.0)):
+        x(f"{{*}}SceneCoordinates/{{*}}IARP/{{*}}LLH/{{*}}{tag}").text = repr(float(v))
+    if enu_axes:
+        for ax, row in (("uIAX", basis[0]), ("uIAY", basis[1])):
+            for c, v in zip("XYZ", row):
+                x(f"{{*}}SceneCoordinates/{{*}}ReferenceSurface/{{*}}Planar/{{*}}{ax}/{{*}}{c}").text = repr(float(v))
+    g = "{*}SceneCoordinates/{*}ImageGrid/"
+    x(g + "{*}IARPLocation/{*}Line").text = str(grid.nx // 2)
+    x(g + "{*}IARPLocation/{*}Sample").text = str(grid.ny // 2)
+    x(g + "{*}IAXExtent/{*}LineSpacing").text = repr(grid.dx)
+    x(g + "{*}IAXExtent/{*}NumLines").text = str(grid.nx)
+    x(g + "{*}IAYExtent/{*}SampleSpacing").text = repr(grid.dy)
+    x(g + "{*}IAYExtent/{*}NumSamples").text = str(grid.ny)
+    x("{*}Data/{*}Channel/{*}NumVectors").text = str(P)
+    x("{*}Data/{*}Channel/{*}NumSamples").text = str(M)
+    x("{*}Channel/{*}Parameters/{*}RefVectorIndex").text = str(P // 2)
+    x("{*}CollectionID/{*}CollectType").text = "BISTATIC" if bistatic else "MONOSTATIC"
+    pvp = np.zeros(P, dtype=skcphd.get_pvp_dtype(tree))
+    pvp["TxTime"], pvp["TxPos"], pvp["TxVel"] = t_tx, tx, np.broadcast_to(vel_l @ basis, (P, 3))
+    pvp["RcvTime"], pvp["RcvPos"], pvp["RcvVel"] = t_rcv, rcv, np.broadcast_to(vel_l @ basis, (P, 3))
+    pvp["SRPPos"] = iarp
+    pvp["SC0"], pvp["SCSS"], pvp["FX1"], pvp["FX2"] = fx_min, scss, fx_min, fx_max
+    pvp["TOA1"], pvp["TOA2"] = (float(x(f"{{*}}Global/{{*}}TOASwath/{{*}}TOA{m}").text) for m in ("Min", "Max"))
+    pvp["SIGNAL"] = 1
+    with open(path, "wb") as f, skcphd.Writer(f, skcphd.Metadata(xmltree=tree)) as w:
+        w.write_signal("1", sig)
+        w.write_pvp("1", pvp)
+    return {"tx": tx, "rcv": rcv, "srp": iarp, "basis": basis, "freq": freq, "signal": sig}
+
+
+def independent_matched_filter(fx, grid: Grid) -> np.ndarray:
+    """eq. mf straight from the file's ECF geometry: (1/PM) Σ d exp(+i 2π f ΔR / c)."""
+    xy = grid.points().reshape(-1, 3)
+    pts = fx["srp"] + xy @ fx["basis"]
+    dr = _two_way(fx["tx"], fx["rcv"], pts) - _two_way(fx["tx"], fx["rcv"], fx["srp"][None])
+    e = np.exp(2j * np.pi * fx["freq"][None, :, None] * dr[:, None, :] / geometry.C)
+    return (np.einsum("pj,pjs->s", fx["signal"].astype(np.complex128), e) / fx["signal"].size).reshape(grid.shape)
+
+
+@pytest.mark.parametrize("site", list(SITES))
+def test_enu_frame_at_any_site(site):
+    from sarcli.io.georef import ReferencePoint, ecf_to_enu, enu_basis, enu_to_ecf
+
+    lat, lon = SITES[site]
+    ref = ReferencePoint(lat, lon, 120.0)
+    basis = enu_basis(ref)
+    np.testing.assert_allclose(basis, _enu_rows(lat, lon), atol=1e-12)
+    np.testing.assert_allclose(basis @ basis.T, np.eye(3), atol=1e-12)
+    enu = np.array([[10.0, -20.0, 3.0], [-1.5e6, 2e5, 8e5]])
+    np.testing.assert_allclose(ecf_to_enu(enu_to_ecf(enu, ref), ref), enu, rtol=0, atol=1e-7)
+
+
+@pytest.mark.parametrize("site, bistatic", [("equator", False), ("60N", False), ("85S", False),
+                                            ("antimeridian", False), ("60N", True)])
+def test_cphd_fixture_exact_two_way_geometry(tmp_path, site, bistatic):
+    """Spaceborne geometry (1700 km, Tx and Rcv ~80 m apart): direct and backprojection match an
+    independent matched filter; the midpoint approximation the reader used to make does not."""
+    from sarcli.formers.formation import form_image
+
+    fx = make_cphd_fixture(tmp_path / "f.cphd", site=site, bistatic=bistatic)
+    ph = read_cphd(tmp_path / "f.cphd")
+    acq = ph.acquisition
+    assert acq.is_bistatic and ph.attrs["collect_type"] == ("BISTATIC" if bistatic else "MONOSTATIC")
+    sep = np.linalg.norm(acq.transmit_position_m - acq.receive_position_m, axis=1)
+    assert 50 < sep.min() and (sep.max() < 200 or bistatic)
+    grid = acq.grid
+    assert grid == Grid(40, 40, 0.5, 0.5, 0.0, 0.0)
+    ref = independent_matched_filter(fx, grid)
+    assert abs(ref[grid.index_of(0.0, 0.0)]) == pytest.approx(1.0, abs=0.05)
+    direct = form_image(ph, method="direct").image
+    bp = form_image(ph, method="backprojection").image
+    assert _rel(direct, ref) <= 2e-5
+    assert _rel(bp, ref) <= 2e-3
+    # what the midpoint antenna with the mean range (the old reader) gives: a phase error
+    mid = PhaseHistory(ph.data, acq.with_(transmit_position_m=None, receive_position_m=None))
+    assert _rel(form_image(mid, method="direct").image, ref) > 0.1
+    # and through our own HDF5 contract and CPHD writer, the geometry survives
+    write_phase_history(tmp_path / "f.h5", ph)
+    back = read_phase_history(tmp_path / "f.h5")
+    np.testing.assert_array_equal(back.acquisition.transmit_position_m, acq.transmit_position_m)
+    np.testing.assert_array_equal(back.acquisition.receive_position_m, acq.receive_position_m)
+    again = read_cphd(write_cphd(back, tmp_path / "g.cphd"))
+    assert _rel(form_image(again, method="direct").image, ref) <= 2e-5
+
+
+def test_cphd_rotated_image_axes_warn(tmp_path):
+    from sarcli.io.georef import GeometryWarning
+
+    make_cphd_fixture(tmp_path / "r.cphd", enu_axes=False)
+    with pytest.warns(GeometryWarning, match="ImageGrid not used"):
+        ph = read_cphd(tmp_path / "r.cphd")
+    assert ph.acquisition.grid.cx == 0.0 and ph.acquisition.grid.cy == 0.0
+
+
+def test_monostatic_bistatic_range_is_bit_identical():
+    rng = np.random.default_rng(1)
+    a = rng.normal(size=(7, 3)) * 1e4
+    r0 = np.linalg.norm(a, axis=1) + 0.25
+    pts = rng.normal(size=(5, 3)) * 10
+    assert np.array_equal(geometry.bistatic_differential_range(a, a.copy(), r0, pts),
+                          geometry.differential_range(a, r0, pts))
+    q = a + 40.0
+    half = geometry.bistatic_differential_range(a, q, r0, pts)
+    exact = 0.5 * (np.linalg.norm(a[:, None] - pts, axis=-1) + np.linalg.norm(q[:, None] - pts, axis=-1)) - r0[:, None]
+    np.testing.assert_allclose(half, exact, rtol=0, atol=1e-9)
+
+
+def test_phase_history_without_tx_rx_still_reads(tmp_path):
+    import h5py
+
+    ph = spherical_ph()
+    write_phase_history(tmp_path / "a.h5", ph)
+    with h5py.File(tmp_path / "a.h5", "r") as f:
+        assert "transmit_position_m" not in f
+    back = read_phase_history(tmp_path / "a.h5")
+    assert back.acquisition.transmit_position_m is None and not back.acquisition.is_bistatic

@@ -14,7 +14,7 @@ from .options import echo_info, handle_errors
 @click.pass_context
 @handle_errors
 def command(ctx, cphd_file, output):
-    """Import CPHD_FILE (FX domain, monostatic; first channel) as a spherical phase history."""
+    """Import CPHD_FILE (FX domain, monostatic or bistatic; first channel) as a spherical phase history."""
     from ..io.cphd import read_cphd
     from ..io.hdf5 import write_phase_history
 

@@ -54,6 +54,12 @@ class Acquisition:
         The validated ``scene`` section of the config (see :mod:`sarcli.simulation.scenes`).
     name, source, config_text : str, optional
         Provenance: a short name, the file it came from and its text.
+    transmit_position_m, receive_position_m : ndarray, shape (P, 3), optional
+        Separate transmit and receive phase centres t_p, q_p (CONVENTIONS.md "Spherical with
+        separate transmit and receive positions"): the platform moves while the echo travels, or
+        a bistatic collection. Given together; then ``antenna_position_m`` defaults to their
+        midpoint and ``range_to_center_m`` to half the two-way path ``(|t_p| + |q_p|)/2``, and
+        image formation uses the two-way range (:meth:`differential_range`).
     """
 
     frequency_hz: np.ndarray
@@ -69,8 +75,23 @@ class Acquisition:
     source: str | None = None
     config_text: str | None = None
     extra: dict[str, Any] = field(default_factory=dict)
+    transmit_position_m: np.ndarray | None = None
+    receive_position_m: np.ndarray | None = None
 
     def __post_init__(self):
+        if (self.transmit_position_m is None) != (self.receive_position_m is None):
+            raise ValueError("transmit and receive positions go together: give both or neither")
+        if self.transmit_position_m is not None:
+            t = _frozen(self.transmit_position_m)
+            q = _frozen(self.receive_position_m)
+            if t.shape != q.shape or t.ndim != 2 or t.shape[1] != 3:
+                raise ValueError(f"transmit/receive positions must both be (P, 3), got {t.shape}, {q.shape}")
+            object.__setattr__(self, "transmit_position_m", t)
+            object.__setattr__(self, "receive_position_m", q)
+            if self.antenna_position_m is None:
+                object.__setattr__(self, "antenna_position_m", 0.5 * (t + q))
+            if self.range_to_center_m is None:
+                object.__setattr__(self, "range_to_center_m", geometry.bistatic_reference_range(t, q))
         object.__setattr__(self, "frequency_hz", _frozen(self.frequency_hz))
         object.__setattr__(self, "azimuth_rad", _frozen(np.atleast_1d(self.azimuth_rad)))
         el = np.broadcast_to(np.asarray(self.elevation_rad, dtype=np.float64), self.azimuth_rad.shape)
@@ -99,6 +120,20 @@ class Acquisition:
     @property
     def has_positions(self) -> bool:
         return self.antenna_position_m is not None
+
+    @property
+    def is_bistatic(self) -> bool:
+        """True when separate transmit and receive positions are given and differ anywhere."""
+        return self.transmit_position_m is not None and not np.array_equal(
+            self.transmit_position_m, self.receive_position_m)
+
+    def range_geometry(self):
+        """``(t, q, r0)`` for the two-way range model: ``t = q = a`` for a monostatic collection."""
+        if not self.has_positions:
+            raise ValueError("this acquisition has no antenna positions (far-field only)")
+        if self.is_bistatic:
+            return self.transmit_position_m, self.receive_position_m, self.range_to_center_m
+        return self.antenna_position_m, self.antenna_position_m, self.range_to_center_m
 
     @property
     def frequencies_2d(self) -> np.ndarray:
@@ -135,10 +170,9 @@ class Acquisition:
         return geometry.total_aperture(self.azimuth_rad)
 
     def differential_range(self, points_m) -> np.ndarray:
-        """``|a_p - x| - r0_p`` for scene points, shape (P, ...) (spherical model only)."""
-        if not self.has_positions:
-            raise ValueError("this acquisition has no antenna positions (far-field only)")
-        return geometry.differential_range(self.antenna_position_m, self.range_to_center_m, points_m)
+        """``|a_p - x| - r0_p`` (or ``(|t_p - x| + |q_p - x|)/2 - r0_p``), shape (P, ...)."""
+        t, q, r0 = self.range_geometry()
+        return geometry.bistatic_differential_range(t, q, r0, points_m)
 
     def farfield_phase_error(self, radius_m: float | None = None) -> float:
         """Predicted far-field phase error (rad) at ``radius_m`` (default: the grid's corner)."""
@@ -163,6 +197,8 @@ class Acquisition:
             elevation_rad=self.elevation_rad[p],
             antenna_position_m=None if self.antenna_position_m is None else self.antenna_position_m[p],
             range_to_center_m=None if self.range_to_center_m is None else self.range_to_center_m[p],
+            transmit_position_m=None if self.transmit_position_m is None else self.transmit_position_m[p],
+            receive_position_m=None if self.receive_position_m is None else self.receive_position_m[p],
         )
 
     def summary(self) -> dict:

@@ -28,6 +28,8 @@ __all__ = [
     "antenna_positions_line",
     "angles_from_positions",
     "differential_range",
+    "bistatic_differential_range",
+    "bistatic_reference_range",
     "farfield_phase_error",
     "signal_phase",
 ]
@@ -261,20 +263,72 @@ def differential_range(antenna_position_m, range_to_center_m, points_m) -> np.nd
     """
     a = np.asarray(antenna_position_m, dtype=np.float64)
     r0 = np.asarray(range_to_center_m, dtype=np.float64)
-    x = np.asarray(points_m, dtype=np.float64)
-    if x.shape[-1] == 2:
-        x = np.concatenate([x, np.zeros(x.shape[:-1] + (1,))], axis=-1)
-    pts = x.reshape(-1, 3)
-    norm_a = np.linalg.norm(a, axis=1)
-    ax = a @ pts.T  # (P, S)
-    xx = np.einsum("ij,ij->i", pts, pts)[None, :]
-    dist = np.sqrt(np.maximum(norm_a[:, None] ** 2 - 2 * ax + xx, 0.0))
+    x, pts = _points3(points_m)
     # |a_p| - r0_p is tiny (0 unless motion-compensated) but |a_p| rounds by ~1e-12 m at 10 km:
     # take that difference in extended precision so the model's r0_p is honoured exactly.
     norm_ld = np.sqrt(np.sum(a.astype(np.longdouble) ** 2, axis=1))
     offset = (norm_ld - r0.astype(np.longdouble)).astype(np.float64)
-    dr = (xx - 2 * ax) / (dist + norm_a[:, None]) + offset[:, None]
+    dr = _relative_range(a, pts) + offset[:, None]
     return dr.reshape((a.shape[0],) + x.shape[:-1])
+
+
+def _points3(points_m):
+    """Points as (..., 3) (a missing z is 0) and as a flat (S, 3) view."""
+    x = np.asarray(points_m, dtype=np.float64)
+    if x.shape[-1] == 2:
+        x = np.concatenate([x, np.zeros(x.shape[:-1] + (1,))], axis=-1)
+    return x, x.reshape(-1, 3)
+
+
+def _relative_range(a, pts):
+    """``|a_p - x| - |a_p|`` (P, S) as ``(|x|² - 2 a·x) / (|a - x| + |a|)`` (no cancellation)."""
+    norm_a = np.linalg.norm(a, axis=1)
+    ax = a @ pts.T  # (P, S)
+    xx = np.einsum("ij,ij->i", pts, pts)[None, :]
+    dist = np.sqrt(np.maximum(norm_a[:, None] ** 2 - 2 * ax + xx, 0.0))
+    return (xx - 2 * ax) / (dist + norm_a[:, None])
+
+
+def bistatic_differential_range(transmit_position_m, receive_position_m, range_to_center_m,
+                                points_m) -> np.ndarray:
+    """Half the two-way path minus the reference: ``(|t_p - x| + |q_p - x|)/2 - r0_p`` (m).
+
+    CONVENTIONS.md "Spherical with separate transmit and receive positions": the platform moves
+    while the echo travels (or transmitter and receiver are different platforms, a bistatic
+    collection). Each one-way term is taken cancellation-free as in :func:`differential_range`
+    and the constant ``(|t_p| + |q_p|)/2 - r0_p`` in extended precision. When ``t = q`` this is
+    *exactly* :func:`differential_range` (the same code path, bit for bit).
+
+    Parameters
+    ----------
+    transmit_position_m, receive_position_m : array_like, shape (P, 3)
+    range_to_center_m : array_like, shape (P,)
+        ``r0_p``, normally ``(|t_p - s| + |q_p - s|)/2`` for the scene centre s (the origin).
+    points_m : array_like, shape (..., 3) or (..., 2)
+
+    Returns
+    -------
+    dr : ndarray, shape (P, ...)
+    """
+    t = np.asarray(transmit_position_m, dtype=np.float64)
+    q = np.asarray(receive_position_m, dtype=np.float64)
+    if t is q or np.array_equal(t, q):
+        return differential_range(t, range_to_center_m, points_m)
+    r0 = np.asarray(range_to_center_m, dtype=np.float64)
+    x, pts = _points3(points_m)
+    nt = np.sqrt(np.sum(t.astype(np.longdouble) ** 2, axis=1))
+    nq = np.sqrt(np.sum(q.astype(np.longdouble) ** 2, axis=1))
+    offset = (0.5 * (nt + nq) - r0.astype(np.longdouble)).astype(np.float64)
+    dr = 0.5 * (_relative_range(t, pts) + _relative_range(q, pts)) + offset[:, None]
+    return dr.reshape((t.shape[0],) + x.shape[:-1])
+
+
+def bistatic_reference_range(transmit_position_m, receive_position_m, center_m=(0.0, 0.0, 0.0)):
+    """``r0_p = (|t_p - s| + |q_p - s|)/2`` (m): half the two-way path to the scene centre s."""
+    t = np.asarray(transmit_position_m, dtype=np.float64)
+    q = np.asarray(receive_position_m, dtype=np.float64)
+    s = np.asarray(center_m, dtype=np.float64)
+    return 0.5 * (np.linalg.norm(t - s, axis=1) + np.linalg.norm(q - s, axis=1))
 
 
 #: Far-field phase error (rad) at the grid corner above which a far-field method (or operator) on
@@ -293,10 +347,13 @@ def farfield_phase_error(range_to_center_m, freq_max_hz, radius_m) -> float:
 
 
 def signal_phase(freq_hz, azimuth_rad, elevation_rad, points_m, *, model="farfield",
-                 antenna_position_m=None, range_to_center_m=None) -> np.ndarray:
+                 antenna_position_m=None, range_to_center_m=None,
+                 receive_position_m=None) -> np.ndarray:
     """Phase ψ[p, j, s] with ``d[p, j] = Σ_s a_s exp(-i ψ)`` for point scatterers (float64).
 
-    Far-field: ``ψ = k_pj ξ_θp · x_s`` (eq. ``eq1``). Spherical: ``ψ = (4π α_pj / c)(|a_p - x_s| - r0_p)``.
+    Far-field: ``ψ = k_pj ξ_θp · x_s`` (eq. ``eq1``). Spherical: ``ψ = (4π α_pj / c)(|a_p - x_s| - r0_p)``;
+    with ``receive_position_m`` given, ``antenna_position_m`` is the transmit position and the range
+    is :func:`bistatic_differential_range`.
     The matched filter multiplies by ``exp(+i ψ)``. Memory is P × M × S: chunk the callers.
 
     Returns
@@ -311,7 +368,10 @@ def signal_phase(freq_hz, azimuth_rad, elevation_rad, points_m, *, model="farfie
     if model == "spherical":
         if antenna_position_m is None or range_to_center_m is None:
             raise ValueError("the spherical model needs antenna positions and ranges")
-        dr = differential_range(antenna_position_m, range_to_center_m, x)  # (P, S)
+        if receive_position_m is None:
+            dr = differential_range(antenna_position_m, range_to_center_m, x)  # (P, S)
+        else:
+            dr = bistatic_differential_range(antenna_position_m, receive_position_m, range_to_center_m, x)
         f = _as_pm(freq_hz, az.size)
         return (4.0 * np.pi / C) * f[:, :, None] * dr[:, None, :]
     raise ValueError(f"unknown model {model!r}; expected 'farfield' or 'spherical'")

@@ -98,15 +98,22 @@ _F25 = np.float32(2.5)
 
 
 @njit(inline="always")
-def _pixel(xv, xxv, cy, tax, ap2, nap, offp, ib, kcp, half_len, n_len, top, pad):
+def _pixel(xv, xxv, cy, tax, ap2, nap, offp, ib, kcp, half_len, n_len, top, pad,
+           bist, cyb, tbx, bp2, nbp):
     """Per pixel and pulse: profile index, fraction, masked carrier ``m·exp(+i kc Δr)``, mask.
 
-    Δr is the cancellation-free ``(|x|² - 2 a·x) / (|a - x| + |a|) + (|a| - r0)``; the profile
-    position is ``Δr / bin + L/2``; ``m`` is 1 inside the unambiguous window, else 0 (the
-    position is then clamped so every access stays in bounds).
+    Δr is the cancellation-free ``(|x|² - 2 a·x) / (|a - x| + |a|) + (|a| - r0)``; with separate
+    transmit (a) and receive (b) positions (``bist``) the two one-way terms are averaged,
+    ``((|a - x| - |a|) + (|b - x| - |b|)) / 2 + ((|a| + |b|)/2 - r0)``. The profile position is
+    ``Δr / bin + L/2``; ``m`` is 1 inside the unambiguous window, else 0 (the position is then
+    clamped so every access stays in bounds).
     """
     num = xxv - tax * xv + cy
-    dr = num / (math.sqrt(ap2 + num) + nap) + offp
+    dr = num / (math.sqrt(ap2 + num) + nap)
+    if bist:
+        numb = xxv - tbx * xv + cyb
+        dr = _FH * (dr + numb / (math.sqrt(bp2 + numb) + nbp))
+    dr = dr + offp
     s = dr * ib + half_len
     inside = (s >= _F0) & (s < n_len)
     s = min(max(s, _F0), top)
@@ -155,7 +162,7 @@ def _lanczos(t):
 
 @njit(parallel=True, cache=True)
 def _bp_rows(pre, pim, x, xx, y, two_ax, two_ay, a2, na, off, inv_bin, kc,
-             half_len, n_len, pad, kind, out_re, out_im):
+             two_bx, two_by, b2, nb, half_len, n_len, pad, kind, bist, out_re, out_im):
     """Accumulate a block of pulses into every image row (rows in parallel).
 
     Per row and pulse, a vectorisable pass computes positions and carriers, then a gather pass
@@ -176,15 +183,19 @@ def _bp_rows(pre, pim, x, xx, y, two_ax, two_ay, a2, na, off, inv_bin, kc,
         kw = np.empty((4, nx), dtype=x.dtype) if kind == 1 else np.empty((4, 0), dtype=x.dtype)
         for p in range(n_pulses):
             cy = yv * yv - two_ay[p] * yv
+            cyb = yv * yv - two_by[p] * yv
             tax = two_ax[p]
             ap2 = a2[p]
             nap = na[p]
             offp = off[p]
             ib = inv_bin[p]
             kcp = kc[p]
+            tbx = two_bx[p]
+            bp2 = b2[p]
+            nbp = nb[p]
             for ix in range(nx):
                 i, t, c, sn, _ = _pixel(x[ix], xx[ix], cy, tax, ap2, nap, offp, ib, kcp,
-                                        half_len, n_len, top, pad)
+                                        half_len, n_len, top, pad, bist, cyb, tbx, bp2, nbp)
                 idx[ix] = i
                 frac[ix] = t
                 cr[ix] = c
@@ -230,7 +241,7 @@ def _bp_rows(pre, pim, x, xx, y, two_ax, two_ay, a2, na, off, inv_bin, kc,
 
 @njit(parallel=True, cache=True)
 def _rp_pulses(fre, fim, x, xx, y, two_ax, two_ay, a2, na, off, inv_bin, kc,
-               half_len, n_len, pad, kind, h_re, h_im):
+               two_bx, two_by, b2, nb, half_len, n_len, pad, kind, bist, h_re, h_im):
     """Transpose of :func:`_bp_rows`: scatter every pixel into each pulse's profile.
 
     Pulses run in parallel (each owns its profile). Per pulse and row, the same vectorisable
@@ -249,6 +260,9 @@ def _rp_pulses(fre, fim, x, xx, y, two_ax, two_ay, a2, na, off, inv_bin, kc,
         offp = off[p]
         ib = inv_bin[p]
         kcp = kc[p]
+        tbx = two_bx[p]
+        bp2 = b2[p]
+        nbp = nb[p]
         hr = h_re[p]
         hi = h_im[p]
         idx = np.empty(nx, np.int64)
@@ -258,11 +272,12 @@ def _rp_pulses(fre, fim, x, xx, y, two_ax, two_ay, a2, na, off, inv_bin, kc,
         for row in range(ny):
             yv = y[row]
             cy = yv * yv - two_ay[p] * yv
+            cyb = yv * yv - two_by[p] * yv
             fr = fre[row]
             fi = fim[row]
             for ix in range(nx):
                 i, t, c, sn, _ = _pixel(x[ix], xx[ix], cy, tax, ap2, nap, offp, ib, kcp,
-                                        half_len, n_len, top, pad)
+                                        half_len, n_len, top, pad, bist, cyb, tbx, bp2, nbp)
                 idx[ix] = i
                 frac[ix] = t
                 ur[ix] = fr[ix] * c + fi[ix] * sn   # f · exp(-i kc Δr) (masked)

@@ -125,7 +125,7 @@ def _accumulate_spherical(out, dr, k4, wd):  # pragma: no cover - compiled
 
 
 def direct_spherical(data, freq_hz, antenna_position_m, range_to_center_m, grid, weights=None, *,
-                     chunk=None) -> np.ndarray:
+                     chunk=None, receive_position_m=None) -> np.ndarray:
     """Exact spherical-wave matched filter (eq. ``mf`` with the exact range of every pixel).
 
     ``f(x) = (1/W) Σ_pj w_pj d[p, j] exp(+i (4π α_pj / c)(|a_p - x| - r0_p))``, the differential
@@ -145,6 +145,10 @@ def direct_spherical(data, freq_hz, antenna_position_m, range_to_center_m, grid,
     weights : array_like, shape (P, M), optional
     chunk : int, optional
         Pulses per chunk; default keeps the range block near 32 MiB.
+    receive_position_m : array_like, shape (P, 3), optional
+        Separate receive positions q_p: then ``antenna_position_m`` holds the transmit positions
+        t_p and the range is ``(|t_p - x| + |q_p - x|)/2 - r0_p``
+        (:func:`sarcli.core.geometry.bistatic_differential_range`).
 
     Returns
     -------
@@ -152,6 +156,11 @@ def direct_spherical(data, freq_hz, antenna_position_m, range_to_center_m, grid,
     """
     wd, total = weighted_samples(data, weights)
     n_p, n_f = wd.shape
+    a_rcv = None
+    if receive_position_m is not None:
+        a_rcv = np.asarray(receive_position_m, dtype=np.float64)
+        if a_rcv.shape != (n_p, 3):
+            raise ValueError(f"receive positions {a_rcv.shape} do not match {n_p} pulses")
     a = np.asarray(antenna_position_m, dtype=np.float64)
     r0 = np.asarray(range_to_center_m, dtype=np.float64)
     if a.shape != (n_p, 3) or r0.shape != (n_p,):
@@ -169,6 +178,10 @@ def direct_spherical(data, freq_hz, antenna_position_m, range_to_center_m, grid,
     starts = range(0, n_p, chunk)
     for s in progress(starts, total=len(starts), desc="direct spherical", unit="chunk"):
         sl = slice(s, min(s + chunk, n_p))
-        dr = np.ascontiguousarray(geometry.differential_range(a[sl], r0[sl], pts))
+        if a_rcv is None:
+            dr = geometry.differential_range(a[sl], r0[sl], pts)
+        else:
+            dr = geometry.bistatic_differential_range(a[sl], a_rcv[sl], r0[sl], pts)
+        dr = np.ascontiguousarray(dr)
         _accumulate_spherical(out, dr, k4[sl], np.ascontiguousarray(wd[sl]))
     return (out / total).reshape(grid.shape)

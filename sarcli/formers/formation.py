@@ -151,8 +151,9 @@ def form_image(ph, method: str = "nufft", *, grid: Grid | None = None, center=No
         from .direct import direct_farfield, direct_spherical
 
         if ph.model == "spherical":
-            img = direct_spherical(ph.data, acq.frequency_hz, acq.antenna_position_m, acq.range_to_center_m,
-                                   grid, w)
+            t, q, r0 = acq.range_geometry()
+            img = direct_spherical(ph.data, acq.frequency_hz, t, r0, grid, w,
+                                   receive_position_m=q if acq.is_bistatic else None)
         else:
             kx, ky = acq.kspace()
             img = direct_farfield(ph.data, kx, ky, grid, w)
@@ -174,10 +175,13 @@ def form_image(ph, method: str = "nufft", *, grid: Grid | None = None, center=No
         from . import backprojection as bp
 
         pos, r0 = _positions(ph, grid)
+        rcv = acq.receive_position_m if ph.model == "spherical" and acq.is_bistatic else None
+        if rcv is not None:
+            pos = acq.transmit_position_m
         up = bp.DEFAULT_UPSAMPLE if upsample is None else upsample
         it = bp.DEFAULT_INTERP if interp is None else interp
         img = bp.backproject(ph.data, acq.frequency_hz, pos, r0, grid, w, upsample=up, interp=it,
-                             precision=precision, nthreads=nthreads)
+                             precision=precision, nthreads=nthreads, receive_position_m=rcv)
         params.update({"upsample": up, "interp": it, "precision": precision})
         if ph.model != "spherical":
             params["virtual_range_m"] = float(r0[0])

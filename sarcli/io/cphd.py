@@ -5,7 +5,11 @@ Mapping (``docs/formats.md`` has the table):
 * One channel, FX domain, ``SGN = -1``: a scatterer whose time of arrival exceeds the SRP's by
   ``ΔTOA = 2 (|a - x| - |a - SRP|) / c`` contributes ``exp(-i 2π f ΔTOA)``, which is our
   spherical model ``exp(-i (4π α / c)(|a_p - x| - r0_p))`` with ``r0_p = |a_p - SRP_p|``.
-* Vector p = pulse p: ``TxPos = RcvPos = a_p`` (monostatic, stop-and-hop), ``SRPPos`` = the scene
+* Vector p = pulse p: ``TxPos = RcvPos = a_p`` (monostatic, stop-and-hop) or, when the phase
+  history has separate transmit and receive positions, ``TxPos = t_p``, ``RcvPos = q_p`` (the
+  platform moves while the echo travels, or a ``BISTATIC`` collection: attr ``collect_type``);
+  reading keeps them (CONVENTIONS.md two-way model, ``r0_p = (|t_p - SRP| + |q_p - SRP|)/2``);
+  ``SRPPos`` = the scene
   centre, ``SC0``/``SCSS`` = first frequency and spacing (``FX1``/``FX2`` the band edges), so the
   frequencies of every pulse must be equally spaced (to 1 % of a step, see
   ``_uniform_frequencies``). A phase history whose ``r0_p`` differs from ``|a_p|``
@@ -40,7 +44,7 @@ from .._util.atomic import atomic_path
 from .._version import __version__
 from ..core.acquisition import Acquisition
 from ..errors import InputFileError, SarcliInputError
-from .georef import ReferencePoint, ecf_to_enu, enu_basis, enu_to_ecf, reference_point
+from .georef import GeometryWarning, ReferencePoint, ecf_to_enu, enu_basis, enu_to_ecf, reference_point
 from ..core.grid import Grid
 from ..core.types import PhaseHistory
 
@@ -162,7 +166,8 @@ def _build_xml(ph: PhaseHistory, ref: ReferencePoint, pvp: np.ndarray, signal_fo
         E.CollectionID(
             E.CollectorName(str(ph.attrs.get("collector_name", "sarcli"))[:60] or "sarcli"),
             E.CoreName((acq.name or "sarcli-phase-history")[:60]),
-            E.CollectType("MONOSTATIC"),
+            E.CollectType("BISTATIC" if str(ph.attrs.get("collect_type", "")).upper() == "BISTATIC"
+                          else "MONOSTATIC"),
             E.RadarMode(E.ModeType("SPOTLIGHT")),
             E.Classification("UNCLASSIFIED"),
             E.ReleaseInfo("UNRESTRICTED"),
@@ -273,26 +278,31 @@ def write_cphd(ph: PhaseHistory, path) -> Path:
     sc0, scss = _uniform_frequencies(acq.frequencies_2d)
     ref = reference_point(ph.attrs)
     pos = np.asarray(acq.antenna_position_m, np.float64)
-    r0 = np.asarray(acq.range_to_center_m, np.float64)
-    norm_a = np.linalg.norm(pos, axis=1)
-    if np.max(np.abs(norm_a - r0)) > 0:
-        # fold exp(+i 4πα/c (|a| - r0)) into the signal: the file is referenced to the SRP
-        corr = np.exp(1j * (4 * np.pi / geometry.C) * acq.frequencies_2d * (norm_a - r0)[:, None])
+    tx_pos, rcv_pos, r0 = (np.asarray(v, np.float64) for v in acq.range_geometry())
+    half_path = geometry.bistatic_reference_range(tx_pos, rcv_pos)
+    if np.max(np.abs(half_path - r0)) > 0:
+        # fold exp(+i 4πα/c (R - r0)) into the signal (R half the two-way path to the scene
+        # centre): the file is referenced to the SRP
+        corr = np.exp(1j * (4 * np.pi / geometry.C) * acq.frequencies_2d * (half_path - r0)[:, None])
         data = data * corr
     t, vel = pulse_times(pos)
     pvp = np.zeros(P, dtype=_pvp_dtype())
-    pos_ecf = enu_to_ecf(pos, ref)
-    vel_ecf = vel @ enu_basis(ref)
+    basis = enu_basis(ref)
+    tx_ecf = enu_to_ecf(tx_pos, ref)
+    rcv_ecf = enu_to_ecf(rcv_pos, ref)
+    tx_vel = (pulse_times(tx_pos)[1] if acq.is_bistatic else vel) @ basis
+    rcv_vel = (pulse_times(rcv_pos)[1] if acq.is_bistatic else vel) @ basis
     srp_ecf = np.broadcast_to(ref.ecf, (P, 3))
     pvp["TxTime"] = t
-    pvp["TxPos"] = pos_ecf
-    pvp["TxVel"] = vel_ecf
-    pvp["RcvTime"] = t + 2 * norm_a / geometry.C
-    pvp["RcvPos"] = pos_ecf
-    pvp["RcvVel"] = vel_ecf
+    pvp["TxPos"] = tx_ecf
+    pvp["TxVel"] = tx_vel
+    pvp["RcvTime"] = t + 2 * half_path / geometry.C
+    pvp["RcvPos"] = rcv_ecf
+    pvp["RcvVel"] = rcv_vel
     pvp["SRPPos"] = srp_ecf
-    u = (pos_ecf - srp_ecf) / np.linalg.norm(pos_ecf - srp_ecf, axis=1)[:, None]
-    pvp["aFDOP"] = -2.0 / geometry.C * np.einsum("ij,ij->i", vel_ecf, u)
+    ut = (tx_ecf - srp_ecf) / np.linalg.norm(tx_ecf - srp_ecf, axis=1)[:, None]
+    ur = (rcv_ecf - srp_ecf) / np.linalg.norm(rcv_ecf - srp_ecf, axis=1)[:, None]
+    pvp["aFDOP"] = -1.0 / geometry.C * (np.einsum("ij,ij->i", tx_vel, ut) + np.einsum("ij,ij->i", rcv_vel, ur))
     pvp["aFRR1"] = 0.0  # CPHD: may be zero for all vectors
     pvp["aFRR2"] = 0.0
     pvp["SC0"] = sc0
@@ -324,10 +334,13 @@ def write_cphd(ph: PhaseHistory, path) -> Path:
 # reading
 # --------------------------------------------------------------------------------------------
 def read_cphd(path) -> PhaseHistory:
-    """Read the first channel of an FX-domain, monostatic CPHD file as a spherical phase history.
+    """Read the first channel of an FX-domain CPHD file (monostatic or bistatic) as a phase history.
 
-    Antenna positions are ``(TxPos + RcvPos) / 2`` converted to the local ENU frame of the
-    image-area reference point (IARP); ``r0_p = |a_p - SRP_p|``; azimuth and elevation come from
+    Positions are converted to the local ENU frame of the image-area reference point (IARP) at
+    any latitude and longitude (:func:`sarcli.io.georef.ecf_to_enu`). Where ``TxPos`` and
+    ``RcvPos`` differ they are kept as transmit/receive positions (the two-way range model), the
+    antenna position is their midpoint (for angles only) and ``r0_p = (|t_p - SRP_p| +
+    |q_p - SRP_p|)/2``; azimuth and elevation come from
     :func:`sarcli.core.geometry.angles_from_positions`; frequencies are ``SC0 + n SCSS``. A file with
     ``SGN = +1`` is conjugated into our sign convention; an ``AmpSF`` PVP scales its vector;
     vectors with ``SIGNAL = 0`` are dropped.
@@ -335,7 +348,7 @@ def read_cphd(path) -> PhaseHistory:
     Raises
     ------
     InputFileError
-        Missing, truncated or foreign file, a TOA-domain or bistatic collection.
+        Missing, truncated or foreign file, a TOA-domain collection.
     """
     p = Path(path)
     if not p.is_file():
@@ -350,6 +363,13 @@ def read_cphd(path) -> PhaseHistory:
         raise InputFileError(path, f"not a readable CPHD file ({msg})") from None
 
 
+#: Pulses read from the signal array at a time (bounds the temporary of integer formats).
+READ_BLOCK = 1024
+#: Angle (rad) between the file's image-area axes (uIAX, uIAY) and local East/North above which
+#: its ImageGrid cannot be used as our east/north-aligned grid (a GeometryWarning says so).
+AXES_TOLERANCE_RAD = 1e-6
+
+
 def _read_cphd(p: Path) -> PhaseHistory:
     import sarkit.cphd as skcphd
     from sarkit import wgs84
@@ -360,12 +380,13 @@ def _read_cphd(p: Path) -> PhaseHistory:
             raise InputFileError(p, "not a CPHD file (it does not start with 'CPHD/')")
         f.seek(0)
         try:
+            _, kvp = skcphd.read_file_header(f)
+            f.seek(0)
             reader = skcphd.Reader(f)
         except (ValueError, KeyError, OSError, lxml.etree.LxmlError) as exc:
             raise InputFileError(p, "truncated or corrupt CPHD file: its header or XML block cannot be "
                                     f"read ({type(exc).__name__}: {str(exc)[:80]})") from None
         with reader as r:
-            kvp = r._kvp_list
             size = p.stat().st_size
             need = int(kvp["SIGNAL_BLOCK_BYTE_OFFSET"]) + int(kvp["SIGNAL_BLOCK_SIZE"])
             if size < need:
@@ -375,19 +396,11 @@ def _read_cphd(p: Path) -> PhaseHistory:
             if xml.findtext("{*}Global/{*}DomainType") != "FX":
                 raise InputFileError(p, "only FX-domain CPHD files are supported (DomainType is "
                                         f"{xml.findtext('{*}Global/{*}DomainType')})")
-            if xml.findtext("{*}CollectionID/{*}CollectType") == "BISTATIC":
-                raise InputFileError(p, "bistatic CPHD collections are not supported")
-            signal, pvp = r.read_channel(ch)
+            pvp = r.read_pvps(ch)
+            data = _read_signal_blocks(r, ch, pvp)
     sgn = int(xml.findtext("{*}Global/{*}SGN"))
-    data = np.asarray(signal)
-    if data.dtype.names:  # integer I/Q formats
-        names = data.dtype.names
-        data = data[names[0]].astype(np.float32) + 1j * data[names[1]].astype(np.float32)
-    data = data.astype(np.complex64)
-    if "AmpSF" in pvp.dtype.names:  # per-vector amplitude scale factor (CPHD: multiply)
-        data = (data * pvp["AmpSF"][:, None]).astype(np.complex64)
     if sgn == 1:
-        data = np.conj(data)
+        np.conjugate(data, out=data)
     if "SIGNAL" in pvp.dtype.names and np.any(pvp["SIGNAL"] == 0):
         keep = pvp["SIGNAL"] != 0
         data, pvp = data[keep], pvp[keep]
@@ -397,14 +410,16 @@ def _read_cphd(p: Path) -> PhaseHistory:
     tx = ecf_to_enu(np.asarray(pvp["TxPos"], np.float64), ref)
     rcv = ecf_to_enu(np.asarray(pvp["RcvPos"], np.float64), ref)
     srp = ecf_to_enu(np.asarray(pvp["SRPPos"], np.float64), ref)
-    pos = 0.5 * (tx + rcv)
-    r0 = 0.5 * (np.linalg.norm(tx - srp, axis=1) + np.linalg.norm(rcv - srp, axis=1))
+    # the signal is referenced to the SRP: r0_p is half the two-way path to it (CONVENTIONS.md)
+    r0 = geometry.bistatic_reference_range(tx - srp, rcv - srp)
+    bistatic = not np.array_equal(tx, rcv)
+    pos = 0.5 * (tx + rcv) if bistatic else tx
     M = data.shape[1]
     freq = pvp["SC0"][:, None] + np.arange(M)[None, :] * pvp["SCSS"][:, None]
     if np.all(freq == freq[0]):
         freq = freq[0].copy()
     az, el, _ = geometry.angles_from_positions(pos)
-    grid = _grid_from_xml(xml)
+    grid = _grid_from_xml(xml, ref)
     if grid is None:
         from ..core.grid import derive_grid
 
@@ -412,9 +427,12 @@ def _read_cphd(p: Path) -> PhaseHistory:
     name = xml.findtext("{*}CollectionID/{*}CoreName") or ""
     acq = Acquisition(frequency_hz=freq, azimuth_rad=az, elevation_rad=el, grid=grid,
                       antenna_position_m=pos, range_to_center_m=r0, model="spherical",
-                      name=name, source=str(p))
+                      name=name, source=str(p),
+                      transmit_position_m=tx if bistatic else None,
+                      receive_position_m=rcv if bistatic else None)
     attrs = {**ref.as_attrs(), "source_format": "CPHD",
              "cphd_version": lxml.etree.QName(xml.getroot()).namespace.rsplit("/", 1)[-1],
+             "collect_type": xml.findtext("{*}CollectionID/{*}CollectType") or "MONOSTATIC",
              "collection_start": xml.findtext("{*}Global/{*}Timeline/{*}CollectionStart") or ""}
     tx_pol = xml.findtext("{*}Channel/{*}Parameters/{*}Polarization/{*}TxPol")
     rcv_pol = xml.findtext("{*}Channel/{*}Parameters/{*}Polarization/{*}RcvPol")
@@ -423,9 +441,60 @@ def _read_cphd(p: Path) -> PhaseHistory:
     return PhaseHistory(data=data, acquisition=acq, truth=None, attrs=attrs)
 
 
-def _grid_from_xml(xml) -> Grid | None:
+def _read_signal_blocks(reader, channel: str, pvp) -> np.ndarray:
+    """The channel's signal as complex64 [P, M], read in blocks of :data:`READ_BLOCK` vectors.
+
+    Integer I/Q formats are converted block by block (no full-size integer temporary); an
+    ``AmpSF`` PVP scales each vector (CPHD: multiply).
+    """
+    xml = reader.metadata.xmltree
+    node = xml.find(f"{{*}}Data/{{*}}Channel[{{*}}Identifier='{channel}']")
+    n_vec = int(node.findtext("{*}NumVectors"))
+    n_smp = int(node.findtext("{*}NumSamples"))
+    out = np.empty((n_vec, n_smp), dtype=np.complex64)
+    amp = pvp["AmpSF"] if "AmpSF" in pvp.dtype.names else None
+    for start in range(0, n_vec, READ_BLOCK):
+        stop = min(start + READ_BLOCK, n_vec)
+        blk = np.asarray(reader.read_signal(channel, start_vector=start, stop_vector=stop))
+        if blk.dtype.names:  # integer I/Q formats
+            names = blk.dtype.names
+            blk = blk[names[0]].astype(np.float32) + 1j * blk[names[1]].astype(np.float32)
+        blk = blk.astype(np.complex64)
+        if amp is not None:
+            blk = blk * amp[start:stop, None]
+        out[start:stop] = blk
+    return out
+
+
+def _grid_from_xml(xml, ref: ReferencePoint) -> Grid | None:
+    """Our grid from ``SceneCoordinates/ImageGrid`` when its axes are local East and North.
+
+    Our frame is east-north-up at the IARP (CONVENTIONS.md). A planar image area whose
+    uIAX/uIAY are East/North (to :data:`AXES_TOLERANCE_RAD`) gives the grid exactly; other axes
+    (a rotated or tilted image plane, or a HAE surface) cannot be an east/north-aligned grid, so
+    a :class:`~sarcli.io.georef.GeometryWarning` says so and None is returned (the grid is then
+    derived from the sampling, east/north aligned and centred on the IARP).
+    """
+    import warnings
+
     g = xml.find("{*}SceneCoordinates/{*}ImageGrid")
     if g is None:
+        return None
+    planar = xml.find("{*}SceneCoordinates/{*}ReferenceSurface/{*}Planar")
+    if planar is not None:
+        uiax = np.array([float(planar.findtext(f"{{*}}uIAX/{{*}}{c}")) for c in "XYZ"])
+        uiay = np.array([float(planar.findtext(f"{{*}}uIAY/{{*}}{c}")) for c in "XYZ"])
+        basis = enu_basis(ref)
+        ang = max(float(np.arccos(np.clip(uiax @ basis[0] / np.linalg.norm(uiax), -1, 1))),
+                  float(np.arccos(np.clip(uiay @ basis[1] / np.linalg.norm(uiay), -1, 1))))
+    else:
+        ang = np.inf
+    if not ang <= AXES_TOLERANCE_RAD:
+        what = ("its image area is not planar" if planar is None else
+                f"its image-area axes (uIAX, uIAY) are {np.degrees(ang):.4g} deg from East/North")
+        warnings.warn(f"CPHD ImageGrid not used: {what}; sarcli images on an east/north-aligned grid "
+                      "at the IARP, derived from the sampling (give --extent/--pixel-size to change it)",
+                      GeometryWarning, stacklevel=4)
         return None
     dx = float(g.findtext("{*}IAXExtent/{*}LineSpacing"))
     dy = float(g.findtext("{*}IAYExtent/{*}SampleSpacing"))

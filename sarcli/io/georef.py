@@ -17,12 +17,18 @@ from dataclasses import dataclass
 import numpy as np
 from sarkit import wgs84
 
-__all__ = ["ReferencePoint", "DEFAULT_REFERENCE", "reference_point", "enu_to_ecf", "ecf_to_enu",
+__all__ = ["GeometryWarning", "ReferencePoint", "DEFAULT_REFERENCE", "reference_point", "enu_to_ecf", "ecf_to_enu",
            "enu_basis", "utm_epsg"]
+
+from ..errors import SarcliWarning
 
 LAT_KEY = "scene_center_lat_deg"
 LON_KEY = "scene_center_lon_deg"
 HAE_KEY = "scene_center_height_m"
+
+
+class GeometryWarning(SarcliWarning):
+    """A file's geometry cannot be represented exactly (image axes, nominal geometry); says what."""
 
 
 @dataclass(frozen=True)

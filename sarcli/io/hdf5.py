@@ -141,7 +141,7 @@ def write_phase_history(path, ph: PhaseHistory) -> Path:
             if acq.snr_db is not None:
                 f.attrs["snr_db"] = float(acq.snr_db)
             for k, v in ph.attrs.items():
-                if k in ("format", "version", "model"):
+                if k in ("format", "version", "model", "autofocus_phase_rad", "autofocus_method"):
                     continue
                 f.attrs[k] = v if isinstance(v, (str, int, float, np.number)) else to_json(v)
             f.create_dataset("phase_history", data=ph.data)
@@ -151,6 +151,14 @@ def write_phase_history(path, ph: PhaseHistory) -> Path:
             if acq.antenna_position_m is not None:
                 f.create_dataset("antenna_position_m", data=np.asarray(acq.antenna_position_m, np.float64))
                 f.create_dataset("range_to_center_m", data=np.asarray(acq.range_to_center_m, np.float64))
+            if acq.transmit_position_m is not None:
+                f.create_dataset("transmit_position_m", data=np.asarray(acq.transmit_position_m, np.float64))
+                f.create_dataset("receive_position_m", data=np.asarray(acq.receive_position_m, np.float64))
+            af = ph.attrs.get("autofocus_phase_rad") if isinstance(ph.attrs, dict) else None
+            if af is not None:
+                g_af = f.create_group("autofocus")
+                g_af.create_dataset("phase_rad", data=np.asarray(af, np.float64))
+                g_af.attrs["method"] = str(ph.attrs.get("autofocus_method", ""))
             g = f.create_group("grid")
             for k, v in acq.grid.as_dict().items():
                 g.attrs[k] = v
@@ -208,6 +216,11 @@ def _read_ph(path, f) -> PhaseHistory:
     need = model == "spherical"
     pos = _dataset(path, f, "antenna_position_m", kind="float", ndim=2, shape=(P, 3), required=need)
     r0 = _dataset(path, f, "range_to_center_m", kind="float", ndim=1, shape=(P,), required=need or pos is not None)
+    tx = _dataset(path, f, "transmit_position_m", kind="float", ndim=2, shape=(P, 3), required=False)
+    rcv = _dataset(path, f, "receive_position_m", kind="float", ndim=2, shape=(P, 3),
+                   required=tx is not None)
+    if rcv is not None and tx is None:
+        raise InputFileError(path, "dataset 'receive_position_m' needs 'transmit_position_m' as well")
     if "grid" in f:
         g = f["grid"].attrs
         grid = Grid(int(g["nx"]), int(g["ny"]), float(g["dx"]), float(g["dy"]), float(g["cx"]), float(g["cy"]))
@@ -222,7 +235,12 @@ def _read_ph(path, f) -> PhaseHistory:
         range_to_center_m=None if r0 is None else r0.astype(np.float64),
         model=model, snr_db=None if snr is None else float(snr), name=str(attrs.get("name", "")),
         source=str(path), config_text=attrs.get("config_yaml"),
+        transmit_position_m=None if tx is None else tx.astype(np.float64),
+        receive_position_m=None if rcv is None else rcv.astype(np.float64),
     )
+    if "autofocus" in f and "phase_rad" in f["autofocus"]:
+        attrs["autofocus_phase_rad"] = _dataset(path, f, "autofocus/phase_rad", kind="float", ndim=1, shape=(P,))
+        attrs["autofocus_method"] = _attr_str(f["autofocus"], "method") or ""
     truth = None
     if "truth" in f:
         pp = _dataset(path, f, "truth/point_position_m", kind="float", ndim=2, required=False)
