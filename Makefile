@@ -6,7 +6,8 @@ VENV   := .venv
 BIN    := $(VENV)/bin
 SAR    := $(BIN)/sar -q
 OUT    := out
-GOTCHA := ../shared/data/gotcha
+# a local copy of the AFRL GOTCHA pass files: make gotcha GOTCHA=DIR, or $$SARCLI_GOTCHA_DIR (docs/conventions.md)
+GOTCHA ?= $(or $(SARCLI_GOTCHA_DIR),../shared/data/gotcha)
 PYTEST_WORKERS ?= 2
 
 .PHONY: all setup demo test test-fast data bench gotcha paper clean distclean help
@@ -77,7 +78,7 @@ GOTCHA_FILES := $(wildcard $(GOTCHA)/data_3dsar_pass1_az00*_HH.mat)
 
 $(OUT)/gotcha.h5: $(GOTCHA_FILES) $(VENV)/.installed
 	@mkdir -p $(OUT)
-	@test -n "$(GOTCHA_FILES)" || { echo "no GOTCHA files in $(GOTCHA)"; exit 2; }
+	@test -n "$(GOTCHA_FILES)" || { echo "no GOTCHA files (data_3dsar_pass1_az00*_HH.mat) in $(GOTCHA): the data set is published by AFRL (see docs/conventions.md); point make at a copy with make gotcha GOTCHA=DIR or SARCLI_GOTCHA_DIR=DIR"; exit 2; }
 	$(SAR) import gotcha $(GOTCHA_FILES) -o $@ --autofocus
 
 $(OUT)/gotcha-bp.h5: $(OUT)/gotcha.h5

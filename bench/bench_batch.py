@@ -29,7 +29,7 @@ import sarcli
 from sarcli.batch.run import Job, parse_plan, run_job, run_plan
 from sarcli.io.config import parse_acquisition
 
-GOTCHA_DIR = Path(__file__).resolve().parents[2] / "shared" / "data" / "gotcha"
+GOTCHA_DIR = Path(os.environ.get("SARCLI_GOTCHA_DIR") or Path(__file__).resolve().parents[2] / "shared" / "data" / "gotcha")
 
 
 def _config(center_deg, pulses, freqs, n):

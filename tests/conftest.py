@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import pytest
@@ -9,7 +10,9 @@ import yaml
 
 REPO = Path(__file__).resolve().parents[1]
 CONFIGS = REPO / "configs"
-GOTCHA_DIR = REPO.parent / "shared" / "data" / "gotcha"
+#: A local copy of the AFRL GOTCHA pass files: $SARCLI_GOTCHA_DIR, else ../shared/data/gotcha beside the
+#: repository (tests that need it skip with a reason when it is absent).
+GOTCHA_DIR = Path(os.environ.get("SARCLI_GOTCHA_DIR") or REPO.parent / "shared" / "data" / "gotcha")
 
 
 def small_config(**overrides) -> dict:

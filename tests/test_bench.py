@@ -15,7 +15,7 @@ from sarcli.cli.main import cli
 
 from .conftest import small_config
 
-GOTCHA_DIR = Path(__file__).resolve().parents[2] / "shared" / "data" / "gotcha"
+from .conftest import GOTCHA_DIR  # noqa: E402
 
 
 def _farfield_cfg(**kw):

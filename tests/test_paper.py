@@ -28,7 +28,7 @@ import fig09_opt  # noqa: E402
 import fig10_gotcha  # noqa: E402
 from _common import acquisition  # noqa: E402
 
-GOTCHA_DIR = Path(__file__).resolve().parents[2] / "shared" / "data" / "gotcha"
+from .conftest import GOTCHA_DIR  # noqa: E402
 
 
 def test_fig01_wrapped_frequencies_alias_exactly():

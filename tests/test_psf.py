@@ -177,7 +177,7 @@ def test_predicted_ipr_with_unequal_frequencies_uses_the_exact_sum():
     assert pred["range"]["irw_m"] == pytest.approx(ref["range"]["irw_m"], rel=0.01)
 
 
-GOTCHA = __import__("pathlib").Path(__file__).resolve().parents[2] / "shared" / "data" / "gotcha"
+from .conftest import GOTCHA_DIR as GOTCHA  # noqa: E402
 
 
 def test_predicted_ipr_on_gotcha_geometry_matches_the_textbook():

@@ -20,7 +20,7 @@ from sarcli.io.hdf5 import read_image, write_phase_history
 from sarcli.linops import NufftOperator
 from sarcli.regularize import PRIORS, matched_filter, regularize
 
-GOTCHA_DIR = Path(__file__).resolve().parents[2] / "shared" / "data" / "gotcha"
+from .conftest import GOTCHA_DIR  # noqa: E402
 
 
 def _narrowband_acquisition(n=48, h=0.25, bandwidth=150e6, **kw):

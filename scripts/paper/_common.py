@@ -8,6 +8,7 @@ figure). :mod:`run_all` collects the results into ``docs/paper.md``.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+import os
 from pathlib import Path
 
 import matplotlib
@@ -21,7 +22,7 @@ import sarcli  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[2]
 CONFIGS = REPO / "configs"
-GOTCHA_DIR = REPO.parent / "shared" / "data" / "gotcha"
+GOTCHA_DIR = Path(os.environ.get("SARCLI_GOTCHA_DIR") or REPO.parent / "shared" / "data" / "gotcha")
 _MERGED = ("frequencies", "azimuths", "image", "noise")
 
 
