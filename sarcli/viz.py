@@ -388,10 +388,12 @@ def image_figure(img, path, values, kind, dynamic_range_db, colormap):
     grid = img.grid
     extent = (img.x_m[0] - grid.dx / 2, img.x_m[-1] + grid.dx / 2,
               img.y_m[0] - grid.dy / 2, img.y_m[-1] + grid.dy / 2)
-    fig, (ax,) = _figure(size=(6.4, 5.2), layout=None)
+    width, height = extent[1] - extent[0], extent[3] - extent[2]
+    aspect = height / width if width > 0 else 1.0
+    fig, (ax,) = _figure(size=(6.4, float(np.clip(5.2 * aspect, 2.5, 9.0))), layout=None)
     if kind == "db":
         shown = values.astype(np.float64) * (dr / 255.0) - dr
-        label, vmin, vmax = "dB relative to peak", -dr, 0.0
+        label, vmin, vmax = f"dB relative to peak ({dr:g} dB shown)", -dr, 0.0
     else:
         shown = values.astype(np.float64) / 255.0
         label, vmin, vmax = "|f| / max|f|", 0.0, 1.0
@@ -400,6 +402,7 @@ def image_figure(img, path, values, kind, dynamic_range_db, colormap):
                    interpolation="nearest")
     ax.set_xlabel("x (east) [m]")
     ax.set_ylabel("y (north) [m]")
-    ax.set_title(img.method or "image")
+    ax.set_title(f"{img.method or 'image'}: {grid.nx} x {grid.ny} pixels of {grid.dx:.3g} m "
+                 f"({width:.4g} m x {height:.4g} m)", fontsize=10)
     fig.colorbar(im, ax=ax, label=label)
     _save(fig, path, bbox_inches="tight")

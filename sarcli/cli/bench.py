@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from .options import echo_info, grid_options, handle_errors, parse_pair
+from .options import echo_info, grid_options, handle_errors, parse_pair, wrote
 
 
 @click.command("bench")
@@ -56,4 +56,5 @@ def command(ctx, inputs, out_dir, methods, repeat, windows, regularizers, reg_it
     png_path = plot_benchmark(res, out / "error_vs_time.png", title=f"{ph.acquisition.name or Path(inputs[0]).name}: "
                        f"P={ph.data.shape[0]}, M={ph.data.shape[1]}, {res.grid.ny}x{res.grid.nx} px")
     echo_info(ctx, bm.format_table(res))
-    echo_info(ctx, f"wrote {csv_path} and {png_path}")
+    wrote(csv_path, f"{len(res.rows)} rows")
+    wrote(png_path, "error against run time")

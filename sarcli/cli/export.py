@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from .options import handle_errors
+from .options import handle_errors, wrote
 
 
 @click.command("export")
@@ -16,16 +16,25 @@ from .options import handle_errors
 @click.option("--dynamic-range-db", type=float, default=50.0, show_default=True,
               help="Displayed dynamic range of dB output.")
 @click.option("--cmap", default="gray", show_default=True, help="PNG colormap (matplotlib name).")
-@click.option("--annotate", is_flag=True, help="PNG: a figure with metre axes and a colour bar.")
+@click.option("--bare", is_flag=True,
+              help="PNG: the raw raster (one pixel per image pixel) instead of the annotated figure.")
+@click.option("--annotate", is_flag=True, hidden=True, help="PNG: the annotated figure (the default).")
 @click.option("--phase-history", "phase_history", type=click.Path(dir_okay=False), default=None,
               help="SICD: the phase-history file the image was formed from (collection geometry).")
 @handle_errors
-def command(image, output, kind, dynamic_range_db, cmap, annotate, phase_history):
+def command(image, output, kind, dynamic_range_db, cmap, bare, annotate, phase_history):
     """Export IMAGE (a sarcli image file, or a SICD) to GeoTIFF, PNG or SICD."""
     from ..io.export import export_image, load_image
     from ..io.hdf5 import read_phase_history
 
+    from ..io.export import format_from_suffix
+
     img = load_image(image)
     ph = read_phase_history(phase_history) if phase_history else None
+    annotate = format_from_suffix(output) == "png" and not bare
+    fmt = format_from_suffix(output)
     export_image(img, output, kind=kind, dynamic_range_db=dynamic_range_db, cmap=cmap,
                  annotate=annotate, phase_history=ph)
+    what = {"png": "annotated dB figure" if annotate else f"{kind or 'db'} raster", "geotiff": f"GeoTIFF, {kind or 'magnitude'}",
+            "sicd": "SICD, complex"}[fmt]
+    wrote(output, f"{what}, {img.image.shape[1]} x {img.image.shape[0]} pixels")

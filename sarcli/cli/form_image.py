@@ -5,8 +5,8 @@ from __future__ import annotations
 import click
 
 from ..formers.formation import METHODS
-from .options import (echo_info, export_options, grid_options, handle_errors, parse_pair, window_options,
-                      write_side_outputs)
+from .options import (export_options, grid_options, handle_errors, parse_pair, window_options,
+                      write_side_outputs, wrote)
 
 
 @click.command("form-image")
@@ -44,5 +44,4 @@ def command(ctx, input_path, output, method, window, taylor_nbar, taylor_sll_db,
                      interp=interp, precision=precision, nthreads=nthreads)
     write_image(output, img)
     write_side_outputs(img, png_path, tif_path)
-    echo_info(ctx, f"wrote {output}: {method}, {img.image.shape[1]} x {img.image.shape[0]} pixels, "
-                   f"{img.runtime_s:.3g} s")
+    wrote(output, f"{img.method}, {img.image.shape[1]} x {img.image.shape[0]} pixels, {img.runtime_s:.3g} s")

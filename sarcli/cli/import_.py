@@ -11,7 +11,7 @@ import importlib.util
 
 import click
 
-from .options import echo_info, grid_options, handle_errors, parse_pair
+from .options import grid_options, handle_errors, parse_pair, wrote
 
 #: subcommand name -> module under sarcli.cli exposing a click command ``command``
 _LAZY = {"cphd": "import_cphd"}
@@ -69,6 +69,5 @@ def gotcha(ctx, files, output, autofocus, center, extent, pixel_size):
     ph = read_gotcha(files, autofocus=autofocus, grid=grid)
     write_phase_history(output, ph)
     P, M = ph.data.shape
-    echo_info(ctx, f"{output}: {P} pulses x {M} frequencies (spherical model, "
-                   f"autofocus {'applied' if autofocus else 'not applied'}), grid {grid.ny} x {grid.nx} "
-                   f"of {grid.dx:g} m")
+    wrote(output, f"{P} pulses x {M} frequencies, spherical model, AFRL autofocus "
+                  f"{'applied' if autofocus else 'not applied'}, grid {grid.ny} x {grid.nx} of {grid.dx:g} m")

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from .options import echo_info, handle_errors
+from .options import handle_errors, wrote
 
 
 @click.command("cphd")
@@ -21,4 +21,4 @@ def command(ctx, cphd_file, output):
     ph = read_cphd(cphd_file)
     write_phase_history(output, ph)
     P, M = ph.data.shape
-    echo_info(ctx, f"{output}: {P} pulses x {M} frequencies (spherical model)")
+    wrote(output, f"{P} pulses x {M} frequencies, spherical model")

@@ -1,4 +1,4 @@
-"""``sar info FILE``: sizes, band, aperture, resolution, alias-free radii, model, warnings."""
+"""``sar info FILE``: what a file holds (any format sarcli reads), with warnings."""
 
 from __future__ import annotations
 
@@ -20,49 +20,15 @@ def _fmt(v):
     return str(v)
 
 
-def describe(path) -> dict:
-    """Summary of a YAML acquisition, a phase-history file or an image file (library-level)."""
-    from pathlib import Path
-
-    import h5py
-
-    from ..io.config import load_acquisition
-    from ..io.hdf5 import IMAGE_FORMAT, read_image, read_phase_history
-
-    p = Path(path)
-    if p.suffix.lower() in (".yaml", ".yml"):
-        acq = load_acquisition(p)
-        out = {"file": str(p), "kind": "acquisition (YAML)", **acq.summary()}
-        if acq.scene:
-            out["scene"] = sorted(acq.scene)
-        return out
-    fmt = None
-    try:
-        with h5py.File(p, "r") as f:
-            fmt = f.attrs.get("format")
-            fmt = fmt.decode() if isinstance(fmt, bytes) else fmt
-    except OSError:
-        pass
-    if fmt == IMAGE_FORMAT:
-        img = read_image(p)
-        mag = abs(img.image)
-        return {"file": str(p), "kind": "image", "method": img.method, "shape": list(img.image.shape),
-                "x_m": [float(img.x_m[0]), float(img.x_m[-1])], "y_m": [float(img.y_m[0]), float(img.y_m[-1])],
-                "peak_magnitude": float(mag.max()), "runtime_s": img.runtime_s, "parameters": img.parameters}
-    ph = read_phase_history(p)
-    out = {"file": str(p), "kind": "phase history", **ph.acquisition.summary(),
-           "dtype": str(ph.data.dtype), "sarcli_version": ph.attrs.get("sarcli_version", "?")}
-    if ph.truth is not None:
-        out["truth_points"] = int(len(ph.truth.point_amplitude))
-    return out
-
-
 @click.command("info")
 @click.argument("path", type=click.Path(dir_okay=False))
 @click.option("--json", "as_json", is_flag=True, help="Print JSON instead of a table.")
 @handle_errors
 def command(path, as_json):
-    """Describe a YAML acquisition, a phase-history file or an image file."""
+    """Describe any file sarcli reads: a YAML acquisition, a phase history (sarcli HDF5, GOTCHA .mat,
+    CPHD), an image (sarcli HDF5, SICD, GeoTIFF) or a k-grid."""
+    from ..io.describe import describe
+
     from ..core.geometry import DEFOCUS_WARN_RAD
 
     with warnings.catch_warnings(record=True) as caught:

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import importlib
 import logging
+import sys
 
 import click
 
@@ -18,7 +19,7 @@ from .._util.progress import set_quiet
 #: command name -> (module under sarcli.cli, one-line help)
 COMMANDS: dict[str, tuple[str, str]] = {
     "simulate": ("simulate", "Simulate a phase-history file from a YAML acquisition."),
-    "info": ("info", "Describe a YAML acquisition or a phase-history/image file."),
+    "info": ("info", "Describe any file sarcli reads (acquisition, phase history, image, k-grid)."),
     "form-image": ("form_image", "Form an image: direct, nufft, pfa or backprojection."),
     "regrid": ("regrid", "Regrid polar phase history onto a Cartesian k-grid (PFA's first half)."),
     "psf": ("psf", "Write the PSF (Theorem main-theorem) and its predicted IPR."),
@@ -45,6 +46,36 @@ class LazyGroup(click.Group):
         module = importlib.import_module(f"sarcli.cli.{COMMANDS[name][0]}")
         return module.command
 
+    def main(self, args=None, prog_name=None, complete_var=None, standalone_mode=True, **extra):
+        """Entry point.
+
+        Read from the real command line (``args`` None), SIGINT and SIGTERM are handled by
+        :mod:`sarcli._util.interrupt` (within a second, temporary files removed, ``interrupted``,
+        exit 130/143); click's test runner passes ``args`` and is left alone. A usage error
+        (unknown option, value out of range) is one ``error:`` line and exit code 2, like every
+        other user mistake.
+        """
+        if args is None:
+            from .._util.interrupt import install
+
+            install()
+        if not standalone_mode:
+            return super().main(args, prog_name, complete_var, False, **extra)
+        try:
+            rv = super().main(args, prog_name, complete_var, False, **extra)
+        except click.UsageError as exc:
+            where = f" (see {exc.ctx.command_path} --help)" if exc.ctx is not None else ""
+            message = " ".join(exc.format_message().split())
+            click.echo(f"error: {message[:300]}{where}", err=True)
+            sys.exit(exc.exit_code)
+        except click.ClickException as exc:
+            exc.show()
+            sys.exit(exc.exit_code)
+        except click.Abort:
+            click.echo("interrupted", err=True)
+            sys.exit(130)
+        sys.exit(rv if isinstance(rv, int) else 0)
+
     def format_commands(self, ctx, formatter):
         rows = [(name, COMMANDS[name][1]) for name in sorted(COMMANDS)]
         with formatter.section("Commands"):
@@ -55,9 +86,19 @@ class LazyGroup(click.Group):
 @click.version_option(__version__, prog_name="sar")
 @click.option("-v", "--verbose", count=True, help="More log output (-vv for debug).")
 @click.option("-q", "--quiet", is_flag=True, help="No progress bars, no informational output.")
+@click.option("--max-memory", "max_memory", default=None, metavar="SIZE",
+              help="Largest memory a command may plan to use, e.g. 4G or 512M (default: the machine's "
+                   "available memory); a larger estimate is refused before anything is allocated.")
 @click.pass_context
-def cli(ctx, verbose, quiet):
+def cli(ctx, verbose, quiet, max_memory):
     """sarcli: spotlight SAR image formation, regularisation and accuracy analysis."""
+    from .._util.resources import parse_size, set_memory_limit
+    from ..errors import SarcliInputError
+
+    try:
+        set_memory_limit(None if max_memory is None else parse_size(max_memory))
+    except SarcliInputError as exc:
+        raise click.BadParameter(str(exc), param_hint="--max-memory") from None
     ctx.ensure_object(dict)
     ctx.obj["verbose"] = verbose
     ctx.obj["quiet"] = quiet

@@ -5,6 +5,7 @@ that a choice or a range is written once, where the library defines it."""
 from __future__ import annotations
 
 import functools
+import math
 import sys
 import warnings
 
@@ -14,7 +15,10 @@ from ..core import windows as _windows
 from ..errors import NumericalError, SarcliInputError, SarcliWarning
 
 __all__ = ["handle_errors", "grid_options", "export_options", "write_side_outputs", "parse_pair", "echo_info",
-           "window_options", "window_choice"]
+           "window_options", "window_choice", "wrote", "prepare_outputs", "threads_option", "MAX_MESSAGE"]
+
+#: longest error line printed (a value quoted in a message is cut well before this)
+MAX_MESSAGE = 400
 
 
 def window_choice(default="none", help="Window in range and cross-range (peak of a unit point stays 1)."):
@@ -39,18 +43,31 @@ def window_options(func=None, *, nbar_dest="taylor_nbar", sll_dest="taylor_sll_d
 
 
 def _show_warning(message, category, filename, lineno, file=None, line=None):
+    from .._util.progress import message as _message
+
     name = "warning" if not issubclass(category, SarcliWarning) else f"warning ({category.__name__})"
-    click.echo(f"{name}: {message}", err=True)
+    _message(f"{name}: {message}")
+
+
+def _one_line(prefix, exc) -> str:
+    text = " ".join(str(exc).split()) or type(exc).__name__
+    line = f"{prefix}: {text}"
+    return line if len(line) <= MAX_MESSAGE else line[:MAX_MESSAGE] + "..."
 
 
 def handle_errors(func):
     """Decorate a command: user mistakes -> one line + exit 2; numerical failure -> exit 1.
 
-    Library warnings are printed as a single ``warning: ...`` line each (no source lines).
+    Library warnings are printed as a single ``warning: ...`` line each (no source lines). An
+    operating-system error (permission, full disk) or an allocation that fails is a user-side
+    problem: one line, exit 2. Ctrl-C: ``interrupted``, exit 130. Whatever happens, the temporary
+    files this command reserved or started are removed (:func:`sarcli._util.atomic.release_all`).
     """
 
     @functools.wraps(func)
     def wrapper(*args, **kwargs):
+        from .._util.atomic import release_all
+
         old = warnings.showwarning
         warnings.showwarning = _show_warning
         try:
@@ -59,15 +76,58 @@ def handle_errors(func):
                 warnings.showwarning = _show_warning
                 return func(*args, **kwargs)
         except SarcliInputError as exc:
-            click.echo(f"error: {exc}", err=True)
+            click.echo(_one_line("error", exc), err=True)
             sys.exit(2)
         except NumericalError as exc:
-            click.echo(f"error: {exc}", err=True)
+            click.echo(_one_line("error", exc), err=True)
             sys.exit(1)
+        except OSError as exc:
+            name = getattr(exc, "filename", None)
+            what = f"{name}: {exc.strerror}" if name and exc.strerror else exc
+            click.echo(_one_line("error", what), err=True)
+            sys.exit(2)
+        except MemoryError:
+            click.echo("error: out of memory (the estimate before the allocation was too low; "
+                       "lower the sizes or sar --max-memory)", err=True)
+            sys.exit(2)
+        except KeyboardInterrupt:
+            release_all()
+            click.echo("interrupted", err=True)
+            sys.exit(130)
         finally:
+            release_all()
             warnings.showwarning = old
 
     return wrapper
+
+
+def prepare_outputs(inputs, outputs) -> None:
+    """Before any work: refuse an output that is an input, then reserve every output.
+
+    Parameters
+    ----------
+    inputs, outputs : iterable of (label, path)
+        ``None`` paths are skipped. Reserving creates each output's temporary file now
+        (:func:`sarcli._util.atomic.reserve`), so an unwritable folder is found before computing.
+    """
+    from .._util.atomic import reserve
+    from .._util.guard import refuse_overwrite
+
+    inputs = [(label, p) for label, p in inputs if p is not None]
+    outputs = [(label, p) for label, p in outputs if p is not None]
+    refuse_overwrite(inputs, outputs)
+    for _, path in outputs:
+        reserve(path)
+
+
+def _threads(ctx, param, value):
+    return None if value in (None, 0) else value
+
+
+def threads_option(func):
+    """``--threads N``: N >= 1 threads, or 0 for all cores (the default)."""
+    return click.option("--threads", "nthreads", type=click.IntRange(min=0), default=None, callback=_threads,
+                        help="Threads, >= 1 (0 or unset: all cores).")(func)
 
 
 def parse_pair(text, name):
@@ -77,13 +137,15 @@ def parse_pair(text, name):
     try:
         parts = [float(p) for p in str(text).split(",")]
     except ValueError:
-        raise click.BadParameter(f"expected a number or two numbers 'A,B', got {text!r}",
+        raise click.BadParameter(f"expected a number or two numbers 'A,B', got {str(text)[:60]!r}",
                                  param_hint=name) from None
     if len(parts) == 1:
         parts = parts * 2
     if len(parts) != 2:
-        raise click.BadParameter(f"expected one or two comma-separated numbers, got {text!r}",
+        raise click.BadParameter(f"expected one or two comma-separated numbers, got {str(text)[:60]!r}",
                                  param_hint=name)
+    if not all(math.isfinite(p) for p in parts):
+        raise click.BadParameter(f"expected finite numbers, got {str(text)[:60]!r}", param_hint=name)
     return tuple(parts)
 
 
@@ -94,7 +156,7 @@ def grid_options(func):
     ``center``, ``extent`` and ``pixel_size`` (None when not given) and passes them to
     :func:`sarcli.grid_for`.
     """
-    func = click.option("--pixel-size", "pixel_size", type=float, default=None,
+    func = click.option("--pixel-size", "pixel_size", type=click.FloatRange(min=0, min_open=True), default=None,
                         help="Pixel size in metres (default: from the acquisition).")(func)
     func = click.option("--extent", "extent", default=None,
                         help="Full side lengths W or W,H in metres (default: the acquisition's scene).")(func)
@@ -103,18 +165,34 @@ def grid_options(func):
     return func
 
 
+def wrote(path, detail: str = "") -> None:
+    """The one line every writing command prints on success, ``wrote PATH (detail)``, unless -q."""
+    ctx = click.get_current_context(silent=True)
+    if ctx is not None and (ctx.find_root().obj or {}).get("quiet"):
+        return
+    click.echo(f"wrote {path}" + (f" ({detail})" if detail else ""))
+
+
 def echo_info(ctx, text):
     """Print informational output unless ``--quiet``."""
     if not (ctx.obj or {}).get("quiet"):
         click.echo(text)
 
 
+def _remember_bare(ctx, param, value):
+    ctx.meta["sarcli.png_bare"] = bool(value)
+    return value
+
+
 def export_options(func):
-    """``--png F`` and ``--geotiff F``: also export the image written by the command."""
+    """``--png F``, ``--bare`` and ``--geotiff F``: also export the image written by the command."""
+    func = click.option("--bare", is_flag=True, expose_value=False, callback=_remember_bare,
+                        help="--png: the raw raster (one pixel per image pixel) instead of the annotated figure.")(func)
     func = click.option("--geotiff", "tif_path", type=click.Path(dir_okay=False), default=None,
                         help="Also write a GeoTIFF of the magnitude.")(func)
     func = click.option("--png", "png_path", type=click.Path(dir_okay=False), default=None,
-                        help="Also write a dB PNG (50 dB, north up).")(func)
+                        help="Also write a dB picture (50 dB, north up): a figure with metre axes, title "
+                             "and colour bar (--bare: the raw raster).")(func)
     return func
 
 
@@ -124,6 +202,10 @@ def write_side_outputs(img, png_path=None, tif_path=None):
         from ..io.export import export_image
 
         if png_path:
-            export_image(img, png_path, kind="db")
+            ctx = click.get_current_context(silent=True)
+            bare = bool(ctx and ctx.meta.get("sarcli.png_bare"))
+            export_image(img, png_path, kind="db", annotate=not bare)
+            wrote(png_path, "dB picture, raw raster" if bare else "dB figure")
         if tif_path:
             export_image(img, tif_path, kind="magnitude")
+            wrote(tif_path, "GeoTIFF, magnitude")

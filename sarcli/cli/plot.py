@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from .options import grid_options, handle_errors, parse_pair
+from .options import grid_options, handle_errors, parse_pair, wrote
 
 WHATS = ("psf-cuts", "kspace", "image-fft")
 
@@ -48,6 +48,7 @@ def command(what, input_path, output, at, dynamic_range_db, center, extent, pixe
         except ValueError as exc:
             raise click.BadParameter(str(exc)) from None
         plots.plot_kspace(acq, grid, output)
+        wrote(output, "k-space samples")
         return
     from ..io.export import load_image
 
@@ -56,3 +57,4 @@ def command(what, input_path, output, at, dynamic_range_db, center, extent, pixe
         plots.plot_psf_cuts(img, output, at=parse_pair(at, "--at"), dynamic_range_db=dynamic_range_db)
     else:
         plots.plot_image_fft(img, output, dynamic_range_db=dynamic_range_db)
+    wrote(output, what)

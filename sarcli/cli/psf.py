@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from .options import echo_info, grid_options, handle_errors, parse_pair, window_options
+from .options import echo_info, grid_options, handle_errors, parse_pair, window_options, wrote
 
 
 @click.command("psf")
@@ -42,7 +42,10 @@ def command(ctx, source, output, window, nbar, sll_db, method, png, dynamic_rang
     if png:
         plot_psf(img, png, dynamic_range_db=dynamic_range_db)
     pred = img.attrs["predicted_ipr"]
-    lines = [f"wrote {output}: {grid.ny} x {grid.nx} PSF, {img.parameters['evaluation']}, window {window}"]
+    wrote(output, f"{grid.ny} x {grid.nx} PSF, {img.parameters['evaluation']}, window {window}")
+    if png:
+        wrote(png, "PSF figure")
+    lines = ["predicted impulse response:"]
     for d in ("range", "cross_range"):
         p = pred[d]
         if p.get("irw_m") is not None:

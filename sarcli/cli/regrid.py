@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from .options import echo_info, grid_options, handle_errors, parse_pair, window_options
+from .options import grid_options, handle_errors, parse_pair, window_options, wrote
 
 
 @click.command("regrid")
@@ -30,4 +30,4 @@ def command(ctx, input_path, output, window, taylor_nbar, taylor_sll_db, center,
     kg = regrid(ph, grid=grid, window=window, taylor_nbar=taylor_nbar, taylor_sll_db=taylor_sll_db,
                 kernel=kernel, oversample=oversample, width=width)
     write_kgrid(output, kg)
-    echo_info(ctx, f"wrote {output}: k-grid {kg.shape[1]} x {kg.shape[0]}")
+    wrote(output, f"k-grid {kg.shape[1]} x {kg.shape[0]}")

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from .options import echo_info, export_options, grid_options, handle_errors, parse_pair, write_side_outputs
+from .options import export_options, grid_options, handle_errors, parse_pair, write_side_outputs, wrote
 
 
 @click.command("regularize")
@@ -59,6 +59,6 @@ def command(ctx, input_path, output, prior, order, lam, beta, iters, tol, operat
     write_side_outputs(img, png_path, tif_path)
     if history_png:
         plot_history(img.history, history_png)
+        wrote(history_png, "objective and relative change per iteration")
     p = img.parameters
-    echo_info(ctx, f"wrote {output}: {prior} ({p['operator']}), {p.get('iterations', 0)} iterations, "
-                   f"{img.runtime_s:.3g} s")
+    wrote(output, f"{prior} ({p['operator']}), {p.get('iterations', 0)} iterations, {img.runtime_s:.3g} s")

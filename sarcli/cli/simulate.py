@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from .options import echo_info, handle_errors
+from .options import handle_errors, wrote
 
 
 @click.command("simulate")
@@ -31,5 +31,5 @@ def command(ctx, config, output, seed, snr_db, noiseless, model, single):
     ph = simulate(acq, seed=seed, snr_db=snr, model=model, dtype=np.complex64 if single else np.complex128)
     write_phase_history(output, ph)
     p, m = ph.data.shape
-    echo_info(ctx, f"wrote {output}: {p} pulses x {m} frequencies, model {ph.model}"
-                   + (f", SNR {ph.acquisition.snr_db:g} dB" if ph.acquisition.snr_db is not None else ""))
+    wrote(output, f"{p} pulses x {m} frequencies, model {ph.model}"
+          + (f", SNR {ph.acquisition.snr_db:g} dB" if ph.acquisition.snr_db is not None else ""))
