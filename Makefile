@@ -10,7 +10,7 @@ OUT    := out
 GOTCHA ?= $(or $(SARCLI_GOTCHA_DIR),../shared/data/gotcha)
 PYTEST_WORKERS ?= 2
 
-.PHONY: all setup demo test test-fast data bench gotcha paper clean distclean help
+.PHONY: all setup demo test test-fast data bench gotcha paper tutorial clean distclean help
 
 all: demo
 
@@ -21,6 +21,7 @@ help:
 	@echo "make bench   run the benchmarks (ratios against baselines in the same run)"
 	@echo "make gotcha  image the AFRL GOTCHA files in $(GOTCHA)"
 	@echo "make paper   regenerate the paper's figures into $(OUT)/paper and docs/paper.md"
+	@echo "make tutorial regenerate docs/tutorial.md and its pictures from the demo's outputs"
 
 # -- environment -------------------------------------------------------------------------------
 $(VENV)/.installed: pyproject.toml
@@ -90,6 +91,10 @@ $(OUT)/gotcha-ptv.h5: $(OUT)/gotcha.h5
 
 gotcha: $(OUT)/gotcha-bp.h5 $(OUT)/gotcha-ptv.h5
 	@ls -1 $(OUT)/gotcha*
+
+# -- the tutorial page, generated from the demo's outputs ----------------------------------------
+tutorial: $(DEMO_FILES)
+	$(BIN)/python scripts/tutorial.py $(OUT) docs
 
 # -- the paper's figures -------------------------------------------------------------------------
 paper: $(VENV)/.installed

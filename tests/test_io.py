@@ -140,4 +140,4 @@ def test_info_prints_the_numbers(tmp_path):
 
     info = json.loads(res.output)
     assert info["alias_free_radius_m"]["range"] == pytest.approx(73.7055, rel=1e-5)
-    assert any("defocuses" in w for w in info["warnings"])
+    assert any("would defocus the grid corner" in n for n in info["notes"]) and not info["warnings"]

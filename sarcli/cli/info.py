@@ -27,29 +27,35 @@ def _fmt(v):
 def command(path, as_json):
     """Describe any file sarcli reads: a YAML acquisition, a phase history (sarcli HDF5, GOTCHA .mat,
     CPHD), an image (sarcli HDF5, SICD, GeoTIFF) or a k-grid."""
-    from ..io.describe import describe
-
     from ..core.geometry import DEFOCUS_WARN_RAD
+    from ..io.describe import describe
 
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         info = describe(path)
     ww = [str(w.message) for w in caught]
-    if "farfield_phase_error_rad_at_grid_corner" in info and info["farfield_phase_error_rad_at_grid_corner"] > DEFOCUS_WARN_RAD:
-        ww.append(f"a far-field method on this collection defocuses the grid corner by "
-                  f"{info['farfield_phase_error_rad_at_grid_corner']:.3g} rad (use backprojection or direct)")
+    notes = []
+    defocus = info.get("farfield_phase_error_rad_at_grid_corner")
+    if defocus is not None and info.get("model") == "spherical" and defocus > DEFOCUS_WARN_RAD:
+        # not a fault of the file: advice on which image formers suit it
+        notes.append(f"far-field methods (nufft, pfa) would defocus the grid corner of this spherical-wavefront "
+                     f"collection by {defocus:.3g} rad (more than {DEFOCUS_WARN_RAD:g}): image it with "
+                     f"backprojection or direct")
     ext = info.get("grid_extent_m")
     radii = info.get("alias_free_radius_m")
     if ext and radii and max(ext) / 2 > min(radii.values()):
         ww.append(f"the grid half-width {max(ext) / 2:.4g} m exceeds the alias-free radius "
                   f"{min(radii.values()):.4g} m: content beyond it wraps around")
     info["warnings"] = ww
+    info["notes"] = notes
     if as_json:
         click.echo(json.dumps(info, indent=2, default=float))
         return
     for k, v in info.items():
-        if k == "warnings":
+        if k in ("warnings", "notes"):
             continue
         click.echo(f"{k:>40}: {_fmt(v)}")
+    for n in notes:
+        click.echo(f"note: {n}")
     for w in ww:
         click.echo(f"warning: {w}")
