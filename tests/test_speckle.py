@@ -78,3 +78,36 @@ def test_region_mask_and_slices():
 def test_zero_region_is_nan():
     assert np.isnan(equivalent_number_of_looks(np.zeros((4, 4))))
     assert np.isnan(contrast(np.zeros((4, 4))))
+
+
+def _write_speckle_image(path, seed=0):
+    from sarcli.core.types import Image
+    from sarcli.io.hdf5 import write_image
+
+    f = _speckle((64, 64), looks=1, seed=seed)
+    f[:, 32:] = _speckle((64, 32), looks=16, seed=seed + 1)      # right half: 16 looks
+    x = np.arange(64) * 0.5 - 16.0
+    write_image(path, Image(f, x, x.copy(), method="test", parameters={}))
+    return f
+
+
+def test_quality_cli_speckle_section(tmp_path):
+    import json
+
+    from click.testing import CliRunner
+
+    from sarcli.cli.main import cli
+
+    p = tmp_path / "img.h5"
+    _write_speckle_image(p)
+    r = CliRunner().invoke(cli, ["quality", str(p), "--speckle", "--region", "0.5,15.5,-16,15.5", "--json"])
+    assert r.exit_code == 0, r.output
+    m = json.loads(r.output)["speckle"]
+    assert m["enl"] == pytest.approx(16, rel=0.2)            # the 16-look half only
+    assert m["contrast"] == pytest.approx(0.25, rel=0.1)
+    assert m["region_pixels"] == [64, 31]
+    r = CliRunner().invoke(cli, ["quality", str(p), "--speckle"])
+    assert r.exit_code == 0 and "ENL" in r.output and "entropy" in r.output
+    for bad in ("1,2,3", "5,1,0,1", "100,200,0,1", "a,b,c,d"):
+        r = CliRunner().invoke(cli, ["quality", str(p), "--region", bad])
+        assert r.exit_code == 2 and "--region" in r.output and "Traceback" not in r.output

@@ -23,7 +23,7 @@ from __future__ import annotations
 import numpy as np
 
 __all__ = ["image_entropy", "peak_to_mean", "equivalent_number_of_looks", "contrast",
-           "speckle_metrics"]
+           "speckle_metrics", "region_slices"]
 
 
 def _intensity(image, region=None) -> np.ndarray:
@@ -165,3 +165,29 @@ def speckle_metrics(image, region=None) -> dict:
     return {"entropy": image_entropy(image), "peak_to_mean": peak_to_mean(image),
             "enl": equivalent_number_of_looks(image, region),
             "contrast": contrast(image, region)}
+
+
+def region_slices(x_m, y_m, bounds) -> tuple[slice, slice]:
+    """Row/column slices of the pixels whose centres lie in ``bounds = (x0, x1, y0, y1)`` (m).
+
+    Parameters
+    ----------
+    x_m, y_m : array_like
+        Increasing pixel-centre coordinates of the columns and rows.
+    bounds : sequence of 4 floats
+
+    Raises
+    ------
+    ValueError
+        When the bounds are not 4 finite numbers with x0 < x1, y0 < y1, or select no pixel.
+    """
+    b = np.asarray(bounds, dtype=np.float64).ravel()
+    if b.size != 4 or not np.all(np.isfinite(b)) or b[0] >= b[1] or b[2] >= b[3]:
+        raise ValueError(f"region must be X0,X1,Y0,Y1 in metres with X0 < X1 and Y0 < Y1, got {bounds}")
+    x, y = np.asarray(x_m), np.asarray(y_m)
+    cols = np.flatnonzero((x >= b[0]) & (x <= b[1]))
+    rows = np.flatnonzero((y >= b[2]) & (y <= b[3]))
+    if cols.size == 0 or rows.size == 0:
+        raise ValueError(f"region x {b[0]:g}..{b[1]:g}, y {b[2]:g}..{b[3]:g} m holds no pixel of the image "
+                         f"(x {x[0]:g}..{x[-1]:g}, y {y[0]:g}..{y[-1]:g} m)")
+    return slice(int(rows[0]), int(rows[-1]) + 1), slice(int(cols[0]), int(cols[-1]) + 1)

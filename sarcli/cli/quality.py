@@ -37,6 +37,30 @@ def _table(results) -> str:
     return "\n".join(rows)
 
 
+def _speckle(img, region, as_json):
+    """Print the speckle metrics of ``img`` (:mod:`sarcli.analysis.speckle`)."""
+    from ..analysis.speckle import region_slices, speckle_metrics
+    from ..errors import SarcliInputError
+
+    sl = None
+    if region is not None:
+        try:
+            parts = [float(v) for v in region.split(",")]
+            sl = region_slices(img.x_m, img.y_m, parts)
+        except ValueError as exc:
+            raise SarcliInputError(f"--region {region!r}: {exc}" if "region" in str(exc) else
+                                   f"--region {region!r}: expected X0,X1,Y0,Y1 in metres") from None
+    m = speckle_metrics(img.image, sl)
+    if sl is not None:
+        m["region_pixels"] = [sl[0].stop - sl[0].start, sl[1].stop - sl[1].start]
+    if as_json:
+        click.echo(json.dumps({"speckle": m}, indent=2))
+        return
+    where = "the whole image" if sl is None else f"region {region} m ({m['region_pixels'][0]} x {m['region_pixels'][1]} px)"
+    click.echo(f"speckle: entropy {m['entropy']:.4f} nats (lower = sharper), peak/mean {m['peak_to_mean']:.4g}; "
+               f"over {where}: ENL {m['enl']:.4g}, contrast {m['contrast']:.4f}")
+
+
 @click.command("quality")
 @click.argument("image", type=click.Path(dir_okay=False))
 @click.option("--ph", "ph_path", type=click.Path(dir_okay=False), default=None,
@@ -50,14 +74,22 @@ def _table(results) -> str:
 @click.option("--sidelobe-extent", "extent_cells", type=float, default=10.0, show_default=True,
               help="Sidelobe extent for PSLR/ISLR, in resolution cells.")
 @click.option("--json", "as_json", is_flag=True, help="Print JSON instead of a table.")
+@click.option("--speckle", is_flag=True,
+              help="Also print speckle metrics: entropy, peak/mean, ENL and contrast (alone without --ph/--config).")
+@click.option("--region", default=None, metavar="X0,X1,Y0,Y1",
+              help="Homogeneous region (m) for ENL and contrast (default: the whole image).")
 @handle_errors
-def command(image, ph_path, config_path, at, window, oversample, extent_cells, as_json):
+def command(image, ph_path, config_path, at, window, oversample, extent_cells, as_json, speckle, region):
     """Measure IRW, PSLR, ISLR and peak position of point targets in IMAGE, beside the predicted values."""
     from ..errors import SarcliInputError
     from ..io.hdf5 import read_image
     from ..core.types import to_json
     from ..analysis.quality import image_quality, load_reference
 
+    if speckle or region is not None:
+        _speckle(read_image(image), region, as_json)
+        if ph_path is None and config_path is None:
+            return
     if (ph_path is None) == (config_path is None):
         raise SarcliInputError("give exactly one of --ph PH.h5 or --config CONFIG.yaml (the geometry)")
     acq, truth = load_reference(ph_path or config_path)
