@@ -14,6 +14,7 @@ import numpy as np
 
 from ..core import geometry
 from .._util.progress import progress
+from ._samples import _check_kspace, weighted_samples
 
 __all__ = ["weighted_samples", "direct_farfield", "direct_spherical"]
 
@@ -21,45 +22,6 @@ __all__ = ["weighted_samples", "direct_farfield", "direct_spherical"]
 _FARFIELD_BUDGET = 1 << 21
 #: float64 pulse x pixel elements a chunk of spherical ranges may hold (~32 MiB)
 _SPHERICAL_BUDGET = 1 << 22
-
-
-def weighted_samples(data, weights=None):
-    """The products ``w_pj d[p, j]`` (complex128) and their normaliser ``W = Σ w_pj``.
-
-    Parameters
-    ----------
-    data : array_like, shape (P, M)
-        Phase history d[p, j].
-    weights : array_like, shape (P, M), optional
-        Window weights (ones when omitted).
-
-    Returns
-    -------
-    wd : ndarray, shape (P, M), complex128
-    total : float
-        ``W``; a ValueError is raised when it is not positive.
-    """
-    d = np.asarray(data)
-    if d.ndim != 2:
-        raise ValueError(f"phase history must be 2-D [pulses, frequencies], got shape {d.shape}")
-    d = d.astype(np.complex128, copy=False)
-    if weights is None:
-        return d, float(d.size)
-    w = np.asarray(weights, dtype=np.float64)
-    if w.shape != d.shape:
-        raise ValueError(f"weights shape {w.shape} does not match the data shape {d.shape}")
-    total = float(w.sum())
-    if not total > 0:
-        raise ValueError(f"window weights must have a positive sum, got {total}")
-    return d * w, total
-
-
-def _check_kspace(data_shape, kx, ky):
-    kx = np.asarray(kx, dtype=np.float64)
-    ky = np.asarray(ky, dtype=np.float64)
-    if kx.shape != tuple(data_shape) or ky.shape != tuple(data_shape):
-        raise ValueError(f"k-space coordinates {kx.shape}, {ky.shape} do not match the data {data_shape}")
-    return kx, ky
 
 
 def direct_farfield(data, kx, ky, grid, weights=None, *, chunk=None) -> np.ndarray:

@@ -44,7 +44,7 @@ from ..core import geometry
 from ..core.types import KGrid
 from ..errors import SarcliInputError, SarcliWarning
 from .._util.progress import progress
-from .direct import _check_kspace, weighted_samples
+from ._samples import _check_kspace, weighted_samples
 
 __all__ = ["regrid_polar", "pfa_image", "check_aperture", "PFA_KERNELS", "MAX_KGRID_CELLS"]
 

@@ -114,7 +114,8 @@ def simulate(acq: Acquisition, *, seed=None, snr_db="config", model=None,
     Returns
     -------
     PhaseHistory
-        Data, the acquisition (with ``model`` set) and the truth (points and scene on the grid).
+        Data, the acquisition (with ``model`` set) and the truth: the point targets, and for
+        extended scenes the scene on the grid (``truth.scene`` is None for a point-only scene).
     """
     model = model or acq.model
     if model not in ("farfield", "spherical"):
@@ -131,8 +132,11 @@ def simulate(acq: Acquisition, *, seed=None, snr_db="config", model=None,
     scene = acq.scene or {}
     pos, amp = point_targets(scene)
     data = point_phase_history(acq, pos, amp, model=model)
-    truth_scene = np.zeros(grid.shape, complex)
-    truth_mag = np.zeros(grid.shape)
+    # a dense truth only where the scene needs one (extended components): points keep their
+    # positions and amplitudes, and a point scene on a 4096² grid does not carry two dense arrays
+    extended = any(kind in scene for kind in ("phantom", "image_file"))
+    truth_scene = np.zeros(grid.shape, complex) if extended else None
+    truth_mag = np.zeros(grid.shape) if extended else None
     for kind in ("phantom", "image_file"):
         if kind in scene:
             ext = synthesize_extended(scene[kind], grid, rng)
@@ -142,8 +146,8 @@ def simulate(acq: Acquisition, *, seed=None, snr_db="config", model=None,
                 data += _spherical_extended(acq, ext.fine_values, ext.fine_grid)
             truth_scene += ext.truth
             truth_mag += ext.truth_magnitude
-    # points appear in the rasterised truth at their nearest pixel
-    for (x, y, _), a in zip(pos, amp):
+    # points appear in the rasterised truth (when there is one) at their nearest pixel
+    for (x, y, _), a in zip(pos, amp) if extended else ():
         r, c = grid.index_of(x, y)
         if 0 <= r < grid.ny and 0 <= c < grid.nx:
             truth_scene[r, c] += a
@@ -153,6 +157,6 @@ def simulate(acq: Acquisition, *, seed=None, snr_db="config", model=None,
         data, sigma2 = add_noise(data, snr, rng)
         attrs["noise_power"] = sigma2
     attrs.update({k: v for k, v in acq.extra.items() if k.startswith("scene_center")})
-    truth = Truth(point_position_m=pos, point_amplitude=amp, scene=truth_scene, x_m=grid.x, y_m=grid.y,
-                  magnitude=truth_mag)
+    truth = Truth(point_position_m=pos, point_amplitude=amp, scene=truth_scene,
+                  x_m=grid.x if extended else None, y_m=grid.y if extended else None, magnitude=truth_mag)
     return PhaseHistory(data=data.astype(dtype), acquisition=acq.with_(snr_db=snr), truth=truth, attrs=attrs)

@@ -1,0 +1,49 @@
+"""The windowed samples every former starts from, and the shape check of their k-space coordinates.
+
+Kept apart from the formers so that a light former (NUFFT, PFA) does not import a compiled one.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["weighted_samples"]
+
+
+def weighted_samples(data, weights=None):
+    """The products ``w_pj d[p, j]`` (complex128) and their normaliser ``W = Σ w_pj``.
+
+    Parameters
+    ----------
+    data : array_like, shape (P, M)
+        Phase history d[p, j].
+    weights : array_like, shape (P, M), optional
+        Window weights (ones when omitted).
+
+    Returns
+    -------
+    wd : ndarray, shape (P, M), complex128
+    total : float
+        ``W``; a ValueError is raised when it is not positive.
+    """
+    d = np.asarray(data)
+    if d.ndim != 2:
+        raise ValueError(f"phase history must be 2-D [pulses, frequencies], got shape {d.shape}")
+    d = d.astype(np.complex128, copy=False)
+    if weights is None:
+        return d, float(d.size)
+    w = np.asarray(weights, dtype=np.float64)
+    if w.shape != d.shape:
+        raise ValueError(f"weights shape {w.shape} does not match the data shape {d.shape}")
+    total = float(w.sum())
+    if not total > 0:
+        raise ValueError(f"window weights must have a positive sum, got {total}")
+    return d * w, total
+
+
+def _check_kspace(data_shape, kx, ky):
+    kx = np.asarray(kx, dtype=np.float64)
+    ky = np.asarray(ky, dtype=np.float64)
+    if kx.shape != tuple(data_shape) or ky.shape != tuple(data_shape):
+        raise ValueError(f"k-space coordinates {kx.shape}, {ky.shape} do not match the data {data_shape}")
+    return kx, ky
