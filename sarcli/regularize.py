@@ -32,7 +32,7 @@ import warnings
 import numpy as np
 
 from .core import geometry
-from .errors import DefocusWarning, SarcliInputError
+from .errors import ConvergenceWarning, DefocusWarning, SarcliInputError, SarcliWarning
 from .core.grid import Grid, resolve_grid
 from .core.types import Image, PhaseHistory
 from .linops import (NufftOperator, SphericalOperator, gram_eigmax, normal_equations,
@@ -106,7 +106,40 @@ def matched_filter(ph: PhaseHistory, grid: Grid | None = None, *, operator: str 
     return op.adjoint(ph.data) / ph.data.size
 
 
-def regularize(ph: PhaseHistory, *, prior: str = "ptv", order: int = 1, lam: float | None = None,
+#: Iteration cap and tolerance of each solve on the λ path of ``lam='auto'``.
+PATH_ITERS, PATH_TOL = 80, 1e-3
+
+
+def _auto(ph, grid, scaled, s_b, D, T, prior, beta_ratio, isotropic, u0, iters, params):
+    """λ by the discrepancy principle (:func:`sarcli.regparam.auto_lambda`); records it in params.
+
+    Returns ``(lam, beta, warm start)``; falls back to the default λ (warning) without σ².
+    """
+    from . import regparam
+
+    path_iters = min(int(iters), PATH_ITERS)
+
+    def solve(lam, x0):
+        x0 = u0 if x0 is None else x0
+        if D is not None:
+            return tikhonov(scaled, D, lam, x0=x0, tol=PATH_TOL, max_iter=path_iters)[0]
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", ConvergenceWarning)  # a path point need not converge
+            return ADMM(scaled, T, lam, beta_ratio * lam, x0=x0, isotropic=isotropic, tol=PATH_TOL,
+                        max_iter=path_iters).run()
+
+    choice, record = regparam.auto_lambda(ph, grid, scaled, s_b, solve)
+    record["path_iters"] = path_iters
+    params["lam_selection"] = record
+    if choice is None:
+        lam = DEFAULT_LAM[prior]
+        warnings.warn(f"lam='auto': {record['noise_source']}; using the default lam={lam} of prior "
+                      f"{prior!r}", SarcliWarning, stacklevel=3)
+        return lam, beta_ratio * lam, u0
+    return choice.lam, beta_ratio * choice.lam, choice.start
+
+
+def regularize(ph: PhaseHistory, *, prior: str = "ptv", order: int = 1, lam: float | str | None = "auto",
                beta: float | None = None, iters: int = 300, tol: float = 1e-4, operator: str = "auto",
                grid: Grid | None = None, center=None, extent=None, pixel_size=None, init=None,
                isotropic: bool = True, callback=None, inner_iters: int = 1, reestimate_every: int = 0,
@@ -120,10 +153,15 @@ def regularize(ph: PhaseHistory, *, prior: str = "ptv", order: int = 1, lam: flo
         ℓ1 (T = I), TV (D), higher-order TV (Dᵏ), phase-corrected TV (Dᵏ Θ), Tikhonov (‖Dᵏf‖²).
     order : {1, 2, 3}
         k for 'hotv', 'ptv' and 'tikhonov'.
-    lam : float, optional
-        λ in the normalised units of the module docstring (default :data:`DEFAULT_LAM`).
+    lam : float, 'auto' or None
+        λ in the normalised units of the module docstring. 'auto' (default): the discrepancy
+        principle, ``‖Af − b‖² = n_b σ²`` with the noise power σ² from the file or estimated
+        from the data (:mod:`sarcli.regparam`); the chosen λ and the curve are recorded in
+        ``parameters['lam_selection']``; when no σ² is available it falls back to
+        :data:`DEFAULT_LAM` with a :class:`~sarcli.errors.SarcliWarning`. None: :data:`DEFAULT_LAM`.
     beta : float, optional
-        ADMM penalty β (default ``DEFAULT_BETA_RATIO · λ``).
+        ADMM penalty β (default ``DEFAULT_BETA_RATIO · λ``; with ``lam='auto'`` the ratio β/λ
+        of a given β at the default λ is kept).
     iters, tol : int, float
         Iteration cap and relative-change tolerance (CG residual tolerance for 'tikhonov').
     operator : {'auto', 'nufft', 'toeplitz', 'spherical'}
@@ -170,9 +208,13 @@ def regularize(ph: PhaseHistory, *, prior: str = "ptv", order: int = 1, lam: flo
         raise SarcliInputError(f"unknown operator {operator!r}; choose one of {', '.join(OPERATORS)}")
     if int(order) not in (1, 2, 3):
         raise SarcliInputError(f"order must be 1, 2 or 3, got {order}")
-    lam = DEFAULT_LAM[prior] if lam is None else float(lam)
+    auto = isinstance(lam, str)
+    if auto and lam != "auto":
+        raise SarcliInputError(f"lam must be a number >= 0 or 'auto', got {lam!r}")
+    lam = DEFAULT_LAM[prior] if (lam is None or auto) else float(lam)
     if not (np.isfinite(lam) and lam >= 0):
         raise SarcliInputError(f"lam must be a finite number >= 0, got {lam}")
+    beta_ratio = DEFAULT_BETA_RATIO if (beta is None or lam == 0) else float(beta) / lam
     beta = DEFAULT_BETA_RATIO * lam if beta is None else float(beta)
     if prior != "tikhonov" and beta == 0.0:
         beta = DEFAULT_BETA_RATIO * np.finfo(float).tiny ** 0.5  # λ = 0: any β > 0 works
@@ -210,12 +252,15 @@ def regularize(ph: PhaseHistory, *, prior: str = "ptv", order: int = 1, lam: flo
         return Image(np.zeros(grid.shape, np.complex128), grid.x, grid.y, method=f"regularize-{prior}",
                      parameters=params, runtime_s=time.perf_counter() - t0, history={})
     u0 = None if init is None else init * (s_a / s_b)
+    D = FiniteDifference(grid.shape, order) if prior == "tikhonov" else None
+    f0 = init if init is not None else mf
+    T = None if D is not None else sparsifying_operator(prior, grid.shape, order=order,
+                                                        f0=f0 if prior == "ptv" else None)
+    if auto:
+        lam, beta, u0 = _auto(ph, grid, scaled, s_b, D, T, prior, beta_ratio, isotropic, u0, iters, params)
     if prior == "tikhonov":
-        D = FiniteDifference(grid.shape, order)
         u, hist = tikhonov(scaled, D, lam, x0=u0, tol=tol, max_iter=iters, callback=callback)
     else:
-        f0 = init if init is not None else mf
-        T = sparsifying_operator(prior, grid.shape, order=order, f0=f0 if prior == "ptv" else None)
         reest = None
         if prior == "ptv" and reestimate_every > 0:
             reest = lambda f: sparsifying_operator("ptv", grid.shape, order=order, f0=f)  # noqa: E731
@@ -225,6 +270,7 @@ def regularize(ph: PhaseHistory, *, prior: str = "ptv", order: int = 1, lam: flo
         u = solver.run(cb)
         hist = solver.history_arrays()
     f = u * (s_b / s_a)
+    params["lam"], params["beta"] = lam, beta
     params["iterations"] = int(len(hist.get("objective", [])))
     return Image(f, grid.x, grid.y, method=f"regularize-{prior}", parameters=params,
                  runtime_s=time.perf_counter() - t0, history=hist)

@@ -7,6 +7,21 @@ import click
 from .options import export_options, grid_options, handle_errors, parse_pair, write_side_outputs, wrote
 
 
+def _parse_lam(text):
+    """'auto' or a finite number >= 0 (one-line error otherwise)."""
+    from ..errors import SarcliInputError
+
+    if str(text).strip().lower() == "auto":
+        return "auto"
+    try:
+        value = float(text)
+    except ValueError:
+        value = float("nan")
+    if not (value >= 0 and value != float("inf")):
+        raise SarcliInputError(f"--lam {text!r}: expected 'auto' or a finite number >= 0")
+    return value
+
+
 @click.command("regularize")
 @click.argument("input_path", metavar="PH.h5", type=click.Path(dir_okay=False))
 @click.option("-o", "--output", required=True, type=click.Path(dir_okay=False), help="Image file to write (.h5).")
@@ -14,8 +29,9 @@ from .options import export_options, grid_options, handle_errors, parse_pair, wr
               show_default=True, help="Regulariser: TV, higher-order TV, l1, phase-corrected TV, Tikhonov.")
 @click.option("--order", type=click.IntRange(1, 3), default=1, show_default=True,
               help="Difference order k (hotv, ptv, tikhonov).")
-@click.option("--lam", type=float, default=None,
-              help="Regularisation weight λ in normalised units (default per prior; l1: λ ≥ 2 zeroes the image).")
+@click.option("--lam", default="auto", show_default=True, metavar="auto|NUMBER",
+              help="Regularisation weight λ in normalised units (l1: λ ≥ 2 zeroes the image); auto: the "
+                   "discrepancy principle with the noise power from the file or estimated from the data.")
 @click.option("--beta", type=float, default=None, help="ADMM penalty β (default 32 λ).")
 @click.option("--iters", type=click.IntRange(min=1), default=300, show_default=True, help="Iteration cap.")
 @click.option("--tol", type=float, default=1e-4, show_default=True, help="Relative-change tolerance.")
@@ -40,7 +56,8 @@ def command(ctx, input_path, output, prior, order, lam, beta, iters, tol, operat
     from ..viz import plot_history
     from ..regularize import regularize
 
-    ph = read_phase_history(input_path)
+    lam = _parse_lam(lam)
+    ph = read_phase_history(input_path, truth=False)
     init = read_image(init_path) if init_path else None
     bar = progress(total=iters, desc=f"regularize {prior}", unit="it")
 
@@ -61,4 +78,6 @@ def command(ctx, input_path, output, prior, order, lam, beta, iters, tol, operat
         plot_history(img.history, history_png)
         wrote(history_png, "objective and relative change per iteration")
     p = img.parameters
-    wrote(output, f"{prior} ({p['operator']}), {p.get('iterations', 0)} iterations, {img.runtime_s:.3g} s")
+    sel = p.get("lam_selection")
+    how = f"lam {p['lam']:.4g}" + (f" by {sel['criterion']} ({sel.get('status', 'fallback')})" if sel else "")
+    wrote(output, f"{prior} ({p['operator']}), {how}, {p.get('iterations', 0)} iterations, {img.runtime_s:.3g} s")
