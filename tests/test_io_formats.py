@@ -130,3 +130,23 @@ def test_warning_lines_go_above_a_live_bar(capsys):
     bar.close()
     err = capsys.readouterr().err
     assert "warning: test\n" in err
+
+
+def test_image_formation_never_reads_the_truth(tmp_path, monkeypatch):
+    """form-image reads /truth not at all: the group is made unreadable and the command still works."""
+    import h5py
+
+    cfg = small_config(scene={"phantom": {"name": "disks", "half_width_m": 3.0}})
+    import yaml
+
+    (tmp_path / "a.yaml").write_text(yaml.safe_dump(cfg))
+    run = CliRunner()
+    assert run.invoke(cli, ["simulate", str(tmp_path / "a.yaml"), "-o", str(tmp_path / "ph.h5")]).exit_code == 0
+    with h5py.File(tmp_path / "ph.h5", "a") as f:
+        assert "truth/scene" in f  # an extended scene keeps its dense truth
+        del f["truth/scene"]       # ... now break the group: a reader that touched it would fail
+        f["truth/scene"] = np.zeros(3)
+    res = run.invoke(cli, ["form-image", str(tmp_path / "ph.h5"), "-o", str(tmp_path / "img.h5"), "--method", "nufft"])
+    assert res.exit_code == 0, res.output
+    res = run.invoke(cli, ["info", str(tmp_path / "ph.h5")])  # a reader that does read it refuses
+    assert res.exit_code == 2 and "truth/scene" in res.output

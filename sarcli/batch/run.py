@@ -126,7 +126,7 @@ def _read_input(job: Job) -> PhaseHistory:
     else:
         from ..io.hdf5 import read_phase_history
 
-        ph = read_phase_history(job.input)
+        ph = read_phase_history(job.input, truth=False)
     if job.pulses is None:
         return ph
     sel = np.asarray(job.pulses, dtype=np.intp)

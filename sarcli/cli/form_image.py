@@ -37,7 +37,7 @@ def command(ctx, input_path, output, method, window, taylor_nbar, taylor_sll_db,
     from ..io import open_input
     from ..io.hdf5 import write_image
 
-    _, src = open_input(input_path, expect=("phase-history", "kgrid", "gotcha", "cphd"))
+    _, src = open_input(input_path, expect=("phase-history", "kgrid", "gotcha", "cphd"), truth=False)
     img = form_image(src, method, center=parse_pair(center, "--center"), extent=parse_pair(extent, "--extent"),
                      pixel_size=pixel_size, window=window, taylor_nbar=taylor_nbar, taylor_sll_db=taylor_sll_db,
                      eps=eps, kernel=kernel, oversample=oversample, width=width, upsample=upsample,

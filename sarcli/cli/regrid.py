@@ -24,7 +24,7 @@ def command(ctx, input_path, output, window, taylor_nbar, taylor_sll_db, center,
     from ..core.grid import resolve_grid
     from ..io.hdf5 import read_phase_history, write_kgrid
 
-    ph = read_phase_history(input_path)
+    ph = read_phase_history(input_path, truth=False)
     grid = resolve_grid(ph.acquisition.grid, center=parse_pair(center, "--center"),
                         extent=parse_pair(extent, "--extent"), pixel_size=pixel_size)
     kg = regrid(ph, grid=grid, window=window, taylor_nbar=taylor_nbar, taylor_sll_db=taylor_sll_db,

@@ -130,7 +130,7 @@ def detect_format(path) -> str:
     raise InputFileError(path, f"unrecognised file content; sarcli reads {readable}")
 
 
-def open_input(path, *, expect=None):
+def open_input(path, *, expect=None, truth=True):
     """Read any file sarcli reads, recognised by :func:`detect_format`.
 
     Parameters
@@ -139,6 +139,9 @@ def open_input(path, *, expect=None):
     expect : str or sequence of str, optional
         The formats the caller can use; any other gives one :class:`InputFileError` line naming
         the format found and those expected.
+    truth : bool
+        For a sarcli phase history: read ``/truth`` too (False for image formation, which never
+        uses it).
 
     Returns
     -------
@@ -155,7 +158,9 @@ def open_input(path, *, expect=None):
             raise InputFileError(path, f"is a {fmt} file; expected {' or '.join(allowed)}")
     module, reader = FORMATS[fmt]
     read = getattr(importlib.import_module(f".{module}", __name__), reader)
-    return fmt, read([path]) if fmt == "gotcha" else read(path)
+    if fmt == "gotcha":
+        return fmt, read([path])
+    return fmt, read(path, truth=truth) if fmt == "phase-history" else read(path)
 
 
 def __getattr__(name):

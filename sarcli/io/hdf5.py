@@ -176,8 +176,15 @@ def write_phase_history(path, ph: PhaseHistory) -> Path:
     return Path(path)
 
 
-def read_phase_history(path) -> PhaseHistory:
+def read_phase_history(path, *, truth: bool = True) -> PhaseHistory:
     """Read and validate a phase-history file.
+
+    Parameters
+    ----------
+    path : str or Path
+    truth : bool
+        Read ``/truth`` (the simulated scene) too. Image formation and regularisation pass False:
+        they never use it, and an extended scene's dense truth can dwarf the data.
 
     Raises
     ------
@@ -187,14 +194,14 @@ def read_phase_history(path) -> PhaseHistory:
     """
     try:
         with _open(path, PH_FORMAT) as f:
-            return _read_ph(path, f)
+            return _read_ph(path, f, truth=truth)
     except InputFileError:
         raise
     except (OSError, KeyError, ValueError, TypeError) as exc:
         raise InputFileError(path, f"broken phase-history file ({exc})") from None
 
 
-def _read_ph(path, f) -> PhaseHistory:
+def _read_ph(path, f, *, truth=True) -> PhaseHistory:
     _check_format(path, f, PH_FORMAT)
     model = _attr_str(f, "model")
     if model not in MODELS:
@@ -241,8 +248,8 @@ def _read_ph(path, f) -> PhaseHistory:
     if "autofocus" in f and "phase_rad" in f["autofocus"]:
         attrs["autofocus_phase_rad"] = _dataset(path, f, "autofocus/phase_rad", kind="float", ndim=1, shape=(P,))
         attrs["autofocus_method"] = _attr_str(f["autofocus"], "method") or ""
-    truth = None
-    if "truth" in f:
+    read_truth, truth = truth, None
+    if read_truth and "truth" in f:
         pp = _dataset(path, f, "truth/point_position_m", kind="float", ndim=2, required=False)
         pa = _dataset(path, f, "truth/point_amplitude", kind="any", ndim=1, required=False)
         if pp is not None and pa is not None and pp.shape[0] != pa.shape[0]:
