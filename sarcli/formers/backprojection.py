@@ -81,6 +81,8 @@ _PAD = 3
 _PRECISIONS = {"float64": np.float64, "float32": np.float32}
 #: Pulses range-compressed and backprojected together (bounds the profile memory).
 _BLOCK = 32
+#: pixel x pulse terms one compiled backprojection call may take (a fraction of a second)
+_WORK = 1 << 24
 
 
 # ---------------------------------------------------------------------------------------------
@@ -304,8 +306,13 @@ def backproject(data, freq_hz, antenna_position_m, range_to_center_m, grid, weig
             buf[:, st.slots] = wd / st.total_weight
             prof = scipy.fft.fftshift(scipy.fft.ifft(buf, axis=1, norm="forward", workers=nthr), axes=1)
             prof = np.concatenate([prof[:, -_PAD:], prof, prof[:, :_PAD]], axis=1)
-            _bp_rows(np.ascontiguousarray(prof.real), np.ascontiguousarray(prof.imag),
-                     *st.geometry_args(sl), out_re, out_im)
+            pre, pim = np.ascontiguousarray(prof.real), np.ascontiguousarray(prof.imag)
+            x, xx, y, *rest = st.geometry_args(sl)
+            # rows per compiled call: numba holds the interpreter, signals are seen between calls
+            step = max(1, _WORK // (st.shape[1] * (sl.stop - sl.start)))
+            for r in range(0, st.shape[0], step):
+                rs = slice(r, r + step)
+                _bp_rows(pre, pim, x, xx, y[rs], *rest, out_re[rs], out_im[rs])
     img = np.empty(st.shape, dtype=np.complex128)
     img.real = out_re
     img.imag = out_im

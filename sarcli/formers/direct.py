@@ -22,6 +22,9 @@ __all__ = ["weighted_samples", "direct_farfield", "direct_spherical"]
 _FARFIELD_BUDGET = 1 << 21
 #: float64 pulse x pixel elements a chunk of spherical ranges may hold (~32 MiB)
 _SPHERICAL_BUDGET = 1 << 22
+#: pulse x frequency x pixel terms one compiled call may sum (well under a second even on a
+#: loaded machine): numba holds the interpreter, so signals (Ctrl-C) are seen between calls
+_SPHERICAL_WORK = 1 << 23
 
 
 def direct_farfield(data, kx, ky, grid, weights=None, *, chunk=None) -> np.ndarray:
@@ -134,7 +137,7 @@ def direct_spherical(data, freq_hz, antenna_position_m, range_to_center_m, grid,
     pts = grid.points().reshape(-1, 3)
     n_pix = pts.shape[0]
     if chunk is None:
-        chunk = max(1, _SPHERICAL_BUDGET // n_pix)
+        chunk = max(1, min(_SPHERICAL_BUDGET // n_pix, _SPHERICAL_WORK // max(1, n_pix * n_f)))
     chunk = max(1, int(chunk))
     out = np.zeros(n_pix, dtype=np.complex128)
     starts = range(0, n_p, chunk)
@@ -145,5 +148,8 @@ def direct_spherical(data, freq_hz, antenna_position_m, range_to_center_m, grid,
         else:
             dr = geometry.bistatic_differential_range(a[sl], a_rcv[sl], r0[sl], pts)
         dr = np.ascontiguousarray(dr)
-        _accumulate_spherical(out, dr, k4[sl], np.ascontiguousarray(wd[sl]))
+        wd_sl, k4_sl = np.ascontiguousarray(wd[sl]), k4[sl]
+        step = max(1, _SPHERICAL_WORK // (dr.shape[0] * n_f))  # pixels per compiled call
+        for q in range(0, n_pix, step):
+            _accumulate_spherical(out[q:q + step], np.ascontiguousarray(dr[:, q:q + step]), k4_sl, wd_sl)
     return (out / total).reshape(grid.shape)
