@@ -83,6 +83,17 @@ def test_nufft_error_falls_with_eps(three_points):
     assert errs[0] < 1e-2 and errs[1] < 1e-5
 
 
+@pytest.mark.parametrize("case", ["three_points", "extended"])
+@pytest.mark.parametrize("eps", [1e-2, 1e-3, 1e-4, 1e-6, 1e-9, 1e-11])
+def test_nufft_meets_the_tolerance_asked_for(case, eps, request):
+    """eps is a promise: the reduced upsampling and single precision chosen for loose eps keep it."""
+    from sarcli.formers.nufft import nufft_options
+
+    data, ref = request.getfixturevalue(case)
+    assert _rel(nufft_farfield(data, KX, KY, GRID, eps=eps), ref) <= eps
+    assert nufft_options(eps)["precision"] == ("single" if eps >= 1e-3 else "double")
+
+
 @pytest.mark.parametrize("grid", [Grid(63, 40, 0.3, 0.2, 1.3, -2.1), Grid(48, 80, 0.25, 0.25, -2.0, 3.5)])
 def test_nufft_offset_and_nonsquare_grid(grid):
     data = _extended_data()
