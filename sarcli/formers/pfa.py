@@ -51,6 +51,8 @@ __all__ = ["regrid_polar", "pfa_image", "check_aperture", "PFA_KERNELS", "MAX_KG
 PFA_KERNELS = ("kaiser", "linear")
 #: largest k-grid (cells) regrid_polar builds (2**25 cells = 512 MiB of complex128)
 MAX_KGRID_CELLS = 1 << 25
+#: columns (then rows) inverse-transformed at once by pfa_image (bounds its work arrays)
+_FFT_BLOCK = 256
 #: samples whose kernel taps are evaluated at once (bounds the memory of the gridding step)
 _SPREAD_CHUNK = 1 << 18
 
@@ -276,7 +278,15 @@ def pfa_image(kgrid: KGrid, grid) -> np.ndarray:
         kxs = kgrid.kx0 + kgrid.dkx * np.arange(nkx)
         kys = kgrid.ky0 + kgrid.dky * np.arange(nky)
         g = g * np.exp(1j * kys * sy)[:, None] * np.exp(1j * kxs * sx)[None, :]
-    g = _fold(_fold(g, nfy, 0), nfx, 1)
-    full = sfft.ifft2(g, workers=-1) * (nfy * nfx)
-    image = full[np.ix_(row, col)] * fac_y[:, None] * fac_x[None, :]
-    return image / kgrid.weights_sum
+    # The 2-D inverse FFT, separably and in blocks, keeping only the requested rows and columns:
+    # the full nfy x nfx field (oversample² x the image, twice with its work array) never exists.
+    half = np.empty((row.size, nkx), dtype=np.complex128)        # y transformed, rows cropped
+    for c0 in range(0, nkx, _FFT_BLOCK):
+        blk = _fold(g[:, c0:c0 + _FFT_BLOCK], nfy, 0)
+        half[:, c0:c0 + blk.shape[1]] = sfft.ifft(blk, axis=0, workers=-1)[row]
+    image = np.empty((row.size, col.size), dtype=np.complex128)
+    for r0 in range(0, row.size, _FFT_BLOCK):
+        blk = _fold(half[r0:r0 + _FFT_BLOCK], nfx, 1)
+        image[r0:r0 + blk.shape[0]] = sfft.ifft(blk, axis=1, workers=-1)[:, col]
+    image *= (nfy * nfx) * fac_y[:, None] * fac_x[None, :] / kgrid.weights_sum
+    return image
