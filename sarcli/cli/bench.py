@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import click
 
-from .options import echo_info, grid_options, handle_errors, parse_pair, wrote
+from .options import (echo_info, grid_options, handle_errors, parse_pair, prepare_outputs, threads_option,
+                      wrote)
 
 
 @click.command("bench")
@@ -14,18 +15,18 @@ from .options import echo_info, grid_options, handle_errors, parse_pair, wrote
               help="Folder for error_vs_time.csv and error_vs_time.png.")
 @click.option("--methods", default="direct,nufft,pfa,backprojection", show_default=True,
               help="Comma-separated methods to sweep.")
-@click.option("--repeat", type=int, default=3, show_default=True, help="Timed runs per setting (after a warm-up).")
+@click.option("--repeat", type=click.IntRange(1, 100), default=3, show_default=True, help="Timed runs per setting (after a warm-up).")
 @click.option("--windows", default="none,taylor", show_default=True,
               help="Windows to measure ('none' carries the knob sweep).")
 @click.option("--regularizers", default="", help="Priors to sweep over iterations, e.g. 'ptv,tv' (needs a truth).")
 @click.option("--reg-iters", default="1,2,5,10,20,50", show_default=True, help="Iteration caps for --regularizers.")
-@click.option("--max-reference-cost", type=float, default=1e9, show_default=True,
+@click.option("--max-reference-cost", type=click.FloatRange(min=1), default=1e9, show_default=True,
               help="Largest P*M*pixels for the exact reference; beyond it every s-th pixel is used.")
 @click.option("--model", type=click.Choice(["farfield", "spherical"]), default=None,
               help="Data model when simulating a YAML config (default: the config's).")
-@click.option("--seed", type=int, default=0, show_default=True, help="Seed when simulating a YAML config.")
+@click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True, help="Seed when simulating a YAML config.")
 @click.option("--no-memory", is_flag=True, help="Skip the peak-memory call.")
-@click.option("--threads", "nthreads", type=int, default=None, help="Threads (default: all cores).")
+@threads_option
 @grid_options
 @click.pass_context
 @handle_errors
@@ -45,6 +46,8 @@ def command(ctx, inputs, out_dir, methods, repeat, windows, regularizers, reg_it
         iters = tuple(int(t) for t in split(reg_iters))
     except ValueError:
         raise SarcliInputError(f"--reg-iters expects comma-separated integers, got {reg_iters!r}") from None
+    prepare_outputs([("input", i) for i in inputs], [("output", Path(out_dir) / "error_vs_time.csv"),
+                                                    ("output", Path(out_dir) / "error_vs_time.png")])
     ph = bm.load_input(inputs, seed=seed, model=model)
     res = bm.run_benchmark(ph, methods=split(methods), repeat=repeat, windows=split(windows) or ("none",),
                            center=parse_pair(center, "--center"), extent=parse_pair(extent, "--extent"),

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from .options import handle_errors, wrote
+from .options import handle_errors, prepare_outputs, wrote
 
 
 @click.command("export")
@@ -13,7 +13,7 @@ from .options import handle_errors, wrote
               help="Output file; the suffix picks the format (.tif/.tiff, .png, .sicd/.nitf).")
 @click.option("--kind", type=click.Choice(["magnitude", "db", "complex"]), default=None,
               help="What to write (default: GeoTIFF magnitude, PNG db, SICD complex).")
-@click.option("--dynamic-range-db", type=float, default=50.0, show_default=True,
+@click.option("--dynamic-range-db", type=click.FloatRange(1, 400), default=50.0, show_default=True,
               help="Displayed dynamic range of dB output.")
 @click.option("--cmap", default="gray", show_default=True, help="PNG colormap (matplotlib name).")
 @click.option("--bare", is_flag=True,
@@ -29,6 +29,7 @@ def command(image, output, kind, dynamic_range_db, cmap, bare, annotate, phase_h
 
     from ..io.export import format_from_suffix
 
+    prepare_outputs([("image", image), ("--phase-history", phase_history)], [("output", output)])
     img = load_image(image)
     ph = read_phase_history(phase_history) if phase_history else None
     annotate = format_from_suffix(output) == "png" and not bare

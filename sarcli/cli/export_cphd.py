@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from .options import handle_errors, wrote
+from .options import handle_errors, prepare_outputs, wrote
 
 
 @click.command("export-cphd")
@@ -17,6 +17,7 @@ def command(phase_history, output):
     from ..io.cphd import write_cphd
     from ..io.hdf5 import read_phase_history
 
+    prepare_outputs([("input", phase_history)], [("output", output)])
     ph = read_phase_history(phase_history)
     write_cphd(ph, output)
     wrote(output, f"CPHD, {ph.data.shape[0]} pulses x {ph.data.shape[1]} frequencies")

@@ -4,9 +4,10 @@ from __future__ import annotations
 
 import click
 
+from ..formers import cost as _cost
 from ..formers.formation import METHODS
-from .options import (export_options, grid_options, handle_errors, parse_pair, window_options,
-                      write_side_outputs, wrote)
+from .options import (export_options, grid_options, handle_errors, parse_pair, prepare_outputs,
+                      threads_option, window_options, write_side_outputs, wrote)
 
 
 @click.command("form-image")
@@ -16,17 +17,21 @@ from .options import (export_options, grid_options, handle_errors, parse_pair, w
               show_default=True, help="Image formation method.")
 @window_options
 @grid_options
-@click.option("--eps", type=float, default=1e-9, show_default=True, help="NUFFT accuracy (nufft).")
+@click.option("--eps", type=click.FloatRange(*_cost.EPS_RANGE), default=1e-9, show_default=True,
+              help="NUFFT accuracy (nufft).")
 @click.option("--kernel", type=click.Choice(["kaiser", "linear"]), default="kaiser", show_default=True,
               help="PFA gridding kernel.")
-@click.option("--oversample", type=float, default=2.0, show_default=True, help="PFA k-grid oversampling.")
-@click.option("--width", type=int, default=6, show_default=True, help="PFA Kaiser-Bessel kernel width (cells).")
-@click.option("--upsample", type=float, default=None, help="Backprojection range-profile upsampling (default 8).")
+@click.option("--oversample", type=click.FloatRange(*_cost.OVERSAMPLE_RANGE), default=2.0, show_default=True,
+              help="PFA k-grid oversampling.")
+@click.option("--width", type=click.IntRange(*_cost.WIDTH_RANGE), default=6, show_default=True,
+              help="PFA Kaiser-Bessel kernel width (cells).")
+@click.option("--upsample", type=click.FloatRange(*_cost.UPSAMPLE_RANGE), default=None,
+              help="Backprojection range-profile upsampling (default 8).")
 @click.option("--interp", type=click.Choice(["linear", "cubic", "lanczos"]), default=None,
               help="Backprojection interpolator (default cubic).")
 @click.option("--precision", type=click.Choice(["float64", "float32"]), default="float64", show_default=True,
               help="Backprojection arithmetic.")
-@click.option("--threads", "nthreads", type=int, default=None, help="Threads (default: all cores).")
+@threads_option
 @export_options
 @click.pass_context
 @handle_errors
@@ -36,8 +41,17 @@ def command(ctx, input_path, output, method, window, taylor_nbar, taylor_sll_db,
     from ..formers.formation import form_image
     from ..io import open_input
     from ..io.hdf5 import write_image
+    from ..core.grid import resolve_grid
+    from ..formers.cost import check_form_image
 
+    prepare_outputs([("input", input_path)], [("output", output), ("--png", png_path), ("--geotiff", tif_path)])
     _, src = open_input(input_path, expect=("phase-history", "kgrid", "gotcha", "cphd"), truth=False)
+    acq = getattr(src, "acquisition", None)
+    if acq is not None:  # a phase history: memory and time before anything is allocated
+        grid = resolve_grid(acq.grid, center=parse_pair(center, "--center"), extent=parse_pair(extent, "--extent"),
+                            pixel_size=pixel_size)
+        check_form_image(src, method, grid, oversample=oversample, upsample=upsample, eps=eps, width=width,
+                         precision=precision, nthreads=nthreads)
     img = form_image(src, method, center=parse_pair(center, "--center"), extent=parse_pair(extent, "--extent"),
                      pixel_size=pixel_size, window=window, taylor_nbar=taylor_nbar, taylor_sll_db=taylor_sll_db,
                      eps=eps, kernel=kernel, oversample=oversample, width=width, upsample=upsample,

@@ -11,7 +11,7 @@ import importlib.util
 
 import click
 
-from .options import grid_options, handle_errors, parse_pair, wrote
+from .options import grid_options, handle_errors, parse_pair, prepare_outputs, wrote
 
 #: subcommand name -> module under sarcli.cli exposing a click command ``command``
 _LAZY = {"cphd": "import_cphd"}
@@ -61,6 +61,7 @@ def gotcha(ctx, files, output, autofocus, center, extent, pixel_size):
     from ..core.grid import resolve_grid
     from ..io.hdf5 import write_phase_history
 
+    prepare_outputs([("input", f) for f in files], [("output", output)])
     try:
         grid = resolve_grid(default_gotcha_grid(), center=parse_pair(center, "--center"),
                             extent=parse_pair(extent, "--extent"), pixel_size=pixel_size)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from .options import handle_errors, wrote
+from .options import handle_errors, prepare_outputs, wrote
 
 
 @click.command("cphd")
@@ -18,6 +18,7 @@ def command(ctx, cphd_file, output):
     from ..io.cphd import read_cphd
     from ..io.hdf5 import write_phase_history
 
+    prepare_outputs([("input", cphd_file)], [("output", output)])
     ph = read_cphd(cphd_file)
     write_phase_history(output, ph)
     P, M = ph.data.shape

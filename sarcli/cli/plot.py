@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from .options import grid_options, handle_errors, parse_pair, wrote
+from .options import grid_options, handle_errors, parse_pair, prepare_outputs, wrote
 
 WHATS = ("psf-cuts", "kspace", "image-fft")
 
@@ -14,7 +14,7 @@ WHATS = ("psf-cuts", "kspace", "image-fft")
 @click.argument("input_path", metavar="INPUT", type=click.Path(dir_okay=False))
 @click.option("-o", "--output", required=True, type=click.Path(dir_okay=False), help="PNG to write.")
 @click.option("--at", default=None, help="psf-cuts: X,Y (m) near which to take the peak.")
-@click.option("--dynamic-range-db", type=float, default=60.0, show_default=True,
+@click.option("--dynamic-range-db", type=click.FloatRange(1, 400), default=60.0, show_default=True,
               help="Lower limit of dB scales.")
 @grid_options
 @handle_errors
@@ -28,6 +28,8 @@ def command(what, input_path, output, at, dynamic_range_db, center, extent, pixe
     image-fft  INPUT an image: the image beside log|2-D FFT|
     """
     from .. import viz as plots
+
+    prepare_outputs([("input", input_path)], [("output", output)])
 
     if what == "kspace":
         from pathlib import Path

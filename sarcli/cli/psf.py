@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import click
 
-from .options import echo_info, grid_options, handle_errors, parse_pair, window_options, wrote
+from .options import (echo_info, grid_options, handle_errors, parse_pair, prepare_outputs, window_options,
+                      wrote)
 
 
 @click.command("psf")
@@ -15,7 +16,7 @@ from .options import echo_info, grid_options, handle_errors, parse_pair, window_
 @click.option("--method", type=click.Choice(["auto", "theorem", "direct", "nufft"]), default="auto",
               show_default=True, help="Theorem closed form, exact sum, or FINUFFT (windows need a sum).")
 @click.option("--png", type=click.Path(dir_okay=False), default=None, help="Also write a PNG of 20 log10|K|.")
-@click.option("--dynamic-range-db", type=float, default=60.0, show_default=True, help="PNG colour range.")
+@click.option("--dynamic-range-db", type=click.FloatRange(1, 400), default=60.0, show_default=True, help="PNG colour range.")
 @grid_options
 @click.pass_context
 @handle_errors
@@ -31,12 +32,17 @@ def command(ctx, source, output, window, nbar, sll_db, method, png, dynamic_rang
     from ..analysis.psf import psf_image
     from ..analysis.quality import load_reference
 
+    from .._util.resources import check_memory
+
+    prepare_outputs([("input", source)], [("output", output), ("--png", png)])
     acq, _ = load_reference(source)
     try:
         grid = resolve_grid(acq.grid, center=parse_pair(center, "--center"),
                             extent=parse_pair(extent, "--extent"), pixel_size=pixel_size)
     except ValueError as exc:
         raise click.BadParameter(str(exc)) from None
+    check_memory(8.0 * grid.nx * grid.ny * 16 + 3.0 * acq.azimuth_rad.size * acq.frequency_hz.shape[-1] * 16,
+                 f"a {grid.nx} x {grid.ny} PSF")
     img = psf_image(acq, grid, window=window, nbar=nbar, sll_db=sll_db, method=method)
     write_image(output, img)
     if png:

@@ -70,8 +70,8 @@ def _speckle(img, region, as_json):
 @click.option("--at", "at", multiple=True, help="Target position X,Y in metres (repeatable).")
 @window_choice(default=None,
               help="Window of the prediction (default: the one recorded in the image).")
-@click.option("--oversample", type=int, default=8, show_default=True, help="FFT interpolation factor.")
-@click.option("--sidelobe-extent", "extent_cells", type=float, default=10.0, show_default=True,
+@click.option("--oversample", type=click.IntRange(1, 64), default=8, show_default=True, help="FFT interpolation factor.")
+@click.option("--sidelobe-extent", "extent_cells", type=click.FloatRange(min=1, max=1000), default=10.0, show_default=True,
               help="Sidelobe extent for PSLR/ISLR, in resolution cells.")
 @click.option("--json", "as_json", is_flag=True, help="Print JSON instead of a table.")
 @click.option("--speckle", is_flag=True,

@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import click
 
-from .options import grid_options, handle_errors, parse_pair, window_options, wrote
+from ..formers import cost as _cost
+from .options import grid_options, handle_errors, parse_pair, prepare_outputs, window_options, wrote
 
 
 @click.command("regrid")
@@ -13,8 +14,10 @@ from .options import grid_options, handle_errors, parse_pair, window_options, wr
 @window_options
 @grid_options
 @click.option("--kernel", type=click.Choice(["kaiser", "linear"]), default="kaiser", show_default=True)
-@click.option("--oversample", type=float, default=2.0, show_default=True)
-@click.option("--width", type=int, default=6, show_default=True)
+@click.option("--oversample", type=click.FloatRange(*_cost.OVERSAMPLE_RANGE), default=2.0, show_default=True,
+              help="k-grid oversampling.")
+@click.option("--width", type=click.IntRange(*_cost.WIDTH_RANGE), default=6, show_default=True,
+              help="Kaiser-Bessel kernel width (cells).")
 @click.pass_context
 @handle_errors
 def command(ctx, input_path, output, window, taylor_nbar, taylor_sll_db, center, extent, pixel_size,
@@ -24,9 +27,13 @@ def command(ctx, input_path, output, window, taylor_nbar, taylor_sll_db, center,
     from ..core.grid import resolve_grid
     from ..io.hdf5 import read_phase_history, write_kgrid
 
+    from ..formers.cost import check_form_image
+
+    prepare_outputs([("input", input_path)], [("output", output)])
     ph = read_phase_history(input_path, truth=False)
     grid = resolve_grid(ph.acquisition.grid, center=parse_pair(center, "--center"),
                         extent=parse_pair(extent, "--extent"), pixel_size=pixel_size)
+    check_form_image(ph, "pfa", grid, oversample=oversample, width=width)
     kg = regrid(ph, grid=grid, window=window, taylor_nbar=taylor_nbar, taylor_sll_db=taylor_sll_db,
                 kernel=kernel, oversample=oversample, width=width)
     write_kgrid(output, kg)

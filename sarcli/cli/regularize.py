@@ -32,9 +32,9 @@ def _parse_lam(text):
 @click.option("--lam", default="auto", show_default=True, metavar="auto|NUMBER",
               help="Regularisation weight λ in normalised units (l1: λ ≥ 2 zeroes the image); auto: the "
                    "discrepancy principle with the noise power from the file or estimated from the data.")
-@click.option("--beta", type=float, default=None, help="ADMM penalty β (default 32 λ).")
+@click.option("--beta", type=click.FloatRange(min=0, min_open=True), default=None, help="ADMM penalty β (default 32 λ).")
 @click.option("--iters", type=click.IntRange(min=1), default=300, show_default=True, help="Iteration cap.")
-@click.option("--tol", type=float, default=1e-4, show_default=True, help="Relative-change tolerance.")
+@click.option("--tol", type=click.FloatRange(min=0), default=1e-4, show_default=True, help="Relative-change tolerance.")
 @click.option("--operator", type=click.Choice(["auto", "nufft", "toeplitz", "spherical"]), default="auto",
               show_default=True, help="Forward operator: NUFFT pair, pre-gridded Toeplitz, spherical pair.")
 @click.option("--anisotropic", is_flag=True, help="Anisotropic TV shrinkage (default isotropic).")
@@ -56,8 +56,17 @@ def command(ctx, input_path, output, prior, order, lam, beta, iters, tol, operat
     from ..viz import plot_history
     from ..regularize import regularize
 
+    from ..core.grid import resolve_grid
+    from ..formers.cost import check_regularize
+    from .options import prepare_outputs
+
+    prepare_outputs([("input", input_path), ("--init", init_path)],
+                    [("output", output), ("--png", png_path), ("--geotiff", tif_path), ("--history-png", history_png)])
     lam = _parse_lam(lam)
     ph = read_phase_history(input_path, truth=False)
+    check_regularize(ph, resolve_grid(ph.acquisition.grid, center=parse_pair(center, "--center"),
+                                      extent=parse_pair(extent, "--extent"), pixel_size=pixel_size),
+                     iters=iters, operator=operator)
     init = read_image(init_path) if init_path else None
     bar = progress(total=iters, desc=f"regularize {prior}", unit="it")
 
