@@ -37,7 +37,16 @@ def command(ctx, plan_path, outdir, scheduler, n_workers, force):
     if scheduler and n_workers:
         raise click.BadParameter("--workers sizes the local cluster; it cannot be used with --scheduler",
                                  param_hint="--workers")
+    from pathlib import Path
+
+    from .._util.atomic import reserve
+    from .._util.guard import refuse_overwrite
+
     plan = load_plan(plan_path)
+    out = Path(outdir)
+    inputs = [("plan", plan_path)] + sorted({("input of a job", j.input) for j in plan.jobs if j.input})
+    refuse_overwrite(inputs, [("output", out / "batch-report.json")] + [("output", out / j.name) for j in plan.jobs])
+    reserve(out / "batch-report.json")  # the output folder is writable, before any job starts
     report = run_plan(plan, outdir, scheduler=scheduler, n_workers=n_workers, force=force)
     for r in report.failed:
         click.echo(f"failed: {r.name} (input {r.input}): {r.error}", err=True)

@@ -50,9 +50,11 @@ def _show_warning(message, category, filename, lineno, file=None, line=None):
 
 
 def _one_line(prefix, exc) -> str:
-    text = " ".join(str(exc).split()) or type(exc).__name__
-    line = f"{prefix}: {text}"
-    return line if len(line) <= MAX_MESSAGE else line[:MAX_MESSAGE] + "..."
+    """``prefix: message``, each line cut at :data:`MAX_MESSAGE` characters (a message that lists
+    several mistakes, like a bad batch plan's, keeps one line per mistake, at most 20)."""
+    lines = [ln for ln in str(exc).splitlines() if ln.strip()] or [type(exc).__name__]
+    lines = [ln if len(ln) <= MAX_MESSAGE else ln[:MAX_MESSAGE] + "..." for ln in lines[:20]]
+    return f"{prefix}: " + "\n".join(lines)
 
 
 def handle_errors(func):
