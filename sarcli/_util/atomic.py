@@ -31,8 +31,23 @@ def temp_path(path) -> Path:
 
 
 def _first_line(exc: BaseException, limit: int = 200) -> str:
+    code = getattr(exc, "errno", None)
+    if isinstance(code, int) and code > 0:
+        return os.strerror(code)  # "No space left on device", "Permission denied", ...
     text = (getattr(exc, "strerror", None) or str(exc) or type(exc).__name__).splitlines()[0]
     return text if len(text) <= limit else text[:limit] + "..."
+
+
+def _os_error(exc: BaseException | None, depth: int = 4):
+    """The operating-system error behind ``exc``: itself, or one it was raised while handling
+    (h5py raises a RuntimeError on closing a file whose write failed with ENOSPC)."""
+    while exc is not None and depth > 0:
+        if isinstance(exc, OSError):
+            return exc
+        if not isinstance(exc, (RuntimeError, ValueError)) or isinstance(exc, SarcliInputError):
+            return None
+        exc, depth = exc.__context__, depth - 1
+    return None
 
 
 def _make_parent(final: Path) -> None:
@@ -103,10 +118,10 @@ def atomic_path(path):
                 raise KeyboardInterrupt
             os.replace(tmp, final)
             _TEMPS.pop(tmp, None)
-    except OSError as exc:
+    except BaseException as exc:
         _discard(tmp)
-        raise SarcliInputError(f"{final}: could not be written ({_first_line(exc)}); "
+        cause = _os_error(exc)
+        if cause is None:
+            raise
+        raise SarcliInputError(f"{final}: could not be written ({_first_line(cause)}); "
                                "any previous file is untouched") from None
-    except BaseException:
-        _discard(tmp)
-        raise

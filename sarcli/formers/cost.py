@@ -117,12 +117,11 @@ def check_form_image(src, method, grid, *, oversample=2.0, upsample=None, eps=No
         t = direct_seconds(p, m, grid.nx * grid.ny, model, nthreads)
         if t > DIRECT_WARN_S:
             if model == "farfield":
-                faster = "method nufft (eps 1e-9) gives the same image to ~1e-9 relative error"
+                faster = "method nufft (default eps 1e-9: relative error ~1e-9 against direct)"
             else:
-                faster = ("method backprojection (defaults) is within ~1e-3 relative error of direct; "
-                          "--upsample 32 for ~1e-4")
+                faster = "method backprojection (default knobs: relative error ~3e-4 against direct)"
             warnings.warn(f"direct on {grid.nx} x {grid.ny} pixels from {p} x {m} samples ({model}): "
-                          f"estimated {t:.3g} s; {faster}, in a small fraction of that", SarcliWarning,
+                          f"estimated {t:.3g} s; {faster} takes a small fraction of that", SarcliWarning,
                           stacklevel=2)
 
 
