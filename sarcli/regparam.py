@@ -61,7 +61,8 @@ def estimate_noise_power(data, frequency_hz, scene_radius_m: float, *, margin_bi
     ----------
     data : ndarray (P, M) complex
     frequency_hz : ndarray (M,) or (P, M)
-        Must be uniformly spaced along each pulse.
+        Must be uniformly spaced along each pulse (to 1 % of the step: recorded frequencies are
+        often quantised).
     scene_radius_m : float
         Largest |differential range| of any scatterer (e.g. the distance from the data's
         reference point to the farthest grid corner).
@@ -80,7 +81,7 @@ def estimate_noise_power(data, frequency_hz, scene_radius_m: float, *, margin_bi
     f = np.broadcast_to(np.asarray(frequency_hz, np.float64), d.shape)
     df = np.diff(f, axis=1)
     step = np.median(np.abs(df))
-    if not step > 0 or np.max(np.abs(np.abs(df) - step)) > 1e-6 * step:
+    if not step > 0 or np.max(np.abs(np.abs(df) - step)) > 1e-2 * step:
         return None
     m = d.shape[1]
     r_bin = 299_792_458.0 / (2.0 * step * m)  # range per bin (m); the window is m bins
