@@ -1,19 +1,28 @@
 """Choice of the regularisation weight λ: the discrepancy principle (``lam='auto'``).
 
-Criterion (Morozov's discrepancy principle)
--------------------------------------------
+Criterion (Morozov's discrepancy principle, corrected for the degrees of freedom)
+----------------------------------------------------------------------------------
 With data ``b = A f + n``, ``n`` white complex noise of power ``σ² = E|n_i|²`` over ``n_b``
-samples, a good reconstruction explains the data down to the noise and no further:
+samples, a good reconstruction explains the data down to the noise and no further. The ratio
 
-    λ* solves   ‖A f_λ − b‖² = τ · n_b · σ²
+    r(λ) = ‖A f_λ − b‖² / (n_b σ²)
 
-The residual grows monotonically with λ (for ℓ1 / TV / Tikhonov penalties), so λ* is found on a
-decreasing path of λ values (``LAM_PATH``, log-spaced over the normalised units of
-:mod:`sarcli.regularize`), each solve warm-started from the previous one, stopping at the first λ
-whose residual falls below the target; λ* is then interpolated in log λ between the two
-bracketing values. The curve (λ, ``‖A f_λ − b‖² / (n_b σ²)``) is returned so that the image file
-can record it. ``τ = DISCREPANCY_TAU``: a fit to exactly the noise level (E‖r‖² = σ²(n_b − dof)
-for an estimate with dof degrees of freedom, so τ = 1 errs on the side of smoothing).
+grows monotonically with λ. The classical principle picks r(λ*) = τ = 1; but an estimate with
+``dof`` degrees of freedom has E‖r‖² = σ²(n_b − dof), and here the image has a sizeable fraction
+of the data's degrees of freedom (e.g. 1600 pixels for 3072 samples), so r = 1 over-smooths:
+the least-squares end of the path already sits at ``r_min ≈ 0.6``. The target used by default is
+
+    r(λ*) = r_min + κ (1 − r_min),     κ = DISCREPANCY_KAPPA = 0.25,
+
+``r_min`` the ratio at the smallest λ of the path: a quarter of the way from the over-fitted floor
+to the full noise level. κ was set on the scenes of ``bench/bench_lam.py`` (where the λ of
+smallest magnitude error sits at r = r_min + 0.1 .. 0.35 (1 − r_min) for ptv and TV), so it is a
+calibrated rule, not a theorem; ``tau`` (κ None) gives the classical principle.
+
+The whole decreasing path ``LAM_PATH`` (log-spaced over the normalised units of
+:mod:`sarcli.regularize`) is solved, each solve warm-started from the previous one; λ* is
+interpolated in log λ between the two path values that bracket the target. The curve
+(λ, r(λ)) is returned so that the image file can record it.
 
 Noise power σ²
 --------------
@@ -35,13 +44,15 @@ from typing import Callable
 
 import numpy as np
 
-__all__ = ["LAM_PATH", "DISCREPANCY_TAU", "LamChoice", "estimate_noise_power", "noise_power",
+__all__ = ["LAM_PATH", "DISCREPANCY_TAU", "DISCREPANCY_KAPPA", "LamChoice", "estimate_noise_power", "noise_power",
            "discrepancy_lambda", "blackman_harris"]
 
 #: Decreasing λ path (normalised units of :mod:`sarcli.regularize`; ℓ1 zeroes the image at λ ≥ 2).
 LAM_PATH = tuple(float(v) for v in np.geomspace(1.0, 1e-3, 13))
-#: Discrepancy factor τ: the chosen λ makes ‖Af − b‖² = τ n_b σ².
+#: Classical discrepancy factor τ: ‖Af − b‖² = τ n_b σ² (used when kappa is None).
 DISCREPANCY_TAU = 1.0
+#: Default target r_min + κ (1 − r_min) of the ratio ‖Af − b‖² / (n_b σ²) (module docstring).
+DISCREPANCY_KAPPA = 0.25
 _BH = (0.35875, 0.48829, 0.14128, 0.01168)
 _BH_MAINLOBE_BINS = 4  # half-width of the Blackman-Harris main lobe, in bins of the unpadded DFT
 
@@ -129,7 +140,7 @@ class LamChoice:
     lams, ratios : list of float
         The λ path solved (decreasing) and ``‖A f_λ − b‖² / (n_b σ²)`` at each.
     target : float
-        τ (the ratio λ* attains).
+        The ratio λ* attains (τ, or r_min + κ(1 − r_min)).
     start : ndarray or None
         Solution at the path λ nearest below λ* (a warm start for the final solve).
     status : str
@@ -147,8 +158,9 @@ class LamChoice:
 
 
 def discrepancy_lambda(solve: Callable, residual2: Callable, noise_energy: float, *,
-                       lams=LAM_PATH, tau: float = DISCREPANCY_TAU, callback=None) -> LamChoice:
-    """λ with ``‖A f_λ − b‖² = τ · noise_energy`` on a decreasing, warm-started path.
+                       lams=LAM_PATH, tau: float = DISCREPANCY_TAU, kappa: float | None = None,
+                       callback=None) -> LamChoice:
+    """λ with ``‖A f_λ − b‖² = target · noise_energy`` on a decreasing, warm-started path.
 
     Parameters
     ----------
@@ -161,7 +173,11 @@ def discrepancy_lambda(solve: Callable, residual2: Callable, noise_energy: float
     lams : sequence of float
         Decreasing λ values.
     tau : float
-        Discrepancy factor.
+        Discrepancy factor (target = τ) when ``kappa`` is None; the path stops at the first λ
+        below it.
+    kappa : float, optional
+        Degrees-of-freedom-corrected target: the whole path is solved and the target is
+        ``r_min + κ (1 − r_min)``, ``r_min`` the ratio at the smallest λ (module docstring).
     callback : callable, optional
         ``callback(lam, ratio)`` after each solve.
 
@@ -174,30 +190,38 @@ def discrepancy_lambda(solve: Callable, residual2: Callable, noise_energy: float
         raise ValueError("discrepancy_lambda needs a λ path and a positive noise energy")
     out = LamChoice(lam=lams[-1], target=float(tau))
     x = None
-    prev = None
+    xs = []
     for lam in lams:
         x = solve(lam, x)
         ratio = float(residual2(x)) / noise_energy
         out.lams.append(lam)
         out.ratios.append(ratio)
+        xs.append(x)
         if callback is not None:
             callback(lam, ratio)
-        if ratio <= tau:
-            out.start = x
-            if prev is None:
-                out.lam, out.status = lam, "below at the largest λ"
-            else:
-                (l0, r0), (l1, r1) = prev, (lam, ratio)
-                t = (np.log(r0) - np.log(tau)) / (np.log(r0) - np.log(r1)) if r1 > 0 and r0 > r1 else 0.5
-                out.lam = float(np.exp(np.log(l0) + np.clip(t, 0.0, 1.0) * (np.log(l1) - np.log(l0))))
-            return out
-        prev = (lam, ratio)
-    out.start, out.status = x, "above at the smallest λ"
+        if kappa is None and ratio <= tau:
+            break
+    if kappa is not None:
+        r_min = min(out.ratios)
+        out.target = float(r_min + kappa * (1.0 - r_min))
+    target = out.target
+    below = [i for i, r in enumerate(out.ratios) if r <= target]
+    if not below:
+        out.start, out.status = x, "above at the smallest λ"
+        return out
+    i = below[0]
+    out.start = xs[i]
+    if i == 0:
+        out.lam, out.status = out.lams[0], "below at the largest λ"
+        return out
+    (l0, r0), (l1, r1) = (out.lams[i - 1], out.ratios[i - 1]), (out.lams[i], out.ratios[i])
+    t = (np.log(r0) - np.log(target)) / (np.log(r0) - np.log(r1)) if (r1 > 0 and r0 > r1) else 0.5
+    out.lam = float(np.exp(np.log(l0) + np.clip(t, 0.0, 1.0) * (np.log(l1) - np.log(l0))))
     return out
 
 
 def auto_lambda(ph, grid, scaled, data_scale: float, solve: Callable, *, lams=LAM_PATH,
-                tau: float = DISCREPANCY_TAU):
+                tau: float = DISCREPANCY_TAU, kappa: float | None = DISCREPANCY_KAPPA):
     """λ for :func:`sarcli.regularize.regularize` by the discrepancy principle, and its record.
 
     Parameters
@@ -216,12 +240,12 @@ def auto_lambda(ph, grid, scaled, data_scale: float, solve: Callable, *, lams=LA
     choice : LamChoice or None
         None when no noise power is known or can be estimated.
     record : dict
-        JSON-ready: criterion, τ, σ² and its source, status, the λ path and the ratios
-        ``‖Âu − b̂‖² / (n_b σ̂²)``.
+        JSON-ready: criterion, κ, σ² and its source, status, the target ratio, the λ path and
+        the ratios ``‖Âu − b̂‖² / (n_b σ̂²)`` (criterion's curve).
     """
     sigma2, source = noise_power(ph, grid)
-    record = {"criterion": "discrepancy", "tau": float(tau), "noise_power": sigma2,
-              "noise_source": source}
+    record = {"criterion": "discrepancy" if kappa is None else "discrepancy, dof-corrected",
+              "kappa": kappa, "noise_power": sigma2, "noise_source": source}
     if sigma2 is None:
         return None, record
     noise_energy = ph.data.size * sigma2 / data_scale**2
@@ -230,7 +254,7 @@ def auto_lambda(ph, grid, scaled, data_scale: float, solve: Callable, *, lams=LA
     def residual2(u):
         return scaled.residual_norm2(u, gram.forward(u))
 
-    choice = discrepancy_lambda(solve, residual2, noise_energy, lams=lams, tau=tau)
-    record.update(status=choice.status, lam=choice.lam, lams=list(choice.lams),
+    choice = discrepancy_lambda(solve, residual2, noise_energy, lams=lams, tau=tau, kappa=kappa)
+    record.update(status=choice.status, lam=choice.lam, target=choice.target, lams=list(choice.lams),
                   ratios=list(choice.ratios), data_norm_ratio=float(scaled.bnorm2 / noise_energy))
     return choice, record

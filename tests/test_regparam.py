@@ -65,6 +65,13 @@ def test_discrepancy_path_against_tikhonov_denoising_closed_form():
     assert over.status == "below at the largest λ" and over.lam == max(LAM_PATH)
     under = discrepancy_lambda(solve, lambda f: float(np.vdot(f - b, f - b).real), 1e-9 * bb, lams=LAM_PATH)
     assert under.status == "above at the smallest λ" and under.lam == min(LAM_PATH)
+    # dof-corrected target: r_min + κ(1 − r_min) on the whole path
+    rel = discrepancy_lambda(solve, lambda f: float(np.vdot(f - b, f - b).real), energy,
+                             lams=np.geomspace(1.0, 1e-3, 61), kappa=0.25)
+    r_min = min(rel.ratios)
+    assert len(rel.ratios) == 61 and rel.target == pytest.approx(r_min + 0.25 * (1 - r_min))
+    s = np.sqrt(rel.target * energy / bb)
+    assert rel.lam == pytest.approx(s / (1 - s), rel=0.01)
 
 
 def test_auto_lambda_ptv_beats_matched_filter_by_the_target(shapes):
@@ -76,10 +83,13 @@ def test_auto_lambda_ptv_beats_matched_filter_by_the_target(shapes):
     err = mag_error(img.image, truth)
     assert err <= 0.65 * err_mf, (err, err_mf)
     sel = img.parameters["lam_selection"]
-    assert sel["criterion"] == "discrepancy" and sel["status"] == "bracketed"
+    assert sel["criterion"].startswith("discrepancy") and sel["status"] == "bracketed"
     assert img.parameters["lam"] == pytest.approx(sel["lam"])
-    assert sel["lams"][-1] <= sel["lam"] <= sel["lams"][-2]
-    assert sel["ratios"][-1] <= 1.0 < sel["ratios"][-2]
+    r = np.array(sel["ratios"])
+    assert sel["lams"] == list(LAM_PATH) and np.all(np.diff(r) < 0)   # the whole curve, monotone
+    assert sel["target"] == pytest.approx(r.min() + 0.25 * (1 - r.min()))
+    i = int(np.argmax(r <= sel["target"]))
+    assert sel["lams"][i] <= sel["lam"] <= sel["lams"][i - 1]
     assert img.parameters["beta"] == pytest.approx(32 * sel["lam"])
 
 
@@ -108,7 +118,7 @@ def test_cli_lam_auto_is_the_default_and_recorded(tmp_path, shapes):
     res = CliRunner().invoke(cli, ["regularize", str(src), "-o", str(out), "--iters", "40"])
     assert res.exit_code == 0, res.output
     p = read_image(out).parameters
-    assert p["lam_selection"]["criterion"] == "discrepancy" and len(p["lam_selection"]["lams"]) >= 2
+    assert p["lam_selection"]["criterion"].startswith("discrepancy") and len(p["lam_selection"]["ratios"]) >= 2
     json.dumps(p)
     res = CliRunner().invoke(cli, ["regularize", str(src), "-o", str(out), "--lam", "0.05", "--iters", "5"])
     assert res.exit_code == 0 and read_image(out).parameters["lam"] == 0.05

@@ -11,6 +11,7 @@ method                    data model             how
 ``nufft``                 far-field              one type-1 NUFFT (FINUFFT), knob ``eps``
 ``pfa``                   far-field              gridding onto a Cartesian k-grid + FFT
 ``backprojection``        spherical (any path)   range-compress, interpolate, phase, accumulate
+``ffbp``                  spherical (any path)   sub-aperture polar images merged in stages
 ========================  =====================  ==============================================
 
 A far-field method applied to spherical data warns with the predicted phase error at the grid's
@@ -35,7 +36,7 @@ from ..core.windows import window_weights
 
 __all__ = ["form_image", "regrid", "METHODS", "image_error"]
 
-METHODS = ("direct", "nufft", "pfa", "backprojection")
+METHODS = ("direct", "nufft", "pfa", "backprojection", "ffbp")
 FARFIELD_METHODS = ("nufft", "pfa")
 #: Virtual stand-off range per metre of grid half-diagonal used to backproject far-field data.
 VIRTUAL_RANGE_PER_M = 5.0e7
@@ -100,7 +101,8 @@ def form_image(ph, method: str = "nufft", *, grid: Grid | None = None, center=No
                pixel_size=None, window: str = "none", taylor_nbar: int = 4, taylor_sll_db: float = -35.0,
                eps: float = 1e-9, kernel: str = "kaiser", oversample: float = 2.0, width: int = 6,
                upsample: float | None = None, interp: str | None = None, precision: str = "float64",
-               nthreads: int | None = None) -> Image:
+               nthreads: int | None = None, base: int | None = None, merge: int | None = None,
+               os_range: float | None = None, os_angle: float | None = None) -> Image:
     """Form the matched-filter image of a phase history.
 
     Parameters
@@ -122,6 +124,10 @@ def form_image(ph, method: str = "nufft", *, grid: Grid | None = None, center=No
     upsample, interp, precision, nthreads :
         Backprojection range-profile upsampling, interpolator ('linear', 'cubic', 'lanczos'),
         arithmetic ('float64' or 'float32'), threads.
+    base, merge, os_range, os_angle :
+        Fast factorised backprojection (``ffbp``, :mod:`sarcli.formers.ffbp`): pulses per base
+        sub-aperture, sub-apertures merged per stage, polar-grid oversampling in range and angle;
+        with ``upsample`` and ``interp`` ('linear', 'cubic', 'lanczos', 'optimal'). ``None``: its defaults.
 
     Returns
     -------
@@ -171,6 +177,19 @@ def form_image(ph, method: str = "nufft", *, grid: Grid | None = None, center=No
                     kernel=kernel, oversample=oversample, width=width)
         img = pfa_image(kg, grid)
         params.update({"kernel": kernel, "oversample": oversample, "width": width})
+    elif method == "ffbp":
+        from .ffbp import ffbp_image
+
+        pos, r0 = _positions(ph, grid)
+        rcv = acq.receive_position_m if ph.model == "spherical" and getattr(acq, "is_bistatic", False) else None
+        if rcv is not None:
+            pos = acq.transmit_position_m
+        img, extra = ffbp_image(ph.data, acq.frequency_hz, pos, r0, grid, w, receive_position_m=rcv,
+                                upsample=upsample, interp=interp, nthreads=nthreads, base=base, merge=merge,
+                                os_range=os_range, os_angle=os_angle)
+        params.update(extra)
+        if ph.model != "spherical":
+            params["virtual_range_m"] = float(r0[0])
     else:
         from . import backprojection as bp
 
