@@ -12,16 +12,33 @@ from __future__ import annotations
 
 import contextlib
 import os
+import sys
 import threading
 from pathlib import Path
 
 from ..errors import SarcliInputError
 
-__all__ = ["atomic_path", "reserve", "release_all", "temp_path", "LOCK"]
+__all__ = ["atomic_path", "reserve", "release_all", "temp_path", "LOCK", "WriteError"]
 
 #: held while a temporary file is renamed onto its final name or removed by a clean-up
 LOCK = threading.RLock()
 _TEMPS: dict[Path, Path] = {}  # temporary path -> final path
+
+
+class WriteError(SarcliInputError):
+    """Writing an output failed (full disk, quota, permission): the previous file is untouched."""
+
+
+def _quiet_unraisable(previous):
+    """An unraisable-exception hook that drops h5py's complaints about a file whose write failed
+    (its objects fail again when they are freed); anything else goes to ``previous``."""
+    def hook(unraisable):
+        exc = unraisable.exc_value
+        if isinstance(exc, (OSError, RuntimeError)) and "errno" in str(exc):
+            return
+        previous(unraisable)
+    hook.sarcli_quiet = True
+    return hook
 
 
 def temp_path(path) -> Path:
@@ -111,6 +128,8 @@ def atomic_path(path):
     tmp = temp_path(final)
     with LOCK:
         _TEMPS[tmp] = final
+    if not getattr(sys.unraisablehook, "sarcli_quiet", False):
+        sys.unraisablehook = _quiet_unraisable(sys.unraisablehook)
     try:
         yield tmp
         with LOCK:
@@ -123,5 +142,5 @@ def atomic_path(path):
         cause = _os_error(exc)
         if cause is None:
             raise
-        raise SarcliInputError(f"{final}: could not be written ({_first_line(cause)}); "
-                               "any previous file is untouched") from None
+        raise WriteError(f"{final}: could not be written ({_first_line(cause)}); "
+                         "any previous file is untouched") from None

@@ -18,7 +18,7 @@ import signal
 import sys
 import threading
 
-__all__ = ["install", "EXIT_CODES"]
+__all__ = ["install", "installed", "EXIT_CODES"]
 
 #: signal -> exit status
 EXIT_CODES = {signal.SIGINT: 130, signal.SIGTERM: 143}
@@ -70,6 +70,11 @@ def _watch(fd: int) -> None:
 
 def _ignore(signum, frame):  # the watchdog acts; the main thread keeps going until it is stopped
     pass
+
+
+def installed() -> bool:
+    """True in a process whose handlers :func:`install` set (the ``sar`` command line)."""
+    return _state["installed"]
 
 
 def install() -> bool:

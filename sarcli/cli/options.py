@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import functools
 import math
+import os
 import sys
 import warnings
 
@@ -68,7 +69,8 @@ def handle_errors(func):
 
     @functools.wraps(func)
     def wrapper(*args, **kwargs):
-        from .._util.atomic import release_all
+        from .._util.atomic import WriteError, release_all
+        from .._util.interrupt import installed as interrupt_installed
 
         old = warnings.showwarning
         warnings.showwarning = _show_warning
@@ -77,6 +79,14 @@ def handle_errors(func):
                 warnings.simplefilter("default", SarcliWarning)
                 warnings.showwarning = _show_warning
                 return func(*args, **kwargs)
+        except WriteError as exc:
+            click.echo(_one_line("error", exc), err=True)
+            release_all()
+            if interrupt_installed():  # a real process: h5py may crash freeing the failed file at exit
+                sys.stdout.flush()
+                sys.stderr.flush()
+                os._exit(2)
+            sys.exit(2)
         except SarcliInputError as exc:
             click.echo(_one_line("error", exc), err=True)
             sys.exit(2)

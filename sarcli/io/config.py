@@ -83,7 +83,7 @@ def _number(ctx, key, value, *, lo=None, hi=None, lo_open=False, hi_open=False, 
         if isinstance(value, str) and len(value) < 40:
             try:
                 float(value)
-                hint = " (YAML reads a number without a decimal point, like 1e12, as text: write 1.0e12)"
+                hint = " (YAML 1.1 reads 1e12 or 1.0e12 as text: write 1.0e+12)"
             except ValueError:
                 pass
         ctx.fail(key, f"value {short_repr(value)} is {type(value).__name__}, expected {kind}{what}{hint}")
