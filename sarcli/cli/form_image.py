@@ -27,16 +27,21 @@ from .options import (export_options, grid_options, handle_errors, parse_pair, p
               help="PFA Kaiser-Bessel kernel width (cells).")
 @click.option("--upsample", type=click.FloatRange(*_cost.UPSAMPLE_RANGE), default=None,
               help="Backprojection range-profile upsampling (default 8).")
-@click.option("--interp", type=click.Choice(["linear", "cubic", "lanczos"]), default=None,
-              help="Backprojection interpolator (default cubic).")
+@click.option("--interp", type=click.Choice(["linear", "cubic", "lanczos", "optimal"]), default=None,
+              help="Backprojection / ffbp interpolator (default cubic / optimal; 'optimal' is ffbp only).")
 @click.option("--precision", type=click.Choice(["float64", "float32"]), default="float64", show_default=True,
               help="Backprojection arithmetic.")
+@click.option("--base", type=click.IntRange(min=1), default=None, help="ffbp: pulses per base sub-aperture (default 8).")
+@click.option("--merge", type=click.IntRange(min=2), default=None, help="ffbp: sub-apertures merged per stage (default 2).")
+@click.option("--os-range", type=click.FloatRange(min=1), default=None, help="ffbp: polar-grid range oversampling (default 2).")
+@click.option("--os-angle", type=click.FloatRange(min=1), default=None, help="ffbp: polar-grid angular oversampling (default 2).")
 @threads_option
 @export_options
 @click.pass_context
 @handle_errors
 def command(ctx, input_path, output, method, window, taylor_nbar, taylor_sll_db, center, extent, pixel_size,
-            eps, kernel, oversample, width, upsample, interp, precision, nthreads, png_path, tif_path):
+            eps, kernel, oversample, width, upsample, interp, precision, base, merge, os_range, os_angle, nthreads,
+            png_path, tif_path):
     """Form the matched-filter image of a phase history (or of a k-grid file with --method pfa)."""
     from ..formers.formation import form_image
     from ..io import open_input
@@ -55,7 +60,8 @@ def command(ctx, input_path, output, method, window, taylor_nbar, taylor_sll_db,
     img = form_image(src, method, center=parse_pair(center, "--center"), extent=parse_pair(extent, "--extent"),
                      pixel_size=pixel_size, window=window, taylor_nbar=taylor_nbar, taylor_sll_db=taylor_sll_db,
                      eps=eps, kernel=kernel, oversample=oversample, width=width, upsample=upsample,
-                     interp=interp, precision=precision, nthreads=nthreads)
+                     interp=interp, precision=precision, nthreads=nthreads, base=base, merge=merge,
+                     os_range=os_range, os_angle=os_angle)
     write_image(output, img)
     write_side_outputs(img, png_path, tif_path)
     wrote(output, f"{img.method}, {img.image.shape[1]} x {img.image.shape[0]} pixels, {img.runtime_s:.3g} s")

@@ -31,6 +31,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "import": ("import_", "Import real phase history (GOTCHA .mat, CPHD)."),
     "regularize": ("regularize", "Regularised image: TV, higher-order TV, l1, phase-corrected TV, Tikhonov."),
     "batch": ("batch", "Run a plan of many imaging jobs on dask."),
+    "autofocus": ("autofocus", "Estimate and remove per-pulse phase errors (PGA, minimum entropy)."),
 }
 
 

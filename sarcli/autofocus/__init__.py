@@ -1,0 +1,75 @@
+"""Autofocus: estimate per-pulse phase errors from the data and remove them.
+
+A phase history with an unknown per-pulse phase error ``ε_p`` (platform motion not measured to a
+fraction of a wavelength) is ``d[p, j] = d0[p, j] · exp(i ε_p)``; its image blurs in cross-range.
+Autofocus estimates ``ε̂`` and returns ``d · exp(-i ε̂_p)`` with the estimate recorded
+(``/autofocus/phase_rad`` and its ``method``, CONVENTIONS.md).
+
+What the data cannot tell
+-------------------------
+A constant phase changes no image magnitude, and a phase linear in the look angle only shifts
+the image in cross-range (a scene has no absolute position in its own data). Neither is
+observable, so every estimate here is returned with its constant and linear part (least-squares
+fit against look azimuth) removed; comparisons with a known error must remove them too
+(:func:`remove_linear_phase`).
+
+Methods
+-------
+``pga``
+    Phase gradient autofocus (:mod:`sarcli.autofocus.pga`): dominant-scatterer selection,
+    centre shift, windowing, phase-gradient estimate, integration, iterated to convergence;
+    the range samples come from each scatterer's own exact range history, so any flight path
+    (and a bistatic one) works.
+``min-entropy``
+    Minimum image entropy (:mod:`sarcli.autofocus.entropy`), started from PGA and constrained to
+    stay near it (an unconstrained minimum-entropy solution drifts).
+
+Both never return a correction that leaves the image less sharp than it was: the result is kept
+only when the image entropy does not rise and the peak-to-mean ratio does not fall (measured on
+the estimation grid); otherwise the estimate is zero and a warning says so.
+"""
+
+from __future__ import annotations
+
+from ._common import (AutofocusResult, apply_phase_correction, estimation_grid, remove_linear_phase)
+
+__all__ = ["autofocus", "METHODS", "AutofocusResult", "apply_phase_correction", "remove_linear_phase",
+           "estimation_grid"]
+
+#: Autofocus methods (``sar autofocus --method``, ``form-image --autofocus``).
+METHODS = ("pga", "min-entropy")
+
+
+def autofocus(ph, method: str = "pga", *, grid=None, **options):
+    """Estimate and remove per-pulse phase errors.
+
+    Parameters
+    ----------
+    ph : PhaseHistory
+    method : {'pga', 'min-entropy'}
+    grid : Grid, optional
+        The image grid to focus (default the acquisition's); large grids are cut to a central
+        estimation window (:func:`estimation_grid`).
+    **options
+        Passed to :func:`sarcli.autofocus.pga.pga` or :func:`sarcli.autofocus.entropy.min_entropy`.
+
+    Returns
+    -------
+    corrected : PhaseHistory
+        ``data · exp(-i ε̂_p)``, attrs ``autofocus_phase_rad`` (written as ``/autofocus/phase_rad``;
+        it accumulates over repeated runs) and ``autofocus_method``.
+    result : AutofocusResult
+    """
+    from ..errors import SarcliInputError
+
+    if method not in METHODS:
+        raise SarcliInputError(f"unknown autofocus method {method!r}; choose one of {', '.join(METHODS)}")
+    if method == "pga":
+        from .pga import pga
+
+        res = pga(ph, grid=grid, **options)
+    else:
+        from .entropy import min_entropy
+
+        res = min_entropy(ph, grid=grid, **options)
+    return apply_phase_correction(ph, res.phase_rad, method), res

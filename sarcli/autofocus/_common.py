@@ -1,0 +1,213 @@
+"""Shared pieces of the autofocus methods: per-pulse signals, images, sharpness guard, records."""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..core import geometry
+from ..core.grid import Grid
+from ..core.types import PhaseHistory
+from ..errors import SarcliInputError, SarcliWarning
+
+__all__ = ["AutofocusResult", "apply_phase_correction", "remove_linear_phase", "estimation_grid",
+           "pulse_signals", "pulse_images", "form", "sharpness", "keep_if_sharper", "guarded_grid",
+           "MAX_ESTIMATION_PIXELS"]
+
+#: Largest estimation grid (pixels); bigger grids are cut to a central square of this size.
+MAX_ESTIMATION_PIXELS = 128 * 128
+#: Largest guarded grid of minimum entropy (pixels; its single-pulse image stack is P times this).
+MAX_GUARDED_PIXELS = 192 * 192
+
+
+@dataclass
+class AutofocusResult:
+    """An autofocus estimate and how it was reached.
+
+    Attributes
+    ----------
+    phase_rad : ndarray, shape (P,)
+        ``ε̂_p`` with its constant and linear part removed; the data are corrected by ``exp(-i ε̂)``.
+    method : str
+    iterations : int
+    entropy_before, entropy_after, peak_to_mean_before, peak_to_mean_after : float
+        Sharpness of the image on the estimation grid before and after the correction.
+    history : dict
+        Per-iteration diagnostics (e.g. rms phase increment, window width, entropy).
+    accepted : bool
+        False when the estimate would have made the image less sharp and was replaced by zero.
+    """
+
+    phase_rad: np.ndarray
+    method: str
+    iterations: int = 0
+    entropy_before: float = float("nan")
+    entropy_after: float = float("nan")
+    peak_to_mean_before: float = float("nan")
+    peak_to_mean_after: float = float("nan")
+    history: dict = field(default_factory=dict)
+    accepted: bool = True
+
+    def summary(self) -> dict:
+        return {"method": self.method, "iterations": self.iterations, "accepted": self.accepted,
+                "entropy_before": self.entropy_before, "entropy_after": self.entropy_after,
+                "peak_to_mean_before": self.peak_to_mean_before, "peak_to_mean_after": self.peak_to_mean_after,
+                "rms_phase_rad": float(np.sqrt(np.mean(self.phase_rad ** 2)))}
+
+
+def remove_linear_phase(phase_rad, azimuth_rad) -> np.ndarray:
+    """``phase`` minus its least-squares fit ``a + b·θ`` over look azimuth (the unobservable part)."""
+    phi = np.asarray(phase_rad, dtype=np.float64)
+    th = np.unwrap(np.asarray(azimuth_rad, dtype=np.float64))
+    if phi.size < 2:
+        return phi - phi.mean()
+    A = np.column_stack([np.ones_like(th), th - th.mean()])
+    coef, *_ = np.linalg.lstsq(A, phi, rcond=None)
+    return phi - A @ coef
+
+
+def apply_phase_correction(ph: PhaseHistory, phase_rad, method: str) -> PhaseHistory:
+    """``data · exp(-i phase_p)``, the estimate accumulated into ``attrs['autofocus_phase_rad']``."""
+    phi = np.asarray(phase_rad, dtype=np.float64)
+    if phi.shape != (ph.data.shape[0],):
+        raise SarcliInputError(f"autofocus phase has shape {phi.shape}, expected ({ph.data.shape[0]},)")
+    data = np.asarray(ph.data)
+    out = (data * np.exp(-1j * phi)[:, None]).astype(data.dtype)
+    attrs = dict(ph.attrs)
+    prev = attrs.get("autofocus_phase_rad")
+    total = phi if prev is None else np.asarray(prev, np.float64) + phi
+    prev_method = attrs.get("autofocus_method")
+    attrs["autofocus_phase_rad"] = total
+    attrs["autofocus_method"] = method if not prev_method else f"{prev_method}+{method}"
+    return PhaseHistory(data=out, acquisition=ph.acquisition, truth=ph.truth, attrs=attrs)
+
+
+def estimation_grid(grid: Grid, max_pixels: int = MAX_ESTIMATION_PIXELS) -> Grid:
+    """``grid``, or its central square window of at most ``max_pixels`` pixels (same spacing)."""
+    if grid.nx * grid.ny <= max_pixels:
+        return grid
+    side = int(np.sqrt(max_pixels)) // 2 * 2
+    nx, ny = min(grid.nx, side), min(grid.ny, side)
+    return Grid(nx, ny, grid.dx, grid.dy, grid.cx, grid.cy)
+
+
+def guarded_grid(grid: Grid, acq, factor: float = 1.5, max_pixels: int = MAX_GUARDED_PIXELS) -> Grid:
+    """``grid`` widened ``factor`` times about its centre (a guard band), at most to the alias-free
+    diameter and ``max_pixels`` pixels.
+
+    The entropy of an image measured on a window can fall when a phase error pushes energy out of
+    the window: that, more than the metric itself, is what lets minimum entropy drift from the
+    truth (measured: 0.6 rad rms away on a point scene without the band, 0.01 rad with it).
+    """
+    r_rg, r_cr = acq.alias_free_radii()
+    diam = 2.0 * max(min(r_rg, 1e9), min(r_cr, 1e9))
+    nx = int(min(round(grid.nx * factor), max(grid.nx, diam / grid.dx))) // 2 * 2
+    ny = int(min(round(grid.ny * factor), max(grid.ny, diam / grid.dy))) // 2 * 2
+    scale = min(1.0, np.sqrt(max_pixels / (nx * ny)))
+    nx, ny = max(2, int(nx * scale) // 2 * 2), max(2, int(ny * scale) // 2 * 2)
+    return Grid(nx, ny, grid.dx, grid.dy, grid.cx, grid.cy)
+
+
+def _phases(acq, pts):
+    """ψ[p, j, k] of the data model for points ``pts`` [K, 3] (bistatic aware)."""
+    if acq.model == "spherical":
+        t, q, r0 = acq.range_geometry()
+        dr = geometry.bistatic_differential_range(t, q, r0, pts)
+        return (4.0 * np.pi / geometry.C) * acq.frequencies_2d[:, :, None] * dr[:, None, :]
+    return geometry.signal_phase(acq.frequency_hz, acq.azimuth_rad, acq.elevation_rad, pts)
+
+
+def pulse_signals(ph: PhaseHistory, points_m, *, chunk: int = 16) -> np.ndarray:
+    """Each pulse's matched filter at each point, ``z[p, k] = (1/M) Σ_j d[p, j] exp(+i ψ_pjk)``.
+
+    For an isolated scatterer at ``x_k`` this is ``a_k exp(i ε_p)``: the scatterer's phase
+    history across pulses, compensated to its own exact range history (any flight path).
+    """
+    pts = np.atleast_2d(np.asarray(points_m, dtype=np.float64))
+    if pts.shape[1] == 2:
+        pts = np.column_stack([pts, np.zeros(len(pts))])
+    d = np.asarray(ph.data, dtype=np.complex128)
+    out = np.empty((d.shape[0], len(pts)), dtype=np.complex128)
+    for s in range(0, len(pts), chunk):
+        psi = _phases(ph.acquisition, pts[s:s + chunk])
+        out[:, s:s + chunk] = np.einsum("pj,pjk->pk", d, np.exp(1j * psi)) / d.shape[1]
+    return out
+
+
+def form(ph: PhaseHistory, grid: Grid, phase_rad=None) -> np.ndarray:
+    """The matched-filter image of ``ph · exp(-i phase)`` on ``grid`` (backprojection, else direct)."""
+    from ..formers.formation import form_image
+
+    src = ph if phase_rad is None else apply_phase_correction(ph, phase_rad, "trial")
+    method = "backprojection" if ph.data.shape[1] >= 2 else "direct"
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", SarcliWarning)
+            return np.asarray(form_image(src, method, grid=grid).image)
+    except SarcliInputError:
+        return np.asarray(form_image(src, "direct", grid=grid).image)
+
+
+def pulse_images(ph: PhaseHistory, grid: Grid) -> np.ndarray:
+    """The stack ``B[p, s]`` of single-pulse images (complex64, P × pixels): ``f = Σ_p B[p]``
+    is the matched filter (up to the factor P), and ``Σ_p exp(-i φ_p) B[p]`` is the image of the
+    data corrected by ``φ``."""
+    acq = ph.acquisition
+    P = ph.data.shape[0]
+    out = np.empty((P, grid.nx * grid.ny), dtype=np.complex64)
+    d = np.asarray(ph.data)
+    if acq.model == "spherical" and ph.data.shape[1] >= 2:
+        from ..formers import backprojection as bp
+
+        t, q, r0 = acq.range_geometry()
+        rcv = q if acq.is_bistatic else None
+        f = acq.frequencies_2d
+        with warnings.catch_warnings():  # a guard band may reach the unambiguous window: harmless
+            warnings.simplefilter("ignore", SarcliWarning)
+            for p in range(P):
+                out[p] = _one_pulse(bp, d, f, t, r0, rcv, grid, p)
+        return out
+    pts = grid.points().reshape(-1, 3)
+    for s in range(0, P, 8):
+        sub = PhaseHistory(d[s:s + 8], acq.subset(pulses=slice(s, s + 8)))
+        psi = _phases(sub.acquisition, pts)  # [p, j, s]
+        out[s:s + 8] = np.einsum("pj,pjs->ps", d[s:s + 8], np.exp(1j * psi)) / d.shape[1]
+    return out
+
+
+def _one_pulse(bp, d, f, t, r0, rcv, grid, p):
+    return bp.backproject(d[p:p + 1], f[p:p + 1], t[p:p + 1], r0[p:p + 1], grid,
+                          receive_position_m=None if rcv is None else rcv[p:p + 1]).ravel()
+
+
+def sharpness(image):
+    """``(entropy, peak_to_mean)`` of an image (:mod:`sarcli.analysis.speckle`)."""
+    from ..analysis.speckle import image_entropy, peak_to_mean
+
+    return image_entropy(image), peak_to_mean(image)
+
+
+def keep_if_sharper(ph: PhaseHistory, grid: Grid, result: AutofocusResult, candidates) -> AutofocusResult:
+    """Pick, among zero and the candidate estimates, the one with the lowest entropy whose
+    peak-to-mean ratio is not below the uncorrected image's: autofocus never leaves an image
+    less sharp than it found it (by either measure)."""
+    h0, m0 = sharpness(form(ph, grid))
+    best, best_h, best_m = np.zeros(ph.data.shape[0]), h0, m0
+    for phi in candidates:
+        h, m = sharpness(form(ph, grid, phi))
+        if h < best_h and m >= m0:
+            best, best_h, best_m = phi, h, m
+    result.entropy_before, result.peak_to_mean_before = h0, m0
+    result.entropy_after, result.peak_to_mean_after = best_h, best_m
+    if not np.any(best) and any(np.any(c) for c in candidates):
+        result.accepted = False
+        warnings.warn(f"autofocus ({result.method}) did not sharpen the image (entropy {h0:.4f}, "
+                      f"peak-to-mean {m0:.4g} before): no correction applied", AutofocusWarning, stacklevel=3)
+    result.phase_rad = best
+    return result
+
+
+class AutofocusWarning(SarcliWarning):
+    """Autofocus found no correction that sharpens the image; the message gives the sharpness."""
