@@ -1,0 +1,286 @@
+"""Compiled (numba) kernels of fast factorised backprojection (:mod:`sarcli.formers.ffbp`).
+
+Three kernels, each parallel over rows of its output:
+
+- :func:`_stage0` backprojects the range profiles of each base sub-aperture onto its polar grid;
+- :func:`_merge` forms each parent sub-image on its polar grid from its children's (2-D
+  interpolation, re-referenced phase);
+- :func:`_final` forms the Cartesian image from the last sub-images.
+
+A sub-aperture's polar grid is described by its centre ``c`` (|c|, ground distance ``ρ0`` of its
+nadir from the scene origin, unit vector ``e0`` from that nadir towards the origin) and the
+coordinates of a ground point ``x``: the differential slant range ``q = |c - x| - |c|`` and
+``τ = tan δψ``, ``δψ`` the ground angle at the nadir between ``x`` and the origin. Both are taken
+without cancellation, so virtual antennas 10^9 m away (far-field data) keep their accuracy. Stored
+sub-images are demodulated: ``F(q, τ) = I(x) exp(-i k_ref q)``.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit, prange
+
+from ._bp_kernels import _keys, _lanczos, _sincos
+
+#: Interpolation kernels (codes 0-2 shared with backprojection; 3: a tabulated 6-tap kernel) and
+#: their number of taps.
+NTAPS = (2, 4, 6, 6)
+
+
+@njit(inline="always")
+def _coords(x, y, cx, cy, cn, rho0, e0x, e0y):
+    """Polar coordinates ``(q, τ)`` of the ground point (x, y, 0) about a sub-aperture centre."""
+    num = x * x + y * y - 2.0 * (cx * x + cy * y)
+    q = num / (math.sqrt(cn * cn + num) + cn)
+    tau = (e0x * y - e0y * x) / (rho0 + e0x * x + e0y * y)
+    return q, tau
+
+
+@njit(inline="always")
+def _node(q, tau, cn, rho0, e0x, e0y):
+    """Ground point (x, y) of the polar node ``(q, τ)``: the inverse of :func:`_coords`."""
+    g = q * (2.0 * cn + q)
+    rho = math.sqrt(rho0 * rho0 + g)
+    drho = g / (rho + rho0)
+    s = math.sqrt(1.0 + tau * tau)
+    cosd = 1.0 / s
+    along = drho * cosd - rho0 * tau * tau * cosd / (1.0 + s)
+    across = rho * tau * cosd
+    return along * e0x - across * e0y, along * e0y + across * e0x
+
+
+@njit(inline="always")
+def _one_way(x, y, ax, ay, a2, na):
+    """``|a - x| - |a|`` for a ground point, cancellation-free."""
+    num = x * x + y * y - 2.0 * (ax * x + ay * y)
+    return num / (math.sqrt(a2 + num) + na)
+
+
+@njit(inline="always")
+def _pulse_range(x, y, g, bistatic):
+    """Differential range of a pulse to (x, y, 0): THE per-pulse range of ffbp.
+
+    ``g`` = (tx, ty, |t|², |t|, qx, qy, |q|², |q|, offset) of the pulse. Monostatic:
+    ``|t - x| - r0``; bistatic: ``(|t - x| + |q - x|)/2 - r0`` (offset holds ``(|t|+|q|)/2 - r0``).
+    """
+    d = _one_way(x, y, g[0], g[1], g[2], g[3])
+    if bistatic:
+        d = 0.5 * (d + _one_way(x, y, g[4], g[5], g[6], g[7]))
+    return d + g[8]
+
+
+@njit(inline="always")
+def _row_weights(kind, frac, w, tab):
+    """Interpolation weights ``w[tap, i]`` for every fraction of a row (vectorisable pass).
+
+    ``tab[k, tap]`` (kind 3) holds the weights at fractions ``k / (len(tab) - 1)``; between rows
+    they are interpolated linearly.
+    """
+    n = frac.size
+    if kind == 3:
+        nt = tab.shape[0] - 1
+        for i in range(n):
+            u = frac[i] * nt
+            k = min(int(u), nt - 1)
+            a = u - k
+            for j in range(6):
+                w[j, i] = tab[k, j] + a * (tab[k + 1, j] - tab[k, j])
+    elif kind == 0:
+        for i in range(n):
+            w[0, i] = 1.0 - frac[i]
+            w[1, i] = frac[i]
+    elif kind == 1:
+        for i in range(n):
+            w[0, i], w[1, i], w[2, i], w[3, i] = _keys(frac[i])
+    else:
+        for i in range(n):
+            w[0, i], w[1, i], w[2, i], w[3, i], w[4, i], w[5, i] = _lanczos(frac[i])
+
+
+@njit(inline="always")
+def _locate(f, lo, n, ntap):
+    """Stencil start and fraction of fractional index ``f``; ``ok`` False when the stencil leaves
+    ``[0, n)`` (the start is then clamped so every access stays in bounds)."""
+    fl = math.floor(f)
+    start = int(fl) + lo
+    ok = start >= 0 and start + ntap <= n
+    start = min(max(start, 0), n - ntap)
+    return start, f - fl, ok
+
+
+@njit(inline="always")
+def _polar_row(are, aim, q0, dq, t0, dtau, kref, qs, ts, qref, kind, ntap, lo, idx_q, idx_t, wq, wt,
+               cr, ci, fq, ft, acc_re, acc_im, tab_q, tab_t):
+    """Add one sub-image, interpolated at the polar coordinates ``(qs, ts)`` of a row of points and
+    re-modulated by ``exp(i k_ref (q - qref))``, to ``acc``: three passes (positions and carriers,
+    weights, gather) so the first two vectorise."""
+    n = qs.size
+    nt, nq = are.shape
+    for i in range(n):
+        sq, tq, okq = _locate((qs[i] - q0) / dq, lo, nq, ntap)
+        st, tt, okt = _locate((ts[i] - t0) / dtau, lo, nt, ntap)
+        idx_q[i] = sq
+        idx_t[i] = st
+        fq[i] = tq
+        ft[i] = tt
+        c, s = _sincos(kref * (qs[i] - qref[i]))
+        m = 1.0 if (okq and okt) else 0.0
+        cr[i] = m * c
+        ci[i] = m * s
+    _row_weights(kind, fq, wq, tab_q)
+    _row_weights(kind, ft, wt, tab_t)
+    for i in range(n):
+        sq = idx_q[i]
+        st = idx_t[i]
+        vr = 0.0
+        vi = 0.0
+        for a in range(ntap):
+            rr = 0.0
+            ri = 0.0
+            for b in range(ntap):
+                rr += wq[b, i] * are[st + a, sq + b]
+                ri += wq[b, i] * aim[st + a, sq + b]
+            vr += wt[a, i] * rr
+            vi += wt[a, i] * ri
+        acc_re[i] += vr * cr[i] - vi * ci[i]
+        acc_im[i] += vr * ci[i] + vi * cr[i]
+
+
+@njit(parallel=True, cache=True)
+def _stage0(pre, pim, first, count, geo, bistatic, inv_bin, kc, half_len, n_len, pad, kind, tab,
+            cgeo, q0, dq, t0, dtau, kref, out_re, out_im):
+    """Backproject the pulses ``first[s] .. first[s]+count[s]-1`` onto sub-aperture s's polar grid.
+
+    ``cgeo`` rows: cx, cy, |c|, ρ0, e0x, e0y. Profile interpolation as in backprojection, in the
+    same three passes (positions and carriers, weights, gather).
+    """
+    n_sub, nt, nq = out_re.shape
+    top = n_len - 1.0
+    ntap = NTAPS[kind]
+    lo = -(ntap // 2 - 1)
+    for job in prange(n_sub * nt):
+        s = job // nt
+        it = job - s * nt
+        tau = t0[s] + it * dtau[s]
+        xs = np.empty(nq)
+        ys = np.empty(nq)
+        idx = np.empty(nq, np.int64)
+        frac = np.empty(nq)
+        cr = np.empty(nq)
+        ci = np.empty(nq)
+        w = np.empty((ntap, nq))
+        acc_re = np.zeros(nq)
+        acc_im = np.zeros(nq)
+        qa = q0[s]
+        c2, c3, c4, c5 = cgeo[2, s], cgeo[3, s], cgeo[4, s], cgeo[5, s]
+        for iq in range(nq):
+            xs[iq], ys[iq] = _node(qa + iq * dq, tau, c2, c3, c4, c5)
+        for p in range(first[s], first[s] + count[s]):
+            rp = pre[p]
+            ip = pim[p]
+            ib = inv_bin[p]
+            kcp = kc[p]
+            g = (geo[0, p], geo[1, p], geo[2, p], geo[3, p], geo[4, p], geo[5, p], geo[6, p], geo[7, p],
+                 geo[8, p])
+            for iq in range(nq):
+                dr = _pulse_range(xs[iq], ys[iq], g, bistatic)
+                pos = dr * ib + half_len
+                inside = (pos >= 0.0) & (pos < n_len)
+                pos = min(max(pos, 0.0), top)
+                fl = math.floor(pos)
+                idx[iq] = int(fl) + pad + lo
+                frac[iq] = pos - fl
+                c, sn = _sincos(kcp * dr)
+                m = 1.0 if inside else 0.0
+                cr[iq] = m * c
+                ci[iq] = m * sn
+            _row_weights(kind, frac, w, tab)
+            for iq in range(nq):
+                i = idx[iq]
+                vr = 0.0
+                vi = 0.0
+                for b in range(ntap):
+                    vr += w[b, iq] * rp[i + b]
+                    vi += w[b, iq] * ip[i + b]
+                acc_re[iq] += vr * cr[iq] - vi * ci[iq]
+                acc_im[iq] += vr * ci[iq] + vi * cr[iq]
+        for iq in range(nq):
+            c, sn = _sincos(-kref * (q0[s] + iq * dq))
+            out_re[s, it, iq] = acc_re[iq] * c - acc_im[iq] * sn
+            out_im[s, it, iq] = acc_re[iq] * sn + acc_im[iq] * c
+
+
+@njit(parallel=True, cache=True)
+def _merge(cre, cim, cgeo, cq0, dq, ct0, cdtau, pgeo, pq0, pt0, pdtau, first, count, kind, tab_q, tab_t,
+           kref, out_re, out_im):
+    """Parent sub-image s = Σ over children ``first[s] .. +count[s]`` interpolated at its nodes."""
+    n_par, nt, nq = out_re.shape
+    ntap = NTAPS[kind]
+    lo = -(ntap // 2 - 1)
+    for job in prange(n_par * nt):
+        s = job // nt
+        it = job - s * nt
+        tau = pt0[s] + it * pdtau[s]
+        pq = pq0[s]
+        p2, p3, p4, p5 = pgeo[2, s], pgeo[3, s], pgeo[4, s], pgeo[5, s]
+        xs = np.empty(nq)
+        ys = np.empty(nq)
+        qp = np.empty(nq)
+        qs = np.empty(nq)
+        ts = np.empty(nq)
+        idx_q = np.empty(nq, np.int64)
+        idx_t = np.empty(nq, np.int64)
+        wq = np.empty((ntap, nq))
+        wt = np.empty((ntap, nq))
+        cr = np.empty(nq)
+        ci = np.empty(nq)
+        fq = np.empty(nq)
+        ft = np.empty(nq)
+        acc_re = np.zeros(nq)
+        acc_im = np.zeros(nq)
+        for iq in range(nq):
+            qp[iq] = pq + iq * dq
+            xs[iq], ys[iq] = _node(qp[iq], tau, p2, p3, p4, p5)
+        for c in range(first[s], first[s] + count[s]):
+            g0, g1, g2, g3, g4, g5 = cgeo[0, c], cgeo[1, c], cgeo[2, c], cgeo[3, c], cgeo[4, c], cgeo[5, c]
+            for iq in range(nq):
+                qs[iq], ts[iq] = _coords(xs[iq], ys[iq], g0, g1, g2, g3, g4, g5)
+            _polar_row(cre[c], cim[c], cq0[c], dq, ct0[c], cdtau[c], kref, qs, ts, qp, kind, ntap, lo,
+                       idx_q, idx_t, wq, wt, cr, ci, fq, ft, acc_re, acc_im, tab_q, tab_t)
+        out_re[s, it] = acc_re
+        out_im[s, it] = acc_im
+
+
+@njit(parallel=True, cache=True)
+def _final(cre, cim, cgeo, cq0, dq, ct0, cdtau, x, y, kind, tab_q, tab_t, kref, out_re, out_im):
+    """Cartesian image: Σ over all sub-images, interpolated at each pixel and re-modulated."""
+    ny = y.size
+    nx = x.size
+    n_child = cre.shape[0]
+    ntap = NTAPS[kind]
+    lo = -(ntap // 2 - 1)
+    for row in prange(ny):
+        yv = y[row]
+        zero = np.zeros(nx)
+        qs = np.empty(nx)
+        ts = np.empty(nx)
+        idx_q = np.empty(nx, np.int64)
+        idx_t = np.empty(nx, np.int64)
+        wq = np.empty((ntap, nx))
+        wt = np.empty((ntap, nx))
+        cr = np.empty(nx)
+        ci = np.empty(nx)
+        fq = np.empty(nx)
+        ft = np.empty(nx)
+        acc_re = np.zeros(nx)
+        acc_im = np.zeros(nx)
+        for c in range(n_child):
+            g0, g1, g2, g3, g4, g5 = cgeo[0, c], cgeo[1, c], cgeo[2, c], cgeo[3, c], cgeo[4, c], cgeo[5, c]
+            for ix in range(nx):
+                qs[ix], ts[ix] = _coords(x[ix], yv, g0, g1, g2, g3, g4, g5)
+            _polar_row(cre[c], cim[c], cq0[c], dq, ct0[c], cdtau[c], kref, qs, ts, zero, kind, ntap, lo,
+                       idx_q, idx_t, wq, wt, cr, ci, fq, ft, acc_re, acc_im, tab_q, tab_t)
+        out_re[row] = acc_re
+        out_im[row] = acc_im

@@ -1,0 +1,499 @@
+"""Fast factorised backprojection (FFBP): the spherical matched filter in ~O(N² log P).
+
+Backprojection (:mod:`sarcli.formers.backprojection`) sums every pulse into every pixel,
+O(N²·P). FFBP (Ulander, Hellsten and Stenström 2003) exploits that a *short* sub-aperture's image
+varies slowly across angle seen from the sub-aperture's centre: it needs few angular samples on a
+polar grid centred there. So
+
+1. **stage 0**: the pulses are split into base sub-apertures of ``base`` pulses; each is
+   backprojected (exact spherical ranges, the range profiles of backprojection) onto its own polar
+   grid;
+2. **merges**: groups of ``merge`` neighbouring sub-apertures are combined into one, whose polar
+   grid has ``merge`` times finer angular sampling (its aperture is that much longer): every node
+   of the parent interpolates each child (2-D, separable kernel) at the same ground point;
+3. **final stage**: when one more merge would cost more than it saves, the remaining sub-images are
+   interpolated at every Cartesian pixel and summed.
+
+Every step evaluates the exact spherical geometry of its own sub-aperture centre, so curved and
+climbing paths are fine; far-field data are imaged through virtual antennas exactly as
+backprojection does (:func:`sarcli.formers.formation._positions`).
+
+Polar grids
+-----------
+Around a sub-aperture centre ``c`` a ground point ``x`` has the differential slant range
+``q = |c - x| - |c|`` and ``τ = tan δψ`` (``δψ``: the ground angle at c's nadir between x and the
+scene origin); both, and their inverse, are evaluated without cancellation. A sub-image is stored
+demodulated, ``F(q, τ) = I(x) e^{-i k_ref q}`` with ``k_ref = 4π α_c/c``, which leaves it band
+limited to ``|k_q| ≤ K_B/2`` in ``q`` (``K_B = 4π B/c``, B the bandwidth) and to
+``|k_τ| ≤ k_max (ρ/r)_max d_max`` in ``τ`` (``d_max`` the largest horizontal distance of a pulse
+from ``c``, ``ρ/r`` the cosine of the depression angle). The grids sample these at
+``Δq = π/(K_B/2) / os_range`` and ``Δτ = π/(k_max (ρ/r) d_max) / os_angle``.
+
+Error model
+-----------
+Interpolating a band-limited signal whose spectrum fills ``1/β`` of the Nyquist band with a kernel
+K has the mean-square relative error ``ε²(K, β) = ⟨|1 − Σ_n K(t − n) e^{−2πiν(t − n)}|²⟩`` over
+fractions ``t`` and frequencies ``|ν| < 1/(2β)`` (:func:`interp_error`, flat spectrum). FFBP
+interpolates once per pulse (the range profile, ``β`` = upsample) and twice (range, angle) per merge
+stage and in the final stage. The angular spectrum of a sub-aperture of n pulses is n lines, not a
+flat band (two pulses sit at the band edges), and the errors of the stages add coherently
+(interpolation attenuates the band's edges alike every time), so
+``ε ≈ ε_prof + Σ_stages (ε(K, os_range) + ε_n(K, β_angle))`` (:func:`predict_error`). See
+docs/ffbp.md for the check against the exact matched filter.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.fft
+
+from ..core.geometry import C
+from ..core.grid import Grid
+from ..errors import SarcliInputError
+
+__all__ = ["ffbp", "ffbp_image", "optimal_table", "plan_stages", "predict_error", "interp_error", "FfbpPlan", "DEFAULTS"]
+
+#: Interpolators (codes 0-2 shared with backprojection's kernels) and their taps. ``optimal``: the
+#: 6-tap kernel with the least mean-square error over the band of a signal oversampled as much as
+#: the grid it reads (designed per grid by least squares, tabulated).
+INTERPOLATORS = {"linear": 0, "cubic": 1, "lanczos": 2, "optimal": 3}
+_NTAPS = {0: 2, 1: 4, 2: 6, 3: 6}
+#: Fractions tabulated for the ``optimal`` kernel (weights between them interpolated linearly).
+_TABLE_STEPS = 1024
+#: Default knobs (see docs/ffbp.md for the error-vs-time frontier behind them).
+DEFAULTS = {"base": 8, "merge": 2, "os_range": 2.0, "os_angle": 2.0, "interp": "optimal", "upsample": 4.0}
+_PAD = 3
+#: Pulses whose range profiles are held at once in stage 0.
+_PROFILE_BLOCK = 256
+
+
+# ---------------------------------------------------------------------------------------------
+# error model
+# ---------------------------------------------------------------------------------------------
+@functools.lru_cache(maxsize=64)
+def optimal_table(beta: float, taps: int = 6) -> np.ndarray:
+    """Least-squares interpolation weights ``[fraction k/1024, tap]`` for oversampling ``beta``.
+
+    For each fraction t the real weights minimise ``∫ |1 − Σ_n w_n e^{2πiν(n − t)}|² dν`` over
+    ``|ν| < 1/(2β)`` (offsets ``n = −taps/2+1 .. taps/2``): the best a ``taps``-point stencil can do
+    on a signal with that much oversampling (6 taps: ~1e-3 at β = 2, ~1e-4 at β = 3).
+    """
+    offs = np.arange(-(taps // 2 - 1), taps // 2 + 1)
+    nu = np.linspace(-0.5, 0.5, 129) / float(beta)
+    t = np.arange(_TABLE_STEPS + 1) / _TABLE_STEPS
+    b = np.concatenate([np.ones(nu.size), np.zeros(nu.size)])
+    tab = np.empty((t.size, taps))
+    for i, ti in enumerate(t):
+        a = np.exp(2j * np.pi * nu[:, None] * (offs[None, :] - ti))
+        tab[i] = np.linalg.lstsq(np.vstack([a.real, a.imag]), b, rcond=None)[0]
+    tab.setflags(write=False)
+    return tab
+
+
+def _kernel_weights(kind: int, t: np.ndarray, design_beta: float = 2.0):
+    """(offsets, weights[len(t), taps]) of an interpolator at fractions ``t`` (as the kernels)."""
+    t = np.asarray(t, dtype=np.float64)
+    if kind == 0:
+        return np.array([0, 1]), np.stack([1 - t, t], axis=-1)
+    if kind == 1:
+        d0, d2, d3 = t + 1, 1 - t, 2 - t
+        w0 = ((2.5 - 0.5 * d0) * d0 - 4) * d0 + 2
+        w1 = (1.5 * t - 2.5) * t * t + 1
+        w2 = (1.5 * d2 - 2.5) * d2 * d2 + 1
+        w3 = ((2.5 - 0.5 * d3) * d3 - 4) * d3 + 2
+        return np.arange(-1, 3), np.stack([w0, w1, w2, w3], axis=-1)
+    offs = np.arange(-2, 4)
+    if kind == 3:
+        tab = optimal_table(float(design_beta))
+        u = t * _TABLE_STEPS
+        k = np.minimum(u.astype(int), _TABLE_STEPS - 1)
+        a = (u - k)[:, None]
+        return offs, tab[k] + a * (tab[k + 1] - tab[k])
+    d = t[:, None] - offs[None, :]
+    w = np.sinc(d) * np.sinc(d / 3.0) * (np.abs(d) < 3)
+    return offs, w / w.sum(axis=1, keepdims=True)
+
+
+def _table(interp: str, beta: float) -> np.ndarray:
+    """The weight table a kernel gets (a dummy for the analytic interpolators)."""
+    return optimal_table(float(beta)) if interp == "optimal" else np.zeros((2, 6))
+
+
+@functools.lru_cache(maxsize=1024)
+def interp_error(interp: str, beta: float, tones: int = 0, design_beta: float | None = None) -> float:
+    """RMS relative error of interpolating a signal oversampled ``beta`` times.
+
+    ``sqrt(⟨|1 − Σ_n K(t − n) e^{−2πiν(n − t)}|²⟩)`` averaged over fractions ``t ∈ [0, 1)`` and
+    frequencies ν (cycles per sample) spread over ``|ν| ≤ 1/(2β)``: uniformly (a flat spectrum,
+    ``tones=0``), or as ``tones`` equally spaced lines from edge to edge, the angular spectrum of a
+    sub-aperture of that many equally spaced pulses (two pulses put all their energy at the band
+    edges, where interpolation errs most). ``design_beta``: the oversampling the ``optimal``
+    kernel was designed for (default ``beta``).
+    """
+    kind = INTERPOLATORS[interp]
+    t = (np.arange(64) + 0.5) / 64
+    if tones <= 0:
+        nu = (np.arange(128) + 0.5) / 128 - 0.5
+    elif tones == 1:
+        nu = np.zeros(1)
+    else:
+        nu = np.linspace(-0.5, 0.5, int(tones))
+    nu = nu / float(beta)
+    offs, w = _kernel_weights(kind, t, beta if design_beta is None else design_beta)   # [T, taps]
+    ph = np.exp(2j * np.pi * nu[:, None, None] * (offs[None, None, :] - t[None, :, None]))
+    resp = np.sum(w[None] * ph, axis=-1)                      # [V, T]
+    return float(np.sqrt(np.mean(np.abs(1.0 - resp) ** 2)))
+
+
+def predict_error(levels, *, interp="cubic", os_range=2.0, os_angle=2.0, upsample=4.0) -> float:
+    """Predicted relative error of FFBP against the exact matched filter (module docstring).
+
+    ``levels``: for every polar level that is interpolated (each merge reads its children's level,
+    the final stage the last one), ``(pulses per sub-aperture, angular oversampling)``. Every
+    interpolation mostly *attenuates* the upper part of the band, the same way at every stage, so
+    the errors add coherently: ``ε ≈ ε_prof + Σ_levels (ε_range + ε_angle(pulses, β))`` (measured:
+    adding them in quadrature under-predicts three-stage runs by 1.7×).
+    """
+    total = interp_error(interp, float(upsample))
+    for n_pulses, beta in levels:
+        total += interp_error(interp, float(os_range))
+        total += interp_error(interp, float(round(beta, 3)), int(n_pulses) if n_pulses < 64 else 0,
+                              float(os_angle))
+    return float(total)
+
+
+# ---------------------------------------------------------------------------------------------
+# polar grids
+# ---------------------------------------------------------------------------------------------
+def _centre_geometry(c):
+    """Rows cx, cy, |c|, ρ0, e0x, e0y of the polar frames of centres ``c`` [S, 3]."""
+    cn = np.linalg.norm(c, axis=1)
+    rho0 = np.hypot(c[:, 0], c[:, 1])
+    if np.any(rho0 <= 0):
+        raise SarcliInputError("ffbp needs every sub-aperture centre away from the scene origin's vertical; "
+                               "use method 'backprojection'")
+    e0 = -c[:, :2] / rho0[:, None]
+    return np.ascontiguousarray(np.stack([c[:, 0], c[:, 1], cn, rho0, e0[:, 0], e0[:, 1]]))
+
+
+def _coords_np(g, x, y):
+    """NumPy twin of the compiled ``_coords``: (q, τ, denominator) [S, n] for points (x, y)."""
+    cx, cy, cn, rho0, e0x, e0y = (r[:, None] for r in g)
+    num = x * x + y * y - 2.0 * (cx * x + cy * y)
+    q = num / (np.sqrt(cn * cn + num) + cn)
+    den = rho0 + e0x * x + e0y * y
+    return q, (e0x * y - e0y * x) / den, den
+
+
+def _boundary(grid: Grid, margin: float):
+    """Points on the boundary of the grid's rectangle grown by ``margin`` metres."""
+    x0, x1 = grid.x[0] - grid.dx / 2 - margin, grid.x[-1] + grid.dx / 2 + margin
+    y0, y1 = grid.y[0] - grid.dy / 2 - margin, grid.y[-1] + grid.dy / 2 + margin
+    s = np.linspace(0, 1, 33)
+    xs = np.concatenate([x0 + (x1 - x0) * s, np.full(33, x1), x1 - (x1 - x0) * s, np.full(33, x0)])
+    ys = np.concatenate([np.full(33, y0), y0 + (y1 - y0) * s, np.full(33, y1), y1 - (y1 - y0) * s])
+    return xs, ys, (x0, x1, y0, y1)
+
+
+@dataclass
+class _Level:
+    """Sub-apertures of one stage and their polar grids (all of one shape nt × nq)."""
+
+    first: np.ndarray       # first pulse of each sub-aperture
+    count: np.ndarray       # pulses in each
+    geo: np.ndarray         # [6, S] centre geometry
+    q0: np.ndarray
+    t0: np.ndarray
+    dtau: np.ndarray
+    nt: int
+    nq: int
+
+    @property
+    def n(self):
+        return self.first.size
+
+
+@dataclass
+class FfbpPlan:
+    """The stages FFBP will run: sizes, operation counts and the predicted error."""
+
+    levels: list
+    dq: float
+    kref: float
+    n_final: int
+    ops: dict = field(default_factory=dict)
+    knobs: dict = field(default_factory=dict)
+    predicted_error: float = float("nan")
+
+    @property
+    def n_stages(self) -> int:
+        """Interpolation stages after stage 0: merges plus the final stage."""
+        return len(self.levels)
+
+
+def _frame(pos, first, count, grid, kmax, os_angle, margin):
+    """Polar frames of the sub-apertures ``first/count``: centres, bounds of the grid grown by
+    ``margin`` in their coordinates, angular spacing and ground metres per τ unit."""
+    centres = np.stack([pos[f:f + n].mean(axis=0) for f, n in zip(first, count)])
+    g = _centre_geometry(centres)
+    xs, ys, (x0, x1, y0, y1) = _boundary(grid, margin)
+    q, tau, den = _coords_np(g, xs[None, :], ys[None, :])
+    if np.any(den <= 0.05 * g[3][:, None]):
+        raise SarcliInputError("ffbp needs the antennas' nadir well outside the image; use method 'backprojection'")
+    # nearest point of the rectangle to each centre's nadir: the smallest q (q is convex in x)
+    qn, _, _ = _coords_np(g, np.clip(centres[:, 0], x0, x1)[:, None], np.clip(centres[:, 1], y0, y1)[:, None])
+    qmin = np.minimum(q.min(axis=1), qn[:, 0])
+    qmax = q.max(axis=1)
+    # angular bandwidth: k_max (ρ/r)_max d_max
+    d = np.array([np.max(np.hypot(*(pos[f:f + n, :2] - c[:2]).T)) for f, n, c in zip(first, count, centres)])
+    cn = g[2]
+    rho_far = np.sqrt(g[3] ** 2 + qmax * (2 * cn + qmax))
+    ratio = rho_far / (cn + qmax)
+    tmin, tmax = tau.min(axis=1), tau.max(axis=1)
+    span = np.maximum(tmax - tmin, 1e-300)
+    band = kmax * ratio * d
+    dtau = np.where(band > 0, np.pi / np.maximum(band, 1e-300) / os_angle, span)
+    dtau = np.minimum(dtau, span / 2.0)
+    beta = float(np.min(np.where(band > 0, np.pi / np.maximum(band * dtau, 1e-300), np.inf)))
+    return {"beta": beta, "first": np.asarray(first), "count": np.asarray(count), "geo": g, "qmin": qmin, "qmax": qmax,
+            "tmin": tmin, "tmax": tmax, "dtau": dtau, "metres_per_tau": float(np.max(rho_far))}
+
+
+def _level(fr, dq, ext_q, ext_t) -> _Level:
+    """The polar grids of a frame, extended by ``ext_q``/``ext_t`` samples on each side."""
+    nt = int(np.max(np.ceil((fr["tmax"] - fr["tmin"]) / fr["dtau"]))) + 1 + 2 * ext_t
+    nq = int(np.max(np.ceil((fr["qmax"] - fr["qmin"]) / dq))) + 1 + 2 * ext_q
+    return _Level(fr["first"], fr["count"], fr["geo"], fr["qmin"] - ext_q * dq, fr["tmin"] - ext_t * fr["dtau"],
+                  fr["dtau"], nt, nq)
+
+
+def plan_stages(antenna_position_m, freq_hz, grid: Grid, *, base=None, merge=None, os_range=None,
+                os_angle=None, interp=None, upsample=None) -> FfbpPlan:
+    """The FFBP stages for a geometry (no data needed): levels, operation counts, predicted error.
+
+    Parameters as for :func:`ffbp`. ``ops`` holds the multiply-add counts of stage 0
+    (pulse × node × taps), the merges (node × child × taps²) and the final stage (pixel × child ×
+    taps²), from which :mod:`sarcli.formers.planner` predicts the time.
+
+    Level ℓ must be accurate wherever level ℓ+1's (or the final stage's) stencils reach, so its
+    grid extends beyond the image by the stencil half-widths of every later level, in its own
+    samples (range spacing is common; angular spacings shrink by ``merge`` per level).
+    """
+    k = {**DEFAULTS, **{n: v for n, v in dict(base=base, merge=merge, os_range=os_range, os_angle=os_angle,
+                                               interp=interp, upsample=upsample).items() if v is not None}}
+    base, merge = int(k["base"]), int(k["merge"])
+    if base < 1 or merge < 2:
+        raise SarcliInputError(f"ffbp needs base >= 1 and merge >= 2, got base={base}, merge={merge}")
+    if not (k["os_range"] >= 1 and k["os_angle"] >= 1 and k["upsample"] >= 1):
+        raise SarcliInputError("ffbp oversampling factors (os_range, os_angle, upsample) must be >= 1")
+    if k["interp"] not in INTERPOLATORS:
+        raise SarcliInputError(f"unknown interpolation {k['interp']!r}; choose one of {sorted(INTERPOLATORS)}")
+    pos = np.asarray(antenna_position_m, dtype=np.float64)
+    f = np.asarray(freq_hz, dtype=np.float64)
+    fmin, fmax = float(f.min()), float(f.max())
+    if not fmax > fmin:
+        raise SarcliInputError("ffbp needs a bandwidth (more than one frequency)")
+    kband = 4 * np.pi * (fmax - fmin) / C
+    kmax = 4 * np.pi * fmax / C
+    kref = 2 * np.pi * (fmax + fmin) / C
+    dq = np.pi / (kband / 2) / k["os_range"]
+    ntap = _NTAPS[INTERPOLATORS[k["interp"]]]
+    half = ntap // 2 + 1
+    n_pix = grid.nx * grid.ny
+    P = pos.shape[0]
+    margin = 2 * max(grid.dx, grid.dy)
+    first = np.arange(0, P, base)
+    count = np.minimum(base, P - first)
+    frames = [_frame(pos, first, count, grid, kmax, k["os_angle"], margin)]
+    children = [None]
+    est = [_level(frames[0], dq, 2 * half, 2 * half)]
+    while frames[-1]["first"].size > 1:   # merge while it costs less than it saves in the final stage
+        cur = frames[-1]
+        n_cur = cur["first"].size
+        pf = np.arange(0, n_cur, merge)
+        pc = np.minimum(merge, n_cur - pf)
+        pcount = np.array([cur["count"][i:i + m].sum() for i, m in zip(pf, pc)])
+        nxt = _frame(pos, cur["first"][pf], pcount, grid, kmax, k["os_angle"], margin)
+        lv = _level(nxt, dq, 2 * half, 2 * half)
+        if float(lv.n) * lv.nt * lv.nq * merge + float(n_pix) * lv.n >= float(n_pix) * n_cur:
+            break
+        frames.append(nxt)
+        children.append((pf, pc))
+        est.append(lv)
+    # extensions: level l must hold the stencils of levels l+1 .. L and of the final stage
+    n_lev = len(frames)
+    levels = []
+    for l, fr in enumerate(frames):
+        later = np.array([float(np.max(frames[j]["dtau"])) for j in range(l, n_lev)])
+        ext_q = int(math.ceil(1.2 * half * (n_lev - l))) + 1
+        ext_t = int(math.ceil(1.2 * half * np.sum(later) / float(np.min(fr["dtau"]))
+                              + 0.2 * ext_q * dq / (fr["metres_per_tau"] * float(np.min(fr["dtau"]))))) + 1
+        lv = _level(fr, dq, ext_q, ext_t)
+        lv.children = children[l]
+        levels.append(lv)
+    ops = {"stage0": float(P) * levels[0].nt * levels[0].nq * ntap, "merge": 0.0,
+           "final": float(n_pix) * levels[-1].n * ntap * ntap,
+           "nodes": float(max(lv.n * lv.nt * lv.nq for lv in levels))}
+    for lv in levels[1:]:
+        ops["merge"] += float(lv.n) * lv.nt * lv.nq * merge * ntap * ntap
+    plan = FfbpPlan(levels, dq, kref, levels[-1].n, ops, {**k, "base": base, "merge": merge})
+    plan.predicted_error = predict_error([(int(fr["count"].max()), fr["beta"]) for fr in frames],
+                                         interp=k["interp"], os_range=k["os_range"], os_angle=k["os_angle"],
+                                         upsample=k["upsample"])
+    return plan
+
+
+# ---------------------------------------------------------------------------------------------
+# range profiles
+# ---------------------------------------------------------------------------------------------
+def _profiles(d, f, weights, total, n_len, sl, nthr):
+    """Padded range profiles (complex128) of pulses ``sl``, as backprojection forms them."""
+    m = d.shape[1]
+    jc = m // 2
+    slots = (np.arange(m) - jc) % n_len
+    wd = d[sl] if weights is None else d[sl] * weights[sl]
+    buf = np.zeros((wd.shape[0], n_len), dtype=np.complex128)
+    buf[:, slots] = wd / total
+    prof = scipy.fft.fftshift(scipy.fft.ifft(buf, axis=1, norm="forward", workers=nthr), axes=1)
+    return np.ascontiguousarray(np.concatenate([prof[:, -_PAD:], prof, prof[:, :_PAD]], axis=1))
+
+
+def _pulse_geometry(t, q, r0):
+    """Rows tx, ty, |t|², |t|, qx, qy, |q|², |q|, offset of the per-pulse range (kernel ``_pulse_range``)."""
+    nt = np.sqrt(np.sum(t.astype(np.longdouble) ** 2, axis=1))
+    nq = np.sqrt(np.sum(q.astype(np.longdouble) ** 2, axis=1))
+    off = (0.5 * (nt + nq) - r0.astype(np.longdouble)).astype(np.float64)
+    nt, nq = nt.astype(np.float64), nq.astype(np.float64)
+    return np.ascontiguousarray(np.stack([t[:, 0], t[:, 1], nt * nt, nt, q[:, 0], q[:, 1], nq * nq, nq, off]))
+
+
+# ---------------------------------------------------------------------------------------------
+# public function
+# ---------------------------------------------------------------------------------------------
+def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weights=None, *, base=None,
+         merge=None, os_range=None, os_angle=None, interp=None, upsample=None, nthreads=None,
+         receive_position_m=None, return_plan=False):
+    """Spherical matched-filter image by fast factorised backprojection (module docstring).
+
+    Parameters
+    ----------
+    data : array_like, shape (P, M), complex
+        Phase history (spherical model); pulses in flight order (neighbours are merged).
+    freq_hz : array_like, shape (M,) or (P, M)
+        Frequencies, equally spaced within each pulse.
+    antenna_position_m : array_like, shape (P, 3)
+        Antenna phase centres (transmit positions when ``receive_position_m`` is given).
+    range_to_center_m : array_like, shape (P,)
+    grid : Grid
+    weights : array_like, shape (M,) or (P, M), optional
+    base : int, default 8
+        Pulses per base sub-aperture.
+    merge : int, default 2
+        Sub-apertures merged per stage.
+    os_range, os_angle : float, default 2
+        Oversampling of the polar grids over the Nyquist rate in range and angle.
+    interp : {'linear', 'cubic', 'lanczos', 'optimal'}, default 'optimal'
+        Interpolator of the range profiles and the polar grids (``optimal``: least-squares 6-tap
+        kernels designed for each grid's oversampling, :func:`optimal_table`).
+    upsample : float, default 4
+        Range-profile oversampling (the IFFT length is ``upsample·M``).
+    nthreads : int, optional
+    receive_position_m : array_like, shape (P, 3), optional
+        Separate receive positions (range ``(|t − x| + |q − x|)/2 − r0``).
+    return_plan : bool
+        Also return the :class:`FfbpPlan` (stages, predicted error).
+
+    Returns
+    -------
+    image : ndarray, shape (ny, nx), complex128
+        ``(1/W) Σ w d e_pj(x)`` to within the predicted error (unit point peaks ≈ 1).
+    """
+    from . import _ffbp_kernels as kern
+    from .backprojection import FREQUENCY_SPACING_TOLERANCE, _Threads, profile_length
+
+    d = np.asarray(data)
+    if d.ndim != 2 or d.size == 0:
+        raise SarcliInputError(f"phase history must be a non-empty [P, M] array, got shape {d.shape}")
+    P, M = d.shape
+    if M < 2:
+        raise SarcliInputError("ffbp needs at least two frequencies per pulse; use method 'direct'")
+    t = np.asarray(antenna_position_m, dtype=np.float64)
+    r0 = np.asarray(range_to_center_m, dtype=np.float64)
+    q = t if receive_position_m is None else np.asarray(receive_position_m, dtype=np.float64)
+    if t.shape != (P, 3) or q.shape != (P, 3) or r0.shape != (P,):
+        raise SarcliInputError(f"antenna positions {t.shape} / ranges {r0.shape} do not match {P} pulses")
+    f = np.broadcast_to(np.asarray(freq_hz, dtype=np.float64), (P, M)) if np.ndim(freq_hz) == 1 \
+        else np.asarray(freq_hz, dtype=np.float64)
+    if f.shape != (P, M):
+        raise SarcliInputError(f"frequencies have shape {np.shape(freq_hz)}, expected ({M},) or ({P}, {M})")
+    dalpha = (f[:, -1] - f[:, 0]) / (M - 1)
+    dev = np.abs(f - (f[:, :1] + np.arange(M) * dalpha[:, None]))
+    if not (np.all(dalpha != 0) and np.max(dev / np.abs(dalpha)[:, None]) <= FREQUENCY_SPACING_TOLERANCE):
+        raise SarcliInputError("ffbp needs equally spaced frequencies in every pulse; use method 'direct'")
+    if weights is None:
+        w, total = None, float(P * M)
+    else:
+        w = np.broadcast_to(np.asarray(weights, dtype=np.float64), (P, M))
+        total = float(w.sum())
+        if not total > 0:
+            raise SarcliInputError("window weights sum to zero")
+    mono = 0.5 * (t + q)
+    plan = plan_stages(mono, f, grid, base=base, merge=merge, os_range=os_range, os_angle=os_angle,
+                       interp=interp, upsample=upsample)
+    k = plan.knobs
+    kind = INTERPOLATORS[k["interp"]]
+    n_len = profile_length(M, k["upsample"])
+    jc = M // 2
+    bin_m = C / (2.0 * dalpha * n_len)
+    inv_bin = 1.0 / bin_m
+    kc = 4.0 * np.pi * (f[:, 0] + jc * dalpha) / C
+    geo = _pulse_geometry(t, q, r0)
+    bistatic = receive_position_m is not None and not np.array_equal(t, q)
+    lev = plan.levels[0]
+    tab_p = _table(k["interp"], k["upsample"])
+    tab_q = _table(k["interp"], k["os_range"])
+    tab_t = _table(k["interp"], k["os_angle"])
+    with _Threads(nthreads) as nthr:
+        cur_re = np.empty((lev.n, lev.nt, lev.nq))
+        cur_im = np.empty((lev.n, lev.nt, lev.nq))
+        # stage 0 in blocks of sub-apertures (bounded profile memory)
+        per = max(1, _PROFILE_BLOCK // int(lev.count.max()))
+        for s0 in range(0, lev.n, per):
+            s1 = min(lev.n, s0 + per)
+            p0, p1 = int(lev.first[s0]), int(lev.first[s1 - 1] + lev.count[s1 - 1])
+            prof = _profiles(d, f, w, total, n_len, slice(p0, p1), nthr)
+            kern._stage0(np.ascontiguousarray(prof.real), np.ascontiguousarray(prof.imag),
+                         lev.first[s0:s1] - p0, lev.count[s0:s1], np.ascontiguousarray(geo[:, p0:p1]),
+                         bistatic, inv_bin[p0:p1], kc[p0:p1], float(n_len // 2), float(n_len), _PAD, kind,
+                         tab_p, np.ascontiguousarray(lev.geo[:, s0:s1]), lev.q0[s0:s1], plan.dq, lev.t0[s0:s1],
+                         lev.dtau[s0:s1], plan.kref, cur_re[s0:s1], cur_im[s0:s1])
+        for child, parent in zip(plan.levels[:-1], plan.levels[1:]):
+            pf, pc = parent.children
+            nxt_re = np.empty((parent.n, parent.nt, parent.nq))
+            nxt_im = np.empty((parent.n, parent.nt, parent.nq))
+            kern._merge(cur_re, cur_im, child.geo, child.q0, plan.dq, child.t0, child.dtau, parent.geo,
+                        parent.q0, parent.t0, parent.dtau, pf, pc, kind, tab_q, tab_t, plan.kref, nxt_re, nxt_im)
+            cur_re, cur_im = nxt_re, nxt_im
+        last = plan.levels[-1]
+        out_re = np.empty(grid.shape)
+        out_im = np.empty(grid.shape)
+        kern._final(cur_re, cur_im, last.geo, last.q0, plan.dq, last.t0, last.dtau,
+                    grid.x.astype(np.float64), grid.y.astype(np.float64), kind, tab_q, tab_t, plan.kref, out_re, out_im)
+    img = out_re + 1j * out_im
+    return (img, plan) if return_plan else img
+
+
+def ffbp_image(data, freq_hz, antenna_position_m, range_to_center_m, grid, weights=None, **knobs):
+    """:func:`ffbp` for :func:`sarcli.formers.formation.form_image`: the image and the settings
+    to record (every knob, the stages and the predicted error). ``None`` knobs take :data:`DEFAULTS`."""
+    knobs = {k: v for k, v in knobs.items() if v is not None}
+    img, plan = ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid, weights, return_plan=True,
+                     **knobs)
+    params = {k: plan.knobs[k] for k in ("base", "merge", "os_range", "os_angle", "interp", "upsample")}
+    params["ffbp_stages"] = [[int(lv.n), int(lv.nt), int(lv.nq)] for lv in plan.levels]
+    params["predicted_error"] = plan.predicted_error
+    return img, params
