@@ -7,6 +7,11 @@ every method <= 3 x (phase history + image) bytes.
 
     python bench/bench_memory.py N METHOD ["{'eps': 1e-9}"]      # one measurement
     python bench/bench_memory.py                                 # the table at 2048² and 4096²
+    python bench/bench_memory.py stream                          # streaming: 1x and 4x the pulses
+
+Streaming (issue 13): ``sar form-image --method backprojection`` on collections of P and 4P
+pulses with the image fixed, whole-process peak RSS of each; the phase history is read by blocks
+of pulses, so the 4x longer collection should raise the peak by <= 20 %.
 """
 
 from __future__ import annotations
@@ -46,10 +51,46 @@ def one(n, method, kw):
           f"{peak/(imgb+phb):.2f} x (PH {phb:.0f} + image)")
 
 
+_PEAK = ("import resource, sys; from sarcli.cli.main import cli\n"
+         "try:\n    cli(sys.argv[1:])\nexcept SystemExit:\n    pass\n"
+         "print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024)")
+
+
+def stream(pulses=(2048, 8192), freqs=2048, pixels=256):
+    """Whole-process peak RSS of backprojection from disk for 1x and 4x the pulses, image fixed."""
+    import tempfile
+    from pathlib import Path
+
+    import yaml
+
+    cfg = yaml.safe_load((Path(__file__).resolve().parents[1] / "configs" / "three-points.yaml").read_text())
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for p in pulses:
+            cfg["azimuths"] = {"center_deg": 50.0, "extent_deg": 3.0 * p / pulses[0], "count": p}
+            cfg["frequencies"] = {"center_frequency_ghz": 10.0, "bandwidth_mhz": 600.0, "count": freqs}
+            cfg["image"] = {"half_width_m": 5.0, "pixels": pixels}
+            yml, ph = Path(tmp) / f"a{p}.yaml", Path(tmp) / f"ph{p}.h5"
+            yml.write_text(yaml.safe_dump(cfg))
+            subprocess.run([str(Path(sys.executable).parent / "sar"), "-q", "simulate", str(yml), "-o", str(ph),
+                            "--noiseless"], check=True)
+            out = subprocess.run([sys.executable, "-c", _PEAK, "-q", "form-image", str(ph), "-o",
+                                  str(Path(tmp) / "img.h5"), "--method", "backprojection"],
+                                 check=True, capture_output=True, text=True).stdout.split()[-1]
+            rows.append((p, Path(ph).stat().st_size / 2**20, float(out)))
+    image_mib = pixels * pixels * 16 / 2**20
+    for p, size, peak in rows:
+        print(f"backprojection from disk: {p} pulses x {freqs} ({size:.0f} MiB on disk), image {pixels}² "
+              f"({image_mib:.0f} MiB): whole-process peak RSS {peak:.0f} MiB")
+    print(f"4x the pulses raises the peak by {100 * (rows[-1][2] / rows[0][2] - 1):.1f} % (target <= 20 %)")
+
+
 if __name__ == "__main__":
     import ast
 
-    if len(sys.argv) > 2:
+    if sys.argv[1:] == ["stream"]:
+        stream()
+    elif len(sys.argv) > 2:
         one(int(sys.argv[1]), sys.argv[2], ast.literal_eval(sys.argv[3]) if len(sys.argv) > 3 else {})
     else:
         for n in (2048, 4096):

@@ -61,7 +61,9 @@ import scipy.fft
 from ..errors import AliasingWarning, SarcliInputError
 from ..core.geometry import C, bistatic_differential_range
 from ..core.grid import Grid
+from .._util.progress import progress
 from ._bp_kernels import _bp_rows, _rp_pulses
+from ._samples import is_lazy
 
 __all__ = ["backproject", "reproject", "profile_length", "INTERPOLATORS", "DEFAULT_UPSAMPLE",
            "DEFAULT_INTERP", "FREQUENCY_SPACING_TOLERANCE"]
@@ -112,9 +114,9 @@ class _Setup:
             raise SarcliInputError("backprojection needs at least two frequencies per pulse; "
                                    "use method 'direct'")
         f = np.asarray(freq_hz, dtype=np.float64)
-        if f.ndim == 1:
-            f = np.broadcast_to(f, (n_pulses, f.size))
-        if f.shape != (n_pulses, m):
+        # one row when every pulse has the same frequencies: the checks below then cost O(M), not O(P M)
+        f = f[None, :] if f.ndim == 1 else f
+        if f.shape not in ((1, m), (n_pulses, m)):
             raise SarcliInputError(f"frequencies have shape {np.shape(freq_hz)}, expected ({m},) "
                                    f"or ({n_pulses}, {m}) to match the data")
         a = np.asarray(antenna_position_m, dtype=np.float64)
@@ -151,7 +153,8 @@ class _Setup:
         self.kind = INTERPOLATORS[interp]
         self.dtype = _PRECISIONS[precision]
         dt = self.dtype
-        alpha_ref = f[:, 0] + self.jc * dalpha
+        alpha_ref = np.broadcast_to(f[:, 0] + self.jc * dalpha, (n_pulses,))
+        dalpha = np.broadcast_to(dalpha, (n_pulses,))
         bin_m = C / (2.0 * dalpha * self.n_len)   # signed for decreasing frequencies
         na = np.linalg.norm(a, axis=1)
         self.two_ax = (2.0 * a[:, 0]).astype(dt)
@@ -220,8 +223,9 @@ class _Threads:
 
 
 def _check_data(data):
-    d = np.asarray(data)
-    if d.ndim != 2 or d.size == 0:
+    # a phase history left on disk (sarcli.io.pulses.PulseArray) stays there: blocks are read below
+    d = data if is_lazy(data) else np.asarray(data)
+    if d.ndim != 2 or d.shape[0] * d.shape[1] == 0:
         raise SarcliInputError(f"phase history must be a non-empty [P, M] array, got shape {d.shape}")
     return d
 
@@ -298,7 +302,8 @@ def backproject(data, freq_hz, antenna_position_m, range_to_center_m, grid, weig
     out_re = np.zeros(st.shape, dtype=st.dtype)
     out_im = np.zeros(st.shape, dtype=st.dtype)
     with _Threads(nthreads) as nthr:
-        for sl in st.blocks():
+        blocks = st.blocks()
+        for sl in progress(blocks, total=len(blocks), desc="backprojection", unit="pulse block"):
             # w d / W on FFT slots (j - j_c) mod L, unnormalised IFFT, fftshift: profile index
             # q holds Δr = (q - L/2) c / (2 Δα L); periodic copies pad both ends
             wd = d[sl] if st.weights is None else d[sl] * st.weights[sl]

@@ -14,7 +14,7 @@ import numpy as np
 
 from ..core import geometry
 from .._util.progress import progress
-from ._samples import _check_kspace, weighted_samples
+from ._samples import WeightedSamples, _check_kspace, weighted_samples
 
 __all__ = ["weighted_samples", "direct_farfield", "direct_spherical"]
 
@@ -119,7 +119,8 @@ def direct_spherical(data, freq_hz, antenna_position_m, range_to_center_m, grid,
     -------
     image : ndarray, shape (ny, nx), complex128
     """
-    wd, total = weighted_samples(data, weights)
+    wd = WeightedSamples(data, weights)  # read by blocks of pulses when the data are on disk
+    total = wd.total
     n_p, n_f = wd.shape
     a_rcv = None
     if receive_position_m is not None:

@@ -49,6 +49,10 @@ def image_error(image, reference) -> float:
 
 
 def _weights(ph: PhaseHistory, window, nbar, sll_db):
+    """Window weights [P, M], or None without a window (every former then takes W = P M and no
+    P x M array of ones is ever made)."""
+    if window == "none":
+        return None
     P, M = ph.data.shape
     try:
         return window_weights(P, M, window, nbar=nbar, sll_db=sll_db)

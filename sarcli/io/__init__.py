@@ -130,7 +130,7 @@ def detect_format(path) -> str:
     raise InputFileError(path, f"unrecognised file content; sarcli reads {readable}")
 
 
-def open_input(path, *, expect=None, truth=True):
+def open_input(path, *, expect=None, truth=True, lazy=False):
     """Read any file sarcli reads, recognised by :func:`detect_format`.
 
     Parameters
@@ -142,6 +142,9 @@ def open_input(path, *, expect=None, truth=True):
     truth : bool
         For a sarcli phase history: read ``/truth`` too (False for image formation, which never
         uses it).
+    lazy : bool
+        For a sarcli phase history: leave the samples on disk, read by blocks of pulses
+        (:class:`sarcli.io.pulses.PulseArray`).
 
     Returns
     -------
@@ -160,7 +163,7 @@ def open_input(path, *, expect=None, truth=True):
     read = getattr(importlib.import_module(f".{module}", __name__), reader)
     if fmt == "gotcha":
         return fmt, read([path])
-    return fmt, read(path, truth=truth) if fmt == "phase-history" else read(path)
+    return fmt, read(path, truth=truth, lazy=lazy) if fmt == "phase-history" else read(path)
 
 
 def __getattr__(name):

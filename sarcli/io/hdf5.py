@@ -176,7 +176,7 @@ def write_phase_history(path, ph: PhaseHistory) -> Path:
     return Path(path)
 
 
-def read_phase_history(path, *, truth: bool = True) -> PhaseHistory:
+def read_phase_history(path, *, truth: bool = True, lazy: bool = False) -> PhaseHistory:
     """Read and validate a phase-history file.
 
     Parameters
@@ -185,6 +185,10 @@ def read_phase_history(path, *, truth: bool = True) -> PhaseHistory:
     truth : bool
         Read ``/truth`` (the simulated scene) too. Image formation and regularisation pass False:
         they never use it, and an extended scene's dense truth can dwarf the data.
+    lazy : bool
+        Leave the samples on disk: ``data`` is a :class:`sarcli.io.pulses.PulseArray` read by
+        blocks of pulses (checked for NaN/Inf as they are read), so formers that work pulse by
+        pulse (backprojection, the spherical matched filter) hold one block at a time.
 
     Raises
     ------
@@ -194,19 +198,22 @@ def read_phase_history(path, *, truth: bool = True) -> PhaseHistory:
     """
     try:
         with _open(path, PH_FORMAT) as f:
-            return _read_ph(path, f, truth=truth)
+            return _read_ph(path, f, truth=truth, lazy=lazy)
     except InputFileError:
         raise
     except (OSError, KeyError, ValueError, TypeError) as exc:
         raise InputFileError(path, f"broken phase-history file ({exc})") from None
 
 
-def _read_ph(path, f, *, truth=True) -> PhaseHistory:
+def _read_ph(path, f, *, truth=True, lazy=False) -> PhaseHistory:
     _check_format(path, f, PH_FORMAT)
     model = _attr_str(f, "model")
     if model not in MODELS:
         raise InputFileError(path, f"root attribute 'model' is {model!r}, expected one of {MODELS}")
-    data = _dataset(path, f, "phase_history", kind="complex", ndim=2)
+    if lazy:
+        data = _lazy_samples(path, f, "phase_history")
+    else:
+        data = _dataset(path, f, "phase_history", kind="complex", ndim=2)
     P, M = data.shape
     if P < 1 or M < 1:
         raise InputFileError(path, f"dataset 'phase_history' is empty (shape {data.shape})")
@@ -266,6 +273,22 @@ def _read_ph(path, f, *, truth=True) -> PhaseHistory:
             scene=scene, x_m=tx, y_m=ty, magnitude=mag,
         )
     return PhaseHistory(data=data, acquisition=acq, truth=truth, attrs=attrs)
+
+
+def _lazy_samples(path, f, name):
+    """A :class:`PulseArray` over dataset ``name`` after checking what can be checked unread."""
+    from .pulses import PulseArray
+
+    if name not in f:
+        raise InputFileError(path, f"missing dataset '{name}'")
+    obj = f[name]
+    if not isinstance(obj, h5py.Dataset):
+        raise InputFileError(path, f"'{name}' is not a dataset")
+    if obj.ndim != 2:
+        raise InputFileError(path, f"dataset '{name}' has {obj.ndim} dimensions, expected 2")
+    if not np.issubdtype(obj.dtype, np.complexfloating):
+        raise InputFileError(path, f"dataset '{name}' has dtype {obj.dtype}, expected complex64 or complex128")
+    return PulseArray(path, name, obj.shape, obj.dtype)
 
 
 def _check_duplicate_pulses(path, az, el):
