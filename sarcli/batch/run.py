@@ -126,11 +126,14 @@ def _read_input(job: Job) -> PhaseHistory:
     else:
         from ..io.hdf5 import read_phase_history
 
-        ph = read_phase_history(job.input, truth=False)
+        # left on disk: a worker reads its pulses (by blocks, for backprojection and direct), so
+        # a file larger than the worker's memory can still be imaged
+        ph = read_phase_history(job.input, truth=False, lazy=True)
     if job.pulses is None:
         return ph
     sel = np.asarray(job.pulses, dtype=np.intp)
-    return PhaseHistory(ph.data[sel], ph.acquisition.subset(pulses=sel), ph.truth, ph.attrs)
+    data = ph.data[np.sort(sel)] if np.all(np.diff(sel) > 0) else np.asarray(ph.data)[sel]
+    return PhaseHistory(data, ph.acquisition.subset(pulses=sel), ph.truth, ph.attrs)
 
 
 def _form(job: Job) -> Image:
