@@ -34,7 +34,7 @@ def _parse_lam(text):
                    "discrepancy principle with the noise power from the file or estimated from the data.")
 @click.option("--beta", type=click.FloatRange(min=0, min_open=True), default=None, help="ADMM penalty β (default 32 λ).")
 @click.option("--iters", type=click.IntRange(min=1), default=300, show_default=True, help="Iteration cap.")
-@click.option("--tol", type=click.FloatRange(min=0), default=1e-4, show_default=True, help="Relative-change tolerance.")
+@click.option("--tol", type=click.FloatRange(min=0, min_open=True), default=1e-4, show_default=True, help="Relative-change tolerance.")
 @click.option("--operator", type=click.Choice(["auto", "nufft", "toeplitz", "spherical"]), default="auto",
               show_default=True, help="Forward operator: NUFFT pair, pre-gridded Toeplitz, spherical pair.")
 @click.option("--anisotropic", is_flag=True, help="Anisotropic TV shrinkage (default isotropic).")
