@@ -44,7 +44,6 @@ docs/ffbp.md for the check against the exact matched filter.
 
 from __future__ import annotations
 
-import functools
 import math
 from dataclasses import dataclass, field
 
@@ -54,116 +53,16 @@ import scipy.fft
 from ..core.geometry import C
 from ..core.grid import Grid
 from ..errors import SarcliInputError
+from .ffbp_model import INTERPOLATORS, NTAPS as _NTAPS, interp_error, optimal_table, predict_error
+from .ffbp_model import table as _table
 
 __all__ = ["ffbp", "ffbp_image", "optimal_table", "plan_stages", "predict_error", "interp_error", "FfbpPlan", "DEFAULTS"]
 
-#: Interpolators (codes 0-2 shared with backprojection's kernels) and their taps. ``optimal``: the
-#: 6-tap kernel with the least mean-square error over the band of a signal oversampled as much as
-#: the grid it reads (designed per grid by least squares, tabulated).
-INTERPOLATORS = {"linear": 0, "cubic": 1, "lanczos": 2, "optimal": 3}
-_NTAPS = {0: 2, 1: 4, 2: 6, 3: 6}
-#: Fractions tabulated for the ``optimal`` kernel (weights between them interpolated linearly).
-_TABLE_STEPS = 1024
 #: Default knobs (see docs/ffbp.md for the error-vs-time frontier behind them).
 DEFAULTS = {"base": 8, "merge": 2, "os_range": 2.0, "os_angle": 2.0, "interp": "optimal", "upsample": 4.0}
 _PAD = 3
 #: Pulses whose range profiles are held at once in stage 0.
 _PROFILE_BLOCK = 256
-
-
-# ---------------------------------------------------------------------------------------------
-# error model
-# ---------------------------------------------------------------------------------------------
-@functools.lru_cache(maxsize=64)
-def optimal_table(beta: float, taps: int = 6) -> np.ndarray:
-    """Least-squares interpolation weights ``[fraction k/1024, tap]`` for oversampling ``beta``.
-
-    For each fraction t the real weights minimise ``∫ |1 − Σ_n w_n e^{2πiν(n − t)}|² dν`` over
-    ``|ν| < 1/(2β)`` (offsets ``n = −taps/2+1 .. taps/2``): the best a ``taps``-point stencil can do
-    on a signal with that much oversampling (6 taps: ~1e-3 at β = 2, ~1e-4 at β = 3).
-    """
-    offs = np.arange(-(taps // 2 - 1), taps // 2 + 1)
-    nu = np.linspace(-0.5, 0.5, 129) / float(beta)
-    t = np.arange(_TABLE_STEPS + 1) / _TABLE_STEPS
-    b = np.concatenate([np.ones(nu.size), np.zeros(nu.size)])
-    tab = np.empty((t.size, taps))
-    for i, ti in enumerate(t):
-        a = np.exp(2j * np.pi * nu[:, None] * (offs[None, :] - ti))
-        tab[i] = np.linalg.lstsq(np.vstack([a.real, a.imag]), b, rcond=None)[0]
-    tab.setflags(write=False)
-    return tab
-
-
-def _kernel_weights(kind: int, t: np.ndarray, design_beta: float = 2.0):
-    """(offsets, weights[len(t), taps]) of an interpolator at fractions ``t`` (as the kernels)."""
-    t = np.asarray(t, dtype=np.float64)
-    if kind == 0:
-        return np.array([0, 1]), np.stack([1 - t, t], axis=-1)
-    if kind == 1:
-        d0, d2, d3 = t + 1, 1 - t, 2 - t
-        w0 = ((2.5 - 0.5 * d0) * d0 - 4) * d0 + 2
-        w1 = (1.5 * t - 2.5) * t * t + 1
-        w2 = (1.5 * d2 - 2.5) * d2 * d2 + 1
-        w3 = ((2.5 - 0.5 * d3) * d3 - 4) * d3 + 2
-        return np.arange(-1, 3), np.stack([w0, w1, w2, w3], axis=-1)
-    offs = np.arange(-2, 4)
-    if kind == 3:
-        tab = optimal_table(float(design_beta))
-        u = t * _TABLE_STEPS
-        k = np.minimum(u.astype(int), _TABLE_STEPS - 1)
-        a = (u - k)[:, None]
-        return offs, tab[k] + a * (tab[k + 1] - tab[k])
-    d = t[:, None] - offs[None, :]
-    w = np.sinc(d) * np.sinc(d / 3.0) * (np.abs(d) < 3)
-    return offs, w / w.sum(axis=1, keepdims=True)
-
-
-def _table(interp: str, beta: float) -> np.ndarray:
-    """The weight table a kernel gets (a dummy for the analytic interpolators)."""
-    return optimal_table(float(beta)) if interp == "optimal" else np.zeros((2, 6))
-
-
-@functools.lru_cache(maxsize=1024)
-def interp_error(interp: str, beta: float, tones: int = 0, design_beta: float | None = None) -> float:
-    """RMS relative error of interpolating a signal oversampled ``beta`` times.
-
-    ``sqrt(⟨|1 − Σ_n K(t − n) e^{−2πiν(n − t)}|²⟩)`` averaged over fractions ``t ∈ [0, 1)`` and
-    frequencies ν (cycles per sample) spread over ``|ν| ≤ 1/(2β)``: uniformly (a flat spectrum,
-    ``tones=0``), or as ``tones`` equally spaced lines from edge to edge, the angular spectrum of a
-    sub-aperture of that many equally spaced pulses (two pulses put all their energy at the band
-    edges, where interpolation errs most). ``design_beta``: the oversampling the ``optimal``
-    kernel was designed for (default ``beta``).
-    """
-    kind = INTERPOLATORS[interp]
-    t = (np.arange(64) + 0.5) / 64
-    if tones <= 0:
-        nu = (np.arange(128) + 0.5) / 128 - 0.5
-    elif tones == 1:
-        nu = np.zeros(1)
-    else:
-        nu = np.linspace(-0.5, 0.5, int(tones))
-    nu = nu / float(beta)
-    offs, w = _kernel_weights(kind, t, beta if design_beta is None else design_beta)   # [T, taps]
-    ph = np.exp(2j * np.pi * nu[:, None, None] * (offs[None, None, :] - t[None, :, None]))
-    resp = np.sum(w[None] * ph, axis=-1)                      # [V, T]
-    return float(np.sqrt(np.mean(np.abs(1.0 - resp) ** 2)))
-
-
-def predict_error(levels, *, interp="cubic", os_range=2.0, os_angle=2.0, upsample=4.0) -> float:
-    """Predicted relative error of FFBP against the exact matched filter (module docstring).
-
-    ``levels``: for every polar level that is interpolated (each merge reads its children's level,
-    the final stage the last one), ``(pulses per sub-aperture, angular oversampling)``. Every
-    interpolation mostly *attenuates* the upper part of the band, the same way at every stage, so
-    the errors add coherently: ``ε ≈ ε_prof + Σ_levels (ε_range + ε_angle(pulses, β))`` (measured:
-    adding them in quadrature under-predicts three-stage runs by 1.7×).
-    """
-    total = interp_error(interp, float(upsample))
-    for n_pulses, beta in levels:
-        total += interp_error(interp, float(os_range))
-        total += interp_error(interp, float(round(beta, 3)), int(n_pulses) if n_pulses < 64 else 0,
-                              float(os_angle))
-    return float(total)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -272,12 +171,15 @@ def _level(fr, dq, ext_q, ext_t) -> _Level:
 
 
 def plan_stages(antenna_position_m, freq_hz, grid: Grid, *, base=None, merge=None, os_range=None,
-                os_angle=None, interp=None, upsample=None) -> FfbpPlan:
+                os_angle=None, interp=None, upsample=None, final=None) -> FfbpPlan:
     """The FFBP stages for a geometry (no data needed): levels, operation counts, predicted error.
 
     Parameters as for :func:`ffbp`. ``ops`` holds the multiply-add counts of stage 0
     (pulse × node × taps), the merges (node × child × taps²) and the final stage (pixel × child ×
     taps²), from which :mod:`sarcli.formers.planner` predicts the time.
+
+    ``final``: merge until at most that many sub-images remain (default: while a merge costs less
+    than it saves in the final stage).
 
     Level ℓ must be accurate wherever level ℓ+1's (or the final stage's) stencils reach, so its
     grid extends beyond the image by the stencil half-widths of every later level, in its own
@@ -319,7 +221,10 @@ def plan_stages(antenna_position_m, freq_hz, grid: Grid, *, base=None, merge=Non
         pcount = np.array([cur["count"][i:i + m].sum() for i, m in zip(pf, pc)])
         nxt = _frame(pos, cur["first"][pf], pcount, grid, kmax, k["os_angle"], margin)
         lv = _level(nxt, dq, 2 * half, 2 * half)
-        if float(lv.n) * lv.nt * lv.nq * merge + float(n_pix) * lv.n >= float(n_pix) * n_cur:
+        if final is not None:
+            if n_cur <= int(final):
+                break
+        elif float(lv.n) * lv.nt * lv.nq * merge + float(n_pix) * lv.n >= float(n_pix) * n_cur:
             break
         frames.append(nxt)
         children.append((pf, pc))
@@ -375,7 +280,7 @@ def _pulse_geometry(t, q, r0):
 # public function
 # ---------------------------------------------------------------------------------------------
 def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weights=None, *, base=None,
-         merge=None, os_range=None, os_angle=None, interp=None, upsample=None, nthreads=None,
+         merge=None, os_range=None, os_angle=None, interp=None, upsample=None, final=None, nthreads=None,
          receive_position_m=None, return_plan=False):
     """Spherical matched-filter image by fast factorised backprojection (module docstring).
 
@@ -401,6 +306,8 @@ def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weigh
         kernels designed for each grid's oversampling, :func:`optimal_table`).
     upsample : float, default 4
         Range-profile oversampling (the IFFT length is ``upsample·M``).
+    final : int, optional
+        Merge until at most this many sub-images remain (default: as long as a merge pays).
     nthreads : int, optional
     receive_position_m : array_like, shape (P, 3), optional
         Separate receive positions (range ``(|t − x| + |q − x|)/2 − r0``).
@@ -443,7 +350,7 @@ def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weigh
             raise SarcliInputError("window weights sum to zero")
     mono = 0.5 * (t + q)
     plan = plan_stages(mono, f, grid, base=base, merge=merge, os_range=os_range, os_angle=os_angle,
-                       interp=interp, upsample=upsample)
+                       interp=interp, upsample=upsample, final=final)
     k = plan.knobs
     kind = INTERPOLATORS[k["interp"]]
     n_len = profile_length(M, k["upsample"])
