@@ -335,9 +335,16 @@ def regularizer_sweep(ph: PhaseHistory, prior: str, *, grid: Grid, iters=(1, 2, 
     One run per cap ``n`` in ``iters`` (``tol`` tiny, so each runs exactly ``n`` iterations);
     ``seconds`` is that run's ``runtime_s`` (set-up included), ``error`` is NaN (a regularised image
     is not the matched filter). The knobs record ``iters`` and the run's last ``objective``.
+    Every run uses one λ, so only the iteration count varies: ``lam`` if given, else the λ that
+    ``lam='auto'`` chooses once for this data (recorded in the knobs).
     """
     from ..regularize import regularize
 
+    if "lam" not in kwargs:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            chosen = regularize(ph, prior=prior, iters=int(max(iters)), grid=grid, lam="auto", **kwargs)
+        kwargs = {**kwargs, "lam": float(chosen.parameters["lam"])}
     truth = truth_on_grid(ph, grid) if truth is None else truth
     rows = []
     for n in progress(list(iters), desc=f"regularize {prior}", unit="cap"):
