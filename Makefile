@@ -10,7 +10,7 @@ OUT    := out
 GOTCHA ?= $(or $(SARCLI_GOTCHA_DIR),../shared/data/gotcha)
 PYTEST_WORKERS ?= 2
 
-.PHONY: all setup demo test test-fast data bench gotcha paper tutorial clean distclean help
+.PHONY: all setup demo test test-fast data bench gotcha paper tutorial stability clean distclean help
 
 all: demo
 
@@ -22,6 +22,7 @@ help:
 	@echo "make gotcha  image the AFRL GOTCHA files in $(GOTCHA)"
 	@echo "make paper   regenerate the paper's figures into $(OUT)/paper and docs/paper.md"
 	@echo "make tutorial regenerate docs/tutorial.md and its pictures from the demo's outputs"
+	@echo "make stability regenerate docs/stability.md from the stability cases in tests/stability/"
 
 # -- environment -------------------------------------------------------------------------------
 $(VENV)/.installed: pyproject.toml
@@ -38,6 +39,9 @@ test: $(VENV)/.installed
 
 test-fast: $(VENV)/.installed
 	$(BIN)/python -m pytest -q -x
+
+stability: $(VENV)/.installed
+	$(BIN)/python -m tests.stability.report
 
 # -- demo: three points ------------------------------------------------------------------------
 # spherical data (r0 = 10 km) for backprojection; the far-field model of the same scene for the
