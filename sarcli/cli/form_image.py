@@ -35,13 +35,17 @@ from .options import (export_options, grid_options, handle_errors, parse_pair, p
 @click.option("--merge", type=click.IntRange(min=2), default=None, help="ffbp: sub-apertures merged per stage (default 2).")
 @click.option("--os-range", type=click.FloatRange(min=1), default=None, help="ffbp: polar-grid range oversampling (default 2).")
 @click.option("--os-angle", type=click.FloatRange(min=1), default=None, help="ffbp: polar-grid angular oversampling (default 2).")
+@click.option("--tile", type=click.IntRange(min=1), default=None,
+              help="subimage: tile side in pixels (default: the largest predicted to meet --tolerance).")
+@click.option("--tolerance", type=click.FloatRange(min=1e-12, max=0.5), default=None,
+              help="Target relative error against the exact matched filter (subimage, auto; default 1e-2).")
 @threads_option
 @export_options
 @click.pass_context
 @handle_errors
 def command(ctx, input_path, output, method, window, taylor_nbar, taylor_sll_db, center, extent, pixel_size,
-            eps, kernel, oversample, width, upsample, interp, precision, base, merge, os_range, os_angle, nthreads,
-            png_path, tif_path):
+            eps, kernel, oversample, width, upsample, interp, precision, base, merge, os_range, os_angle, tile,
+            tolerance, nthreads, png_path, tif_path):
     """Form the matched-filter image of a phase history (or of a k-grid file with --method pfa)."""
     from ..formers.formation import form_image
     from ..io import open_input
@@ -61,7 +65,7 @@ def command(ctx, input_path, output, method, window, taylor_nbar, taylor_sll_db,
                      pixel_size=pixel_size, window=window, taylor_nbar=taylor_nbar, taylor_sll_db=taylor_sll_db,
                      eps=eps, kernel=kernel, oversample=oversample, width=width, upsample=upsample,
                      interp=interp, precision=precision, nthreads=nthreads, base=base, merge=merge,
-                     os_range=os_range, os_angle=os_angle)
+                     os_range=os_range, os_angle=os_angle, tile=tile, tolerance=tolerance)
     write_image(output, img)
     write_side_outputs(img, png_path, tif_path)
     wrote(output, f"{img.method}, {img.image.shape[1]} x {img.image.shape[0]} pixels, {img.runtime_s:.3g} s")

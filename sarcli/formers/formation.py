@@ -12,6 +12,7 @@ method                    data model             how
 ``pfa``                   far-field              gridding onto a Cartesian k-grid + FFT
 ``backprojection``        spherical (any path)   range-compress, interpolate, phase, accumulate
 ``ffbp``                  spherical (any path)   sub-aperture polar images merged in stages
+``subimage``              spherical (any path)   one NUFFT per motion-compensated tile
 ========================  =====================  ==============================================
 
 A far-field method applied to spherical data warns with the predicted phase error at the grid's
@@ -36,7 +37,7 @@ from ..core.windows import window_weights
 
 __all__ = ["form_image", "regrid", "METHODS", "image_error"]
 
-METHODS = ("direct", "nufft", "pfa", "backprojection", "ffbp")
+METHODS = ("direct", "nufft", "pfa", "backprojection", "ffbp", "subimage")
 FARFIELD_METHODS = ("nufft", "pfa")
 #: Virtual stand-off range per metre of grid half-diagonal used to backproject far-field data.
 VIRTUAL_RANGE_PER_M = 5.0e7
@@ -106,7 +107,8 @@ def form_image(ph, method: str = "nufft", *, grid: Grid | None = None, center=No
                eps: float = 1e-9, kernel: str = "kaiser", oversample: float = 2.0, width: int = 6,
                upsample: float | None = None, interp: str | None = None, precision: str = "float64",
                nthreads: int | None = None, base: int | None = None, merge: int | None = None,
-               os_range: float | None = None, os_angle: float | None = None) -> Image:
+               os_range: float | None = None, os_angle: float | None = None, tile: int | None = None,
+               tolerance: float | None = None) -> Image:
     """Form the matched-filter image of a phase history.
 
     Parameters
@@ -132,6 +134,10 @@ def form_image(ph, method: str = "nufft", *, grid: Grid | None = None, center=No
         Fast factorised backprojection (``ffbp``, :mod:`sarcli.formers.ffbp`): pulses per base
         sub-aperture, sub-apertures merged per stage, polar-grid oversampling in range and angle;
         with ``upsample`` and ``interp`` ('linear', 'cubic', 'lanczos', 'optimal'). ``None``: its defaults.
+    tile, tolerance :
+        Sub-image NUFFT (``subimage``, :mod:`sarcli.formers.subimage`): tile side in pixels, or
+        the largest predicted to meet ``tolerance`` (default 1e-2); its NUFFT runs at
+        ``eps = tolerance/10`` unless ``eps`` is set to other than its default.
 
     Returns
     -------
@@ -181,6 +187,22 @@ def form_image(ph, method: str = "nufft", *, grid: Grid | None = None, center=No
                     kernel=kernel, oversample=oversample, width=width)
         img = pfa_image(kg, grid)
         params.update({"kernel": kernel, "oversample": oversample, "width": width})
+    elif method == "subimage" and ph.model == "spherical":
+        from .subimage import subimage_nufft
+
+        rcv = acq.receive_position_m if getattr(acq, "is_bistatic", False) else None
+        pos = acq.transmit_position_m if rcv is not None else acq.antenna_position_m
+        tol = 1e-2 if tolerance is None else float(tolerance)
+        img, info = subimage_nufft(ph.data, acq.frequency_hz, pos, acq.range_to_center_m, grid, w, tile=tile,
+                                   tolerance=tol, eps=None if eps == 1e-9 else eps, nthreads=nthreads,
+                                   receive_position_m=rcv, return_info=True)
+        params.update(info)
+    elif method == "subimage":   # far-field data: one tile is exact
+        from .nufft import nufft_farfield
+
+        kx, ky = acq.kspace()
+        img = nufft_farfield(ph.data, kx, ky, grid, w, eps=eps, nthreads=nthreads)
+        params.update({"tile": max(grid.nx, grid.ny), "eps": eps, "predicted_error": eps, "n_tiles": 1})
     elif method == "ffbp":
         from .ffbp import ffbp_image
 
