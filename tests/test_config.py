@@ -169,3 +169,82 @@ def test_config_error_is_value_error():
         sarcli.parse_acquisition({"frequencies": {}, "azimuths": {}}, source="x.yaml")
     with pytest.raises(ConfigError, match="x.yaml: key 'frequencies.center_frequency_ghz'"):
         sarcli.parse_acquisition(copy.deepcopy({"frequencies": {}, "azimuths": {}}), source="x.yaml")
+
+
+# -- the strict YAML loader, the overwrite guard, the memory check, reserved outputs (issue 14) --
+
+@pytest.mark.parametrize("text,match", [
+    ("a: 1\nb: 2\na: 3\n", r"line 3: duplicate key 'a' \(lines 1 and 3\)"),
+    ("a: {b: 1, b: 2}\n", "duplicate key 'b'"),
+    ("a: &x [1, 2]\nb: *x\n", "anchor 'x' refused"),
+    ("a: .nan\n", r"line 1: value '\.nan' is not a finite number"),
+    ("a: [1.0, -.inf]\n", "not a finite number"),
+    ("a: " + "[" * 100 + "]" * 100, "nested deeper than 64"),
+])
+def test_strict_yaml_refuses(text, match):
+    from sarcli._util.yamlsafe import load_yaml_text
+
+    with pytest.raises(ConfigError, match=match):
+        load_yaml_text(text, source="t.yaml")
+
+
+def test_strict_yaml_reads_plain_yaml_and_short_repr_is_short():
+    from sarcli._util.yamlsafe import load_yaml_text, short_repr
+
+    assert load_yaml_text("a: [1, 2.5, x]\nb: {c: true}\n") == {"a": [1, 2.5, "x"], "b": {"c": True}}
+    assert len(short_repr(list(range(10**6)))) <= 203
+
+
+def test_huge_count_refused_before_allocation(tmp_path):
+    from sarcli._util.resources import set_memory_limit
+
+    cfg = {"frequencies": {"center_frequency_ghz": 10.0, "bandwidth_mhz": 600.0, "count": 10**12},
+           "azimuths": {"center_deg": 0.0, "extent_deg": 3.0, "count": 8}}
+    set_memory_limit(1 << 30)
+    try:
+        with pytest.raises(ConfigError, match=r"frequencies\.count.*needs about 29\.1 TiB.*limit 1 GiB"):
+            sarcli.parse_acquisition(cfg)
+    finally:
+        set_memory_limit(None)
+
+
+def test_parse_size():
+    from sarcli._util.resources import parse_size
+    from sarcli.errors import SarcliInputError
+
+    assert parse_size("4G") == 4 << 30 and parse_size("512MiB") == 512 << 20 and parse_size("1.5 GB") == 3 << 29
+    with pytest.raises(SarcliInputError):
+        parse_size("lots")
+
+
+def test_refuse_overwrite_links_and_inodes(tmp_path):
+    import os
+
+    from sarcli._util.guard import refuse_overwrite, same_file
+    from sarcli.errors import SarcliInputError
+
+    a = tmp_path / "a.h5"
+    a.write_text("x")
+    (tmp_path / "s.h5").symlink_to(a)
+    os.link(a, tmp_path / "h.h5")
+    for other in ("s.h5", "h.h5", "sub/../a.h5"):
+        (tmp_path / "sub").mkdir(exist_ok=True)
+        assert same_file(a, tmp_path / other)
+        with pytest.raises(SarcliInputError, match="the same file"):
+            refuse_overwrite([("input", a)], [("output", tmp_path / other)])
+    refuse_overwrite([("input", a)], [("output", tmp_path / "new.h5")])  # a new name is fine
+
+
+def test_reserved_output_is_released_and_atomic_write_commits(tmp_path):
+    from sarcli._util.atomic import atomic_path, release_all, reserve
+
+    out = tmp_path / "o.txt"
+    tmp = reserve(out)
+    assert tmp.exists() and not out.exists()
+    with atomic_path(out) as t:
+        assert t == tmp
+        t.write_text("done")
+    assert out.read_text() == "done" and not tmp.exists()
+    reserve(tmp_path / "never.txt")
+    assert [p.name for p in release_all()] == [".never.txt.tmp-" + str(__import__("os").getpid())]
+    assert not list(tmp_path.glob(".*tmp*"))

@@ -398,12 +398,23 @@ def _subaperture_params(err, key, spec, method):
     return None if w is None or o is None else (w, o, mode)
 
 
+#: most sub-aperture windows one plan entry may ask for
+MAX_WINDOWS = 10_000
+
+
 def _expand_subapertures(err, key, params, name, path, grid, common) -> list[Job]:
     w, o, mode = params
     az, full = _base_grid(err, key, path, grid)
     if az is None:
         return []
     exact = full.as_dict()
+    import numpy as np
+
+    n_windows = float(np.ptp(np.degrees(np.unwrap(np.asarray(az, np.float64))))) / (w - o)
+    if n_windows > MAX_WINDOWS:  # before the windows are listed: a tiny window would hang here
+        err.add(f"{key}.window_deg", f"{w:g}° windows advancing by {w - o:g}° give about {n_windows:.3g} windows "
+                                     f"(more than {MAX_WINDOWS}); use wider windows")
+        return []
     jobs = []
     for k, (a0, a1, pulses) in enumerate(subaperture_windows(az, w, o)):
         extra = {"subaperture": {"index": k, "azimuth_deg": [a0, a1], "n_pulses": len(pulses)}}
