@@ -25,7 +25,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import Result  # noqa: E402
 
 MODULES = ["fig01_kspace", "fig02_scene_size", "fig03_1dconv", "fig04_kernel", "fig05_phase1d",
-           "fig06_phase", "fig07_1d", "fig08_admm2d", "fig09_opt", "fig10_gotcha"]
+           "fig06_phase", "fig07_1d", "fig08_admm2d", "fig09_opt", "fig10_gotcha", "fig11_projection",
+           "fig12_example"]
 MAX_SMALL_BYTES = 100_000
 
 
