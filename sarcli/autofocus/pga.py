@@ -106,7 +106,7 @@ def phase_gradient_estimate(signals, window_db=-10.0, min_window=4, full=False, 
 
 
 def pga(ph, *, grid: Grid | None = None, n_scatterers: int | None = None, separation: int = 3,
-        window_db: float = -10.0, min_window: int = 4, max_iter: int = 20, tol: float = 1e-3,
+        window_db: float = -10.0, min_window: int = 4, max_iter: int = 10, tol: float = 2e-3,
         guard: bool = True, start=None, estimator: str = "eigen"):
     """Phase gradient autofocus (see the module docstring for the steps).
 
@@ -117,7 +117,8 @@ def pga(ph, *, grid: Grid | None = None, n_scatterers: int | None = None, separa
         Image grid the scatterers are selected on (default the acquisition's, cut to
         :func:`estimation_grid`).
     n_scatterers : int, optional
-        Dominant scatterers per iteration (default: one per 4 grid rows, 16 to 256).
+        Dominant scatterers per iteration (default: as many as grid rows, 32 to 256; the textbook
+        one per range line).
     separation : int
         Least distance between selected scatterers, pixels.
     window_db, min_window : float, int
@@ -136,7 +137,7 @@ def pga(ph, *, grid: Grid | None = None, n_scatterers: int | None = None, separa
     acq = ph.acquisition
     grid = estimation_grid(grid or acq.grid)
     P = ph.data.shape[0]
-    n = n_scatterers or int(np.clip(grid.ny // 4, 16, 256))
+    n = n_scatterers or int(np.clip(grid.ny, 32, 256))
     phi = np.zeros(P) if start is None else np.asarray(start, np.float64).copy()
     hist = {"rms_increment_rad": [], "window_bins": [], "entropy": []}
     best_h, best_phi = np.inf, phi
