@@ -4,6 +4,7 @@ that a choice or a range is written once, where the library defines it."""
 
 from __future__ import annotations
 
+import errno
 import functools
 import math
 import os
@@ -75,6 +76,7 @@ def handle_errors(func):
         old = warnings.showwarning
         warnings.showwarning = _show_warning
         try:
+            _guard_params(click.get_current_context(silent=True))
             with warnings.catch_warnings():
                 warnings.simplefilter("default", SarcliWarning)
                 warnings.showwarning = _show_warning
@@ -94,6 +96,10 @@ def handle_errors(func):
             click.echo(_one_line("error", exc), err=True)
             sys.exit(1)
         except OSError as exc:
+            if exc.errno == errno.EPIPE:  # `sar info X | head`: the reader left; no message
+                devnull = os.open(os.devnull, os.O_WRONLY)
+                os.dup2(devnull, sys.stdout.fileno())
+                sys.exit(1)
             name = getattr(exc, "filename", None)
             what = f"{name}: {exc.strerror}" if name and exc.strerror else exc
             click.echo(_one_line("error", what), err=True)
@@ -111,6 +117,31 @@ def handle_errors(func):
             warnings.showwarning = old
 
     return wrapper
+
+
+#: parameter names that are files a command writes (``-o``, ``--png``, ``--geotiff``, ``--history-png``)
+OUTPUT_PARAMS = ("output", "png_path", "tif_path", "history_png", "png")
+
+
+def _guard_params(ctx) -> None:
+    """The safety net of every command: its file outputs (:data:`OUTPUT_PARAMS`) against every
+    other file-path parameter, before the command body runs (a command that calls
+    :func:`prepare_outputs` itself gets more precise labels)."""
+    if ctx is None:
+        return
+    inputs, outputs = [], []
+    for param in ctx.command.params:
+        value = ctx.params.get(param.name)
+        if value is None or not isinstance(param.type, click.Path):
+            continue
+        values = value if isinstance(value, (tuple, list)) else (value,)
+        label = param.opts[-1] if isinstance(param, click.Option) and param.name != "output" else None
+        if param.name in OUTPUT_PARAMS and param.type.file_okay:
+            outputs += [(label or "output", v) for v in values]
+        elif param.type.file_okay:
+            inputs += [(label or "input", v) for v in values]
+    if outputs:
+        prepare_outputs(inputs, outputs)
 
 
 def prepare_outputs(inputs, outputs) -> None:
