@@ -12,7 +12,8 @@ l1 with default settings (λ auto), the λ chosen, and the best λ and its error
 λ values; prints one markdown table. Small grids (40 pixels far-field, 24 spherical; the spherical sweep for ptv only) keep it to a few minutes on two
 cores. No assertions; ``tests/test_regparam.py`` asserts a reduced version.
 
-Usage: ``python bench/bench_lam.py [--quick] [--priors ptv,tv,l1] [--no-sweep]``
+Usage: ``python bench/bench_lam.py [--quick] [--priors ptv,tv,l1] [--no-sweep] [--geometry far-field]
+[--kinds shapes,shepp,points] [--reestimate-every N]``
 """
 
 from __future__ import annotations
@@ -120,7 +121,9 @@ def main(argv=None):
     ap.add_argument("--quick", action="store_true", help="10 dB only, 32 pixels")
     ap.add_argument("--priors", default="ptv,tv,l1")
     ap.add_argument("--no-sweep", action="store_true")
-    ap.add_argument("--reestimate-every", type=int, default=0)
+    ap.add_argument("--reestimate-every", type=int, default=0, help="ptv: re-estimate Θ every N iterations")
+    ap.add_argument("--geometry", choices=("both", "far-field", "spherical"), default="both")
+    ap.add_argument("--kinds", default="shapes,shepp,points")
     a = ap.parse_args(argv)
     priors = tuple(a.priors.split(","))
     snrs = (10.0,) if a.quick else (5.0, 10.0, 20.0)
@@ -131,8 +134,9 @@ def main(argv=None):
     print(hdr)
     print("|" + "---|" * (hdr.count("|") - 1))
     t0 = time.perf_counter()
-    for kind in ("shapes", "shepp", "points"):
-        for spherical in (False, True):
+    geoms = {"both": (False, True), "far-field": (False,), "spherical": (True,)}[a.geometry]
+    for kind in a.kinds.split(","):
+        for spherical in geoms:
             for snr in snrs:
                 ph, truth = scene(kind, snr, spherical=spherical, n=24 if spherical else n)
                 # the spherical pair costs ~20x the Toeplitz form: sweep ptv only there

@@ -135,6 +135,17 @@ def _auto(ph, grid, scaled, s_b, D, T, prior, beta_ratio, isotropic, u0, iters, 
         lam = DEFAULT_LAM[prior]
         warnings.warn(f"lam='auto': {record['noise_source']}; using the default lam={lam} of prior "
                       f"{prior!r}", SarcliWarning, stacklevel=3)
+        record["fallback"] = lam
+        return lam, beta_ratio * lam, u0
+    if choice.status == "above at the smallest λ":
+        # the data cannot be fitted down to the noise level (scatterers outside the image, model
+        # error, or an underestimated σ²): the criterion says nothing; keep the default and say so
+        lam = DEFAULT_LAM[prior]
+        r_min = min(choice.ratios)
+        warnings.warn(f"lam='auto': even the smallest lam leaves a residual {r_min:.3g} x the noise level "
+                      f"(scatterers outside the image or model error); using the default lam={lam} of prior "
+                      f"{prior!r}; give --lam to choose", SarcliWarning, stacklevel=3)
+        record["fallback"] = lam
         return lam, beta_ratio * lam, u0
     return choice.lam, beta_ratio * choice.lam, choice.start
 

@@ -99,10 +99,12 @@ def test_auto_uses_the_file_noise_power_and_falls_back_with_a_warning(shapes):
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", ConvergenceWarning)
-        img = regularize(PhaseHistory(ph.data, ph.acquisition, attrs={"noise_power": 1e-30}), prior="tv",
-                         iters=30)
+        with pytest.warns(SarcliWarning, match="residual .* x the noise level"):
+            img = regularize(PhaseHistory(ph.data, ph.acquisition, attrs={"noise_power": 1e-30}), prior="tv",
+                             iters=30)
     sel = img.parameters["lam_selection"]
     assert sel["noise_source"] == "file attribute noise_power" and sel["status"] == "above at the smallest λ"
+    assert img.parameters["lam"] == sel["fallback"] == 0.02
     acq = ph.acquisition.with_(frequency_hz=np.sort(np.r_[ph.acquisition.frequency_hz[:-1], 10.2e9]))
     with pytest.warns(SarcliWarning, match="no noise estimate"):
         with warnings.catch_warnings():
