@@ -90,7 +90,7 @@ $(OUT)/gotcha-bp.h5: $(OUT)/gotcha.h5
 	$(SAR) form-image $< -o $@ --method backprojection --extent 100 --pixel-size 0.25 --png $(OUT)/gotcha-bp.png
 
 $(OUT)/gotcha-ptv.h5: $(OUT)/gotcha.h5
-	$(SAR) regularize $< -o $@ --prior ptv --operator spherical --extent 100 --pixel-size 0.25 --iters 30
+	$(SAR) regularize $< -o $@ --prior ptv --operator spherical --extent 100 --pixel-size 0.25 --iters 30 --lam 0.02
 	$(SAR) export $@ -o $(OUT)/gotcha-ptv.png
 
 gotcha: $(OUT)/gotcha-bp.h5 $(OUT)/gotcha-ptv.h5
