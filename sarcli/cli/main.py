@@ -20,6 +20,7 @@ from .._util.progress import set_quiet
 COMMANDS: dict[str, tuple[str, str]] = {
     "simulate": ("simulate", "Simulate a phase-history file from a YAML acquisition."),
     "info": ("info", "Describe any file sarcli reads (acquisition, phase history, image, k-grid)."),
+    "plan": ("plan", "List formers predicted to meet --tolerance, their time and memory, and auto's pick."),
     "form-image": ("form_image", "Form an image: direct, nufft, pfa or backprojection."),
     "regrid": ("regrid", "Regrid polar phase history onto a Cartesian k-grid (PFA's first half)."),
     "psf": ("psf", "Write the PSF (Theorem main-theorem) and its predicted IPR."),

@@ -13,6 +13,7 @@ method                    data model             how
 ``backprojection``        spherical (any path)   range-compress, interpolate, phase, accumulate
 ``ffbp``                  spherical (any path)   sub-aperture polar images merged in stages
 ``subimage``              spherical (any path)   one NUFFT per motion-compensated tile
+``auto``                  either                 the cheapest of the above predicted to meet ``tolerance``
 ========================  =====================  ==============================================
 
 A far-field method applied to spherical data warns with the predicted phase error at the grid's
@@ -37,7 +38,7 @@ from ..core.windows import window_weights
 
 __all__ = ["form_image", "regrid", "METHODS", "image_error"]
 
-METHODS = ("direct", "nufft", "pfa", "backprojection", "ffbp", "subimage")
+METHODS = ("direct", "nufft", "pfa", "backprojection", "ffbp", "subimage", "auto")
 FARFIELD_METHODS = ("nufft", "pfa")
 #: Virtual stand-off range per metre of grid half-diagonal used to backproject far-field data.
 VIRTUAL_RANGE_PER_M = 5.0e7
@@ -158,6 +159,17 @@ def form_image(ph, method: str = "nufft", *, grid: Grid | None = None, center=No
         raise TypeError(f"form_image expects a PhaseHistory or a KGrid, got {type(ph).__name__}")
     acq = ph.acquisition
     grid = resolve_grid(grid or acq.grid, center=center, extent=extent, pixel_size=pixel_size)
+    if method == "auto":   # the cheapest former predicted to meet the tolerance (formers/planner.py)
+        from .planner import recommend
+
+        tol = 1e-2 if tolerance is None else float(tolerance)
+        pick = recommend(ph, grid, tol, nthreads=nthreads)
+        img = form_image(ph, pick.method, grid=grid, window=window, taylor_nbar=taylor_nbar,
+                         taylor_sll_db=taylor_sll_db, nthreads=nthreads, **pick.knobs)
+        img.parameters["auto"] = {"tolerance": tol, "choice": pick.method, "knobs": pick.knobs,
+                                  "predicted_error": pick.predicted_error, "predicted_s": pick.seconds}
+        img.parameters["predicted_error"] = pick.predicted_error
+        return img
     w = _weights(ph, window, taylor_nbar, taylor_sll_db)
     params.update({"window": window, "grid": grid.as_dict(), "data_model": ph.model})
     if window == "taylor":

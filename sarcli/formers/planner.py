@@ -1,0 +1,216 @@
+"""Choose the cheapest image former predicted to meet an accuracy: ``--method auto --tolerance``.
+
+"Leave out what a given scene does not need." For a phase history, a grid and a tolerance TOL on the
+relative error against the exact matched filter, :func:`candidates` lists every former with the
+knobs its error model predicts to meet TOL, and :func:`recommend` picks the cheapest:
+
+- far-field data: ``nufft`` with ``eps = TOL/10`` (its error is ~eps);
+- spherical data: ``subimage`` (tile from the predicted curvature error,
+  :mod:`sarcli.formers.subimage`), ``ffbp`` (knobs from :func:`sarcli.formers.ffbp.plan_stages`'s
+  predicted error), ``backprojection`` (profile oversampling and interpolator from the same
+  interpolation error model), and ``direct`` (exact, the slowest);
+- an O(N²P) former (backprojection, direct) is never picked when a NUFFT former meets TOL.
+
+Predicted times come from operation counts times per-operation constants measured on this machine
+(``cost_model.json`` next to this module; :func:`calibrate` re-measures them, e.g. from
+``bench/bench_ffbp.py --calibrate``). Memory is the formers' largest arrays.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..core.grid import Grid
+from ..errors import SarcliInputError
+
+__all__ = ["Candidate", "candidates", "recommend", "load_cost_model", "calibrate", "COST_MODEL_PATH"]
+
+COST_MODEL_PATH = Path(__file__).with_name("cost_model.json")
+#: Per-operation seconds (one core) when no calibration file exists.
+_DEFAULT_COSTS = {"direct": 6e-9, "bp": 3e-9, "bp_fft": 4e-9, "ffbp_stage0": 4e-9, "ffbp_mac": 1.5e-9,
+                  "nufft_spread": 3e-9, "nufft_fft": 3e-9, "subimage_point": 2e-9, "threads": 2}
+_BP_TAPS = {"linear": 2, "cubic": 4, "lanczos": 6}
+_NUFFT = ("nufft", "subimage")
+
+
+@dataclass
+class Candidate:
+    """One former with its knobs, predicted error, time (s) and memory (bytes)."""
+
+    method: str
+    knobs: dict
+    predicted_error: float
+    seconds: float
+    memory: float
+    notes: str = ""
+    meets: bool = field(default=False)
+
+    def as_dict(self) -> dict:
+        return {"method": self.method, "knobs": self.knobs, "predicted_error": self.predicted_error,
+                "predicted_s": self.seconds, "memory_bytes": self.memory, "meets": self.meets}
+
+
+def load_cost_model() -> dict:
+    """The calibrated constants (``cost_model.json``), defaults for any that are missing."""
+    costs = dict(_DEFAULT_COSTS)
+    try:
+        costs.update(json.loads(COST_MODEL_PATH.read_text())["seconds_per_op"])
+    except (OSError, ValueError, KeyError):
+        pass
+    return costs
+
+
+def _nufft_width(eps: float) -> int:
+    return int(min(16, max(2, math.ceil(-math.log10(eps)) + 1)))
+
+
+def _nufft_seconds(c, n_samples, ny, nx, eps, threads=1):
+    w = _nufft_width(eps)
+    n_fft = 4.0 * nx * ny
+    return (c["nufft_spread"] * n_samples * w * w + c["nufft_fft"] * n_fft * math.log2(max(n_fft, 2))) / threads
+
+
+def candidates(ph, grid: Grid, tolerance: float, *, costs=None, nthreads=None) -> list:
+    """Every former with knobs predicted to meet ``tolerance`` (and a few that do not, marked)."""
+    from . import ffbp as fb
+    from .backprojection import profile_length
+    from .ffbp_model import interp_error
+    from .subimage import choose_tile
+
+    if not (0 < tolerance < 1):
+        raise SarcliInputError(f"--tolerance must lie in (0, 1), got {tolerance}")
+    c = load_cost_model() if costs is None else costs
+    thr = max(1, int(nthreads or c.get("threads", 2)))
+    acq = ph.acquisition
+    P, M = ph.data.shape
+    npix = float(grid.nx) * grid.ny
+    out = [Candidate("direct", {}, 0.0, c["direct"] * P * M * npix / thr, 16 * (P * M + 2 * npix))]
+    eps = max(tolerance / 10, 1e-14)
+    if ph.model != "spherical":
+        out.append(Candidate("nufft", {"eps": eps}, eps, _nufft_seconds(c, P * M, grid.ny, grid.nx, eps, thr),
+                             16 * (P * M * 3 + 5 * npix)))
+    else:
+        rcv = acq.receive_position_m if getattr(acq, "is_bistatic", False) else None
+        pos = acq.transmit_position_m if rcv is not None else acq.antenna_position_m
+        f = acq.frequency_hz
+        # subimage NUFFT
+        tile, pred = choose_tile(pos, rcv, acq.range_to_center_m, f, grid, tolerance, eps=eps)
+        if tile is not None:
+            n_tiles = math.ceil(grid.nx / tile) * math.ceil(grid.ny / tile)
+            t = n_tiles * c["subimage_point"] * P * M * _nufft_width(eps) ** 2 / thr
+            out.append(Candidate("subimage", {"tile": int(tile), "tolerance": tolerance}, pred, t,
+                                 16 * (4 * P * M * thr + 2 * npix), f"{n_tiles} tiles"))
+        # backprojection: the profile interpolation is its error
+        for interp in ("cubic", "lanczos", "linear"):
+            for up in (2, 4, 8, 16, 32):
+                e = interp_error(interp, float(up))
+                if e <= tolerance or up == 32:
+                    L = profile_length(M, up)
+                    t = (c["bp"] * P * npix * _BP_TAPS[interp] / 4 + c["bp_fft"] * P * L * math.log2(L)) / thr
+                    out.append(Candidate("backprojection", {"upsample": up, "interp": interp}, e, t,
+                                         16 * (P * M + 32 * L + 2 * npix)))
+                    break
+        # ffbp: a small sweep of its knobs
+        mono = pos if rcv is None else 0.5 * (pos + rcv)
+        best = {}
+        for os_ in (1.5, 2.0, 3.0, 4.0, 6.0):
+            up = next((u for u in (2, 4, 8, 16) if interp_error("optimal", float(u)) <= tolerance / 8), 16)
+            for base in (8, 32):
+                try:
+                    plan = fb.plan_stages(mono, f, grid, base=base, os_range=os_, os_angle=os_, upsample=up,
+                                          interp="optimal")
+                except SarcliInputError:
+                    continue
+                o = plan.ops
+                L = profile_length(M, up)
+                t = (c["ffbp_stage0"] * o["stage0"] + c["ffbp_mac"] * (o["merge"] + o["final"])
+                     + c["bp_fft"] * P * L * math.log2(L)) / thr
+                cand = Candidate("ffbp", {"base": base, "merge": 2, "os_range": os_, "os_angle": os_,
+                                          "interp": "optimal", "upsample": up}, plan.predicted_error, t,
+                                 16 * (2 * 2 * o["nodes"] + P * M + 2 * npix), f"{plan.n_stages} stages")
+                key = cand.predicted_error <= tolerance
+                if key and (key not in best or t < best[key].seconds):
+                    best[key] = cand
+                elif not key and (key not in best or cand.predicted_error < best[key].predicted_error):
+                    best[key] = cand
+        out += list(best.values())
+    for cand in out:
+        cand.meets = cand.predicted_error <= tolerance
+    return sorted(out, key=lambda x: (not x.meets, x.seconds))
+
+
+def recommend(ph, grid: Grid, tolerance: float, *, nthreads=None, costs=None) -> Candidate:
+    """The cheapest candidate predicted to meet ``tolerance``; O(N²P) formers only when no NUFFT
+    former meets it. Raises :class:`SarcliInputError` for a tolerance outside (0, 1)."""
+    cands = [x for x in candidates(ph, grid, tolerance, costs=costs, nthreads=nthreads) if x.meets]
+    if any(x.method in _NUFFT for x in cands):
+        cands = [x for x in cands if x.method not in ("backprojection", "direct")]
+    return min(cands, key=lambda x: x.seconds)   # direct always meets
+
+
+def calibrate(path=None, *, repeat: int = 3) -> dict:
+    """Measure the per-operation constants on this machine and write them to ``cost_model.json``.
+
+    Small instances of every former (a few seconds in all); each constant is its measured time
+    (best of ``repeat``) divided by its operation count.
+    """
+    from ..core import geometry
+    from . import ffbp as fb
+    from .backprojection import backproject, profile_length
+    from .direct import direct_spherical
+    from .nufft import nufft_farfield
+    from .subimage import subimage_nufft
+
+    def best(fn):
+        fn()
+        ts = []
+        for _ in range(repeat):
+            t0 = time.perf_counter()
+            fn()
+            ts.append(time.perf_counter() - t0)
+        return min(ts)
+
+    P, M, N = 256, 256, 256
+    freq = 9.6e9 + 2e6 * np.arange(M)
+    az = np.radians(np.linspace(-3, 3, P))
+    a = geometry.antenna_positions_circle(az, np.radians(30), 10e3)
+    r0 = np.linalg.norm(a, axis=1)
+    rng = np.random.default_rng(0)
+    d = rng.normal(size=(P, M)) + 1j * rng.normal(size=(P, M))
+    grid = Grid(N, N, 0.25, 0.25)
+    thr = 2
+    c = {"threads": thr}
+    L = profile_length(M, 8)
+    c["bp_fft"] = _DEFAULT_COSTS["bp_fft"]
+    c["bp"] = best(lambda: backproject(d, freq, a, r0, grid)) * thr / (P * N * N)
+    small = Grid(32, 32, 0.5, 0.5)
+    c["direct"] = best(lambda: direct_spherical(d, freq, a, r0, small)) * thr / (P * M * 32 * 32)
+    plan = fb.plan_stages(a, freq, grid)
+    t = best(lambda: fb.ffbp(d, freq, a, r0, grid)) * thr
+    o = plan.ops
+    # split the measured time between stage 0 and the MACs in the default ratio of the constants
+    share = _DEFAULT_COSTS["ffbp_stage0"] * o["stage0"] + _DEFAULT_COSTS["ffbp_mac"] * (o["merge"] + o["final"])
+    scale = (t - c["bp_fft"] * P * L * math.log2(L)) / share
+    c["ffbp_stage0"] = _DEFAULT_COSTS["ffbp_stage0"] * scale
+    c["ffbp_mac"] = _DEFAULT_COSTS["ffbp_mac"] * scale
+    kx, ky = geometry.kspace_coordinates(freq, az, np.radians(30))
+    w = _nufft_width(1e-6)
+    t = best(lambda: nufft_farfield(d, kx, ky, grid, eps=1e-6)) * thr
+    n_fft = 4.0 * N * N
+    c["nufft_fft"] = _DEFAULT_COSTS["nufft_fft"]
+    c["nufft_spread"] = max(1e-11, (t - c["nufft_fft"] * n_fft * math.log2(n_fft)) / (P * M * w * w))
+    tile = 16
+    t = best(lambda: subimage_nufft(d, freq, a, r0, grid, tile=tile, eps=1e-3)) * thr
+    n_tiles = (N // tile) ** 2
+    c["subimage_point"] = t / (n_tiles * P * M * _nufft_width(1e-3) ** 2)
+    path = Path(path) if path is not None else COST_MODEL_PATH
+    path.write_text(json.dumps({"note": "seconds per operation x threads, measured by "
+                                        "sarcli.formers.planner.calibrate on this machine",
+                                "measured": time.strftime("%Y-%m-%d"), "seconds_per_op": c}, indent=1) + "\n")
+    return c

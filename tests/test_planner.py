@@ -1,0 +1,101 @@
+"""``--method auto --tolerance``: the planner's pick meets the tolerance against ``direct``."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from sarcli.core import geometry
+from sarcli.core.acquisition import Acquisition
+from sarcli.core.grid import Grid
+from sarcli.core.types import PhaseHistory
+from sarcli.errors import SarcliInputError
+from sarcli.formers.formation import form_image, image_error
+from sarcli.formers.planner import candidates, load_cost_model, recommend
+
+GRID = Grid(48, 48, 0.5, 0.5)
+FREQ = 9.6e9 + 4e6 * np.arange(96)
+RNG = np.random.default_rng(11)
+POINTS = np.column_stack([RNG.uniform(-11, 11, 8), RNG.uniform(-11, 11, 8), np.zeros(8)])
+AMPS = RNG.normal(size=8) + 1j * RNG.normal(size=8)
+
+
+def spherical(r0=10e3, P=96):
+    az = np.radians(np.linspace(-2.5, 2.5, P))
+    el = np.radians(30)
+    a = geometry.antenna_positions_circle(az, el, r0)
+    rr = np.linalg.norm(a, axis=1)
+    dr = geometry.differential_range(a, rr, POINTS)
+    data = (np.exp(-1j * 4 * np.pi / geometry.C * FREQ[None, :, None] * dr[:, None, :]) * AMPS).sum(-1)
+    return PhaseHistory(data, Acquisition(FREQ, az, np.full(P, el), GRID, antenna_position_m=a,
+                                          range_to_center_m=rr, model="spherical"))
+
+
+@pytest.fixture(scope="module")
+def sph():
+    ph = spherical()
+    return ph, form_image(ph, "direct").image
+
+
+@pytest.mark.parametrize("tol", [1e-2, 1e-3, 1e-4])
+def test_auto_meets_tolerance_on_spherical_data(sph, tol):
+    ph, ref = sph
+    img = form_image(ph, "auto", tolerance=tol)
+    err = image_error(img.image, ref)
+    assert err <= tol, (img.parameters["auto"], err)
+    auto = img.parameters["auto"]
+    assert auto["tolerance"] == tol and auto["predicted_error"] <= tol and auto["choice"] == img.method
+
+
+def test_auto_prefers_a_nufft_when_one_meets(sph):
+    ph, _ = sph
+    cands = candidates(ph, GRID, 1e-2)
+    pick = recommend(ph, GRID, 1e-2)
+    if any(c.meets and c.method in ("nufft", "subimage") for c in cands):
+        assert pick.method not in ("backprojection", "direct")
+    assert {"direct", "backprojection", "ffbp"} <= {c.method for c in cands}
+
+
+def test_auto_on_farfield_data_is_nufft():
+    P = 64
+    az = np.radians(np.linspace(-3, 3, P))
+    el = np.full(P, np.radians(30))
+    psi = geometry.signal_phase(FREQ, az, el, POINTS, model="farfield")
+    ph = PhaseHistory((np.exp(-1j * psi) * AMPS).sum(-1), Acquisition(FREQ, az, el, GRID, model="farfield"))
+    img = form_image(ph, "auto", tolerance=1e-6)
+    assert img.method == "nufft" and img.parameters["eps"] == pytest.approx(1e-7)
+    assert image_error(img.image, form_image(ph, "direct").image) <= 1e-6
+
+
+def test_bad_tolerance_is_a_user_error(sph):
+    with pytest.raises(SarcliInputError, match="tolerance"):
+        recommend(sph[0], GRID, 2.0)
+
+
+def test_cost_model_has_every_constant():
+    c = load_cost_model()
+    for key in ("direct", "bp", "ffbp_stage0", "ffbp_mac", "nufft_spread", "subimage_point"):
+        assert c[key] > 0
+
+
+def test_cli_plan_and_form_image_auto(tmp_path, sph):
+    from sarcli.cli.main import cli
+    from sarcli.io.hdf5 import read_image, write_phase_history
+
+    src = tmp_path / "ph.h5"
+    write_phase_history(src, sph[0])
+    res = CliRunner().invoke(cli, ["plan", str(src), "--tolerance", "1e-3"])
+    assert res.exit_code == 0, res.output
+    assert "<- auto" in res.output and "ffbp" in res.output
+    res = CliRunner().invoke(cli, ["plan", str(src), "--tolerance", "1e-3", "--json"])
+    doc = json.loads(res.output)
+    assert doc["auto"]["meets"] and doc["tolerance"] == 1e-3
+    out = tmp_path / "img.h5"
+    res = CliRunner().invoke(cli, ["-q", "form-image", str(src), "-o", str(out), "--method", "auto",
+                                   "--tolerance", "1e-3"])
+    assert res.exit_code == 0, res.output
+    params = read_image(out).parameters
+    assert params["auto"]["tolerance"] == 1e-3 and params["auto"]["choice"] == doc["auto"]["method"]
