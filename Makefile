@@ -67,7 +67,7 @@ $(DEMO)-quality.json: $(DEMO)-bp.h5 $(DEMO).h5
 	$(SAR) quality $< --ph $(DEMO).h5 --json > $@.tmp && mv $@.tmp $@
 
 $(DEMO)-ptv.h5: $(DEMO)-ff.h5
-	$(SAR) regularize $< -o $@ --prior ptv --pixel-size 0.1 --iters 300 --history-png $(DEMO)-ptv-history.png
+	$(SAR) regularize $< -o $@ --prior ptv --pixel-size 0.1 --iters 300 --lam 0.02 --history-png $(DEMO)-ptv-history.png
 	$(SAR) export $@ -o $(DEMO)-ptv.png
 	$(SAR) export $@ -o $(DEMO)-ptv.tif
 

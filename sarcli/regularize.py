@@ -143,8 +143,8 @@ def _auto(ph, grid, scaled, s_b, D, T, prior, beta_ratio, isotropic, u0, iters, 
         lam = DEFAULT_LAM[prior]
         r_min = min(choice.ratios)
         warnings.warn(f"lam='auto': even the smallest lam leaves a residual {r_min:.3g} x the noise level "
-                      f"(scatterers outside the image or model error); using the default lam={lam} of prior "
-                      f"{prior!r}; give --lam to choose", SarcliWarning, stacklevel=3)
+                      f"(noiseless data, scatterers outside the image or model error); using the default "
+                      f"lam={lam} of prior {prior!r}; give --lam to choose", SarcliWarning, stacklevel=3)
         record["fallback"] = lam
         return lam, beta_ratio * lam, u0
     return choice.lam, beta_ratio * choice.lam, choice.start

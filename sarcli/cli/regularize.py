@@ -88,5 +88,8 @@ def command(ctx, input_path, output, prior, order, lam, beta, iters, tol, operat
         wrote(history_png, "objective and relative change per iteration")
     p = img.parameters
     sel = p.get("lam_selection")
-    how = f"lam {p['lam']:.4g}" + (f" by {sel['criterion']} ({sel.get('status', 'fallback')})" if sel else "")
+    how = f"lam {p['lam']:.4g}"
+    if sel:
+        how += (f" (default: auto fell back, {sel.get('status', sel['noise_source'])})" if "fallback" in sel
+                else f" by {sel['criterion']}")
     wrote(output, f"{prior} ({p['operator']}), {how}, {p.get('iterations', 0)} iterations, {img.runtime_s:.3g} s")

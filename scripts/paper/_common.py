@@ -46,6 +46,10 @@ class Result:
     figure : matplotlib Figure, optional
     notes : str
         Anything a reader should know about how we differ from the paper.
+    headline : str
+        The key number(s), for the summary table.
+    kind : str
+        'reproduced', 'analogue (why)' or 'not reproducible (why)'.
     """
 
     key: str
@@ -56,6 +60,8 @@ class Result:
     passed: bool | None = None
     figure: object = None
     notes: str = ""
+    headline: str = ""
+    kind: str = "reproduced"
 
 
 def load_config(name: str, **changes) -> dict:

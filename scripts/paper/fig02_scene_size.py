@@ -120,4 +120,4 @@ def run(out_dir=None) -> Result:
             f"[{rep['cross_band'][0]:.2f}, {rep['cross_band'][1]:.2f}] m (± one resolution cell {rep['rho_cr']:.2f} m): "
             f"{rep['cross_in_band']}. So 2R_cr (from the largest k) is the nearest a cross-range alias can come.",
         ],
-        passed=ok, figure=plot(rep, img, grid))
+        passed=ok, headline=f"R = {gm['r_pi']:.3f} m; formulas agree to {fmt(max(gm['rel_range'], gm['rel_cross']))}", figure=plot(rep, img, grid))

@@ -127,4 +127,4 @@ def run(out_dir=None) -> Result:
             f"x = ±π/2 (flat parts) {flat:.4f}; for K_c = 0 the sum is {res[0]['sum'][np.argmin(abs(x - np.pi / 2))].real:.3f} "
             f"at x = π/2 (the step's value 1).",
         ],
-        passed=ok, figure=plot(res))
+        passed=ok, headline=f"partial sum = convolution with G to {fmt(max(errs))}", figure=plot(res))

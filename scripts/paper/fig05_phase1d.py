@@ -127,4 +127,4 @@ def run(out_dir=None) -> Result:
             f"{fmt(np.max(np.abs(res[0]['mean'] - res[125]['mean'])) / np.max(res['expected']))} of the peak "
             f"(MC noise, ~1/√draws = {fmt(1 / np.sqrt(res['n_draws']))}).",
         ],
-        passed=ok, figure=plot(res))
+        passed=ok, headline=f"max |z| {res[0]['max_z']:.2f} / {res[125]['max_z']:.2f} (bound {res['z_bound']:.2f})", figure=plot(res))

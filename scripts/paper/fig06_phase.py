@@ -153,4 +153,4 @@ def run(out_dir=None) -> Result:
             f"(pass: 0.8-1.25), max |z| = {res['max_z']:.2f}; relative L2 difference of MC mean and formula "
             f"{fmt(res['rel_l2'])} (MC noise ≈ 1/√draws = {fmt(1 / np.sqrt(res['n_draws']))}).",
         ],
-        passed=ok, figure=plot(res))
+        passed=ok, headline=f"interior recovered: real f {res['interior_real']:.2f}, random phase {res['interior_random']:.2f}", figure=plot(res))

@@ -136,4 +136,4 @@ def run(out_dir=None) -> Result:
             f"ADMM: λ = 0.02, β = 32λ, {res['iterations']} iterations, relative data misfit {fmt(res['data_fit'])} "
             f"(pass < 1e-3).",
         ],
-        passed=ok, figure=plot(res))
+        passed=ok, headline=f"TV error {res['error']['tv']:.4f} vs partial sum {res['error']['partial']:.4f}; overshoot {res['overshoot']['tv']:.3f} vs {res['overshoot']['partial']:.3f}", figure=plot(res))

@@ -94,4 +94,4 @@ def run(out_dir=None) -> Result:
             f"Relative L2 error against the truth: ADMM {res['error_admm']:.3f}, zero-filled inverse DFT "
             f"(Aᴴb) {res['error_zero_filled']:.3f}.",
         ],
-        passed=ok, figure=plot(res))
+        passed=ok, headline=f"objective rises total {fmt(100 * res['rise_fraction'])} % of its decrease", figure=plot(res))

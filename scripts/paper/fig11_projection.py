@@ -163,4 +163,4 @@ def run(out_dir=None) -> Result:
             f"against p_θ* of the look's range profile G(w) = Σ_j d_j e^(i k_j w): max relative error "
             f"{fmt(res['sar'])} (bound 1e-3; linear interpolation of G at k Δw ≈ 0.008).",
         ],
-        passed=ok, figure=plot(res))
+        passed=ok, headline=f"dot test {fmt(res['dot'])}; single-look matched filter = backprojection to {fmt(res['sar'])}", figure=plot(res))

@@ -129,5 +129,5 @@ def run(out_dir=None) -> Result:
             f"Matched-filter image ({res['grid'].nx}² pixels of {fmt(px)} m): the four bright corners peak within "
             + ", ".join(fmt(100 * e) for e in res["corner_errors"]) + f" cm of their positions (pass ≤ 1.5 pixels).",
         ],
-        passed=ok, figure=plot(res),
+        passed=ok, headline=f"range profiles within the projected extent: {fmt(100 * res['share'].min())} %", kind="analogue (CV-domes data not available)", figure=plot(res),
         notes="Labelled an analogue: it reproduces the figure's kind of content, not its data.")

@@ -40,7 +40,8 @@ def _run_one(name: str) -> tuple[Result, float]:
     except Exception as exc:  # a figure that cannot be made is reported, not hidden
         traceback.print_exc()
         res = Result(name, getattr(sys.modules.get(name), "LABEL", "?"), name, claim="(see the paper)",
-                     measured=[f"not reproduced: {type(exc).__name__}: {exc}"], passed=None)
+                     measured=[f"not reproduced: {type(exc).__name__}: {exc}"], passed=None,
+                     kind=f"not reproduced ({type(exc).__name__})")
     return res, time.perf_counter() - t0
 
 
@@ -70,9 +71,12 @@ def write_markdown(results, md_path: Path, out_dir: Path):
              "our picture (small copy here, full size in `out/paper/`), our numbers, and the verdict. "
              "The same checks run at reduced sizes in `tests/test_paper.py`. Every random draw is seeded, so the "
              "page is the same on every run (run times are printed to the terminal, not written here).", "",
-             "| figure | label | verdict |", "|---|---|---|"]
+             "The paper has 12 figures (every `\\begin{figure}` of the .tex); all 12 are listed here, each as "
+             "reproduced (with its key number), an analogue (and why) or not reproducible (and why).", "",
+             "| figure | label | how | verdict | key number |", "|---|---|---|---|---|"]
     for res, secs in results:
-        lines.append(f"| [{res.title}](#{res.key}) | `{res.label}` | {_verdict(res.passed)} |")
+        lines.append(f"| [{res.title}](#{res.key}) | `{res.label}` | {res.kind} | {_verdict(res.passed)} | "
+                     f"{res.headline} |")
     lines.append("")
     for res, secs in results:
         lines += [f"## {res.key}", "", f"**{res.title}** — `{res.label}`", "", f"**Paper:** {res.claim}", ""]
