@@ -61,6 +61,13 @@ BP_UPSAMPLE = (1, 2, 4, 8, 16)
 BP_INTERP = ("linear", "cubic", "lanczos")
 BP_PRECISION = ("float32", "float64")
 FAST_METHODS = ("nufft", "pfa", "backprojection")
+#: Formers for spherical data, swept when asked for (``sar bench --methods ...,ffbp,subimage``).
+SPHERICAL_METHODS = ("ffbp", "subimage")
+#: ffbp: polar-grid oversampling (range = angle) × base sub-aperture, optimal kernels; plus cubic.
+FFBP_OS = (1.5, 2.0, 3.0, 4.0)
+FFBP_BASE = (8, 32)
+#: subimage: the tolerance its tile (and NUFFT eps) is chosen for.
+SUBIMAGE_TOL = (1e-1, 1e-2, 1e-3)
 #: Largest P·M·pixels the exact reference is computed for (about 10 s on one core); beyond it a sub-grid.
 MAX_REFERENCE_COST = 1.0e9
 CSV_COLUMNS = ("method", "knobs", "error", "error_truth", "seconds", "compile_s", "peak_mb", "warnings")
@@ -125,7 +132,8 @@ def sweep(methods=FAST_METHODS, *, windows=("none", "taylor")) -> list:
 
     The knob grids are :data:`NUFFT_EPS`, PFA kernel × :data:`PFA_OVERSAMPLE` × :data:`PFA_WIDTH`
     (the linear kernel has a fixed width of 2 cells), backprojection :data:`BP_UPSAMPLE` ×
-    :data:`BP_INTERP` × :data:`BP_PRECISION`, all without a window; every window other than
+    :data:`BP_INTERP` × :data:`BP_PRECISION`, ffbp :data:`FFBP_OS` × :data:`FFBP_BASE` (and cubic
+    kernels), subimage :data:`SUBIMAGE_TOL`, all without a window; every window other than
     'none' is added once per method at the method's default knobs.
     """
     out = []
@@ -139,8 +147,13 @@ def sweep(methods=FAST_METHODS, *, windows=("none", "taylor")) -> list:
         elif m == "backprojection":
             out += [("backprojection", {"upsample": u, "interp": i, "precision": p})
                     for u in BP_UPSAMPLE for i in BP_INTERP for p in BP_PRECISION]
+        elif m == "ffbp":
+            out += [("ffbp", {"os_range": s, "os_angle": s, "base": b}) for s in FFBP_OS for b in FFBP_BASE]
+            out += [("ffbp", {"os_range": s, "os_angle": s, "interp": "cubic"}) for s in (2.0, 4.0)]
+        elif m == "subimage":
+            out += [("subimage", {"tolerance": t}) for t in SUBIMAGE_TOL]
         elif m != "direct":
-            raise SarcliInputError(f"unknown method {m!r}; choose from direct, {', '.join(FAST_METHODS)}")
+            raise SarcliInputError(f"unknown method {m!r}; choose from direct, {', '.join(FAST_METHODS + SPHERICAL_METHODS)}")
         out += [(m, {"window": w}) for w in windows if w != "none" and m != "direct"]
     return out
 
