@@ -214,3 +214,18 @@ def test_gotcha_never_less_sharp(method):
     # pga 7.087 / 343, min-entropy 7.023 / 343 (entropy / peak-to-mean)
     assert image_entropy(img) < image_entropy(raw) + 0.01 < image_entropy(blurred)
     assert peak_to_mean(img) > 0.95 * peak_to_mean(raw) > peak_to_mean(blurred)
+
+
+def test_form_image_autofocus_option(tmp_path, case):
+    from sarcli.io.hdf5 import read_image
+
+    clean, bad, err = case
+    write_phase_history(tmp_path / "bad.h5", bad)
+    runner = CliRunner()
+    for extra, name in (([], "plain.h5"), (["--autofocus", "pga"], "af.h5")):
+        res = runner.invoke(cli, ["form-image", str(tmp_path / "bad.h5"), "-o", str(tmp_path / name),
+                                  "--method", "backprojection", *extra])
+        assert res.exit_code == 0, res.output
+    plain, af = read_image(tmp_path / "plain.h5").image, read_image(tmp_path / "af.h5").image
+    assert image_entropy(af) < image_entropy(plain) - 0.3
+    assert "autofocus pga" in res.output

@@ -516,3 +516,46 @@ def test_phase_history_without_tx_rx_still_reads(tmp_path):
         assert "transmit_position_m" not in f
     back = read_phase_history(tmp_path / "a.h5")
     assert back.acquisition.transmit_position_m is None and not back.acquisition.is_bistatic
+
+
+# --------------------------------------------------------------------------------------------
+# CPHD -> SICD in one command
+# --------------------------------------------------------------------------------------------
+def test_form_image_cphd_to_sicd_true_geometry(tmp_path):
+    """``sar form-image FILE.cphd -o IMG.sicd``: the collection's own times, positions and band;
+    sarkit's SICD checker reports no errors and no warnings."""
+    import sarkit.sicd as sksicd
+
+    fx = make_cphd_fixture(tmp_path / "f.cphd", site="60N")
+    res = CliRunner().invoke(cli, ["form-image", str(tmp_path / "f.cphd"), "-o", str(tmp_path / "f.sicd"),
+                                   "--method", "backprojection", "--pixel-size", "0.6", "--extent", "24"])
+    assert res.exit_code == 0, res.output
+    failures, n_pass = _sicd_failures(tmp_path / "f.sicd")
+    assert not failures, list(failures)  # neither errors nor warnings
+    assert n_pass > 40
+    with open(tmp_path / "f.sicd", "rb") as f, sksicd.NitfReader(f) as r:
+        x = r.metadata.xmltree
+    assert x.findtext("{*}Timeline/{*}CollectStart").startswith("2022-12-05T18:41:24")
+    assert x.findtext("{*}CollectionInfo/{*}CollectorName") == "Synthetic"
+    assert float(x.findtext("{*}RadarCollection/{*}TxFrequency/{*}Min")) == pytest.approx(fx["freq"][0])
+    assert float(x.findtext("{*}RadarCollection/{*}TxFrequency/{*}Max")) == pytest.approx(fx["freq"][-1])
+    # the ARP at the centre of aperture is the collection's (midpoint of Tx and Rcv), ~1700 km out
+    t_coa = float(x.findtext("{*}SCPCOA/{*}SCPTime"))
+    arp = np.array([float(x.findtext(f"{{*}}SCPCOA/{{*}}ARPPos/{{*}}{c}")) for c in "XYZ"])
+    ph = read_cphd(tmp_path / "f.cphd")
+    t_mid = 0.5 * (ph.acquisition.extra["tx_time_s"] + ph.acquisition.extra["rcv_time_s"])
+    mid = 0.5 * (fx["tx"] + fx["rcv"])
+    expect = np.array([np.interp(t_coa, t_mid, mid[:, i]) for i in range(3)])
+    assert np.linalg.norm(arp - expect) < 1.0  # an order-5 fit of a straight orbit segment
+    assert 1.6e6 < float(x.findtext("{*}SCPCOA/{*}SlantRange")) < 1.8e6
+    assert "synthetic" not in " ".join(e.text for e in x.findall("{*}CollectionInfo/{*}Parameter"))
+
+
+def test_export_sicd_without_phase_history_warns_nominal(tmp_path):
+    from sarcli.io.hdf5 import write_image
+
+    img, _ = _sicd_case(0.0)
+    write_image(tmp_path / "img.h5", img)
+    res = CliRunner().invoke(cli, ["export", str(tmp_path / "img.h5"), "-o", str(tmp_path / "x.sicd")])
+    assert res.exit_code == 0, res.output
+    assert "NOMINAL" in res.output and "GeometryWarning" in res.output

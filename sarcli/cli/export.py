@@ -34,6 +34,15 @@ def command(image, output, kind, dynamic_range_db, cmap, bare, annotate, phase_h
     ph = read_phase_history(phase_history) if phase_history else None
     annotate = format_from_suffix(output) == "png" and not bare
     fmt = format_from_suffix(output)
+    if fmt == "sicd" and ph is None and not str(image).lower().endswith((".sicd", ".nitf", ".ntf")):
+        import warnings
+
+        from ..io.georef import GeometryWarning
+
+        warnings.warn("SICD without --phase-history: the collection geometry (Position, Timeline, SCPCOA, "
+                      "RadarCollection) is NOMINAL, not the collection's; give --phase-history PH.h5, or "
+                      "form the SICD straight from the data (sar form-image FILE.cphd -o IMG.sicd)",
+                      GeometryWarning, stacklevel=2)
     export_image(img, output, kind=kind, dynamic_range_db=dynamic_range_db, cmap=cmap,
                  annotate=annotate, phase_history=ph)
     what = {"png": "annotated dB figure" if annotate else f"{kind or 'db'} raster", "geotiff": f"GeoTIFF, {kind or 'magnitude'}",

@@ -429,11 +429,14 @@ def _read_cphd(p: Path) -> PhaseHistory:
                       antenna_position_m=pos, range_to_center_m=r0, model="spherical",
                       name=name, source=str(p),
                       transmit_position_m=tx if bistatic else None,
-                      receive_position_m=rcv if bistatic else None)
+                      receive_position_m=rcv if bistatic else None,
+                      extra={"tx_time_s": np.asarray(pvp["TxTime"], np.float64).copy(),
+                             "rcv_time_s": np.asarray(pvp["RcvTime"], np.float64).copy()})
     attrs = {**ref.as_attrs(), "source_format": "CPHD",
              "cphd_version": lxml.etree.QName(xml.getroot()).namespace.rsplit("/", 1)[-1],
              "collect_type": xml.findtext("{*}CollectionID/{*}CollectType") or "MONOSTATIC",
-             "collection_start": xml.findtext("{*}Global/{*}Timeline/{*}CollectionStart") or ""}
+             "collection_start": xml.findtext("{*}Global/{*}Timeline/{*}CollectionStart") or "",
+             "collector_name": xml.findtext("{*}CollectionID/{*}CollectorName") or ""}
     tx_pol = xml.findtext("{*}Channel/{*}Parameters/{*}Polarization/{*}TxPol")
     rcv_pol = xml.findtext("{*}Channel/{*}Parameters/{*}Polarization/{*}RcvPol")
     if tx_pol in ("H", "V") and rcv_pol in ("H", "V"):

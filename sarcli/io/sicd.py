@@ -166,12 +166,29 @@ def _grid_dim(E, tag, uvect_ecf, ss, kctr, extent, parameters):
     return getattr(E, tag)(*children)
 
 
-def _build_xml(img: Image, acq: Acquisition, ref, orient, *, nominal: bool):
-    from sarkit import wgs84
+def _pulse_times(acq: Acquisition):
+    """Pulse times (s from the collection start) and ARP positions (local ENU).
 
+    A collection read from CPHD keeps its own transmit and receive times
+    (``acq.extra['tx_time_s']``, ``['rcv_time_s']``): then the aperture reference point of a
+    pulse is the midpoint of its transmit and receive positions at the mid time (SICD's ARP for
+    a monostatic collection). Other collections are timed synthetically as in :mod:`.cphd`.
+    """
     from .cphd import pulse_times
 
+    extra = acq.extra or {}
+    pos = np.asarray(acq.antenna_position_m, np.float64)
+    tx_t, rcv_t = extra.get("tx_time_s"), extra.get("rcv_time_s")
+    if tx_t is not None and rcv_t is not None and len(tx_t) == pos.shape[0]:
+        return 0.5 * (np.asarray(tx_t, np.float64) + np.asarray(rcv_t, np.float64)), pos, True
+    return pulse_times(pos)[0], pos, False
+
+
+def _build_xml(img: Image, acq: Acquisition, ref, orient, *, nominal: bool, ph_attrs=None):
+    from sarkit import wgs84
+
     E = lxml.builder.ElementMaker(namespace=SICD_NS, nsmap={None: SICD_NS})
+    ph_attrs = ph_attrs or {}
     grid = img.grid
     basis = enu_basis(ref)
     arr = orient["array"]
@@ -189,15 +206,17 @@ def _build_xml(img: Image, acq: Acquisition, ref, orient, *, nominal: bool):
                + (c - scol) * orient["col_ss"] * orient["col_enu"])
         corners.append(wgs84.cartesian_to_geodetic(enu_to_ecf(enu, ref)))
     # timing and ARP polynomial
-    pos = np.asarray(acq.antenna_position_m, np.float64)
-    t, _ = pulse_times(pos)
+    t, pos, true_times = _pulse_times(acq)
     P = pos.shape[0]
     if P < 2:
         raise SarcliInputError("SICD export needs a collection of at least two pulses")
-    duration = float(t[-1] + (t[1] - t[0]))
+    duration = float(t[-1] + (t[1] - t[0]) if not true_times else t[-1] + (t[-1] - t[-2]))
     pos_ecf = enu_to_ecf(pos, ref)
     order = int(min(5, P - 1))
-    arp = [np.polynomial.Polynomial.fit(t, pos_ecf[:, axis], order).convert().coef for axis in range(3)]
+    t_mid = 0.5 * float(t[0] + t[-1])  # fit about the middle (conditioning), then shift back
+    arp = [np.polynomial.Polynomial.fit(t - t_mid, pos_ecf[:, axis], order).convert() for axis in range(3)]
+    shift = np.polynomial.Polynomial([-t_mid, 1.0])
+    arp = [a(shift).coef for a in arp]
     arp = [np.pad(c, (0, order + 1 - c.size)) for c in arp]
     t_coa = 0.5 * float(t[0] + t[-1])
     f = acq.frequency_hz
@@ -205,7 +224,7 @@ def _build_xml(img: Image, acq: Acquisition, ref, orient, *, nominal: bool):
     kctr_r, ext_r = _support(acq, orient["row_enu"])
     kctr_c, ext_c = _support(acq, orient["col_enu"])
     params = img.parameters or {}
-    pol = str((img.attrs or {}).get("polarization", "")).upper()
+    pol = str((img.attrs or {}).get("polarization", ph_attrs.get("polarization", ""))).upper()
     txrcv = f"{pol[0]}:{pol[1]}" if len(pol) == 2 and set(pol) <= set("HV") else "UNKNOWN"
     tx_pol = pol[0] if txrcv != "UNKNOWN" else "UNKNOWN"
     notes = [f"sarcli {__version__}; image method {img.method or 'unknown'}",
@@ -215,15 +234,21 @@ def _build_xml(img: Image, acq: Acquisition, ref, orient, *, nominal: bool):
     if nominal:
         notes.append("NOMINAL collection geometry: the image's phase history was not given")
     now = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%dT%H:%M:%S.%fZ")
-    start = str((img.attrs or {}).get("collection_start", "2000-01-01T00:00:00.000000Z"))
+    start = str((img.attrs or {}).get("collection_start") or ph_attrs.get("collection_start")
+                or "2000-01-01T00:00:00.000000Z")
+    if acq.is_bistatic and str(ph_attrs.get("collect_type", "")).upper() == "BISTATIC":
+        notes.append("BISTATIC collection written with the transmit/receive midpoint as ARP (approximate SCPCOA)")
+    if not true_times:
+        notes.append("pulse times synthetic (the phase history carries none): platform speed "
+                     "nominal, Timeline and SCPCOA times not those of the collection")
 
     def pt(tag, llh, **kw):
         return getattr(E, tag)(E.Lat(repr(float(llh[0]))), E.Lon(repr(float(llh[1]))), **kw)
 
     root = E.SICD(
         E.CollectionInfo(
-            E.CollectorName("sarcli"),
-            E.CoreName((img.method or "sarcli-image")[:60]),
+            E.CollectorName((str(ph_attrs.get("collector_name") or "") or "sarcli")[:60]),
+            E.CoreName((acq.name or img.method or "sarcli-image")[:60]),
             E.CollectType("MONOSTATIC"),
             E.RadarMode(E.ModeType("SPOTLIGHT")),
             E.Classification("UNCLASSIFIED"),
@@ -308,7 +333,7 @@ def write_sicd(img: Image, path, *, phase_history=None):
     ref = reference_point(img.attrs, img.parameters, ph_attrs)
     theta_c = float(np.angle(np.mean(np.exp(1j * acq.azimuth_rad))))
     orient = sicd_orientation(np.asarray(img.image).astype(np.complex64), theta_c, img.grid)
-    root = _build_xml(img, acq, ref, orient, nominal=nominal)
+    root = _build_xml(img, acq, ref, orient, nominal=nominal, ph_attrs=ph_attrs)
     tree = root.getroottree()
     root.insert(root.index(root.find(f"{{{SICD_NS}}}ImageFormation")) + 1, sksicd.compute_scp_coa(tree))
     sec = sksicd.NitfSecurityFields(clas="U")
