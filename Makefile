@@ -84,7 +84,7 @@ GOTCHA_FILES := $(wildcard $(GOTCHA)/data_3dsar_pass1_az00*_HH.mat)
 $(OUT)/gotcha.h5: $(GOTCHA_FILES) $(VENV)/.installed
 	@mkdir -p $(OUT)
 	@test -n "$(GOTCHA_FILES)" || { echo "no GOTCHA files (data_3dsar_pass1_az00*_HH.mat) in $(GOTCHA): the data set is published by AFRL (see docs/conventions.md); point make at a copy with make gotcha GOTCHA=DIR or SARCLI_GOTCHA_DIR=DIR"; exit 2; }
-	$(SAR) import gotcha $(GOTCHA_FILES) -o $@ --autofocus
+	$(SAR) import gotcha $(GOTCHA_FILES) -o $@
 
 $(OUT)/gotcha-bp.h5: $(OUT)/gotcha.h5
 	$(SAR) form-image $< -o $@ --method backprojection --extent 100 --pixel-size 0.25 --png $(OUT)/gotcha-bp.png
