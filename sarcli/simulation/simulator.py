@@ -76,10 +76,17 @@ def _spherical_extended(acq: Acquisition, values, grid) -> np.ndarray:
     a = np.ascontiguousarray(acq.antenna_position_m, dtype=np.float64)
     norm_ld = np.sqrt(np.sum(acq.antenna_position_m.astype(np.longdouble) ** 2, axis=1))
     r0 = (norm_ld - acq.range_to_center_m.astype(np.longdouble)).astype(np.float64)  # |a_p| - r0_p
-    step = max(1, acq.n_pulses // 32)
+    # blocks of pulses and points small enough that one compiled call stays well under a second:
+    # numba holds the interpreter, so signals (Ctrl-C) are seen between calls
+    work = 1 << 23
+    per_pulse = max(1, acq.n_frequencies * len(amp))
+    step = max(1, min(acq.n_pulses // 32, work // per_pulse))
+    npts = max(1, work // (step * acq.n_frequencies))
+    xy = np.ascontiguousarray(pts[:, :2])
     for p0 in progress(range(0, acq.n_pulses, step), desc="simulate scene", unit="chunk"):
         sl = slice(p0, min(acq.n_pulses, p0 + step))
-        spherical_sum(f2[sl], a[sl], r0[sl], np.ascontiguousarray(pts[:, :2]), amp, out[sl])
+        for q in range(0, len(amp), npts):
+            spherical_sum(f2[sl], a[sl], r0[sl], xy[q:q + npts], amp[q:q + npts], out[sl])
     return out
 
 
