@@ -53,7 +53,7 @@ import scipy.fft
 from ..core.geometry import C
 from ..core.grid import Grid
 from ..errors import SarcliInputError
-from .ffbp_model import INTERPOLATORS, NTAPS as _NTAPS, interp_error, optimal_table, predict_error
+from .ffbp_model import INTERPOLATORS, NTAPS as _NTAPS, frequency_error, interp_error, optimal_table, predict_error
 from .ffbp_model import table as _table
 
 __all__ = ["ffbp", "ffbp_image", "optimal_table", "plan_stages", "predict_error", "interp_error", "FfbpPlan", "DEFAULTS"]
@@ -248,7 +248,7 @@ def plan_stages(antenna_position_m, freq_hz, grid: Grid, *, base=None, merge=Non
     plan = FfbpPlan(levels, dq, kref, levels[-1].n, ops, {**k, "base": base, "merge": merge})
     plan.predicted_error = predict_error([(int(fr["count"].max()), fr["beta"]) for fr in frames],
                                          interp=k["interp"], os_range=k["os_range"], os_angle=k["os_angle"],
-                                         upsample=k["upsample"])
+                                         upsample=k["upsample"]) + frequency_error(f, pos, grid)
     return plan
 
 

@@ -113,3 +113,23 @@ def predict_error(levels, *, interp="cubic", os_range=2.0, os_angle=2.0, upsampl
         total += interp_error(interp, float(round(beta, 3)), int(n_pulses) if n_pulses < 64 else 0,
                               float(os_angle))
     return float(total)
+
+
+def frequency_error(freq_hz, antenna_position_m, grid) -> float:
+    """Relative error from treating the frequencies as equally spaced (range profiles by FFT).
+
+    Backprojection and ffbp place frequency ``j`` at ``α_1 + j Δα``; a deviation ``δ_pj`` (GOTCHA's
+    float32 frequencies are off by ~3e-4 Δα) turns into the phase ``4π δ Δr / c`` at differential
+    range ``Δr``. RMS over samples and pixels: ``4π rms(δ) rms(Δr) / c`` with
+    ``rms(Δr) = max(W, H) cos φ / √12`` for a W × H grid seen at elevation φ.
+    """
+    f = np.atleast_2d(np.asarray(freq_hz, dtype=np.float64))
+    m = f.shape[1]
+    if m < 2:
+        return 0.0
+    step = (f[:, -1] - f[:, 0]) / (m - 1)
+    dev = f - (f[:, :1] + np.arange(m) * step[:, None])
+    a = np.asarray(antenna_position_m, dtype=np.float64)
+    cos_el = float(np.mean(np.hypot(a[:, 0], a[:, 1]) / np.linalg.norm(a, axis=1)))
+    rms_dr = max(grid.nx * grid.dx, grid.ny * grid.dy) * cos_el / np.sqrt(12.0)
+    return float(4 * np.pi * np.sqrt(np.mean(dev ** 2)) * rms_dr / 299_792_458.0)

@@ -164,6 +164,12 @@ def form_image(ph, method: str = "nufft", *, grid: Grid | None = None, center=No
 
         tol = 1e-2 if tolerance is None else float(tolerance)
         pick = recommend(ph, grid, tol, nthreads=nthreads)
+        if pick.method == "direct" and pick.seconds > 60:
+            from ..errors import SarcliWarning
+
+            warnings.warn(f"no fast former is predicted to meet tolerance {tol:g} on these data; auto falls "
+                          f"back to direct, estimated {pick.seconds:.3g} s (see `sar plan`)", SarcliWarning,
+                          stacklevel=2)
         img = form_image(ph, pick.method, grid=grid, window=window, taylor_nbar=taylor_nbar,
                          taylor_sll_db=taylor_sll_db, nthreads=nthreads, **pick.knobs)
         img.parameters["auto"] = {"tolerance": tol, "choice": pick.method, "knobs": pick.knobs,

@@ -80,7 +80,7 @@ def candidates(ph, grid: Grid, tolerance: float, *, costs=None, nthreads=None) -
     """Every former with knobs predicted to meet ``tolerance`` (and a few that do not, marked)."""
     from . import ffbp as fb
     from .backprojection import profile_length
-    from .ffbp_model import interp_error
+    from .ffbp_model import frequency_error, interp_error
     from .subimage import choose_tile
 
     if not (0 < tolerance < 1):
@@ -106,10 +106,11 @@ def candidates(ph, grid: Grid, tolerance: float, *, costs=None, nthreads=None) -
             t = n_tiles * c["subimage_point"] * P * M * _nufft_width(eps) ** 2 / thr
             out.append(Candidate("subimage", {"tile": int(tile), "tolerance": tolerance}, pred, t,
                                  16 * (4 * P * M * thr + 2 * npix), f"{n_tiles} tiles"))
-        # backprojection: the profile interpolation is its error
+        # backprojection: the profile interpolation (and unequal frequency spacing) is its error
+        e_freq = frequency_error(f, pos, grid)
         for interp in ("cubic", "lanczos", "linear"):
             for up in (2, 4, 8, 16, 32):
-                e = interp_error(interp, float(up))
+                e = interp_error(interp, float(up)) + e_freq
                 if e <= tolerance or up == 32:
                     L = profile_length(M, up)
                     t = (c["bp"] * P * npix * _BP_TAPS[interp] / 4 + c["bp_fft"] * P * L * math.log2(L)) / thr
