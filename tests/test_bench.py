@@ -139,7 +139,7 @@ def test_cli_bench_bad_method_is_one_line(write_config, tmp_path):
                                    "--methods", "fft"])
     assert res.exit_code == 2
     assert res.stderr.strip().splitlines() == ["error: unknown method 'fft'; choose from direct, nufft, pfa, "
-                                               "backprojection"]
+                                               "backprojection, ffbp, subimage"]
 
 
 def test_gotcha_bench_on_a_subgrid():
