@@ -10,12 +10,12 @@ same run), ffbp at two settings, the sub-image NUFFT and ``--method auto`` at to
   a warm-up, and the speed-up ``t(backprojection) / t(method)``.
 
 Cases: the four GOTCHA files (100 m at 0.125 m, when ``../shared/data/gotcha`` is there), and a
-simulated circular collection at r0 = 10 km (``--synthetic NxP``, default 1024x1024: N² pixels from
-P pulses; the issue's 2048x2048 takes minutes per backprojection on a 2-core machine).
+simulated circular collection at r0 = 10 km (``--synthetic NxP``, default 512x1024: N² pixels from
+P pulses; the issue's 2048x2048 takes many minutes per backprojection on a loaded 2-core machine).
 
 Usage::
 
-    python bench/bench_ffbp.py [--synthetic 1024x1024] [--no-gotcha] [--repeat 1] [--calibrate]
+    python bench/bench_ffbp.py [--synthetic 512x1024] [--no-gotcha] [--repeat 1] [--calibrate]
 
 ``--calibrate`` first re-measures the planner's cost model (``sarcli/formers/cost_model.json``).
 """
@@ -53,11 +53,15 @@ def timed(fn, repeat):
 
 
 def synthetic(n, p, seed=0):
-    """N² pixels of 0.25 m from P pulses, r0 = 10 km, 30° elevation, bandwidth for the grid."""
-    m = 512
-    freq = 9.6e9 + 1.2e6 * np.arange(m)
-    span = np.degrees(geometry.C / (4 * 9.9e9 * np.cos(np.radians(30)) * 0.2)) * 1.05   # ~0.2 m cross-range
-    az = np.radians(np.linspace(-span / 2, span / 2, p))
+    """N² pixels of 0.25 m from P pulses, r0 = 10 km, 30° elevation; frequency and pulse spacing
+    alias-free over the grid's half-diagonal, bandwidth and aperture for ~0.3 m resolution."""
+    half_diag = n * 0.25 / np.sqrt(2) * 1.1
+    dalpha = geometry.C / (4 * half_diag)
+    m = int(np.ceil(560e6 / dalpha))
+    freq = 9.6e9 + dalpha * np.arange(m)
+    span_rad = geometry.C / (4 * 9.9e9 * np.cos(np.radians(30)) * 0.3) * 2
+    span_rad = min(span_rad, p * geometry.C / (4 * 9.9e9 * np.cos(np.radians(30)) * half_diag))
+    az = np.linspace(-span_rad / 2, span_rad / 2, p)
     el = np.full(p, np.radians(30))
     a = geometry.antenna_positions_circle(az, el, 10e3)
     r0 = np.linalg.norm(a, axis=1)
@@ -110,7 +114,7 @@ def run_case(name, ph, grid, repeat, max_ref_cost):
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--synthetic", default="1024x1024", help="NxP of the simulated case ('' to skip)")
+    ap.add_argument("--synthetic", default="512x1024", help="NxP of the simulated case ('' to skip)")
     ap.add_argument("--no-gotcha", action="store_true")
     ap.add_argument("--repeat", type=int, default=1)
     ap.add_argument("--max-reference-cost", type=float, default=5e8)
