@@ -18,7 +18,7 @@ it, started from the true answer, it reached an entropy below the clean image's 
 stop that: (1) the entropy is measured on the grid widened by a guard band
 (:func:`~sarcli.autofocus._common.guarded_grid`, 1.5 times, up to the alias-free size), which
 alone brings the same case to 0.01 rad; (2) the search starts from the PGA estimate ``φ0`` and a
-penalty keeps each pulse's phase near it, in a ``cos`` form blind to 2π wraps, with
+penalty keeps each pulse's phase near it (at zero instead when PGA did not sharpen the image), in a ``cos`` form blind to 2π wraps, with
 ``λ = strength / P`` (``strength`` 1 by default; 0 is unconstrained). The constant and linear
 part of the result are removed (unobservable), and the result is kept only if it sharpens the
 image.
@@ -29,8 +29,8 @@ from __future__ import annotations
 import numpy as np
 
 from ..core.grid import Grid
-from ._common import (AutofocusResult, estimation_grid, guarded_grid, keep_if_sharper, pulse_images,
-                      remove_linear_phase)
+from ._common import (AutofocusResult, estimation_grid, form, guarded_grid, keep_if_sharper, pulse_images,
+                      remove_linear_phase, sharpness)
 
 __all__ = ["min_entropy", "entropy_and_gradient"]
 
@@ -60,7 +60,8 @@ def min_entropy(ph, *, grid: Grid | None = None, start=None, strength: float = 1
     grid : Grid, optional
         Estimation grid (default the acquisition's, cut to :func:`estimation_grid`).
     start : array_like, optional
-        Starting estimate and centre of the constraint (default: :func:`sarcli.autofocus.pga.pga`).
+        Starting estimate and centre of the constraint (default: :func:`sarcli.autofocus.pga.pga`'s
+        estimate if it lowers the entropy, else zero).
     strength : float
         Constraint weight (``λ = strength / P``); 0 is unconstrained (drifts, not recommended).
     max_iter, tol : int, float
@@ -84,6 +85,11 @@ def min_entropy(ph, *, grid: Grid | None = None, start=None, strength: float = 1
 
         pga_res = pga(ph, grid=grid, guard=False, **(pga_options or {}))
         start = pga_res.phase_rad
+        # anchor at PGA only where PGA sharpened the image (entropy down, peak-to-mean not down);
+        # otherwise at no correction
+        (h0, m0), (h1, m1) = sharpness(form(ph, grid)), sharpness(form(ph, grid, start))
+        if not (h1 < h0 and m1 >= m0):
+            start = np.zeros(P)
     phi0 = np.asarray(start, np.float64)
     stack = pulse_images(ph, guarded_grid(grid, acq))
     lam = float(strength) / P
