@@ -65,7 +65,7 @@ _PAD = 3
 #: relative) is far below any interpolation error the knobs allow. Arithmetic stays float64.
 _STORE = np.float32
 #: Pulses whose range profiles are held at once in stage 0.
-_PROFILE_BLOCK = 256
+_PROFILE_BLOCK = 64
 
 
 # ---------------------------------------------------------------------------------------------
@@ -381,6 +381,7 @@ def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weigh
                          bistatic, inv_bin[p0:p1], kc[p0:p1], float(n_len // 2), float(n_len), _PAD, kind,
                          tab_p, np.ascontiguousarray(lev.geo[:, s0:s1]), lev.q0[s0:s1], plan.dq, lev.t0[s0:s1],
                          lev.dtau[s0:s1], plan.kref, cur_re[s0:s1], cur_im[s0:s1])
+            del prof
         for child, parent in zip(plan.levels[:-1], plan.levels[1:]):
             pf, pc = parent.children
             nxt_re = np.empty((parent.n, parent.nt, parent.nq), dtype=_STORE)
@@ -388,12 +389,15 @@ def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weigh
             kern._merge(cur_re, cur_im, child.geo, child.q0, plan.dq, child.t0, child.dtau, parent.geo,
                         parent.q0, parent.t0, parent.dtau, pf, pc, kind, tab_q, tab_t, plan.kref, nxt_re, nxt_im)
             cur_re, cur_im = nxt_re, nxt_im
+            del nxt_re, nxt_im
         last = plan.levels[-1]
         out_re = np.empty(grid.shape)
         out_im = np.empty(grid.shape)
         kern._final(cur_re, cur_im, last.geo, last.q0, plan.dq, last.t0, last.dtau,
                     grid.x.astype(np.float64), grid.y.astype(np.float64), kind, tab_q, tab_t, plan.kref, out_re, out_im)
-    img = out_re + 1j * out_im
+    img = np.empty(grid.shape, dtype=np.complex128)
+    img.real = out_re
+    img.imag = out_im
     return (img, plan) if return_plan else img
 
 
