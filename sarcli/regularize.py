@@ -168,8 +168,9 @@ def regularize(ph: PhaseHistory, *, prior: str = "ptv", order: int = 1, lam: flo
         λ in the normalised units of the module docstring. 'auto' (default): the discrepancy
         principle, ``‖Af − b‖² = n_b σ²`` with the noise power σ² from the file or estimated
         from the data (:mod:`sarcli.regparam`); the chosen λ and the curve are recorded in
-        ``parameters['lam_selection']``; when no σ² is available it falls back to
-        :data:`DEFAULT_LAM` with a :class:`~sarcli.errors.SarcliWarning`. None: :data:`DEFAULT_LAM`.
+        ``parameters['lam_selection']``; when no σ² is available, or no λ of the path fits the
+        data down to the noise level, it falls back to :data:`DEFAULT_LAM` with a
+        :class:`~sarcli.errors.SarcliWarning`. None: :data:`DEFAULT_LAM`.
     beta : float, optional
         ADMM penalty β (default ``DEFAULT_BETA_RATIO · λ``; with ``lam='auto'`` the ratio β/λ
         of a given β at the default λ is kept).
@@ -209,6 +210,8 @@ def regularize(ph: PhaseHistory, *, prior: str = "ptv", order: int = 1, lam: flo
         A far-field operator on spherical data with a predicted phase error above the threshold.
     ConvergenceWarning
         The iteration cap was reached before ``tol``.
+    SarcliWarning
+        ``lam='auto'`` fell back to the default λ (no noise power, or no λ fits the data down to it).
     """
     t0 = time.perf_counter()
     if not isinstance(ph, PhaseHistory):

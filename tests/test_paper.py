@@ -175,3 +175,19 @@ def test_fig12_example_analogue_range_profiles_are_projections():
     res = fig12_example.compute(n_looks=400, n_freq=100, pixels=128, pixel_m=0.04)
     assert res["share"].min() > 0.99
     assert max(res["corner_errors"]) <= 1.5 * res["grid"].dx
+
+
+def test_every_figure_of_the_paper_has_a_module():
+    import importlib
+    import re
+
+    import run_all
+
+    tex = REPO.parent / "shared" / "paper" / "spotlight-sar-fourier-analysis.tex"
+    if not tex.exists():
+        pytest.skip(f"the paper's source is not at {tex}")
+    figures = re.findall(r"\\begin\{figure\}(.*?)\\end\{figure\}", tex.read_text(), re.S)
+    labels = {re.search(r"\\label\{([^}]*)\}", f).group(1) for f in figures}
+    assert len(figures) == 12 and len(labels) == 12
+    covered = {importlib.import_module(m).LABEL for m in run_all.MODULES}
+    assert labels == covered
