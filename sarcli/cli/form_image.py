@@ -58,7 +58,10 @@ def command(ctx, input_path, output, method, autofocus_method, window, taylor_nb
     from ..formers.cost import check_form_image
 
     prepare_outputs([("input", input_path)], [("output", output), ("--png", png_path), ("--geotiff", tif_path)])
-    _, src = open_input(input_path, expect=("phase-history", "kgrid", "gotcha", "cphd"), truth=False)
+    # the samples stay on disk until a former reads them (by blocks of pulses where it can);
+    # autofocus rewrites them, so it reads them whole
+    _, src = open_input(input_path, expect=("phase-history", "kgrid", "gotcha", "cphd"), truth=False,
+                        lazy=autofocus_method is None)
     acq = getattr(src, "acquisition", None)
     if acq is not None:  # a phase history: memory and time before anything is allocated
         grid = resolve_grid(acq.grid, center=parse_pair(center, "--center"), extent=parse_pair(extent, "--extent"),
