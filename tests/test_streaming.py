@@ -67,3 +67,19 @@ def test_nan_in_a_lazy_block_is_one_line(tmp_path, ph_file):
     ph = read_phase_history(bad, lazy=True)  # nothing read yet
     with pytest.raises(InputFileError, match="NaN/Inf"):
         sarcli.form_image(ph, "backprojection")
+
+
+def test_form_image_command_streams(ph_file, tmp_path, monkeypatch):
+    """`sar form-image --method backprojection` reads the file by blocks, never whole."""
+    from click.testing import CliRunner
+
+    from sarcli.cli.main import cli
+
+    asked = []
+    real = PulseArray.__getitem__
+    monkeypatch.setattr(PulseArray, "__getitem__", lambda self, key: asked.append(real(self, key).shape[0])
+                        or real(self, key))
+    res = CliRunner().invoke(cli, ["form-image", str(ph_file), "-o", str(tmp_path / "img.h5"),
+                                   "--method", "backprojection", "--extent", "2"])
+    assert res.exit_code == 0, res.output
+    assert asked and max(asked) < 100, asked
