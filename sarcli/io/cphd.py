@@ -154,6 +154,10 @@ def _build_xml(ph: PhaseHistory, ref: ReferencePoint, pvp: np.ndarray, signal_fo
     fixed_toa = bool(np.all(pvp["TOA1"] == pvp["TOA1"][0]) and np.all(pvp["TOA2"] == pvp["TOA2"][0]))
     fixed_srp = bool(np.all(pvp["SRPPos"] == pvp["SRPPos"][0]))
     t0, t1 = float(pvp["TxTime"][0]), float(pvp["TxTime"][-1])
+    # dwell in reference time: when each pulse meets the SRP (TxTime + |Tx - SRP| / c); at
+    # spaceborne ranges that differs from TxTime by milliseconds
+    tref = pvp["TxTime"] + np.linalg.norm(pvp["TxPos"] - pvp["SRPPos"], axis=1) / geometry.C
+    r0_t, r1_t = float(tref.min()), float(tref.max())
     toa_saved = float(np.max(pvp["TOA2"] - pvp["TOA1"]))
     note = "sarcli " + __version__ + (
         "; scene centre at a PLACEHOLDER location (0N 0E): no scene_center_lat_deg/lon_deg given"
@@ -230,9 +234,9 @@ def _build_xml(ph: PhaseHistory, ref: ReferencePoint, pvp: np.ndarray, signal_fo
         E.PVP(*_pvp_xml(E)),
         E.Dwell(
             E.NumCODTimes("1"),
-            E.CODTime(E.Identifier("1"), _poly0(E, "CODTimePoly", 0.5 * (t0 + t1))),
+            E.CODTime(E.Identifier("1"), _poly0(E, "CODTimePoly", 0.5 * (r0_t + r1_t))),
             E.NumDwellTimes("1"),
-            E.DwellTime(E.Identifier("1"), _poly0(E, "DwellTimePoly", t1 - t0)),
+            E.DwellTime(E.Identifier("1"), _poly0(E, "DwellTimePoly", r1_t - r0_t)),
         ),
     )
     return root
