@@ -12,10 +12,13 @@ grows monotonically with λ. The classical principle picks r(λ*) = τ = 1; but 
 of the data's degrees of freedom (e.g. 1600 pixels for 3072 samples), so r = 1 over-smooths:
 the least-squares end of the path already sits at ``r_min ≈ 0.6``. The target used by default is
 
-    r(λ*) = r_min + κ (1 − r_min),     κ = DISCREPANCY_KAPPA = 0.25,
+    r(λ*) = max(r_min + κ (1 − r_min), 1.1 r_min),     κ = DISCREPANCY_KAPPA = 0.25,
 
 ``r_min`` the ratio at the smallest λ of the path: a quarter of the way from the over-fitted floor
-to the full noise level. κ was set on the scenes of ``bench/bench_lam.py`` (where the λ of
+to the full noise level, and at least 10 % above the floor (``FLOOR_MARGIN``: a σ² estimated to
+±15 % can put r_min slightly above 1). When r_min > ``UNFITTABLE_RATIO`` = 1.5 the data cannot be
+fitted to the noise level at all (noiseless data, clutter outside the image, model error) and no λ
+is chosen. κ was set on the scenes of ``bench/bench_lam.py`` (where the λ of
 smallest magnitude error sits at r = r_min + 0.1 .. 0.35 (1 − r_min) for ptv and TV), so it is a
 calibrated rule, not a theorem; ``tau`` (κ None) gives the classical principle.
 
@@ -44,7 +47,7 @@ from typing import Callable
 
 import numpy as np
 
-__all__ = ["LAM_PATH", "DISCREPANCY_TAU", "DISCREPANCY_KAPPA", "LamChoice", "estimate_noise_power", "noise_power",
+__all__ = ["LAM_PATH", "DISCREPANCY_TAU", "DISCREPANCY_KAPPA", "FLOOR_MARGIN", "UNFITTABLE_RATIO", "LamChoice", "estimate_noise_power", "noise_power",
            "discrepancy_lambda", "blackman_harris"]
 
 #: Decreasing λ path (normalised units of :mod:`sarcli.regularize`; ℓ1 zeroes the image at λ ≥ 2).
@@ -53,6 +56,11 @@ LAM_PATH = tuple(float(v) for v in np.geomspace(1.0, 1e-3, 13))
 DISCREPANCY_TAU = 1.0
 #: Default target r_min + κ (1 − r_min) of the ratio ‖Af − b‖² / (n_b σ²) (module docstring).
 DISCREPANCY_KAPPA = 0.25
+#: ... and at least this far above the floor r_min (σ² estimated to ±15 % can put r_min above 1).
+FLOOR_MARGIN = 0.1
+#: r_min above this: the data cannot be fitted to the noise level (clutter outside the image,
+#: noiseless data, model error); no λ is chosen (status 'above at the smallest λ').
+UNFITTABLE_RATIO = 1.5
 _BH = (0.35875, 0.48829, 0.14128, 0.01168)
 _BH_MAINLOBE_BINS = 4  # half-width of the Blackman-Harris main lobe, in bins of the unpadded DFT
 
@@ -177,7 +185,8 @@ def discrepancy_lambda(solve: Callable, residual2: Callable, noise_energy: float
         below it.
     kappa : float, optional
         Degrees-of-freedom-corrected target: the whole path is solved and the target is
-        ``r_min + κ (1 − r_min)``, ``r_min`` the ratio at the smallest λ (module docstring).
+        ``max(r_min + κ (1 − r_min), 1.1 r_min)``, ``r_min`` the ratio at the smallest λ; none
+        when ``r_min > UNFITTABLE_RATIO`` (module docstring).
     callback : callable, optional
         ``callback(lam, ratio)`` after each solve.
 
@@ -203,7 +212,9 @@ def discrepancy_lambda(solve: Callable, residual2: Callable, noise_energy: float
             break
     if kappa is not None:
         r_min = min(out.ratios)
-        out.target = float(r_min + kappa * (1.0 - r_min))
+        out.target = float(max(r_min + kappa * (1.0 - r_min), (1.0 + FLOOR_MARGIN) * r_min))
+        if r_min > UNFITTABLE_RATIO:
+            out.target = 0.0  # unreachable: no λ is chosen
     target = out.target
     below = [i for i, r in enumerate(out.ratios) if r <= target]
     if not below:

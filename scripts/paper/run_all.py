@@ -75,8 +75,9 @@ def write_markdown(results, md_path: Path, out_dir: Path):
              "reproduced (with its key number), an analogue (and why) or not reproducible (and why).", "",
              "| figure | label | how | verdict | key number |", "|---|---|---|---|---|"]
     for res, secs in results:
+        head = res.headline.replace("|", "\\|")  # a table cell
         lines.append(f"| [{res.title}](#{res.key}) | `{res.label}` | {res.kind} | {_verdict(res.passed)} | "
-                     f"{res.headline} |")
+                     f"{head} |")
     lines.append("")
     for res, secs in results:
         lines += [f"## {res.key}", "", f"**{res.title}** — `{res.label}`", "", f"**Paper:** {res.claim}", ""]
