@@ -17,18 +17,13 @@ from matplotlib.figure import Figure
 
 from sarcli.analysis.speckle import image_entropy, peak_to_mean
 from sarcli.autofocus import autofocus, remove_linear_phase
-from sarcli.autofocus._common import form
+from sarcli.autofocus._common import form, synthetic_phase_error
 from sarcli.io.gotcha import read_gotcha
 
 
 def injected_error(P, seed=0):
     """The error of tests/test_autofocus.py: quadratic (4 rad) + smooth random + 0.15 rad jitter."""
-    rng = np.random.default_rng(100 + seed)
-    u = np.linspace(-1, 1, P)
-    err = 4.0 * u ** 2
-    for k in range(1, 5):
-        err += rng.normal(0, 0.6 / k) * np.sin(np.pi * k * u + rng.uniform(0, 2 * np.pi))
-    return err + rng.normal(0, 0.15, P)
+    return synthetic_phase_error(P, seed)
 
 
 def main(folder, out):

@@ -10,6 +10,7 @@ from click.testing import CliRunner
 
 from sarcli.analysis.speckle import image_entropy, peak_to_mean
 from sarcli.autofocus import apply_phase_correction, autofocus, remove_linear_phase
+from sarcli.autofocus._common import synthetic_phase_error
 from sarcli.autofocus._common import AutofocusWarning, form
 from sarcli.autofocus.entropy import entropy_and_gradient, min_entropy
 from sarcli.autofocus.pga import pga
@@ -44,12 +45,7 @@ def scene(clutter=0.05, seed=0, P=128, M=64):
 
 def injected_error(P, seed=0):
     """Quadratic (4 rad at the ends) + smooth random (~1 rad) + jitter (0.15 rad rms)."""
-    rng = np.random.default_rng(100 + seed)
-    u = np.linspace(-1, 1, P)
-    err = 4.0 * u ** 2
-    for k in range(1, 5):
-        err += rng.normal(0, 0.6 / k) * np.sin(np.pi * k * u + rng.uniform(0, 2 * np.pi))
-    return err + rng.normal(0, 0.15, P)
+    return synthetic_phase_error(P, seed)
 
 
 def corrupt(ph, err):

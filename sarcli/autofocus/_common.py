@@ -211,3 +211,22 @@ def keep_if_sharper(ph: PhaseHistory, grid: Grid, result: AutofocusResult, candi
 
 class AutofocusWarning(SarcliWarning):
     """Autofocus found no correction that sharpens the image; the message gives the sharpness."""
+
+
+def synthetic_phase_error(n_pulses: int, seed: int = 0) -> np.ndarray:
+    """A per-pulse phase error (rad) of the kind autofocus must remove, for validation: quadratic
+    (4 rad at the ends of the aperture) + smooth random (four sinusoids, ~1 rad) + jitter
+    (0.15 rad rms), seeded.
+
+    Examples
+    --------
+    >>> e = synthetic_phase_error(200)
+    >>> e.shape, bool(abs(e).max() > 2)
+    ((200,), True)
+    """
+    rng = np.random.default_rng(100 + seed)
+    u = np.linspace(-1, 1, n_pulses)
+    err = 4.0 * u ** 2
+    for k in range(1, 5):
+        err += rng.normal(0, 0.6 / k) * np.sin(np.pi * k * u + rng.uniform(0, 2 * np.pi))
+    return err + rng.normal(0, 0.15, n_pulses)

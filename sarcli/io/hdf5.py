@@ -81,6 +81,13 @@ def _check_format(path, f, expected):
         raise InputFileError(path, f"{expected} version {ver} is not supported (this sarcli reads {FILE_VERSION})")
 
 
+def _write_attrs(f, attrs, *, skip=()):
+    """Further root attributes: plain values as they are, anything else as JSON."""
+    for k, v in attrs.items():
+        if k not in skip:
+            f.attrs[k] = v if isinstance(v, (str, int, float, np.number)) else to_json(v)
+
+
 def _dataset(path, f, name, *, kind, ndim, shape=None, required=True, finite=True):
     if name not in f:
         if required:
@@ -140,10 +147,7 @@ def write_phase_history(path, ph: PhaseHistory) -> Path:
                 f.attrs["config_source"] = str(acq.source)
             if acq.snr_db is not None:
                 f.attrs["snr_db"] = float(acq.snr_db)
-            for k, v in ph.attrs.items():
-                if k in ("format", "version", "model", "autofocus_phase_rad", "autofocus_method"):
-                    continue
-                f.attrs[k] = v if isinstance(v, (str, int, float, np.number)) else to_json(v)
+            _write_attrs(f, ph.attrs, skip=("format", "version", "model", "autofocus_phase_rad", "autofocus_method"))
             f.create_dataset("phase_history", data=ph.data)
             f.create_dataset("frequency_hz", data=np.asarray(acq.frequency_hz, np.float64))
             f.create_dataset("azimuth_rad", data=np.asarray(acq.azimuth_rad, np.float64))
@@ -322,10 +326,7 @@ def write_image(path, img: Image) -> Path:
             f.attrs["parameters"] = to_json(img.parameters)
             f.attrs["runtime_s"] = float(img.runtime_s)
             f.attrs["sarcli_version"] = __version__
-            for k, v in img.attrs.items():
-                if k in ("format", "version", "method", "parameters", "runtime_s"):
-                    continue
-                f.attrs[k] = v if isinstance(v, (str, int, float, np.number)) else to_json(v)
+            _write_attrs(f, img.attrs, skip=("format", "version", "method", "parameters", "runtime_s"))
             f.create_dataset("image", data=img.image)
             f.create_dataset("x_m", data=np.asarray(img.x_m, np.float64))
             f.create_dataset("y_m", data=np.asarray(img.y_m, np.float64))
