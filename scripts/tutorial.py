@@ -147,7 +147,7 @@ sidelobes and the interpolation).
 
 ```sh
 sar regularize out/three-points-ff.h5 -o out/three-points-ptv.h5 --prior ptv --pixel-size 0.1 \\
-    --history-png out/three-points-ptv-history.png
+    --lam 0.02 --tol 1e-3 --history-png out/three-points-ptv-history.png
 sar export out/three-points-ptv.h5 -o out/three-points-ptv.png
 ```
 
@@ -155,7 +155,11 @@ sar export out/three-points-ptv.h5 -o out/three-points-ptv.png
 |---|---|
 | ![ptv](tutorial/three-points-ptv.png) | ![history](tutorial/three-points-ptv-history.png) |
 
-The regulariser ran {iters} iterations with {lam_text}{f' ({how})' if how else ''}, on a 10 cm grid
+The regulariser ran {iters} iterations (to a relative change of 1e-3) with {lam_text}{f' ({how})' if how else ''}.
+The demo's data are noiseless, so λ is given: the default `--lam auto` picks λ by the discrepancy
+principle from the noise level (the file's or one estimated from the data; see
+[regularize.md](regularize.md)), and without noise it would fall back to this value with a warning.
+It works on a 10 cm grid
 (about three pixels per resolution cell): on the 2 cm grid a point's energy is spread over the ~200
 pixels of its resolution cell and first-order ADMM needs thousands of iterations to concentrate it.
 The image is on the pixel model's scale (reflectivity per pixel, see [regularize.md](regularize.md));

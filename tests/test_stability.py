@@ -16,6 +16,10 @@ from tests.stability import extreme, faults
 
 DOC = Path(__file__).resolve().parents[1] / "docs" / "stability.md"
 
+# real processes, signals and 1 s bounds: `make test` runs these alone, after the parallel run,
+# so a worker busy with other tests does not blur the timings
+pytestmark = pytest.mark.faults
+
 
 @pytest.fixture(scope="module")
 def rows(tmp_path_factory):

@@ -1,6 +1,6 @@
 """Figure ``fig: final-reg``: matched filter vs regularised GOTCHA images and their 2-D FFTs.
 
-The four one-degree AFRL GOTCHA files in ``../shared/data/gotcha`` (pass 1, HH) are read with
+The four one-degree AFRL GOTCHA files (pass 1, HH; ``$SARCLI_GOTCHA_DIR``, see docs/conventions.md) are read with
 :func:`sarcli.io.gotcha.read_gotcha`, imaged with the spherical matched filter
 (:func:`sarcli.regularize.matched_filter`, the same operator the regulariser uses, so both images
 share one scale) and with :func:`sarcli.regularize.regularize` (TV and phase-corrected TV,
