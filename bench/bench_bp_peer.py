@@ -81,6 +81,7 @@ def main(argv=None):
                                            acq.range_to_center_m, grid), 1)
     rows_out = [("numpy bpBasic peer (linear, 8x)", t_peer, image_error(peer[np.ix_(rows, cols)], ref))]
     for label, kw in [("sarcli default (float64 cubic, 8x)", {}),
+                      ("sarcli float32 cubic, 8x", {"precision": "float32"}),
                       ("sarcli peer settings (float64 linear, 8x)", {"interp": "linear"}),
                       ("sarcli float32 linear, 8x", {"interp": "linear", "precision": "float32"})]:
         img, t = _timed(lambda: form_image(ph, "backprojection", grid=grid, **kw).image, args.repeat)
