@@ -30,7 +30,9 @@ def test_lazy_and_in_memory_give_the_same_image(ph_file, method):
     lazy_ph = read_phase_history(ph_file, lazy=True)
     assert isinstance(lazy_ph.data, PulseArray)
     lazy = sarcli.form_image(lazy_ph, method)
-    np.testing.assert_allclose(lazy.image, eager.image, rtol=0, atol=1e-12 * np.abs(eager.image).max())
+    # FINUFFT's multithreaded spreading is not bitwise repeatable: two identical calls differ ~1e-11
+    tol = 1e-9 if method == "nufft" else 1e-12
+    np.testing.assert_allclose(lazy.image, eager.image, rtol=0, atol=tol * np.abs(eager.image).max())
 
 
 def test_block_formers_never_read_the_whole_collection(ph_file, monkeypatch):
