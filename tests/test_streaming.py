@@ -85,3 +85,23 @@ def test_form_image_command_streams(ph_file, tmp_path, monkeypatch):
                                    "--method", "backprojection", "--extent", "2"])
     assert res.exit_code == 0, res.output
     assert asked and max(asked) < 100, asked
+
+
+def test_library_checks_memory_before_allocating(ph_file, monkeypatch):
+    """form_image refuses a grid whose estimate exceeds the memory limit, counting only one block of
+    pulses when the data stay on disk (streamed backprojection of a file larger than RAM is allowed)."""
+    from sarcli._util import resources
+    from sarcli.errors import SarcliInputError
+    from sarcli.formers.cost import form_image_bytes
+
+    ph = read_phase_history(ph_file, lazy=True)
+    grid = sarcli.Grid.square(2.0, 16)
+    eager = form_image_bytes("backprojection", 100_000, 4096, grid)
+    streamed = form_image_bytes("backprojection", 100_000, 4096, grid, streamed=True)
+    assert streamed < eager / 100  # 100k pulses on disk cost one block in memory
+    resources.set_memory_limit(1024)  # 1 KiB: nothing fits
+    try:
+        with pytest.raises(SarcliInputError, match="needs about"):
+            sarcli.form_image(ph, "nufft", grid=grid)
+    finally:
+        resources.set_memory_limit(None)

@@ -63,11 +63,12 @@ def command(ctx, input_path, output, method, autofocus_method, window, taylor_nb
     _, src = open_input(input_path, expect=("phase-history", "kgrid", "gotcha", "cphd"), truth=False,
                         lazy=autofocus_method is None)
     acq = getattr(src, "acquisition", None)
-    if acq is not None:  # a phase history: memory and time before anything is allocated
+    if acq is not None:
         grid = resolve_grid(acq.grid, center=parse_pair(center, "--center"), extent=parse_pair(extent, "--extent"),
                             pixel_size=pixel_size)
-        check_form_image(src, method, grid, oversample=oversample, upsample=upsample, eps=eps, width=width,
-                         precision=precision, nthreads=nthreads)
+        if autofocus_method is not None:  # form_image checks memory and time itself; autofocus runs first
+            check_form_image(src, method, grid, oversample=oversample, upsample=upsample, eps=eps, width=width,
+                             precision=precision, nthreads=nthreads)
     if autofocus_method is not None and acq is not None:
         src = _autofocused(src, autofocus_method, grid)
     img = form_image(src, method, center=parse_pair(center, "--center"), extent=parse_pair(extent, "--extent"),

@@ -66,10 +66,17 @@ def _kgrid_cells(acq, grid, oversample) -> float:
 
 
 def form_image_bytes(method, n_pulses, n_freq, grid, *, model="farfield", acq=None, oversample=2.0,
-                     upsample=8.0, precision="float64") -> float:
-    """Upper-bound estimate of the peak working memory (bytes) of :func:`form_image`."""
+                     upsample=8.0, precision="float64", streamed=False) -> float:
+    """Upper-bound estimate of the peak working memory (bytes) of :func:`form_image`.
+
+    ``streamed``: the samples are left on disk (:class:`sarcli.io.pulses.PulseArray`); the formers
+    that read them by blocks of pulses (backprojection, the spherical matched filter) then hold one
+    block, not the collection.
+    """
     pm = float(n_pulses) * float(n_freq)
     npix = float(grid.nx) * float(grid.ny)
+    if streamed and (method == "backprojection" or method == "direct" and model == "spherical"):
+        pm = min(float(n_pulses), 64.0) * float(n_freq)  # one block of pulses
     base = 2 * pm * _C16 + 2 * npix * _C16  # data + weighted copy, image + accumulator
     if method == "direct":
         return base + (npix * 24 if model == "spherical" else 0) + 96 * 2**20
@@ -107,11 +114,14 @@ def check_form_image(src, method, grid, *, oversample=2.0, upsample=None, eps=No
         check_memory(3 * float(np.prod(shape)) * _C16 + 2.0 * grid.nx * grid.ny * _C16,
                      f"pfa of a {shape[1]} x {shape[0]} k-grid onto {grid.nx} x {grid.ny} pixels")
         return
+    from ._samples import is_lazy
+
     p, m = data.shape
     acq = src.acquisition
     model = getattr(src, "model", None) or acq.model
     est = form_image_bytes(method, p, m, grid, model=model, acq=acq, oversample=oversample,
-                           upsample=8.0 if upsample is None else upsample, precision=precision)
+                           upsample=8.0 if upsample is None else upsample, precision=precision,
+                           streamed=is_lazy(data))
     check_memory(est, f"{method} on {grid.nx} x {grid.ny} pixels from {p} x {m} samples")
     if method == "direct":
         t = direct_seconds(p, m, grid.nx * grid.ny, model, nthreads)

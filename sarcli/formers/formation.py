@@ -176,6 +176,11 @@ def form_image(ph, method: str = "nufft", *, grid: Grid | None = None, center=No
                                   "predicted_error": pick.predicted_error, "predicted_s": pick.seconds}
         img.parameters["predicted_error"] = pick.predicted_error
         return img
+    # memory (refused beyond the limit) and, for direct, time (a warning) before anything is allocated
+    from .cost import check_form_image
+
+    check_form_image(ph, method, grid, oversample=oversample, upsample=upsample,
+                     eps=eps if method == "nufft" else None, width=width, precision=precision, nthreads=nthreads)
     w = _weights(ph, window, taylor_nbar, taylor_sll_db)
     params.update({"window": window, "grid": grid.as_dict(), "data_model": ph.model})
     if window == "taylor":
