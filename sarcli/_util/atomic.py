@@ -18,7 +18,7 @@ from pathlib import Path
 
 from ..errors import SarcliInputError
 
-__all__ = ["atomic_path", "reserve", "release_all", "temp_path", "LOCK", "WriteError"]
+__all__ = ["atomic_path", "reserve", "release_all", "temp_path", "open_held", "LOCK", "WriteError"]
 
 #: held while a temporary file is renamed onto its final name or removed by a clean-up
 LOCK = threading.RLock()
@@ -104,6 +104,17 @@ def _discard(tmp: Path) -> None:
         _TEMPS.pop(tmp, None)
         with contextlib.suppress(OSError):
             tmp.unlink()
+
+
+def open_held(tmp, mode: str = "wb"):
+    """Open the temporary file ``tmp`` of an :func:`atomic_path` for writing, only while it is still
+    held: an interruption that already removed it must not see it created again behind its back.
+    The open itself is taken under the lock; the writing that follows is not (a clean-up that
+    removes the file meanwhile leaves the writes on an unlinked inode: nothing stays on disk)."""
+    with LOCK:
+        if Path(tmp) not in _TEMPS:
+            raise KeyboardInterrupt
+        return open(tmp, mode)
 
 
 def release_all() -> list[Path]:

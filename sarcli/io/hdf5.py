@@ -16,13 +16,15 @@ write_kgrid(path, kgrid)
 
 from __future__ import annotations
 
+import contextlib
+import io
 import json
 from pathlib import Path
 
 import h5py
 import numpy as np
 
-from .._util.atomic import atomic_path
+from .._util.atomic import atomic_path, open_held
 from .._version import __version__
 from ..core.acquisition import MODELS, Acquisition
 from ..core.grid import Grid, derive_grid
@@ -81,6 +83,27 @@ def _check_format(path, f, expected):
         raise InputFileError(path, f"{expected} version {ver} is not supported (this sarcli reads {FILE_VERSION})")
 
 
+#: Files up to this size are built in memory and written with one write of our own, so a full
+#: disk or a file-size limit is an ordinary OSError (one line, exit 2) instead of a failure inside
+#: HDF5's close, where h5py prints tracebacks from its destructors or crashes; larger files are
+#: written in place (the same atomic rename protects the previous file either way).
+IN_MEMORY_MAX_BYTES = 1 << 30
+
+
+@contextlib.contextmanager
+def _h5_output(tmp, nbytes):
+    """An HDF5 file opened for writing whose bytes end up in ``tmp`` (see IN_MEMORY_MAX_BYTES)."""
+    if nbytes > IN_MEMORY_MAX_BYTES:
+        with h5py.File(tmp, "w") as f:
+            yield f
+        return
+    buf = io.BytesIO()
+    with h5py.File(buf, "w") as f:
+        yield f
+    with open_held(tmp) as fh:
+        fh.write(buf.getbuffer())
+
+
 def _write_attrs(f, attrs, *, skip=()):
     """Further root attributes: plain values as they are, anything else as JSON."""
     for k, v in attrs.items():
@@ -134,8 +157,11 @@ def write_phase_history(path, ph: PhaseHistory) -> Path:
     Path
     """
     acq = ph.acquisition
+    nbytes = int(getattr(ph.data, "nbytes", 0))
+    if ph.truth is not None and ph.truth.scene is not None:
+        nbytes += 3 * np.asarray(ph.truth.scene).nbytes
     with atomic_path(path) as tmp:
-        with h5py.File(tmp, "w") as f:
+        with _h5_output(tmp, nbytes) as f:
             f.attrs["format"] = PH_FORMAT
             f.attrs["version"] = FILE_VERSION
             f.attrs["model"] = acq.model
@@ -319,7 +345,7 @@ def _default_grid(freq, az, el) -> Grid:
 def write_image(path, img: Image) -> Path:
     """Write an image file (atomic). ``parameters`` is stored as a JSON string."""
     with atomic_path(path) as tmp:
-        with h5py.File(tmp, "w") as f:
+        with _h5_output(tmp, np.asarray(img.image).nbytes) as f:
             f.attrs["format"] = IMAGE_FORMAT
             f.attrs["version"] = FILE_VERSION
             f.attrs["method"] = img.method
@@ -369,7 +395,7 @@ def read_image(path) -> Image:
 # --------------------------------------------------------------------------------------------
 def write_kgrid(path, kgrid: KGrid) -> Path:
     """Write a k-grid (format ``sarcli-kgrid``, version 1), atomically."""
-    with atomic_path(path) as tmp, h5py.File(tmp, "w") as h5:
+    with atomic_path(path) as tmp, _h5_output(tmp, np.asarray(kgrid.samples).nbytes) as h5:
         h5.attrs["format"] = KGRID_FORMAT
         h5.attrs["version"] = FILE_VERSION
         h5.create_dataset("samples", data=np.asarray(kgrid.samples, dtype=np.complex128))

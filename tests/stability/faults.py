@@ -354,7 +354,9 @@ def _sweep(key, ws, n=8) -> Fault:
         elif p.returncode in (1, -signal.SIGINT) and untouched and (not err.strip() or err.rstrip().endswith(
                 "KeyboardInterrupt")) and "sarcli" not in err:
             early += 1  # the interpreter was still starting, before any sarcli code ran: nothing written
-        elif p.returncode in (0, -signal.SIGINT) and not untouched:  # -2: the signal came during interpreter exit
+        elif p.returncode in (0, 130, -signal.SIGINT) and not untouched:
+            # -2: the signal came during interpreter exit; 130: it came after the rename (the one
+            # commit point), so the run reports the interruption but the new file is complete
             try:
                 read_image(out)
                 valid += 1
