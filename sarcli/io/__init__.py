@@ -143,8 +143,8 @@ def open_input(path, *, expect=None, truth=True, lazy=False):
         For a sarcli phase history: read ``/truth`` too (False for image formation, which never
         uses it).
     lazy : bool
-        For a sarcli phase history: leave the samples on disk, read by blocks of pulses
-        (:class:`sarcli.io.pulses.PulseArray`).
+        For a sarcli phase history or a CPHD file: leave the samples on disk, read by blocks of
+        pulses (:class:`sarcli.io.pulses.PulseSource`).
 
     Returns
     -------
@@ -163,7 +163,9 @@ def open_input(path, *, expect=None, truth=True, lazy=False):
     read = getattr(importlib.import_module(f".{module}", __name__), reader)
     if fmt == "gotcha":
         return fmt, read([path])
-    return fmt, read(path, truth=truth, lazy=lazy) if fmt == "phase-history" else read(path)
+    if fmt == "phase-history":
+        return fmt, read(path, truth=truth, lazy=lazy)
+    return fmt, read(path, lazy=lazy) if fmt == "cphd" else read(path)
 
 
 def __getattr__(name):

@@ -27,7 +27,7 @@ Mapping (``docs/formats.md`` has the table):
 
 Public API
 ----------
-read_cphd(path) -> PhaseHistory
+read_cphd(path, lazy=False) -> PhaseHistory
 write_cphd(ph, path) -> Path
 """
 
@@ -339,7 +339,7 @@ def write_cphd(ph: PhaseHistory, path) -> Path:
 # --------------------------------------------------------------------------------------------
 # reading
 # --------------------------------------------------------------------------------------------
-def read_cphd(path) -> PhaseHistory:
+def read_cphd(path, *, lazy: bool = False) -> PhaseHistory:
     """Read the first channel of an FX-domain CPHD file (monostatic or bistatic) as a phase history.
 
     Positions are converted to the local ENU frame of the image-area reference point (IARP) at
@@ -349,18 +349,28 @@ def read_cphd(path) -> PhaseHistory:
     |q_p - SRP_p|)/2``; azimuth and elevation come from
     :func:`sarcli.core.geometry.angles_from_positions`; frequencies are ``SC0 + n SCSS``. A file with
     ``SGN = +1`` is conjugated into our sign convention; an ``AmpSF`` PVP scales its vector;
-    vectors with ``SIGNAL = 0`` are dropped.
+    vectors with ``SIGNAL = 0`` are dropped. The samples are complex64 whatever the storage
+    format (CI2, CI4, CI8, CF8; CF16 is rounded) and are checked for NaN/Inf.
+
+    Parameters
+    ----------
+    path : str or Path
+    lazy : bool
+        Leave the signal on disk: ``data`` is a :class:`sarcli.io._cphd_parts.CphdSignal` read by
+        blocks of pulses as a former asks for them (the PVPs are read now), so formers that work
+        pulse by pulse (backprojection, ffbp, the spherical matched filter) hold one block at a time.
 
     Raises
     ------
     InputFileError
-        Missing, truncated or foreign file, a TOA-domain collection.
+        Missing, truncated or foreign file, a TOA-domain collection, a compressed signal array,
+        NaN/Inf samples (with ``lazy``, when the block holding them is read).
     """
     p = Path(path)
     if not p.is_file():
         raise InputFileError(path, "no such file (expected a CPHD file)")
     try:
-        return _read_cphd(p)
+        return _read_cphd(p, lazy=lazy)
     except InputFileError:
         raise
     except (OSError, ValueError, KeyError, TypeError, IndexError, AttributeError,
@@ -369,7 +379,7 @@ def read_cphd(path) -> PhaseHistory:
         raise InputFileError(path, f"not a readable CPHD file ({msg})") from None
 
 
-def _read_cphd(p: Path) -> PhaseHistory:
+def _read_cphd(p: Path, lazy: bool = False) -> PhaseHistory:
     import sarkit.cphd as skcphd
     from sarkit import wgs84
 
@@ -395,14 +405,18 @@ def _read_cphd(p: Path) -> PhaseHistory:
             if xml.findtext("{*}Global/{*}DomainType") != "FX":
                 raise InputFileError(p, "only FX-domain CPHD files are supported (DomainType is "
                                         f"{xml.findtext('{*}Global/{*}DomainType')})")
+            node = xml.find(f"{{*}}Data/{{*}}Channel[{{*}}Identifier='{ch}']")
+            if node.findtext("{*}CompressedSignalSize") is not None:
+                raise InputFileError(p, f"compressed CPHD signal arrays are not supported (channel '{ch}' is "
+                                        f"compressed with {xml.findtext('{*}Data/{*}SignalCompressionID')!r}; "
+                                        "decompress it first)")
             pvp = r.read_pvps(ch)
-            data = _read_signal_blocks(r, ch, pvp)
     sgn = int(xml.findtext("{*}Global/{*}SGN"))
-    if sgn == 1:
-        np.conjugate(data, out=data)
+    # the one reader of the samples: by rows, on demand (lazy) or all now, in blocks
+    data = _read_signal_blocks(p, ch, int(node.findtext("{*}NumVectors")), int(node.findtext("{*}NumSamples")),
+                               pvp, conjugate=sgn == 1, lazy=lazy)
     if "SIGNAL" in pvp.dtype.names and np.any(pvp["SIGNAL"] == 0):
-        keep = pvp["SIGNAL"] != 0
-        data, pvp = data[keep], pvp[keep]
+        pvp = pvp[pvp["SIGNAL"] != 0]
     iarp = np.array([float(xml.findtext(f"{{*}}SceneCoordinates/{{*}}IARP/{{*}}ECF/{{*}}{c}")) for c in "XYZ"])
     lat, lon, hae = wgs84.cartesian_to_geodetic(iarp)
     ref = ReferencePoint(float(lat), float(lon), float(hae))

@@ -1,11 +1,14 @@
 """A phase history left on disk and read in blocks of pulses.
 
-:class:`PulseArray` stands in for the ``[P, M]`` sample array of a
+:class:`PulseSource` stands in for the ``[P, M]`` sample array of a
 :class:`~sarcli.core.types.PhaseHistory`: it has ``shape``, ``dtype`` and ``ndim``, and indexing it
-with a slice of pulses reads just those rows from the HDF5 file (checked for NaN/Inf as they
-arrive). Formers that visit the pulses in blocks (backprojection, the spherical matched filter)
+with a slice of pulses reads just those rows from the file (checked for NaN/Inf as they arrive).
+Formers that visit the pulses in blocks (backprojection, ffbp, the spherical matched filter)
 therefore hold one block at a time, so their peak memory does not grow with the pulse count;
 formers that need every sample at once (NUFFT, PFA) call ``np.asarray`` and read it whole.
+
+Two sources exist: :class:`PulseArray` (a dataset of a sarcli HDF5 phase history) and
+:class:`sarcli.io._cphd_parts.CphdSignal` (one channel of a CPHD signal array).
 """
 
 from __future__ import annotations
@@ -16,13 +19,65 @@ import numpy as np
 
 from ..errors import InputFileError
 
-__all__ = ["PulseArray", "as_samples", "pulse_blocks"]
+__all__ = ["PulseSource", "PulseArray", "as_samples", "pulse_blocks", "row_indices"]
 
 #: Pulses read per block by :func:`pulse_blocks` when the caller does not say.
 DEFAULT_BLOCK = 64
 
 
-class PulseArray:
+class PulseSource:
+    """Lazy ``[P, M]`` array of complex samples whose rows (pulses) are read on demand.
+
+    A subclass says how rows are read (:meth:`_read`) and what it reads (:meth:`_what`, for
+    messages); this class gives the array interface and checks every block it returns for
+    NaN/Inf, raising :class:`~sarcli.errors.InputFileError` naming the file.
+
+    Parameters
+    ----------
+    path : str or Path
+    shape : (int, int)
+    dtype : numpy dtype
+    """
+
+    ndim = 2
+
+    def __init__(self, path, shape, dtype):
+        self.path = Path(path)
+        self.shape = tuple(int(n) for n in shape)
+        self.dtype = np.dtype(dtype)
+
+    @property
+    def size(self) -> int:
+        return self.shape[0] * self.shape[1]
+
+    @property
+    def nbytes(self) -> int:
+        return self.size * self.dtype.itemsize
+
+    def __len__(self) -> int:
+        return self.shape[0]
+
+    def _what(self) -> str:
+        """What is read, for messages (``"dataset 'phase_history'"``)."""
+        raise NotImplementedError
+
+    def _read(self, key) -> np.ndarray:
+        """The samples ``self[key]`` as an in-memory array (errors as InputFileError)."""
+        raise NotImplementedError
+
+    def __getitem__(self, key) -> np.ndarray:
+        block = self._read(key)
+        if block.size and not np.all(np.isfinite(block)):
+            bad = int(block.size - np.count_nonzero(np.isfinite(block)))
+            raise InputFileError(self.path, f"{self._what()} holds {bad} NaN/Inf values (in rows {_describe(key)})")
+        return block
+
+    def __array__(self, dtype=None, copy=None):
+        whole = self[()]
+        return whole if dtype is None else whole.astype(dtype, copy=False)
+
+
+class PulseArray(PulseSource):
     """Lazy ``[P, M]`` view of an HDF5 dataset of complex samples.
 
     Parameters
@@ -44,48 +99,79 @@ class PulseArray:
     [[3.0, 4.0, 5.0], [6.0, 7.0, 8.0]]
     """
 
-    ndim = 2
-
     def __init__(self, path, name, shape, dtype):
-        self.path = Path(path)
+        super().__init__(path, shape, dtype)
         self.name = str(name)
-        self.shape = tuple(int(n) for n in shape)
-        self.dtype = np.dtype(dtype)
-
-    @property
-    def size(self) -> int:
-        return self.shape[0] * self.shape[1]
-
-    @property
-    def nbytes(self) -> int:
-        return self.size * self.dtype.itemsize
-
-    def __len__(self) -> int:
-        return self.shape[0]
 
     def __repr__(self) -> str:
         return f"PulseArray({str(self.path)!r}, {self.name!r}, shape={self.shape}, dtype={self.dtype})"
 
-    def __getitem__(self, key) -> np.ndarray:
+    def _what(self) -> str:
+        return f"dataset '{self.name}'"
+
+    def _read(self, key) -> np.ndarray:
         import h5py
 
         try:
             with h5py.File(self.path, "r") as f:
-                block = np.asarray(f[self.name][key])
+                return np.asarray(f[self.name][key])
         except (OSError, KeyError, ValueError, TypeError) as exc:
             raise InputFileError(self.path, f"dataset '{self.name}' cannot be read ({exc})") from None
-        if block.size and not np.all(np.isfinite(block)):
-            bad = int(block.size - np.count_nonzero(np.isfinite(block)))
-            raise InputFileError(self.path, f"dataset '{self.name}' holds {bad} NaN/Inf values (in rows {key})")
-        return block
 
-    def __array__(self, dtype=None, copy=None):
-        whole = self[()]
-        return whole if dtype is None else whole.astype(dtype, copy=False)
+
+def _describe(key) -> str:
+    if isinstance(key, slice):
+        return f"{key.start or 0}:{'' if key.stop is None else key.stop}"
+    if isinstance(key, tuple) and not key:
+        return "all"
+    return str(key) if np.ndim(key) == 0 else f"{len(key)} selected"
+
+
+def row_indices(key, n_rows: int):
+    """Split an index of a ``[P, M]`` array into rows and the rest.
+
+    Parameters
+    ----------
+    key : int, slice, sequence of int or bool, tuple, Ellipsis or ()
+    n_rows : int
+        ``P``.
+
+    Returns
+    -------
+    rows : ndarray of intp
+        The rows selected, in the order asked for.
+    squeeze : bool
+        True when ``key`` picked a single row by an integer (the result loses its first axis).
+    rest : tuple
+        The index of the remaining axis (``()`` for all of it).
+
+    Raises
+    ------
+    IndexError
+        A row outside ``[-P, P)`` or a boolean mask of the wrong length.
+    """
+    rest = ()
+    if isinstance(key, tuple):
+        key, rest = (key[0], key[1:]) if key else (slice(None), ())
+    if key is Ellipsis:
+        key = slice(None)
+    if isinstance(key, slice):
+        return np.arange(*key.indices(n_rows), dtype=np.intp), False, rest
+    idx = np.asarray(key)
+    if idx.dtype == bool:
+        if idx.shape != (n_rows,):
+            raise IndexError(f"boolean index of shape {idx.shape} for {n_rows} rows")
+        return np.flatnonzero(idx).astype(np.intp), False, rest
+    if not np.issubdtype(idx.dtype, np.integer) or idx.ndim > 1:
+        raise IndexError(f"rows must be selected by a slice, integers or a boolean mask, not {key!r}")
+    if idx.size and (idx.min() < -n_rows or idx.max() >= n_rows):
+        raise IndexError(f"row index out of range for {n_rows} rows")
+    rows = np.where(idx < 0, idx + n_rows, idx).astype(np.intp).reshape(-1)
+    return rows, idx.ndim == 0, rest
 
 
 def as_samples(data) -> np.ndarray:
-    """The samples as an in-memory array (reads a :class:`PulseArray` whole)."""
+    """The samples as an in-memory array (reads a :class:`PulseSource` whole)."""
     return np.asarray(data)
 
 
