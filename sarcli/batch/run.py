@@ -118,16 +118,29 @@ def _valid_output(path: Path, fingerprint: str) -> bool:
         return False
 
 
+def _is_cphd(path) -> bool:
+    """The file starts as a CPHD file does (any other is read as a sarcli phase history)."""
+    try:
+        with open(path, "rb") as f:
+            return f.read(5) == b"CPHD/"
+    except OSError:
+        return False
+
+
 def _read_input(job: Job) -> PhaseHistory:
     if job.input.lower().endswith(".mat"):
         from ..io.gotcha import read_gotcha
 
         ph = read_gotcha(job.input)
+    elif _is_cphd(job.input):
+        from ..io.cphd import read_cphd
+
+        ph = read_cphd(job.input, lazy=True)  # left on disk, as below
     else:
         from ..io.hdf5 import read_phase_history
 
-        # left on disk: a worker reads its pulses (by blocks, for backprojection and direct), so
-        # a file larger than the worker's memory can still be imaged
+        # left on disk: a worker reads its pulses (by blocks, for backprojection, ffbp and direct),
+        # so a file larger than the worker's memory can still be imaged
         ph = read_phase_history(job.input, truth=False, lazy=True)
     if job.pulses is None:
         return ph
