@@ -115,6 +115,25 @@ def test_toeplitz_gram_matches_nufft_pair(shape):
         assert np.linalg.norm(op.toeplitz_gram().forward(f) - ref) / np.linalg.norm(ref) < 1e-6
 
 
+@pytest.mark.parametrize("fft_dtype", [np.complex128, np.complex64])
+def test_toeplitz_gram_blocks_and_folded_scale(fft_dtype):
+    """The x-pass in uneven blocks of rows equals one block, and ``c·AᴴA`` equals ``c`` times it."""
+    freq, az, el = _kspace(P=40, M=48, ext_deg=6.0)
+    kx, ky = geometry.kspace_coordinates(freq, az, el)
+    gram = NufftOperator(kx, ky, GRID, eps=1e-9).toeplitz_gram(fft_dtype=fft_dtype)
+    assert gram._block >= 2 * GRID.shape[0]  # a small grid is one block
+    f = _crandn(GRID.shape)
+    one = gram.forward(f)
+    gram._block = 3  # 2·ny = 20 rows: blocks of 3 and a last one of 2
+    tol = 1e-14 if fft_dtype == np.complex128 else 1e-6
+    assert np.linalg.norm(gram.forward(f) - one) / np.linalg.norm(one) < tol
+    c = 0.37
+    scaled = (c * gram).forward(f)
+    assert scaled.dtype == np.complex128
+    assert np.linalg.norm(scaled - c * gram.forward(f)) / np.linalg.norm(one) < 1e-15
+    assert np.linalg.norm((c * gram).adjoint(f) - scaled) / np.linalg.norm(one) < 1e-15
+
+
 def test_finite_difference_values_and_norm():
     x = np.arange(6.0) ** 2  # 0 1 4 9 16 25
     d1 = FiniteDifference((6,), 1).forward(x)[0].real

@@ -46,6 +46,14 @@ class Linop:
     def _adjoint(self, y: np.ndarray) -> np.ndarray:  # pragma: no cover - abstract
         raise NotImplementedError
 
+    def _forward_scaled(self, x: np.ndarray, scale) -> np.ndarray:
+        """``scale · A x``; operators that can fold the scalar into their last pass override this."""
+        return scale * self._forward(x)
+
+    def _adjoint_scaled(self, y: np.ndarray, scale) -> np.ndarray:
+        """``scale · Aᴴ y`` (see :meth:`_forward_scaled`)."""
+        return scale * self._adjoint(y)
+
     # -- public -------------------------------------------------------------------------------
     def forward(self, x) -> np.ndarray:
         """``A x`` for ``x`` of shape ``ishape``."""
@@ -160,10 +168,10 @@ class Scaled(Linop):
         self.op, self.scalar = op, complex(scalar) if np.iscomplexobj(scalar) else float(scalar)
 
     def _forward(self, x):
-        return self.scalar * self.op._forward(x)
+        return self.op._forward_scaled(x, self.scalar)
 
     def _adjoint(self, y):
-        return np.conj(self.scalar) * self.op._adjoint(y)
+        return self.op._adjoint_scaled(y, np.conj(self.scalar))
 
     def gram(self):
         return Scaled(self.op.gram(), abs(self.scalar) ** 2)

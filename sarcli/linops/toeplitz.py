@@ -22,6 +22,7 @@ from .base import Linop
 __all__ = ["ToeplitzGram", "NormalEquations", "normal_equations"]
 
 _WORKERS = max(1, os.cpu_count() or 1)
+_BLOCK_BYTES = 1 << 20
 
 
 class ToeplitzGram(Linop):
@@ -60,21 +61,49 @@ class ToeplitzGram(Linop):
         # circulant first column: move m = 0 to index 0
         self.kernel_hat = scipy.fft.fft2(np.fft.ifftshift(kernel), workers=_WORKERS).astype(self.fft_dtype)
         self.padded_shape = (2 * ny, 2 * nx)
+        # rows per block of the x-pass: about 1 MiB of the padded grid, so a block stays in cache
+        self._block = max(1, min(2 * ny, _BLOCK_BYTES // (2 * nx * self.fft_dtype.itemsize)))
 
     def _forward(self, x):
-        ny, nx = self.ishape
-        # the padded input is zero in rows ny..2ny: transform its nonzero rows along x first,
-        # and of the inverse only the rows that are kept (3/4 of two full 2-D FFTs)
-        xf = np.zeros(self.padded_shape, self.fft_dtype)
-        xf[:ny] = scipy.fft.fft(x.astype(self.fft_dtype, copy=False), n=2 * nx, axis=1, workers=_WORKERS)
-        xf = scipy.fft.fft(xf, axis=0, workers=_WORKERS, overwrite_x=True)
-        xf *= self.kernel_hat
-        xf = scipy.fft.ifft(xf, axis=0, workers=_WORKERS, overwrite_x=True)
-        out = scipy.fft.ifft(xf[:ny], axis=1, workers=_WORKERS, overwrite_x=True)[:, :nx]
-        return out.astype(np.complex128)
+        return self.apply(x)
 
     def _adjoint(self, y):
-        return self._forward(y)  # Hermitian
+        return self.apply(y)  # Hermitian
+
+    def _forward_scaled(self, x, scale):
+        return self.apply(x, scale)
+
+    def _adjoint_scaled(self, y, scale):
+        return self.apply(y, scale)
+
+    def apply(self, x, scale=1.0) -> np.ndarray:
+        """``scale · AᴴA x`` (complex128, image shape); the scale costs no extra pass.
+
+        Columns first: the zero-padded input has only ``nx`` nonzero columns, so the transform
+        along y touches ``nx`` columns of length ``2ny``; then, in blocks of rows small enough to
+        stay in cache, the transform along x, the product with the kernel and the inverse along x
+        (keeping the ``nx`` columns the crop needs); last the inverse along y of those columns.
+        Three quarters of the 1-D transforms of two full 2-D FFTs, and only the row passes (the
+        fast, contiguous ones) run over the full 2N × 2N grid.
+        """
+        ny, nx = self.ishape
+        x = np.asarray(x)
+        if x.dtype != self.fft_dtype:
+            x = x.astype(self.fft_dtype)
+        y = scipy.fft.fft(x, n=2 * ny, axis=0, workers=_WORKERS)  # (2ny, nx)
+        block = self._block
+        for r in range(0, 2 * ny, block):
+            z = scipy.fft.fft(y[r:r + block], n=2 * nx, axis=1, workers=_WORKERS)
+            z *= self.kernel_hat[r:r + block]
+            z = scipy.fft.ifft(z, axis=1, workers=_WORKERS, overwrite_x=True)
+            y[r:r + block] = z[:, :nx]
+        y = scipy.fft.ifft(y, axis=0, workers=_WORKERS, overwrite_x=True)
+        out = np.empty(self.ishape, np.complex128)
+        if scale == 1.0:
+            out[...] = y[:ny]
+        else:
+            np.multiply(y[:ny], scale, out=out, dtype=np.complex128)
+        return out
 
 
 class NormalEquations:
