@@ -428,9 +428,14 @@ def _read_cphd(p: Path, lazy: bool = False) -> PhaseHistory:
     bistatic = not np.array_equal(tx, rcv)
     pos = 0.5 * (tx + rcv) if bistatic else tx
     M = data.shape[1]
-    freq = pvp["SC0"][:, None] + np.arange(M)[None, :] * pvp["SCSS"][:, None]
-    if np.all(freq == freq[0]):
-        freq = freq[0].copy()
+    sc0, scss = np.asarray(pvp["SC0"], np.float64), np.asarray(pvp["SCSS"], np.float64)
+    if np.all(sc0 == sc0[0]) and np.all(scss == scss[0]):
+        # one band for all pulses: never build the [P, M] table (as large as the signal)
+        freq = sc0[0] + np.arange(M) * scss[0]
+    else:
+        freq = sc0[:, None] + np.arange(M)[None, :] * scss[:, None]
+        if np.all(freq == freq[0]):
+            freq = freq[0].copy()
     az, el, _ = geometry.angles_from_positions(pos)
     grid = _grid_from_xml(xml, ref)
     if grid is None:
