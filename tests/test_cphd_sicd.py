@@ -570,3 +570,251 @@ def test_export_sicd_without_phase_history_warns_nominal(tmp_path):
     res = CliRunner().invoke(cli, ["export", str(tmp_path / "img.h5"), "-o", str(tmp_path / "x.sicd")])
     assert res.exit_code == 0, res.output
     assert "NOMINAL" in res.output and "GeometryWarning" in res.output
+
+
+# --------------------------------------------------------------------------------------------
+# CPHD left on disk: read by blocks of pulses (read_cphd(lazy=True), open_input, form-image, batch)
+# --------------------------------------------------------------------------------------------
+def _recoded_cphd(src, dst, fmt, *, amp_sf=False, sgn=-1, drop=()):
+    """Rewrite the CPHD file ``src`` with sarkit: signal stored as ``fmt`` (CI2, CI4, CI8, CF8,
+    CF16), optionally scaled by an ``AmpSF`` PVP, in the SGN = +1 convention, and with vectors
+    ``drop`` marked ``SIGNAL = 0``. Returns the samples the reader should give, decoded here."""
+    import copy
+
+    import lxml.builder
+    import sarkit.cphd as skcphd
+
+    with open(src, "rb") as f, skcphd.Reader(f) as r:
+        xml = copy.deepcopy(r.metadata.xmltree)
+        sig, pvp0 = r.read_channel("1")
+    sig = sig.astype(np.complex128)
+    P, M = sig.shape
+    xml.find("{*}Data/{*}SignalArrayFormat").text = fmt
+    if sgn == 1:
+        xml.find("{*}Global/{*}SGN").text = "1"
+        sig = np.conj(sig)
+    if amp_sf:
+        node = xml.find("{*}PVP")
+        E = lxml.builder.ElementMaker(namespace=lxml.etree.QName(node).namespace)
+        words = int(xml.findtext("{*}Data/{*}NumBytesPVP")) // 8
+        node.find("{*}SRPPos").addnext(E.AmpSF(E.Offset(str(words)), E.Size("1"), E.Format("F8")))
+        xml.find("{*}Data/{*}NumBytesPVP").text = str(8 * (words + 1))
+    pvp = np.zeros(P, dtype=skcphd.get_pvp_dtype(xml))
+    for name in pvp0.dtype.names:
+        pvp[name] = pvp0[name]
+    pvp["SIGNAL"][list(drop)] = 0
+    top = {"CI2": 100, "CI4": 30000, "CI8": 2 ** 30}.get(fmt)
+    amp = None
+    if amp_sf:  # one scale per vector (integer formats: the vector's peak maps near full scale)
+        peak = np.max(np.abs(np.column_stack([sig.real, sig.imag])), axis=1)
+        amp = peak / top if top else np.linspace(0.5, 2.0, P)
+        pvp["AmpSF"] = amp
+        sig = sig / amp[:, None]
+    elif top:
+        sig = sig * (top / np.max(np.abs(np.column_stack([sig.real, sig.imag]))))
+    dtype = skcphd.binary_format_string_to_dtype(fmt)
+    if top:
+        stored = np.zeros((P, M), dtype=dtype)
+        stored["real"], stored["imag"] = np.round(sig.real), np.round(sig.imag)
+        expect = (stored["real"].astype(np.float32) + 1j * stored["imag"].astype(np.float32)).astype(np.complex64)
+    else:
+        stored = sig.astype(dtype)
+        expect = stored.astype(np.complex64)
+    if amp is not None:
+        expect = (expect * amp[:, None]).astype(np.complex64)
+    if sgn == 1:
+        expect = np.conj(expect)
+    with open(dst, "wb") as f, skcphd.Writer(f, skcphd.Metadata(xmltree=xml)) as w:
+        w.write_signal("1", stored)
+        w.write_pvp("1", pvp)
+    return np.delete(expect, list(drop), axis=0)
+
+
+@pytest.mark.parametrize("fmt, amp_sf, sgn, drop", [
+    ("CF8", False, -1, ()), ("CF8", True, 1, ()), ("CF16", False, -1, (0, 7)), ("CI2", True, -1, ()),
+    ("CI2", False, 1, (3, 4, 5)), ("CI4", True, 1, (10,)), ("CI4", False, -1, ()), ("CI8", True, -1, (47,))])
+def test_lazy_cphd_samples_equal_eager_every_format(tmp_path, fmt, amp_sf, sgn, drop):
+    """The source left on disk gives exactly the eager reader's samples, and both equal the
+    decoding written out above (storage format, AmpSF, SGN, dropped vectors)."""
+    from sarcli.io import open_input
+    from sarcli.io._cphd_parts import CphdSignal
+
+    write_cphd(spherical_ph(), tmp_path / "a.cphd")
+    expect = _recoded_cphd(tmp_path / "a.cphd", tmp_path / "b.cphd", fmt, amp_sf=amp_sf, sgn=sgn, drop=drop)
+    eager = read_cphd(tmp_path / "b.cphd")
+    fmt_name, lazy = open_input(tmp_path / "b.cphd", lazy=True)
+    assert fmt_name == "cphd" and isinstance(lazy.data, CphdSignal)
+    assert eager.data.dtype == np.complex64 and lazy.data.dtype == np.complex64
+    assert lazy.data.shape == eager.data.shape == expect.shape == (48 - len(drop), 40)
+    np.testing.assert_array_equal(eager.data, expect)
+    np.testing.assert_array_equal(np.asarray(lazy.data), eager.data)
+    P = eager.data.shape[0]
+    for key in (slice(0, 5), slice(5, 37), slice(40, None), 3, -1, [0, 2, 3, 4, 30], np.arange(P) % 3 == 0,
+                (slice(2, 9), slice(1, 4))):
+        np.testing.assert_array_equal(lazy.data[key], eager.data[key])
+    np.testing.assert_array_equal(lazy.acquisition.antenna_position_m, eager.acquisition.antenna_position_m)
+    if not fmt.startswith("CI"):  # float formats keep the original samples to complex64 rounding
+        ref = np.delete(np.asarray(spherical_ph().data), list(drop), axis=0)
+        assert np.max(np.abs(eager.data - ref)) <= 1e-6 * np.max(np.abs(ref))
+
+
+def test_lazy_cphd_of_a_sarkit_written_file(tmp_path):
+    """A file built by sarkit directly (the standard's example geometry, bistatic): same samples."""
+    fx = make_cphd_fixture(tmp_path / "f.cphd", bistatic=True)
+    lazy = read_cphd(tmp_path / "f.cphd", lazy=True)
+    np.testing.assert_array_equal(np.asarray(lazy.data), fx["signal"])
+    np.testing.assert_array_equal(lazy.data[10:20], fx["signal"][10:20])
+
+
+@pytest.mark.parametrize("method", ["backprojection", "ffbp"])
+def test_lazy_and_eager_cphd_give_the_same_image(tmp_path, method):
+    from sarcli.formers.formation import form_image
+
+    make_cphd_fixture(tmp_path / "f.cphd", P=96)
+    eager = form_image(read_cphd(tmp_path / "f.cphd"), method)
+    lazy = form_image(read_cphd(tmp_path / "f.cphd", lazy=True), method)
+    np.testing.assert_allclose(lazy.image, eager.image, rtol=0, atol=1e-12 * np.abs(eager.image).max())
+
+
+def _spy_rows(monkeypatch):
+    from sarcli.io._cphd_parts import CphdSignal
+
+    asked = []
+    real = CphdSignal.__getitem__
+
+    def spy(self, key):
+        out = real(self, key)
+        asked.append(out.shape[0])
+        return out
+
+    monkeypatch.setattr(CphdSignal, "__getitem__", spy)
+    return asked
+
+
+def test_form_image_command_streams_cphd(tmp_path, monkeypatch):
+    """`sar form-image X.cphd --method backprojection` reads the signal by blocks, never whole."""
+    make_cphd_fixture(tmp_path / "f.cphd", P=96)
+    asked = _spy_rows(monkeypatch)
+    res = CliRunner().invoke(cli, ["form-image", str(tmp_path / "f.cphd"), "-o", str(tmp_path / "img.h5"),
+                                   "--method", "backprojection", "--extent", "8"])
+    assert res.exit_code == 0, res.output
+    assert asked and sum(asked) == 96 and max(asked) < 96, asked
+
+
+def test_batch_job_streams_cphd(tmp_path, monkeypatch):
+    """A `sar batch` job on a CPHD file reads it by blocks and gives the eager image."""
+    import yaml
+
+    from sarcli.batch.run import load_plan, run_job
+    from sarcli.formers.formation import form_image
+    from sarcli.io.hdf5 import read_image
+
+    make_cphd_fixture(tmp_path / "f.cphd", P=96)
+    plan = tmp_path / "plan.yaml"
+    plan.write_text(yaml.safe_dump({"jobs": [{"input": str(tmp_path / "f.cphd"), "method": "backprojection",
+                                              "options": {"nthreads": 1}}]}))
+    ref = form_image(read_cphd(tmp_path / "f.cphd"), "backprojection", nthreads=1)
+    asked = _spy_rows(monkeypatch)
+    job, = load_plan(plan).jobs
+    res = run_job(job, tmp_path / "out")
+    assert res.status == "done", res.error
+    assert asked and sum(asked) == 96 and max(asked) < 96, asked
+    np.testing.assert_allclose(read_image(tmp_path / "out" / job.name).image, ref.image, rtol=0,
+                               atol=1e-12 * np.abs(ref.image).max())
+
+
+def test_bad_cphd_block_read_lazily_is_one_line(tmp_path):
+    """A NaN in the signal, or a file cut short after it was opened, is an InputFileError naming
+    the file when the block is reached (and one line, exit 2, from the command)."""
+    import shutil
+
+    import sarkit.cphd as skcphd
+
+    from sarcli.formers.formation import form_image
+
+    good = write_cphd(spherical_ph(), tmp_path / "a.cphd")
+    with open(good, "rb") as f:
+        _, kvp = skcphd.read_file_header(f)
+    sig0 = int(kvp["SIGNAL_BLOCK_BYTE_OFFSET"])
+    bad = tmp_path / "nan.cphd"
+    shutil.copyfile(good, bad)
+    with open(bad, "r+b") as f:  # vector 30, sample 3: CF8 is big-endian float32 pairs
+        f.seek(sig0 + (30 * 40 + 3) * 8)
+        f.write(np.array([np.nan], ">f4").tobytes())
+    ph = read_cphd(bad, lazy=True)  # nothing read yet
+    np.testing.assert_array_equal(ph.data[:16], read_cphd(good).data[:16])
+    with pytest.raises(InputFileError, match="NaN/Inf") as exc:
+        form_image(ph, "backprojection")
+    assert str(bad) in str(exc.value)
+    with pytest.raises(InputFileError, match="NaN/Inf"):
+        read_cphd(bad)
+    res = CliRunner().invoke(cli, ["form-image", str(bad), "-o", str(tmp_path / "img.h5"),
+                                   "--method", "backprojection"])
+    assert res.exit_code == 2 and res.output.count("\n") == 1 and "NaN/Inf" in res.output, res.output
+    assert not (tmp_path / "img.h5").exists()
+    cut = tmp_path / "cut.cphd"
+    shutil.copyfile(good, cut)
+    ph = read_cphd(cut, lazy=True)
+    with open(cut, "r+b") as f:  # cut after it was opened: the second half of the pulses is gone
+        f.truncate(sig0 + 24 * 40 * 8)
+    assert ph.data[:20].shape == (20, 40)
+    with pytest.raises(InputFileError, match="truncated or corrupt CPHD file") as exc:
+        form_image(ph, "backprojection")
+    assert str(cut) in str(exc.value)
+
+
+def test_compressed_cphd_is_refused_in_one_line(tmp_path):
+    """sarkit cannot read rows of a compressed signal array and sarcli cannot decompress one."""
+    import copy
+
+    import lxml.builder
+    import sarkit.cphd as skcphd
+
+    write_cphd(spherical_ph(), tmp_path / "a.cphd")
+    with open(tmp_path / "a.cphd", "rb") as f, skcphd.Reader(f) as r:
+        xml = copy.deepcopy(r.metadata.xmltree)
+        pvp = r.read_pvps("1")
+    data = xml.find("{*}Data")
+    E = lxml.builder.ElementMaker(namespace=lxml.etree.QName(data).namespace)
+    data.find("{*}NumBytesPVP").addprevious(E.SignalCompressionID("some-codec"))
+    data.find("{*}Channel/{*}PVPArrayByteOffset").addnext(E.CompressedSignalSize("100"))
+    with open(tmp_path / "c.cphd", "wb") as f, skcphd.Writer(f, skcphd.Metadata(xmltree=xml)) as w:
+        w.write_signal("1", np.zeros(100, np.uint8))
+        w.write_pvp("1", pvp)
+    for lazy in (False, True):
+        with pytest.raises(InputFileError, match="compressed CPHD signal arrays are not supported"):
+            read_cphd(tmp_path / "c.cphd", lazy=lazy)
+
+
+def test_lazy_cphd_memory_does_not_grow_with_pulses(tmp_path):
+    """Image fixed, a 4x longer CPHD collection: the traced peak of reading it lazily and forming a
+    backprojection image rises by <= 20 % (holding the 4x signal alone would more than double it)."""
+    import gc
+    import tracemalloc
+
+    import sarcli
+
+    from .conftest import small_config
+
+    M, P0 = 256, 1024
+    grid = Grid.square(4.0, 64)
+    files = {}
+    for P in (P0, 4 * P0):  # same pulse spacing: the aperture grows with the pulse count
+        cfg = small_config(frequencies={"center_frequency_ghz": 10.0, "bandwidth_mhz": 600.0, "count": M},
+                           azimuths={"center_deg": 50.0, "extent_deg": 3.0 * P / P0, "count": P})
+        files[P] = write_cphd(sarcli.simulate(sarcli.parse_acquisition(cfg), seed=3, snr_db=None),
+                              tmp_path / f"p{P}.cphd")
+    sarcli.form_image(read_cphd(files[P0], lazy=True), "backprojection", grid=grid)  # compile, plan
+    peaks = {}
+    for P, path in files.items():
+        gc.collect()
+        tracemalloc.start()
+        try:
+            img = sarcli.form_image(read_cphd(path, lazy=True), "backprojection", grid=grid)
+            peaks[P] = tracemalloc.get_traced_memory()[1]
+        finally:
+            tracemalloc.stop()
+        assert np.all(np.isfinite(img.image))
+    signal_4x = 4 * P0 * M * np.dtype(np.complex64).itemsize
+    assert peaks[4 * P0] <= 1.2 * peaks[P0], peaks
+    assert signal_4x > 1.2 * peaks[P0], peaks  # the test can tell: the whole signal would not fit
