@@ -120,6 +120,9 @@ class PulseArray(PulseSource):
 
 
 def _describe(key) -> str:
+    """The rows of an index, for messages."""
+    if isinstance(key, tuple) and key:
+        key = key[0]
     if isinstance(key, slice):
         return f"{key.start or 0}:{'' if key.stop is None else key.stop}"
     if isinstance(key, tuple) and not key:
