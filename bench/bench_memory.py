@@ -10,8 +10,9 @@ every method <= 3 x (phase history + image) bytes.
     python bench/bench_memory.py stream                          # streaming: 1x and 4x the pulses
 
 Streaming (issue 13): ``sar form-image --method backprojection`` on collections of P and 4P
-pulses with the image fixed, whole-process peak RSS of each; the phase history is read by blocks
-of pulses, so the 4x longer collection should raise the peak by <= 20 %.
+pulses with the image fixed, whole-process peak RSS of each, from the sarcli HDF5 phase history
+and from the same collection exported as CPHD; either is read by blocks of pulses, so the 4x
+longer collection should raise the peak by <= 20 %.
 """
 
 from __future__ import annotations
@@ -57,14 +58,18 @@ _PEAK = ("import resource, sys; from sarcli.cli.main import cli\n"
 
 
 def stream(pulses=(2048, 8192), freqs=2048, pixels=256):
-    """Whole-process peak RSS of backprojection from disk for 1x and 4x the pulses, image fixed."""
+    """Whole-process peak RSS of backprojection from disk for 1x and 4x the pulses, image fixed.
+
+    Each collection is imaged from its HDF5 phase history and from its CPHD export.
+    """
     import tempfile
     from pathlib import Path
 
     import yaml
 
     cfg = yaml.safe_load((Path(__file__).resolve().parents[1] / "configs" / "three-points.yaml").read_text())
-    rows = []
+    sar = str(Path(sys.executable).parent / "sar")
+    rows = {"HDF5": [], "CPHD": []}
     with tempfile.TemporaryDirectory() as tmp:
         for p in pulses:
             cfg["azimuths"] = {"center_deg": 50.0, "extent_deg": 3.0 * p / pulses[0], "count": p}
@@ -72,17 +77,20 @@ def stream(pulses=(2048, 8192), freqs=2048, pixels=256):
             cfg["image"] = {"half_width_m": 5.0, "pixels": pixels}
             yml, ph = Path(tmp) / f"a{p}.yaml", Path(tmp) / f"ph{p}.h5"
             yml.write_text(yaml.safe_dump(cfg))
-            subprocess.run([str(Path(sys.executable).parent / "sar"), "-q", "simulate", str(yml), "-o", str(ph),
-                            "--noiseless"], check=True)
-            out = subprocess.run([sys.executable, "-c", _PEAK, "-q", "form-image", str(ph), "-o",
-                                  str(Path(tmp) / "img.h5"), "--method", "backprojection"],
-                                 check=True, capture_output=True, text=True).stdout.split()[-1]
-            rows.append((p, Path(ph).stat().st_size / 2**20, float(out)))
+            cphd = Path(tmp) / f"ph{p}.cphd"
+            subprocess.run([sar, "-q", "simulate", str(yml), "-o", str(ph), "--noiseless"], check=True)
+            subprocess.run([sar, "-q", "export-cphd", str(ph), "-o", str(cphd)], check=True)
+            for fmt, src in (("HDF5", ph), ("CPHD", cphd)):
+                out = subprocess.run([sys.executable, "-c", _PEAK, "-q", "form-image", str(src), "-o",
+                                      str(Path(tmp) / "img.h5"), "--method", "backprojection"],
+                                     check=True, capture_output=True, text=True).stdout.split()[-1]
+                rows[fmt].append((p, Path(src).stat().st_size / 2**20, float(out)))
     image_mib = pixels * pixels * 16 / 2**20
-    for p, size, peak in rows:
-        print(f"backprojection from disk: {p} pulses x {freqs} ({size:.0f} MiB on disk), image {pixels}² "
-              f"({image_mib:.0f} MiB): whole-process peak RSS {peak:.0f} MiB")
-    print(f"4x the pulses raises the peak by {100 * (rows[-1][2] / rows[0][2] - 1):.1f} % (target <= 20 %)")
+    for fmt, rs in rows.items():
+        for p, size, peak in rs:
+            print(f"backprojection from {fmt}: {p} pulses x {freqs} ({size:.0f} MiB on disk), image {pixels}² "
+                  f"({image_mib:.0f} MiB): whole-process peak RSS {peak:.0f} MiB")
+        print(f"{fmt}: 4x the pulses raises the peak by {100 * (rs[-1][2] / rs[0][2] - 1):.1f} % (target <= 20 %)")
 
 
 if __name__ == "__main__":
