@@ -45,6 +45,7 @@ def _operators():
         "identity": Identity(GRID.shape),
         "theta": phase_operator(_crandn(GRID.shape)),
         "ptv": sparsifying_operator("ptv", GRID.shape, order=2, f0=_crandn(GRID.shape)),
+        "ptv1": sparsifying_operator("ptv", GRID.shape, order=1, f0=_crandn(GRID.shape)),
         "matrix": MatrixLinop(_crandn((7, 12)), ishape=(3, 4)),
         "partial_dft": SubsampledDFT(RNG.random((8, 6)) < 0.5),
         "composite": 2.0 * FiniteDifference(GRID.shape, 1) @ Diagonal(_crandn(GRID.shape))
@@ -143,6 +144,29 @@ def test_finite_difference_values_and_norm():
     for k in (1, 2, 3):  # ‖Dᵏ‖ = 2 per axis: 2-D stack has ‖·‖² = 8
         lam = gram_eigmax(FiniteDifference((16, 16), k).gram(), iters=200)
         assert abs(lam - 8.0) < 1e-3
+
+
+def test_fused_phase_corrected_difference_equals_the_composition():
+    """D Θ in one compiled pass (first differences, 2-D) equals D applied to Θ f, and back."""
+    f0 = _crandn(GRID.shape)
+    fused = sparsifying_operator("ptv", GRID.shape, f0=f0)
+    assert fused._fused
+    D, theta = FiniteDifference(GRID.shape, 1), phase_operator(f0)
+    x, y = _crandn(GRID.shape), _crandn((2,) + GRID.shape)
+    assert np.max(np.abs(fused.forward(x) - D.forward(theta.forward(x)))) < 1e-14
+    assert np.max(np.abs(fused.adjoint(y) - theta.adjoint(D.adjoint(y)))) < 1e-14
+    assert np.max(np.abs(fused.forward(x.real) - D.forward(theta.forward(x.real)))) < 1e-14
+
+
+def test_staggered_empty():
+    """Large work arrays start at different offsets within a page; all are C-contiguous."""
+    from sarcli.linops._reduce import empty
+
+    arrays = [empty((2, 128, 160)) for _ in range(6)]
+    assert all(a.flags.c_contiguous and a.dtype == np.complex128 and a.shape == (2, 128, 160)
+               for a in arrays)
+    assert len({a.ctypes.data % 4096 for a in arrays}) == 6
+    assert empty((3, 4)).shape == (3, 4)
 
 
 def test_phase_operator_makes_f0_real_positive():

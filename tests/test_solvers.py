@@ -120,6 +120,44 @@ def test_admm_step_g_and_multiplier_follow_the_proposition(isotropic):
         assert np.max(np.abs(solver.sigma - (s0 - 2.1 * (solver.Tf - solver.g)))) < 1e-12
 
 
+def test_admm_reused_by_products_change_nothing():
+    """The values one pass hands to the next (w = β(Tf - g) - σ from the g-step, the BB products
+    from the end of an iteration, ‖Tf - Tf_p‖² from the backtracking test) give the iterates of
+    the solver that recomputes them all, and the gradient the eq. ``eq: grad`` formula."""
+    from sarcli.linops import sparsifying_operator
+
+    rng = np.random.default_rng(5)
+    shape = (12, 10)
+    normal = normal_equations(MatrixLinop(_crandn(rng, (90, 120)), ishape=shape), _crandn(rng, 90))
+    T = sparsifying_operator("ptv", shape, f0=_crandn(rng, shape))
+    fast, slow = (ADMM(normal, T, 0.3, 2.0, max_iter=30) for _ in range(2))
+    for _ in range(12):
+        s = slow
+        ref = 2.0 * (s.Gf - normal.atb) + T.adjoint(s.beta * (s.Tf - s.g) - s.sigma)
+        assert np.max(np.abs(fast.gradient() - ref)) <= 1e-12 * np.max(np.abs(ref))
+        fast.step()
+        slow._w_of = slow._bb_of = slow._tt_of = None  # recompute everything
+        slow.step()
+        assert fast._bb_of is not None and fast._w_of is not None
+    for k in ("objective", "data_residual", "reg_norm", "relative_change", "step_size"):
+        assert np.allclose(fast.history[k], slow.history[k], rtol=1e-12, atol=0)
+    assert np.max(np.abs(fast.f - slow.f)) <= 1e-12 * np.max(np.abs(slow.f))
+    assert np.max(np.abs(fast.sigma - slow.sigma)) <= 1e-12 * np.max(np.abs(slow.sigma))
+
+
+def test_shrink_update_w_output():
+    """``shrink_update(..., w=)`` also writes β(Tf - g) - σ', what the next gradient needs."""
+    from sarcli.linops._reduce import empty, shrink_update
+
+    rng = np.random.default_rng(3)
+    tf, sigma = _crandn(rng, (2, 7, 9)), _crandn(rng, (2, 7, 9))
+    w = empty(tf.shape)
+    g, sig_new, _ = shrink_update(tf, sigma, 1.7, 0.4, True, w=w)
+    assert np.max(np.abs(w - (1.7 * (tf - g) - sig_new))) < 1e-13
+    with pytest.raises(ValueError):
+        shrink_update(tf, sigma, 1.7, 0.4, True, w=np.empty((2, 7, 8), complex))
+
+
 def test_shrink_zero_and_threshold():
     z = np.array([0.0, 3 + 4j, 0.1j])
     out = shrink(z, 1.0)

@@ -16,7 +16,7 @@ import finufft
 import numpy as np
 import scipy.fft
 
-from ._reduce import norm2, rdot
+from ._reduce import empty, norm2, rdot
 from .base import Linop
 
 __all__ = ["ToeplitzGram", "NormalEquations", "normal_equations"]
@@ -98,7 +98,7 @@ class ToeplitzGram(Linop):
             z = scipy.fft.ifft(z, axis=1, workers=_WORKERS, overwrite_x=True)
             y[r:r + block] = z[:, :nx]
         y = scipy.fft.ifft(y, axis=0, workers=_WORKERS, overwrite_x=True)
-        out = np.empty(self.ishape, np.complex128)
+        out = empty(self.ishape)
         if scale == 1.0:
             out[...] = y[:ny]
         else:
@@ -128,7 +128,11 @@ class NormalEquations:
 
     def residual_norm2(self, f, gram_f) -> float:
         """``‖Af - b‖²`` from ``f`` and ``AᴴA f`` (clipped at 0 against round-off)."""
-        val = rdot(f, gram_f) - 2.0 * rdot(f, self.atb) + self.bnorm2
+        return self.residual_from_dots(rdot(f, gram_f), rdot(f, self.atb))
+
+    def residual_from_dots(self, f_gram_f: float, f_atb: float) -> float:
+        """``‖Af - b‖²`` from ``Re⟨f, AᴴA f⟩`` and ``Re⟨f, Aᴴb⟩`` (clipped at 0 against round-off)."""
+        val = f_gram_f - 2.0 * f_atb + self.bnorm2
         return max(float(val), 0.0)
 
     def scaled(self, a_scale: float, b_scale: float) -> "NormalEquations":

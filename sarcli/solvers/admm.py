@@ -29,7 +29,8 @@ from typing import Callable
 import numpy as np
 
 from ..errors import ConvergenceWarning
-from ..linops._reduce import norm2, norm2_diff, rdot, rdot_diff, rdot_diff2, shrink_update
+from ..linops._reduce import (add_twice_diff, axpy, empty, norm2, norm2_diff, rdot, rdot_diff, rdot_diff2,
+                              shrink_update, step_dots)
 from ..linops.base import Linop
 from ..linops.toeplitz import NormalEquations
 from .shrink import shrink
@@ -94,6 +95,13 @@ class ADMM:
         self.sigma = np.zeros(self.T.oshape, np.complex128)
         self.g = shrink(self.Tf, self.lam / self.beta, group_axis=self.group_axis)
         self._prev = None
+        # by-products of one pass kept for the next, each with the arrays it was computed from
+        # (checked by identity, so a stale value is never used): w = β(Tf - g) - σ from the g-step,
+        # ‖f - f_p‖² and Re⟨f - f_p, Gf - Gf_p⟩ from the end of an iteration, ‖Tf - Tf_p‖² from the
+        # backtracking test
+        self._w = self._w_of = None
+        self._bb = self._bb_of = None
+        self._tt = self._tt_of = None
         self.tau = 0.0
         self.iteration = 0
         self.relative_change = np.inf
@@ -120,22 +128,38 @@ class ADMM:
         """``‖Af - b‖²`` of the current iterate."""
         return self.normal.residual_norm2(self.f, self.Gf)
 
+    @staticmethod
+    def _same(a, b) -> bool:
+        return a is not None and len(a) == len(b) and all(x is y for x, y in zip(a, b))
+
     def objective(self) -> float:
         """``‖Af - b‖² + λ‖Tf‖₁`` (eq. ``eq: main-L1``) at the current iterate."""
         return self.data_residual2() + self.lam * self.reg_norm()
 
     def gradient(self) -> np.ndarray:
         """``∇_f L = 2Aᴴ(Af - b) + βTᴴ(Tf - g) - Tᴴσ`` (eq. ``eq: grad``)."""
-        return 2.0 * (self.Gf - self.normal.atb) + self.T.adjoint(self.beta * (self.Tf - self.g) - self.sigma)
+        return self._gradient()[0]
+
+    def _gradient(self):
+        """The gradient (a new array) and its squared norm, in two passes over the image."""
+        if self._same(self._w_of, (self.Tf, self.g, self.sigma)):
+            w = self._w
+        else:
+            w = self.beta * (self.Tf - self.g) - self.sigma
+        v = np.asarray(self.T.adjoint(w), dtype=np.complex128, order="C")
+        if v is w:
+            v = v.copy()
+        gg = add_twice_diff(self.Gf, self.normal.atb, v)
+        return v, gg
 
     # -- the state machine --------------------------------------------------------------------------
     def _f_step(self):
-        grad = self.gradient()
-        gg = norm2(grad)
+        grad, gg = self._gradient()
         if gg == 0.0 or not np.isfinite(gg):
             self.tau = 0.0
             return
         gram, beta = self.normal.gram, self.beta
+        tt = None
         if self._prev is None:
             # exact minimiser along -grad of the quadratic f-subproblem
             Gd, Td = gram.forward(grad), self.T.forward(grad)
@@ -145,20 +169,27 @@ class ADMM:
         else:
             # Barzilai-Borwein: τ = ‖s‖² / Re⟨s, H s⟩ with H s = 2AᴴA s + βTᴴT s from stored products
             f_p, Gf_p, Tf_p = self._prev
-            ss = norm2_diff(self.f, f_p)
-            curv = 2.0 * rdot_diff2(self.f, f_p, self.Gf, Gf_p) + beta * norm2_diff(self.Tf, Tf_p)
+            if self._same(self._bb_of, (self.f, f_p, self.Gf, Gf_p)):
+                ss, c1 = self._bb
+            else:
+                ss, c1 = norm2_diff(self.f, f_p), rdot_diff2(self.f, f_p, self.Gf, Gf_p)
+            c2 = self._tt if self._same(self._tt_of, (Tf_p, self.Tf)) else norm2_diff(self.Tf, Tf_p)
+            curv = 2.0 * c1 + beta * c2
             tau = ss / curv if (curv > 0 and ss > 0) else self.tau
-            f_new = self.f - tau * grad
+            f_new = axpy(self.f, tau, grad)
             Gf_new, Tf_new = gram.forward(f_new), self.T.forward(f_new)
             if tau > 0:
                 # backtracking: the f-subproblem is quadratic, so its decrease along -grad is known
                 # exactly: τ²·curv_d = 2τ Re⟨∇, AᴴA(f - f_new)⟩ + β‖T(f - f_new)‖²
-                curv_d = (2.0 * tau * rdot_diff(grad, self.Gf, Gf_new) + beta * norm2_diff(self.Tf, Tf_new)) / tau**2
+                tt = norm2_diff(self.Tf, Tf_new)
+                curv_d = (2.0 * tau * rdot_diff(grad, self.Gf, Gf_new) + beta * tt) / tau**2
                 if not 0.5 * tau * curv_d <= (1.0 - _ARMIJO) * gg:
                     Gd, Td = (self.Gf - Gf_new) / tau, (self.Tf - Tf_new) / tau
                     tau = gg / curv_d
                     f_new, Gf_new, Tf_new = self.f - tau * grad, self.Gf - tau * Gd, self.Tf - tau * Td
+                    tt = None
         self._prev = (self.f, self.Gf, self.Tf)
+        self._tt, self._tt_of = (tt, (self.Tf, Tf_new)) if tt is not None else (None, None)
         self.f, self.Gf, self.Tf, self.tau = f_new, Gf_new, Tf_new, float(tau)
 
     def step(self) -> None:
@@ -166,10 +197,18 @@ class ADMM:
         f_old = self.f
         for _ in range(self.inner_iters):
             self._f_step()
+        if self._w is None or self._w.shape != self.Tf.shape:
+            self._w = empty(self.Tf.shape)
         self.g, self.sigma, reg = shrink_update(self.Tf, self.sigma, self.beta, self.lam / self.beta,
-                                                self.group_axis is not None)
+                                                self.group_axis is not None, w=self._w)
+        self._w_of = (self.Tf, self.g, self.sigma)
         self.iteration += 1
-        nf, nd = np.sqrt(norm2(self.f)), np.sqrt(norm2_diff(self.f, f_old))
+        # f_old's AᴴA product is at hand when the last f-step started from f_old (one inner step)
+        pair = self._prev is not None and self._prev[0] is f_old and self._prev[1] is not None
+        Gf_old = self._prev[1] if pair else self.Gf
+        nf2, nd2, c1, fg, fb = step_dots(self.f, f_old, self.Gf, Gf_old, self.normal.atb)
+        self._bb, self._bb_of = ((nd2, c1), (self.f, f_old, self.Gf, Gf_old)) if pair else (None, None)
+        nf, nd = np.sqrt(nf2), np.sqrt(nd2)
         self.relative_change = float(nd / nf) if nf > 0 else (0.0 if nd == 0 else np.inf)
         if self.reestimate is not None and self.reestimate_every > 0 \
                 and self.iteration % self.reestimate_every == 0:
@@ -178,7 +217,7 @@ class ADMM:
             self.g = shrink(self.Tf - self.sigma / self.beta, self.lam / self.beta,
                             group_axis=self.group_axis)
             reg = self.reg_norm()
-        r2 = self.data_residual2()
+        r2 = self.normal.residual_from_dots(fg, fb)
         h = self.history
         h["objective"].append(r2 + self.lam * reg)
         h["data_residual"].append(float(np.sqrt(r2 / self.normal.bnorm2)) if self.normal.bnorm2 > 0
