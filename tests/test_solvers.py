@@ -145,6 +145,24 @@ def test_admm_reused_by_products_change_nothing():
     assert np.max(np.abs(fast.sigma - slow.sigma)) <= 1e-12 * np.max(np.abs(slow.sigma))
 
 
+def test_admm_never_overwrites_arrays_held_outside():
+    """g and σ are written in place only when nothing else refers to them (nor to their memory)."""
+    rng = np.random.default_rng(6)
+    normal = normal_equations(MatrixLinop(_crandn(rng, (50, 64)), ishape=(8, 8)), _crandn(rng, 50))
+    solver = ADMM(normal, FiniteDifference((8, 8)), 0.4, 3.0, max_iter=20)
+    for _ in range(3):
+        solver.step()
+    g_id = id(solver.g)
+    solver.step()
+    assert id(solver.g) == g_id  # reused: nothing else held it
+    held, view = solver.sigma, solver.g[0]
+    held_copy, view_copy = held.copy(), view.copy()
+    for _ in range(3):
+        solver.step()
+    assert solver.sigma is not held and np.array_equal(held, held_copy)
+    assert np.array_equal(view, view_copy)
+
+
 def test_shrink_update_w_output():
     """``shrink_update(..., w=)`` also writes β(Tf - g) - σ', what the next gradient needs."""
     from sarcli.linops._reduce import empty, shrink_update

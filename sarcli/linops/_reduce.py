@@ -232,7 +232,8 @@ def rdot_diff2(a, b, c, d) -> float:
     return float(_rdot_diff2(_flat(a), _flat(b), _flat(c), _flat(d)))
 
 
-def shrink_update(tf, sigma, beta: float, threshold: float, group: bool, *, w=None):
+def shrink_update(tf, sigma, beta: float, threshold: float, group: bool, *, w=None, g_out=None,
+                  sigma_out=None):
     """Fused g-step and multiplier update of ADMM (eqs. ``eq: updateg`` and ``eq: iters``).
 
     ``g = shrink(Tf - σ/β, threshold)`` (grouped over axis 0 when ``group``), ``σ' = σ - β(Tf - g)``.
@@ -242,6 +243,9 @@ def shrink_update(tf, sigma, beta: float, threshold: float, group: bool, *, w=No
     w : ndarray, optional
         C-contiguous complex128 array of ``tf``'s shape, filled with ``β(Tf - g) - σ'``: what the
         next gradient applies ``Tᴴ`` to (eq. ``eq: grad``), at no extra read.
+    g_out, sigma_out : ndarray, optional
+        Arrays (C-contiguous complex128, ``tf``'s shape) to write ``g`` and ``σ'`` into instead of
+        new ones; ``sigma_out`` may be ``sigma`` itself (each entry is read before it is written).
 
     Returns
     -------
@@ -255,16 +259,14 @@ def shrink_update(tf, sigma, beta: float, threshold: float, group: bool, *, w=No
     shape = tf.shape
     k = shape[0] if (group and tf.ndim > 1) else 1
     t2, s2 = tf.reshape(k, -1), sigma.reshape(k, -1)
-    g = empty(t2.shape)
-    sig = empty(s2.shape)
+    g, sig = (empty(t2.shape) if a is None else _out(a, shape).reshape(t2.shape) for a in (g_out, sigma_out))
     if w is None:
         w2, want_w = g[:1, :1], False
     else:
-        if w.shape != shape or w.dtype != np.complex128 or not w.flags.c_contiguous:
-            raise ValueError("w must be a C-contiguous complex128 array of tf's shape")
-        w2, want_w = w.reshape(k, -1), True
+        w2, want_w = _out(w, shape).reshape(k, -1), True
     reg = _shrink_update(t2, s2, float(beta), float(threshold), g, sig, w2, want_w)
-    return g.reshape(shape), sig.reshape(shape), float(reg)
+    return (g.reshape(shape) if g_out is None else g_out, sig.reshape(shape) if sigma_out is None else sigma_out,
+            float(reg))
 
 
 def diff2d_forward(x) -> np.ndarray:
@@ -281,6 +283,13 @@ def diff2d_adjoint(y) -> np.ndarray:
     out = empty(y.shape[1:])
     _diff2d_adjoint(y, out)
     return out
+
+
+def _out(a, shape):
+    if not isinstance(a, np.ndarray) or a.shape != shape or a.dtype != np.complex128 \
+            or not a.flags.c_contiguous or not a.flags.writeable:
+        raise ValueError(f"output arrays must be writeable C-contiguous complex128 of shape {shape}")
+    return a
 
 
 def diff2d_diag_forward(x, d) -> np.ndarray:

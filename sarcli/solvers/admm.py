@@ -22,6 +22,7 @@ NUFFT pair and the pre-gridded Toeplitz form are interchangeable.
 
 from __future__ import annotations
 
+import sys
 import time
 import warnings
 from typing import Callable
@@ -92,8 +93,10 @@ class ADMM:
         self.f = np.zeros(shape, np.complex128) if x0 is None else np.array(x0, np.complex128)
         self.Gf = normal.gram.forward(self.f)
         self._set_T(T, isotropic)
-        self.sigma = np.zeros(self.T.oshape, np.complex128)
-        self.g = shrink(self.Tf, self.lam / self.beta, group_axis=self.group_axis)
+        self.sigma = empty(self.T.oshape)
+        self.sigma.fill(0.0)
+        self.g = empty(self.T.oshape)
+        self.g[...] = shrink(self.Tf, self.lam / self.beta, group_axis=self.group_axis)
         self._prev = None
         # by-products of one pass kept for the next, each with the arrays it was computed from
         # (checked by identity, so a stale value is never used): w = β(Tf - g) - σ from the g-step,
@@ -127,6 +130,19 @@ class ADMM:
     def data_residual2(self) -> float:
         """``‖Af - b‖²`` of the current iterate."""
         return self.normal.residual_norm2(self.f, self.Gf)
+
+    def _private(self, name: str):
+        """The attribute ``name`` when nothing outside the solver refers to it or to its memory
+        (so the next value can be written into it), else None. CPython reference counts: one
+        for the attribute and one for the argument of ``getrefcount``."""
+        a = self.__dict__.get(name)
+        if not isinstance(a, np.ndarray) or not a.flags.c_contiguous or not a.flags.writeable \
+                or a.dtype != np.complex128 or sys.getrefcount(a) != 3:
+            return None
+        # getrefcount(a) counts the dict entry, the local name and the argument
+        if a.base is not None and (not isinstance(a.base, np.ndarray) or sys.getrefcount(a.base) != 2):
+            return None  # some other view shares the memory
+        return a
 
     @staticmethod
     def _same(a, b) -> bool:
@@ -199,8 +215,16 @@ class ADMM:
             self._f_step()
         if self._w is None or self._w.shape != self.Tf.shape:
             self._w = empty(self.Tf.shape)
+        # g and σ are replaced: when only the solver holds them, the new values go into their memory
+        self._w_of = None
+        g_out, s_out = self._private("g"), self._private("sigma")
+        if g_out is not None and (g_out.shape != self.Tf.shape or g_out is self.Tf):
+            g_out = None
+        if s_out is not None and (s_out.shape != self.Tf.shape or s_out is self.Tf):
+            s_out = None
         self.g, self.sigma, reg = shrink_update(self.Tf, self.sigma, self.beta, self.lam / self.beta,
-                                                self.group_axis is not None, w=self._w)
+                                                self.group_axis is not None, w=self._w, g_out=g_out,
+                                                sigma_out=s_out)
         self._w_of = (self.Tf, self.g, self.sigma)
         self.iteration += 1
         # f_old's AᴴA product is at hand when the last f-step started from f_old (one inner step)
