@@ -95,6 +95,22 @@ _F4 = np.float32(4.0)
 _FH = np.float32(0.5)
 _F15 = np.float32(1.5)
 _F25 = np.float32(2.5)
+# Unsigned stencil offsets: an unsigned index skips numba's negative-index wrap-around test, which
+# otherwise costs a compare and a conditional move per tap and keeps the gathers scalar.
+_U1 = np.uint64(1)
+_U2 = np.uint64(2)
+_U3 = np.uint64(3)
+_U4 = np.uint64(4)
+_U5 = np.uint64(5)
+#: Floating-point licence of the kernels: fused multiply-adds only (no reassociation), so results
+#: differ from separate rounding by at most an ulp per operation and stay deterministic.
+_FM = {"contract"}
+
+
+@njit(inline="always")
+def _first_tap(pad, kind):
+    """Offset of the first stencil tap from the unpadded profile index, as ``uint64``."""
+    return np.uint64(pad - (0 if kind == 0 else (1 if kind == 1 else 2)))
 
 
 @njit(inline="always")
@@ -120,7 +136,7 @@ def _pixel(xv, xxv, cy, tax, ap2, nap, offp, ib, kcp, half_len, n_len, top, pad,
     fl = np.floor(s)
     c, sn = _sincos(kcp * dr)
     m = _F1 if inside else _F0
-    return int(fl) + pad, s - fl, m * c, m * sn, inside
+    return np.int32(fl), s - fl, m * c, m * sn, inside
 
 
 @njit(inline="always")
@@ -160,7 +176,7 @@ def _lanczos(t):
     return w0 / tot, w1 / tot, w2 / tot, w3 / tot, w4 / tot, w5 / tot
 
 
-@njit(parallel=True, cache=True)
+@njit(parallel=True, cache=True, fastmath=_FM)
 def _bp_rows(pre, pim, x, xx, y, two_ax, two_ay, a2, na, off, inv_bin, kc,
              two_bx, two_by, b2, nb, half_len, n_len, pad, kind, bist, out_re, out_im):
     """Accumulate a block of pulses into every image row (rows in parallel).
@@ -172,11 +188,12 @@ def _bp_rows(pre, pim, x, xx, y, two_ax, two_ay, a2, na, off, inv_bin, kc,
     nx = x.size
     n_pulses = pre.shape[0]
     top = n_len - _F1
+    tap = _first_tap(pad, kind)
     for row in prange(ny):
         yv = y[row]
         acc_re = out_re[row]
         acc_im = out_im[row]
-        idx = np.empty(nx, np.int32)  # 32-bit indices: twice as many lanes per gather
+        idx = np.empty(nx, np.int32)  # 32-bit: a vector conversion, twice the lanes per gather
         frac = np.empty_like(x)
         cr = np.empty_like(x)
         ci = np.empty_like(x)
@@ -204,10 +221,12 @@ def _bp_rows(pre, pim, x, xx, y, two_ax, two_ay, a2, na, off, inv_bin, kc,
             ip = pim[p]
             if kind == 0:
                 for ix in range(nx):
-                    i = idx[ix]
+                    i = np.uint64(idx[ix]) + tap
                     t = frac[ix]
-                    vr = rp[i] + t * (rp[i + 1] - rp[i])
-                    vi = ip[i] + t * (ip[i + 1] - ip[i])
+                    r0 = rp[i]
+                    i0 = ip[i]
+                    vr = r0 + t * (rp[i + _U1] - r0)
+                    vi = i0 + t * (ip[i + _U1] - i0)
                     acc_re[ix] += vr * cr[ix] - vi * ci[ix]
                     acc_im[ix] += vr * ci[ix] + vi * cr[ix]
             elif kind == 1:
@@ -218,28 +237,28 @@ def _bp_rows(pre, pim, x, xx, y, two_ax, two_ay, a2, na, off, inv_bin, kc,
                 for ix in range(nx):  # weights in a vectorisable pass of their own
                     k0[ix], k1[ix], k2[ix], k3[ix] = _keys(frac[ix])
                 for ix in range(nx):
-                    i = idx[ix]
+                    i = np.uint64(idx[ix]) + tap
                     w0 = k0[ix]
                     w1 = k1[ix]
                     w2 = k2[ix]
                     w3 = k3[ix]
-                    vr = w0 * rp[i - 1] + w1 * rp[i] + w2 * rp[i + 1] + w3 * rp[i + 2]
-                    vi = w0 * ip[i - 1] + w1 * ip[i] + w2 * ip[i + 1] + w3 * ip[i + 2]
+                    vr = w0 * rp[i] + w1 * rp[i + _U1] + w2 * rp[i + _U2] + w3 * rp[i + _U3]
+                    vi = w0 * ip[i] + w1 * ip[i + _U1] + w2 * ip[i + _U2] + w3 * ip[i + _U3]
                     acc_re[ix] += vr * cr[ix] - vi * ci[ix]
                     acc_im[ix] += vr * ci[ix] + vi * cr[ix]
             else:
                 for ix in range(nx):
-                    i = idx[ix]
+                    i = np.uint64(idx[ix]) + tap
                     w0, w1, w2, w3, w4, w5 = _lanczos(frac[ix])
-                    vr = (w0 * rp[i - 2] + w1 * rp[i - 1] + w2 * rp[i] + w3 * rp[i + 1]
-                          + w4 * rp[i + 2] + w5 * rp[i + 3])
-                    vi = (w0 * ip[i - 2] + w1 * ip[i - 1] + w2 * ip[i] + w3 * ip[i + 1]
-                          + w4 * ip[i + 2] + w5 * ip[i + 3])
+                    vr = (w0 * rp[i] + w1 * rp[i + _U1] + w2 * rp[i + _U2] + w3 * rp[i + _U3]
+                          + w4 * rp[i + _U4] + w5 * rp[i + _U5])
+                    vi = (w0 * ip[i] + w1 * ip[i + _U1] + w2 * ip[i + _U2] + w3 * ip[i + _U3]
+                          + w4 * ip[i + _U4] + w5 * ip[i + _U5])
                     acc_re[ix] += vr * cr[ix] - vi * ci[ix]
                     acc_im[ix] += vr * ci[ix] + vi * cr[ix]
 
 
-@njit(parallel=True, cache=True)
+@njit(parallel=True, cache=True, fastmath=_FM)
 def _rp_pulses(fre, fim, x, xx, y, two_ax, two_ay, a2, na, off, inv_bin, kc,
                two_bx, two_by, b2, nb, half_len, n_len, pad, kind, bist, h_re, h_im):
     """Transpose of :func:`_bp_rows`: scatter every pixel into each pulse's profile.
@@ -253,6 +272,7 @@ def _rp_pulses(fre, fim, x, xx, y, two_ax, two_ay, a2, na, off, inv_bin, kc,
     nx = x.size
     n_pulses = h_re.shape[0]
     top = n_len - _F1
+    tap = _first_tap(pad, kind)
     for p in prange(n_pulses):
         tax = two_ax[p]
         ap2 = a2[p]
@@ -265,7 +285,7 @@ def _rp_pulses(fre, fim, x, xx, y, two_ax, two_ay, a2, na, off, inv_bin, kc,
         nbp = nb[p]
         hr = h_re[p]
         hi = h_im[p]
-        idx = np.empty(nx, np.int64)
+        idx = np.empty(nx, np.int32)
         frac = np.empty_like(x)
         ur = np.empty_like(x)
         ui = np.empty_like(x)
@@ -284,43 +304,43 @@ def _rp_pulses(fre, fim, x, xx, y, two_ax, two_ay, a2, na, off, inv_bin, kc,
                 ui[ix] = fi[ix] * c - fr[ix] * sn
             if kind == 0:
                 for ix in range(nx):
-                    i = idx[ix]
+                    i = np.uint64(idx[ix]) + tap
                     t = frac[ix]
                     vr = ur[ix]
                     vi = ui[ix]
                     hr[i] += vr - t * vr
                     hi[i] += vi - t * vi
-                    hr[i + 1] += t * vr
-                    hi[i + 1] += t * vi
+                    hr[i + _U1] += t * vr
+                    hi[i + _U1] += t * vi
             elif kind == 1:
                 for ix in range(nx):
-                    i = idx[ix]
+                    i = np.uint64(idx[ix]) + tap
                     vr = ur[ix]
                     vi = ui[ix]
                     w0, w1, w2, w3 = _keys(frac[ix])
-                    hr[i - 1] += w0 * vr
-                    hi[i - 1] += w0 * vi
-                    hr[i] += w1 * vr
-                    hi[i] += w1 * vi
-                    hr[i + 1] += w2 * vr
-                    hi[i + 1] += w2 * vi
-                    hr[i + 2] += w3 * vr
-                    hi[i + 2] += w3 * vi
+                    hr[i] += w0 * vr
+                    hi[i] += w0 * vi
+                    hr[i + _U1] += w1 * vr
+                    hi[i + _U1] += w1 * vi
+                    hr[i + _U2] += w2 * vr
+                    hi[i + _U2] += w2 * vi
+                    hr[i + _U3] += w3 * vr
+                    hi[i + _U3] += w3 * vi
             else:
                 for ix in range(nx):
-                    i = idx[ix]
+                    i = np.uint64(idx[ix]) + tap
                     vr = ur[ix]
                     vi = ui[ix]
                     w0, w1, w2, w3, w4, w5 = _lanczos(frac[ix])
-                    hr[i - 2] += w0 * vr
-                    hi[i - 2] += w0 * vi
-                    hr[i - 1] += w1 * vr
-                    hi[i - 1] += w1 * vi
-                    hr[i] += w2 * vr
-                    hi[i] += w2 * vi
-                    hr[i + 1] += w3 * vr
-                    hi[i + 1] += w3 * vi
-                    hr[i + 2] += w4 * vr
-                    hi[i + 2] += w4 * vi
-                    hr[i + 3] += w5 * vr
-                    hi[i + 3] += w5 * vi
+                    hr[i] += w0 * vr
+                    hi[i] += w0 * vi
+                    hr[i + _U1] += w1 * vr
+                    hi[i + _U1] += w1 * vi
+                    hr[i + _U2] += w2 * vr
+                    hi[i + _U2] += w2 * vi
+                    hr[i + _U3] += w3 * vr
+                    hi[i + _U3] += w3 * vi
+                    hr[i + _U4] += w4 * vr
+                    hi[i + _U4] += w4 * vi
+                    hr[i + _U5] += w5 * vr
+                    hi[i + _U5] += w5 * vi
