@@ -10,7 +10,8 @@ polar grid centred there. So
    grid;
 2. **merges**: groups of ``merge`` neighbouring sub-apertures are combined into one, whose polar
    grid has ``merge`` times finer angular sampling (its aperture is that much longer): every node
-   of the parent interpolates each child (2-D, separable kernel) at the same ground point;
+   of the parent interpolates each child at the same ground point, in two 1-D passes along the
+   parent's row (τ at the child's columns, then q at the nodes: 2·taps per node, not taps²);
 3. **final stage**: when one more merge would cost more than it saves, the remaining sub-images are
    interpolated at every Cartesian pixel and summed.
 
@@ -59,7 +60,7 @@ from .ffbp_model import table as _table
 __all__ = ["ffbp", "ffbp_image", "optimal_table", "plan_stages", "predict_error", "interp_error", "FfbpPlan", "DEFAULTS"]
 
 #: Default knobs (see docs/ffbp.md for the error-vs-time frontier behind them).
-DEFAULTS = {"base": 8, "merge": 2, "os_range": 2.0, "os_angle": 2.0, "interp": "optimal", "upsample": 4.0}
+DEFAULTS = {"base": 8, "merge": 4, "os_range": 2.0, "os_angle": 2.0, "interp": "optimal", "upsample": 4.0}
 _PAD = 3
 #: Storage of the polar sub-images: float32 halves their memory and traffic; its rounding (6e-8
 #: relative) is far below any interpolation error the knobs allow. Arithmetic stays float64.
@@ -178,8 +179,8 @@ def plan_stages(antenna_position_m, freq_hz, grid: Grid, *, base=None, merge=Non
     """The FFBP stages for a geometry (no data needed): levels, operation counts, predicted error.
 
     Parameters as for :func:`ffbp`. ``ops`` holds the multiply-add counts of stage 0
-    (pulse × node × taps), the merges (node × child × taps²) and the final stage (pixel × child ×
-    taps²), from which :mod:`sarcli.formers.planner` predicts the time.
+    (pulse × node × taps), the merges (node × child × 2 taps: two 1-D passes) and the final stage
+    (pixel × child × taps²), from which :mod:`sarcli.formers.planner` predicts the time.
 
     ``final``: merge until at most that many sub-images remain (default: while a merge costs less
     than it saves in the final stage).
@@ -247,7 +248,7 @@ def plan_stages(antenna_position_m, freq_hz, grid: Grid, *, base=None, merge=Non
            "final": float(n_pix) * levels[-1].n * ntap * ntap,
            "nodes": float(max(lv.n * lv.nt * lv.nq for lv in levels))}
     for lv in levels[1:]:
-        ops["merge"] += float(lv.n) * lv.nt * lv.nq * merge * ntap * ntap
+        ops["merge"] += float(lv.n) * lv.nt * lv.nq * merge * 2 * ntap
     plan = FfbpPlan(levels, dq, kref, levels[-1].n, ops, {**k, "base": base, "merge": merge})
     plan.predicted_error = predict_error([(int(fr["count"].max()), fr["beta"]) for fr in frames],
                                          interp=k["interp"], os_range=k["os_range"], os_angle=k["os_angle"],

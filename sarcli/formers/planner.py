@@ -139,7 +139,7 @@ def candidates(ph, grid: Grid, tolerance: float, *, costs=None, nthreads=None) -
                 L = profile_length(M, up)
                 t = (c["ffbp_stage0"] * o["stage0"] + c["ffbp_mac"] * (o["merge"] + o["final"])
                      + c["bp_fft"] * P * L * math.log2(L)) / thr
-                cand = Candidate("ffbp", {"base": base, "merge": 2, "os_range": os_, "os_angle": os_,
+                cand = Candidate("ffbp", {"base": base, "merge": fb.DEFAULTS["merge"], "os_range": os_, "os_angle": os_,
                                           "interp": "optimal", "upsample": up}, plan.predicted_error, t,
                                  16 * (2 * 2 * o["nodes"] + P * M + 2 * npix), f"{plan.n_stages} stages")
                 key = cand.predicted_error <= target
