@@ -53,48 +53,86 @@ def _two_pi_split(dtype, hi_bits):
     return dtype(float(hi)), mid, lo
 
 
+def _carrier_constants(dtype):
+    """Constants of :func:`_sincos_half` in ``dtype``: ``(1/π, hi, mid, lo, S..., C...)``.
+
+    ``hi + mid + lo`` is π (the halves of :func:`_two_pi_split`'s 2π, exactly); ``S`` and ``C``
+    are the minimax coefficients above (4 each in float32, 8 in float64).
+    """
+    dt = np.dtype(dtype).type
+    hi, mid, lo = _two_pi_split(dt, 10 if dt is np.float32 else 26)
+    half = dt(0.5)
+    sin_c, cos_c = (_SIN32, _COS32) if dt is np.float32 else (_SIN64, _COS64)
+    return ((dt(1.0 / np.pi), hi * half, mid * half, lo * half)
+            + tuple(dt(v) for v in sin_c) + tuple(dt(v) for v in cos_c))
+
+
+def _sincos_half(hp, cst):  # pragma: no cover - replaced by the overload inside compiled code
+    return math.cos(2.0 * hp), math.sin(2.0 * hp)
+
+
+@overload(_sincos_half, inline="always")
+def _ov_sincos_half(hp, cst):
+    """(cos, sin) of ``2 hp`` by a vectorisable polynomial; ``cst`` from :func:`_carrier_constants`.
+
+    Cody-Waite reduction ``h = hp - k π`` (``k = rint(hp / π)``, π split in three so ``k·hi`` is
+    exact), minimax polynomials of sin and cos of ``h`` in [-π/2, π/2] (:data:`_SIN64`,
+    :data:`_COS64`), then the double-angle formulas. Taking the half phase saves the halving
+    (callers fold it into a per-pulse constant) and gives the same bits as halving ``2 hp``.
+    The constants come as a tuple so a kernel can pass them in at run time: the compiler then
+    keeps them in vector registers or on the stack as memory operands, where literal constants
+    are re-broadcast from the constant pool for every vector of the loop.
+    """
+    if not (isinstance(hp, types.Float) and isinstance(cst, types.UniTuple)):
+        return None
+    if cst.count == 12:
+        def poly(h2, c):
+            ps = c[4] + h2 * (c[5] + h2 * (c[6] + h2 * c[7]))
+            pc = c[8] + h2 * (c[9] + h2 * (c[10] + h2 * c[11]))
+            return ps, pc
+    elif cst.count == 20:
+        def poly(h2, c):
+            ps = c[4] + h2 * (c[5] + h2 * (c[6] + h2 * (c[7] + h2 * (c[8] + h2 * (c[9] + h2 * (
+                c[10] + h2 * c[11]))))))
+            pc = c[12] + h2 * (c[13] + h2 * (c[14] + h2 * (c[15] + h2 * (c[16] + h2 * (c[17] + h2 * (
+                c[18] + h2 * c[19]))))))
+            return ps, pc
+    else:
+        return None
+    poly = njit(inline="always")(poly)
+    dt = np.float32 if hp.bitwidth == 32 else np.float64
+    one, two = dt(1.0), dt(2.0)
+
+    def impl(hp, cst):
+        k = np.rint(hp * cst[0])
+        h = ((hp - k * cst[1]) - k * cst[2]) - k * cst[3]   # in [-π/2, π/2]
+        h2 = h * h
+        ps, pc = poly(h2, cst)
+        sh = h * (one + h2 * ps)
+        ch = one + h2 * pc
+        return ch * ch - sh * sh, two * sh * ch
+
+    return impl
+
+
 @overload(_sincos, inline="always")
 def _ov_sincos(ph):
-    """(cos, sin) by a vectorisable polynomial.
+    """(cos, sin) by a vectorisable polynomial: :func:`_sincos_half` of ``ph / 2``.
 
     Cody-Waite reduction ``r = ph - k 2π`` (``k = rint(ph / 2π)``, 2π split in three so ``k·hi``
     is exact), minimax polynomials of sin and cos of the half angle ``h = r/2`` in [-π/2, π/2]
-    (:data:`_SIN64`, :data:`_COS64`), then the double-angle formulas. float32: error ~1e-7 rad
+    (:data:`_SIN64`, :data:`_COS64`), then the double-angle formulas. float32: error ~1e-6 rad
     for |ph| < 1e5 (the float32 phase itself is rounded by up to 4e-3 rad there); float64: error
     ~7e-16 (mostly the final roundings) plus the reduction's ~1e-15·|k|.
     """
     if not isinstance(ph, types.Float):
         return None
     dt = np.float32 if ph.bitwidth == 32 else np.float64
-    hi, mid, lo = _two_pi_split(dt, 10 if dt is np.float32 else 26)
-    inv2pi, half, one, two = dt(1.0 / (2.0 * np.pi)), dt(0.5), dt(1.0), dt(2.0)
-
-    if dt is np.float32:
-        s1, s2, s3, s4 = (dt(v) for v in _SIN32)
-        c1, c2, c3, c4 = (dt(v) for v in _COS32)
-
-        def poly(h2):
-            ps = s1 + h2 * (s2 + h2 * (s3 + h2 * s4))
-            pc = c1 + h2 * (c2 + h2 * (c3 + h2 * c4))
-            return ps, pc
-    else:
-        s1, s2, s3, s4, s5, s6, s7, s8 = (dt(v) for v in _SIN64)
-        c1, c2, c3, c4, c5, c6, c7, c8 = (dt(v) for v in _COS64)
-
-        def poly(h2):
-            ps = s1 + h2 * (s2 + h2 * (s3 + h2 * (s4 + h2 * (s5 + h2 * (s6 + h2 * (s7 + h2 * s8))))))
-            pc = c1 + h2 * (c2 + h2 * (c3 + h2 * (c4 + h2 * (c5 + h2 * (c6 + h2 * (c7 + h2 * c8))))))
-            return ps, pc
-    poly = njit(inline="always")(poly)
+    cst = _carrier_constants(dt)
+    half = dt(0.5)
 
     def impl(ph):
-        k = np.rint(ph * inv2pi)
-        h = (((ph - k * hi) - k * mid) - k * lo) * half   # half angle in [-π/2, π/2]
-        h2 = h * h
-        ps, pc = poly(h2)
-        sh = h * (one + h2 * ps)
-        ch = one + h2 * pc
-        return ch * ch - sh * sh, two * sh * ch
+        return _sincos_half(ph * half, cst)
 
     return impl
 
@@ -127,9 +165,11 @@ def _first_tap(pad, kind):
 
 
 @njit(inline="always")
-def _pixel(xv, xxv, cy, tax, ap2, nap, offp, ib, kcp, half_len, n_len, top, pad,
+def _pixel(xv, xxv, cy, tax, ap2, nap, offp, ib, kch, half_len, n_len, top, carrier,
            bist, cyb, tbx, bp2, nbp):
     """Per pixel and pulse: profile index, fraction, masked carrier ``m·exp(+i kc Δr)``, mask.
+
+    ``kch`` is ``kc / 2`` and ``carrier`` the constants of :func:`_sincos_half`.
 
     Δr is the cancellation-free ``(|x|² - 2 a·x) / (|a - x| + |a|) + (|a| - r0)``; with separate
     transmit (a) and receive (b) positions (``bist``) the two one-way terms are averaged,
@@ -147,7 +187,7 @@ def _pixel(xv, xxv, cy, tax, ap2, nap, offp, ib, kcp, half_len, n_len, top, pad,
     inside = (s >= _F0) & (s < n_len)
     s = min(max(s, _F0), top)
     fl = np.floor(s)
-    c, sn = _sincos(kcp * dr)
+    c, sn = _sincos_half(kch * dr, carrier)
     m = _F1 if inside else _F0
     return np.int32(fl), s - fl, m * c, m * sn, inside
 
@@ -191,7 +231,7 @@ def _lanczos(t):
 
 @njit(parallel=True, cache=True, fastmath=_FM)
 def _bp_rows(pre, pim, x, xx, y, two_ax, two_ay, a2, na, off, inv_bin, kc,
-             two_bx, two_by, b2, nb, half_len, n_len, pad, kind, bist, out_re, out_im):
+             two_bx, two_by, b2, nb, half_len, n_len, pad, kind, bist, carrier, out_re, out_im):
     """Accumulate a block of pulses into every image row (rows in parallel).
 
     Per row and pulse, a vectorisable pass computes positions and carriers, then a gather pass
@@ -219,13 +259,13 @@ def _bp_rows(pre, pim, x, xx, y, two_ax, two_ay, a2, na, off, inv_bin, kc,
             nap = na[p]
             offp = off[p]
             ib = inv_bin[p]
-            kcp = kc[p]
+            kch = kc[p] * _FH
             tbx = two_bx[p]
             bp2 = b2[p]
             nbp = nb[p]
             for ix in range(nx):
-                i, t, c, sn, _ = _pixel(x[ix], xx[ix], cy, tax, ap2, nap, offp, ib, kcp,
-                                        half_len, n_len, top, pad, bist, cyb, tbx, bp2, nbp)
+                i, t, c, sn, _ = _pixel(x[ix], xx[ix], cy, tax, ap2, nap, offp, ib, kch,
+                                        half_len, n_len, top, carrier, bist, cyb, tbx, bp2, nbp)
                 idx[ix] = i
                 frac[ix] = t
                 cr[ix] = c
@@ -273,7 +313,7 @@ def _bp_rows(pre, pim, x, xx, y, two_ax, two_ay, a2, na, off, inv_bin, kc,
 
 @njit(parallel=True, cache=True, fastmath=_FM)
 def _rp_pulses(fre, fim, x, xx, y, two_ax, two_ay, a2, na, off, inv_bin, kc,
-               two_bx, two_by, b2, nb, half_len, n_len, pad, kind, bist, h_re, h_im):
+               two_bx, two_by, b2, nb, half_len, n_len, pad, kind, bist, carrier, h_re, h_im):
     """Transpose of :func:`_bp_rows`: scatter every pixel into each pulse's profile.
 
     Pulses run in parallel (each owns its profile). Per pulse and row, the same vectorisable
@@ -292,7 +332,7 @@ def _rp_pulses(fre, fim, x, xx, y, two_ax, two_ay, a2, na, off, inv_bin, kc,
         nap = na[p]
         offp = off[p]
         ib = inv_bin[p]
-        kcp = kc[p]
+        kch = kc[p] * _FH
         tbx = two_bx[p]
         bp2 = b2[p]
         nbp = nb[p]
@@ -309,8 +349,8 @@ def _rp_pulses(fre, fim, x, xx, y, two_ax, two_ay, a2, na, off, inv_bin, kc,
             fr = fre[row]
             fi = fim[row]
             for ix in range(nx):
-                i, t, c, sn, _ = _pixel(x[ix], xx[ix], cy, tax, ap2, nap, offp, ib, kcp,
-                                        half_len, n_len, top, pad, bist, cyb, tbx, bp2, nbp)
+                i, t, c, sn, _ = _pixel(x[ix], xx[ix], cy, tax, ap2, nap, offp, ib, kch,
+                                        half_len, n_len, top, carrier, bist, cyb, tbx, bp2, nbp)
                 idx[ix] = i
                 frac[ix] = t
                 ur[ix] = fr[ix] * c + fi[ix] * sn   # f · exp(-i kc Δr) (masked)

@@ -62,7 +62,7 @@ from ..errors import AliasingWarning, SarcliInputError
 from ..core.geometry import C, bistatic_differential_range
 from ..core.grid import Grid
 from .._util.progress import progress
-from ._bp_kernels import _bp_rows, _rp_pulses
+from ._bp_kernels import _bp_rows, _carrier_constants, _rp_pulses
 from ._samples import is_lazy
 
 __all__ = ["backproject", "reproject", "profile_length", "INTERPOLATORS", "DEFAULT_UPSAMPLE",
@@ -175,7 +175,9 @@ class _Setup:
         self.y = grid.y.astype(dt)
         self.shape = grid.shape
         self._check_window(a, b, r0, grid, np.abs(bin_m) * self.n_len / 2.0)
-        self.scalars = (dt(self.n_len // 2), dt(self.n_len), _PAD, self.kind, self.bistatic)
+        # the carrier's polynomial constants go in as an argument: run-time values stay in registers
+        self.scalars = (dt(self.n_len // 2), dt(self.n_len), _PAD, self.kind, self.bistatic,
+                        _carrier_constants(dt))
 
     @staticmethod
     def _check_window(a, b, r0, grid, half_window):
