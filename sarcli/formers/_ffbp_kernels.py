@@ -22,7 +22,7 @@ import math
 import numpy as np
 from numba import njit, prange
 
-from ._bp_kernels import _keys, _lanczos, _sincos
+from ._bp_kernels import _FM, _U1, _U2, _U3, _U4, _U5, _keys, _lanczos, _sincos
 
 #: Interpolation kernels (codes 0-2 shared with backprojection; 3: a tabulated 6-tap kernel) and
 #: their number of taps.
@@ -130,18 +130,21 @@ def _gather6(are, aim, idx_q, idx_t, wq, wt, cr, ci, acc_re, acc_im, flat, w32):
         for i in range(n):
             w32[j, i] = wq[j, i]
             w32[6 + j, i] = wt[j, i]
+    unq = np.uint64(nq)
     for i in range(n):
-        k = flat[i]
+        k = np.uint64(flat[i])
         w0, w1, w2, w3, w4, w5 = w32[0, i], w32[1, i], w32[2, i], w32[3, i], w32[4, i], w32[5, i]
         vr = _Z32
         vi = _Z32
         for a in range(6):
-            rr = w0 * fr[k] + w1 * fr[k + 1] + w2 * fr[k + 2] + w3 * fr[k + 3] + w4 * fr[k + 4] + w5 * fr[k + 5]
-            ri = w0 * fi[k] + w1 * fi[k + 1] + w2 * fi[k + 2] + w3 * fi[k + 3] + w4 * fi[k + 4] + w5 * fi[k + 5]
+            rr = (w0 * fr[k] + w1 * fr[k + _U1] + w2 * fr[k + _U2] + w3 * fr[k + _U3] + w4 * fr[k + _U4]
+                  + w5 * fr[k + _U5])
+            ri = (w0 * fi[k] + w1 * fi[k + _U1] + w2 * fi[k + _U2] + w3 * fi[k + _U3] + w4 * fi[k + _U4]
+                  + w5 * fi[k + _U5])
             ta = w32[6 + a, i]
             vr += ta * rr
             vi += ta * ri
-            k += nq
+            k += unq
         ur = np.float64(vr)
         ui = np.float64(vi)
         acc_re[i] += ur * cr[i] - ui * ci[i]
@@ -189,7 +192,7 @@ def _polar_row(are, aim, q0, dq, t0, dtau, kref, qs, ts, qref, kind, ntap, lo, i
         acc_im[i] += vr * ci[i] + vi * cr[i]
 
 
-@njit(parallel=True, cache=True)
+@njit(parallel=True, cache=True, fastmath=_FM)
 def _stage0(pre, pim, first, count, geo, bistatic, inv_bin, kc, half_len, n_len, pad, kind, tab,
             cgeo, q0, dq, t0, dtau, kref, out_re, out_im):
     """Backproject the pulses ``first[s] .. first[s]+count[s]-1`` onto sub-aperture s's polar grid.
@@ -207,7 +210,7 @@ def _stage0(pre, pim, first, count, geo, bistatic, inv_bin, kc, half_len, n_len,
         tau = t0[s] + it * dtau[s]
         xs = np.empty(nq)
         ys = np.empty(nq)
-        idx = np.empty(nq, np.int64)
+        idx = np.empty(nq, np.int32)
         frac = np.empty(nq)
         cr = np.empty(nq)
         ci = np.empty(nq)
@@ -240,11 +243,11 @@ def _stage0(pre, pim, first, count, geo, bistatic, inv_bin, kc, half_len, n_len,
             _row_weights(kind, frac, w, tab)
             if ntap == 6:
                 for iq in range(nq):
-                    i = idx[iq]
-                    vr = (w[0, iq] * rp[i] + w[1, iq] * rp[i + 1] + w[2, iq] * rp[i + 2] + w[3, iq] * rp[i + 3]
-                          + w[4, iq] * rp[i + 4] + w[5, iq] * rp[i + 5])
-                    vi = (w[0, iq] * ip[i] + w[1, iq] * ip[i + 1] + w[2, iq] * ip[i + 2] + w[3, iq] * ip[i + 3]
-                          + w[4, iq] * ip[i + 4] + w[5, iq] * ip[i + 5])
+                    i = np.uint64(idx[iq])   # unsigned: no negative-index wrap-around tests
+                    vr = (w[0, iq] * rp[i] + w[1, iq] * rp[i + _U1] + w[2, iq] * rp[i + _U2]
+                          + w[3, iq] * rp[i + _U3] + w[4, iq] * rp[i + _U4] + w[5, iq] * rp[i + _U5])
+                    vi = (w[0, iq] * ip[i] + w[1, iq] * ip[i + _U1] + w[2, iq] * ip[i + _U2]
+                          + w[3, iq] * ip[i + _U3] + w[4, iq] * ip[i + _U4] + w[5, iq] * ip[i + _U5])
                     acc_re[iq] += vr * cr[iq] - vi * ci[iq]
                     acc_im[iq] += vr * ci[iq] + vi * cr[iq]
                 continue
@@ -281,9 +284,7 @@ def _separable_row(are, aim, q0, dq, t0, dtau, kref, qs, ts, qref, kind, ntap, l
     nt, nq = are.shape
     inv_dq = 1.0 / dq
     inv_dt = 1.0 / dtau
-    jlo = nq
-    jhi = -1
-    for i in range(n):
+    for i in range(n):   # vectorisable: positions, fractions, carriers
         sq, tq, okq = _locate((qs[i] - q0) * inv_dq, lo, nq, ntap)
         idx_q[i] = sq
         fq[i] = tq
@@ -291,21 +292,27 @@ def _separable_row(are, aim, q0, dq, t0, dtau, kref, qs, ts, qref, kind, ntap, l
         m = 1.0 if okq else 0.0
         cr[i] = m * c
         ci[i] = m * s
-        if okq:
-            jlo = min(jlo, sq)
-            jhi = max(jhi, sq + ntap - 1)
-    if jhi < jlo:
+        okc[i] = m
+    # columns the stencils touch (qs increases, so the first and last points in range bound them)
+    i0 = 0
+    while i0 < n and okc[i0] == 0.0:
+        i0 += 1
+    if i0 == n:
         return
-    ncol = jhi - jlo + 1
-    # T at the columns: walk the row (qs increasing)
+    i1 = n - 1
+    while okc[i1] == 0.0:
+        i1 -= 1
+    jlo = idx_q[i0]
+    ncol = idx_q[i1] + ntap - jlo
+    # T at the columns: walk the row (scalar), then locate in τ (vectorisable)
     k = 0
     for jj in range(ncol):
         qj = q0 + (jlo + jj) * dq
         while k < n - 2 and qs[k + 1] <= qj:
             k += 1
-        u = (qj - qs[k]) / (qs[k + 1] - qs[k])
-        tj = ts[k] + u * (ts[k + 1] - ts[k])
-        st, tt, okt = _locate((tj - t0) * inv_dt, lo, nt, ntap)
+        ft[jj] = ts[k] + (qj - qs[k]) * (ts[k + 1] - ts[k]) / (qs[k + 1] - qs[k])
+    for jj in range(ncol):
+        st, tt, okt = _locate((ft[jj] - t0) * inv_dt, lo, nt, ntap)
         idx_t[jj] = st
         ft[jj] = tt
         okc[jj] = 1.0 if okt else 0.0
@@ -313,13 +320,16 @@ def _separable_row(are, aim, q0, dq, t0, dtau, kref, qs, ts, qref, kind, ntap, l
     fr = are.reshape(are.size)
     fi = aim.reshape(aim.size)
     if ntap == 6:   # literal trip counts: the compiler unrolls the taps
+        u1 = np.uint64(nq)
+        u2 = u1 + u1
+        u3 = u2 + u1
+        u4 = u3 + u1
+        u5 = u4 + u1
         for jj in range(ncol):
-            k = idx_t[jj] * nq + jlo + jj
+            k = np.uint64(idx_t[jj] * nq + jlo + jj)
             w0, w1, w2, w3, w4, w5 = wt[0, jj], wt[1, jj], wt[2, jj], wt[3, jj], wt[4, jj], wt[5, jj]
-            vr = (w0 * fr[k] + w1 * fr[k + nq] + w2 * fr[k + 2 * nq] + w3 * fr[k + 3 * nq] + w4 * fr[k + 4 * nq]
-                  + w5 * fr[k + 5 * nq])
-            vi = (w0 * fi[k] + w1 * fi[k + nq] + w2 * fi[k + 2 * nq] + w3 * fi[k + 3 * nq] + w4 * fi[k + 4 * nq]
-                  + w5 * fi[k + 5 * nq])
+            vr = w0 * fr[k] + w1 * fr[k + u1] + w2 * fr[k + u2] + w3 * fr[k + u3] + w4 * fr[k + u4] + w5 * fr[k + u5]
+            vi = w0 * fi[k] + w1 * fi[k + u1] + w2 * fi[k + u2] + w3 * fi[k + u3] + w4 * fi[k + u4] + w5 * fi[k + u5]
             gre[jj] = okc[jj] * vr
             gim[jj] = okc[jj] * vi
     else:
@@ -335,12 +345,12 @@ def _separable_row(are, aim, q0, dq, t0, dtau, kref, qs, ts, qref, kind, ntap, l
     _row_weights(kind, fq, wq, tab_q)
     if ntap == 6:
         for i in range(n):
-            b = idx_q[i] - jlo
+            b = np.uint64(idx_q[i] - jlo)
             w0, w1, w2, w3, w4, w5 = wq[0, i], wq[1, i], wq[2, i], wq[3, i], wq[4, i], wq[5, i]
-            vr = (w0 * gre[b] + w1 * gre[b + 1] + w2 * gre[b + 2] + w3 * gre[b + 3] + w4 * gre[b + 4]
-                  + w5 * gre[b + 5])
-            vi = (w0 * gim[b] + w1 * gim[b + 1] + w2 * gim[b + 2] + w3 * gim[b + 3] + w4 * gim[b + 4]
-                  + w5 * gim[b + 5])
+            vr = (w0 * gre[b] + w1 * gre[b + _U1] + w2 * gre[b + _U2] + w3 * gre[b + _U3] + w4 * gre[b + _U4]
+                  + w5 * gre[b + _U5])
+            vi = (w0 * gim[b] + w1 * gim[b + _U1] + w2 * gim[b + _U2] + w3 * gim[b + _U3] + w4 * gim[b + _U4]
+                  + w5 * gim[b + _U5])
             acc_re[i] += vr * cr[i] - vi * ci[i]
             acc_im[i] += vr * ci[i] + vi * cr[i]
     else:
@@ -355,7 +365,7 @@ def _separable_row(are, aim, q0, dq, t0, dtau, kref, qs, ts, qref, kind, ntap, l
             acc_im[i] += vr * ci[i] + vi * cr[i]
 
 
-@njit(parallel=True, cache=True)
+@njit(parallel=True, cache=True, fastmath=_FM)
 def _merge(cre, cim, cgeo, cq0, dq, ct0, cdtau, pgeo, pq0, pt0, pdtau, first, count, kind, tab_q, tab_t,
            kref, out_re, out_im):
     """Parent sub-image s = Σ over children ``first[s] .. +count[s]`` interpolated at its nodes."""
@@ -385,7 +395,7 @@ def _merge(cre, cim, cgeo, cq0, dq, ct0, cdtau, pgeo, pq0, pt0, pdtau, first, co
         acc_im = np.zeros(nq)
         flat = np.empty(nq, np.int32)
         w32 = np.empty((12, nq), np.float32)
-        ncmax = cre.shape[2]
+        ncmax = max(cre.shape[2], nq) + ntap
         idx_t2 = np.empty(ncmax, np.int64)
         ftc = np.empty(ncmax)
         wtc = np.empty((ntap, ncmax))
@@ -397,11 +407,13 @@ def _merge(cre, cim, cgeo, cq0, dq, ct0, cdtau, pgeo, pq0, pt0, pdtau, first, co
             xs[iq], ys[iq] = _node(qp[iq], tau, p2, p3, p4, p5)
         for c in range(first[s], first[s] + count[s]):
             g0, g1, g2, g3, g4, g5 = cgeo[0, c], cgeo[1, c], cgeo[2, c], cgeo[3, c], cgeo[4, c], cgeo[5, c]
-            mono = True
             for iq in range(nq):
                 qs[iq], ts[iq] = _coords(xs[iq], ys[iq], g0, g1, g2, g3, g4, g5)
-                if iq > 0 and not qs[iq] > qs[iq - 1]:
+            mono = True
+            for iq in range(1, nq):
+                if not qs[iq] > qs[iq - 1]:
                     mono = False
+                    break
             if mono and nq >= 2:
                 _separable_row(cre[c], cim[c], cq0[c], dq, ct0[c], cdtau[c], kref, qs, ts, qp, kind, ntap, lo,
                                idx_q, fq, wq, idx_t2, ftc, wtc, okc, gre, gim, cr, ci, acc_re, acc_im,
@@ -413,7 +425,7 @@ def _merge(cre, cim, cgeo, cq0, dq, ct0, cdtau, pgeo, pq0, pt0, pdtau, first, co
         out_im[s, it] = acc_im
 
 
-@njit(parallel=True, cache=True)
+@njit(parallel=True, cache=True, fastmath=_FM)
 def _final(cre, cim, cgeo, cq0, dq, ct0, cdtau, x, y, kind, tab_q, tab_t, kref, out_re, out_im):
     """Cartesian image: Σ over all sub-images, interpolated at each pixel and re-modulated."""
     ny = y.size

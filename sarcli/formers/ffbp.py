@@ -208,7 +208,7 @@ def plan_stages(antenna_position_m, freq_hz, grid: Grid, *, base=None, merge=Non
     kref = 2 * np.pi * (fmax + fmin) / C
     dq = np.pi / (kband / 2) / k["os_range"]
     ntap = _NTAPS[INTERPOLATORS[k["interp"]]]
-    half = ntap // 2 + 1
+    half = ntap // 2   # a stencil reaches ntap/2 samples past its point
     n_pix = grid.nx * grid.ny
     P = pos.shape[0]
     margin = 2 * max(grid.dx, grid.dy)
