@@ -3,19 +3,24 @@
 from __future__ import annotations
 
 import click
+from click.core import ParameterSource
 
 from ..formers import cost as _cost
 from ..formers.formation import METHODS
 from .options import (export_options, grid_options, handle_errors, parse_pair, prepare_outputs,
                       threads_option, window_options, write_side_outputs, wrote)
 
+#: Options that set a knob of one method (auto chooses them itself).
+_METHOD_KNOBS = ("eps", "kernel", "oversample", "width", "upsample", "interp", "precision", "base", "merge",
+                 "os_range", "os_angle", "tile")
+
 
 @click.command("form-image")
 @click.argument("input_path", metavar="PH.h5|KGRID.h5", type=click.Path(dir_okay=False))
 @click.option("-o", "--output", required=True, type=click.Path(dir_okay=False),
               help="Image file to write: .h5, or .sicd/.nitf (SICD with the collection's geometry).")
-@click.option("--method", type=click.Choice(METHODS), default="nufft",
-              show_default=True, help="Image formation method.")
+@click.option("--method", type=click.Choice(METHODS), default="auto", show_default=True,
+              help="Image formation method; auto: the cheapest predicted to meet --tolerance (see sar plan).")
 @window_options
 @grid_options
 @click.option("--eps", type=click.FloatRange(*_cost.EPS_RANGE), default=1e-9, show_default=True,
@@ -33,13 +38,13 @@ from .options import (export_options, grid_options, handle_errors, parse_pair, p
 @click.option("--precision", type=click.Choice(["float64", "float32"]), default="float64", show_default=True,
               help="Backprojection arithmetic.")
 @click.option("--base", type=click.IntRange(min=1), default=None, help="ffbp: pulses per base sub-aperture (default 8).")
-@click.option("--merge", type=click.IntRange(min=2), default=None, help="ffbp: sub-apertures merged per stage (default 2).")
+@click.option("--merge", type=click.IntRange(min=2), default=None, help="ffbp: sub-apertures merged per stage (default 4).")
 @click.option("--os-range", type=click.FloatRange(min=1), default=None, help="ffbp: polar-grid range oversampling (default 2).")
 @click.option("--os-angle", type=click.FloatRange(min=1), default=None, help="ffbp: polar-grid angular oversampling (default 2).")
 @click.option("--tile", type=click.IntRange(min=1), default=None,
               help="subimage: tile side in pixels (default: the largest predicted to meet --tolerance).")
 @click.option("--tolerance", type=click.FloatRange(min=1e-12, max=0.5), default=None,
-              help="Target relative error against the exact matched filter (subimage, auto; default 1e-2).")
+              help="Target relative error against the exact matched filter (auto: default 1e-3; subimage: 1e-2).")
 @click.option("--autofocus", "autofocus_method", type=click.Choice(["pga", "min-entropy"]), default=None,
               help="First estimate and remove per-pulse phase errors on the image grid (see sar autofocus).")
 @threads_option
@@ -57,6 +62,11 @@ def command(ctx, input_path, output, method, autofocus_method, window, taylor_nb
     from ..core.grid import resolve_grid
     from ..formers.cost import check_form_image
 
+    if method == "auto":   # auto picks every knob itself: a knob given by hand belongs to one method
+        given = [p for p in _METHOD_KNOBS if ctx.get_parameter_source(p) is not ParameterSource.DEFAULT]
+        if given:
+            raise click.UsageError(f"--{given[0].replace('_', '-')} sets a knob of one method; give --method too "
+                                   "(auto picks its own knobs: see `sar plan`)")
     prepare_outputs([("input", input_path)], [("output", output), ("--png", png_path), ("--geotiff", tif_path)])
     # the samples stay on disk until a former reads them (by blocks of pulses where it can);
     # autofocus rewrites them, so it reads them whole

@@ -6,6 +6,7 @@ import json
 
 import click
 
+from ..formers.formation import DEFAULT_TOLERANCE
 from .options import grid_options, handle_errors, parse_pair, threads_option
 
 
@@ -16,7 +17,7 @@ def _knobs(k: dict) -> str:
 @click.command("plan")
 @click.argument("input_path", metavar="PH.h5", type=click.Path(dir_okay=False))
 @grid_options
-@click.option("--tolerance", type=click.FloatRange(min=1e-12, max=0.5), default=1e-2, show_default=True,
+@click.option("--tolerance", type=click.FloatRange(min=1e-12, max=0.5), default=DEFAULT_TOLERANCE, show_default=True,
               help="Target relative error against the exact matched filter.")
 @click.option("--json", "as_json", is_flag=True, help="Print the candidates as JSON.")
 @threads_option

@@ -39,6 +39,9 @@ from ..core.windows import window_weights
 __all__ = ["form_image", "regrid", "METHODS", "image_error"]
 
 METHODS = ("direct", "nufft", "pfa", "backprojection", "ffbp", "subimage", "auto")
+#: Relative error against the exact matched filter that ``method='auto'`` meets when no tolerance
+#: is given.
+DEFAULT_TOLERANCE = 1e-3
 FARFIELD_METHODS = ("nufft", "pfa")
 #: Virtual stand-off range per metre of grid half-diagonal used to backproject far-field data.
 VIRTUAL_RANGE_PER_M = 5.0e7
@@ -103,7 +106,7 @@ def regrid(ph: PhaseHistory, *, grid: Grid | None = None, window="none", taylor_
     return kg
 
 
-def form_image(ph, method: str = "nufft", *, grid: Grid | None = None, center=None, extent=None,
+def form_image(ph, method: str = "auto", *, grid: Grid | None = None, center=None, extent=None,
                pixel_size=None, window: str = "none", taylor_nbar: int = 4, taylor_sll_db: float = -35.0,
                eps: float = 1e-9, kernel: str = "kaiser", oversample: float = 2.0, width: int = 6,
                upsample: float | None = None, interp: str | None = None, precision: str = "float64",
@@ -116,7 +119,12 @@ def form_image(ph, method: str = "nufft", *, grid: Grid | None = None, center=No
     ----------
     ph : PhaseHistory or KGrid
         The data (a :class:`~sarcli.formers.pfa.KGrid` from :func:`regrid` only with ``method='pfa'``).
-    method : {'direct', 'nufft', 'pfa', 'backprojection'}
+    method : {'auto', 'direct', 'nufft', 'pfa', 'backprojection', 'ffbp', 'subimage'}
+        ``auto`` (the default): the cheapest former predicted to meet ``tolerance`` (default
+        :data:`DEFAULT_TOLERANCE`) for these data and this grid (:mod:`sarcli.formers.planner`),
+        with the knobs it picks (the method-specific arguments below are then not used); the
+        choice, its predicted error and the tolerance are recorded in ``parameters['auto']``. A
+        k-grid is imaged with ``pfa``.
     grid : Grid, optional
         Image grid; default the acquisition's, modified by ``center``/``extent``/``pixel_size``.
     center, extent, pixel_size : optional
@@ -152,6 +160,8 @@ def form_image(ph, method: str = "nufft", *, grid: Grid | None = None, center=No
         raise SarcliInputError(f"unknown method {method!r}; choose one of {', '.join(METHODS)}")
     params: dict = {"method": method}
     if isinstance(ph, KGrid):
+        if method == "auto":
+            method = params["method"] = "pfa"
         if method != "pfa":
             raise SarcliInputError(f"a k-grid file can only be imaged with method 'pfa', not {method!r}")
         return _form_from_kgrid(ph, grid, center, extent, pixel_size)
@@ -162,7 +172,7 @@ def form_image(ph, method: str = "nufft", *, grid: Grid | None = None, center=No
     if method == "auto":   # the cheapest former predicted to meet the tolerance (formers/planner.py)
         from .planner import recommend
 
-        tol = 1e-2 if tolerance is None else float(tolerance)
+        tol = DEFAULT_TOLERANCE if tolerance is None else float(tolerance)
         pick = recommend(ph, grid, tol, nthreads=nthreads)
         if pick.method == "direct" and pick.seconds > 60:
             from ..errors import SarcliWarning
