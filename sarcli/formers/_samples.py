@@ -50,7 +50,7 @@ def _check_kspace(data_shape, kx, ky):
 
 
 def is_lazy(data) -> bool:
-    """True for a sample array left on disk (:class:`sarcli.io.pulses.PulseArray`): read it in blocks."""
+    """True for samples left on disk (a :class:`sarcli.io.pulses.PulseSource`): read them in blocks."""
     return not isinstance(data, np.ndarray) and hasattr(data, "shape") and hasattr(data, "__getitem__") \
         and getattr(data, "ndim", None) == 2
 

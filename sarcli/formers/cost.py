@@ -69,7 +69,7 @@ def form_image_bytes(method, n_pulses, n_freq, grid, *, model="farfield", acq=No
                      upsample=8.0, precision="float64", streamed=False) -> float:
     """Upper-bound estimate of the peak working memory (bytes) of :func:`form_image`.
 
-    ``streamed``: the samples are left on disk (:class:`sarcli.io.pulses.PulseArray`); the formers
+    ``streamed``: the samples are left on disk (a :class:`sarcli.io.pulses.PulseSource`); the formers
     that read them by blocks of pulses (backprojection, the spherical matched filter) then hold one
     block, not the collection.
     """
