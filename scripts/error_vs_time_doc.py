@@ -18,13 +18,16 @@ import numpy as np
 
 from sarcli.analysis.benchmark import pareto_front
 
+#: When the runs below were last made (update with them).
+MEASURED = "2026-11-30"
 COMMANDS = {
     "three-points": "sar bench configs/three-points.yaml -o docs/bench/three-points --repeat 3",
     "three-points-farfield": "sar bench configs/three-points.yaml -o docs/bench/three-points-farfield "
                              "--model farfield --repeat 3",
     "shepp-logan": "sar bench configs/shepp-logan.yaml -o docs/bench/shepp-logan --repeat 3 --regularizers ptv,tv",
+    "near-field-circle": "sar bench configs/near-field-circle.yaml -o docs/bench/near-field-circle --repeat 3",
     "gotcha": "sar bench ../shared/data/gotcha/data_3dsar_pass1_az00*_HH.mat -o docs/bench/gotcha --repeat 3 "
-              "--methods direct,backprojection,nufft --extent 40 --pixel-size 0.25",
+              "--methods direct,backprojection,nufft,ffbp,subimage --extent 40 --pixel-size 0.25",
 }
 
 
@@ -61,7 +64,8 @@ def section(name: str, folder: Path) -> list[str]:
     out += ["", "Defaults of each method (no window):", "",
             "| method | knobs | error vs direct | seconds |", "|---|---|---|---|"]
     defaults = {"nufft": {"eps": 1e-9}, "pfa": {"kernel": "kaiser", "oversample": 2.0, "width": 6},
-                "backprojection": {"upsample": 8, "interp": "cubic", "precision": "float64"}}
+                "backprojection": {"upsample": 8, "interp": "cubic", "precision": "float64"},
+                "ffbp": {"os_range": 2.0, "os_angle": 2.0, "base": 8}, "subimage": {"tolerance": 1e-2}}
     for m, want in defaults.items():
         for r in rows:
             k = r["knobs"]
@@ -84,8 +88,8 @@ def main(bench_dir="docs/bench", out="docs/error_vs_time.md"):
              "the commands below and the script to refresh it. Error is `‖f − f_direct‖₂ / ‖f_direct‖₂` against",
              "the exact matched filter with the same window; time is the median of 3 runs after a warm-up, with",
              "plan/compile time (first call minus median) apart.", "",
-             f"Machine: 2-core AMD EPYC VM, Python {platform.python_version()}; measured 2026-11-22 with the machine",
-             "otherwise idle.", "",
+             f"Machine: 2-core AMD EPYC VM (AVX2, no AVX-512), Python {platform.python_version()}; measured {MEASURED}",
+             "with the machine otherwise idle.", "",
              "How to read it: on far-field data the NUFFT is both the fastest and the most accurate former",
              "(error ~1e-10 at its default eps) and PFA with the Kaiser-Bessel kernel follows (1e-6 .. 1e-7);",
              "on spherical data (three-points at r0 = 10 km, GOTCHA) the far-field formers are limited by the",

@@ -13,8 +13,9 @@ from .options import (echo_info, grid_options, handle_errors, parse_pair, prepar
                 type=click.Path(dir_okay=False))
 @click.option("-o", "--output", "out_dir", required=True, type=click.Path(file_okay=False),
               help="Folder for error_vs_time.csv and error_vs_time.png.")
-@click.option("--methods", default="direct,nufft,pfa,backprojection", show_default=True,
-              help="Comma-separated methods to sweep.")
+@click.option("--methods", default=None,
+              help="Comma-separated methods to sweep [default: direct,nufft,pfa,backprojection, and ffbp,subimage "
+                   "for spherical data].")
 @click.option("--repeat", type=click.IntRange(1, 100), default=3, show_default=True, help="Timed runs per setting (after a warm-up).")
 @click.option("--windows", default="none,taylor", show_default=True,
               help="Windows to measure ('none' carries the knob sweep).")
@@ -49,6 +50,8 @@ def command(ctx, inputs, out_dir, methods, repeat, windows, regularizers, reg_it
     prepare_outputs([("input", i) for i in inputs], [("output", Path(out_dir) / "error_vs_time.csv"),
                                                     ("output", Path(out_dir) / "error_vs_time.png")])
     ph = bm.load_input(inputs, seed=seed, model=model)
+    if methods is None:
+        methods = ",".join(("direct",) + bm.FAST_METHODS + (bm.SPHERICAL_METHODS if ph.model == "spherical" else ()))
     res = bm.run_benchmark(ph, methods=split(methods), repeat=repeat, windows=split(windows) or ("none",),
                            center=parse_pair(center, "--center"), extent=parse_pair(extent, "--extent"),
                            pixel_size=pixel_size, max_reference_cost=max_reference_cost,
