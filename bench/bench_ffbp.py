@@ -94,6 +94,14 @@ def run_case(name, ph, grid, repeat, max_ref_cost):
                 ("auto", {"tolerance": 1e-2}), ("auto", {"tolerance": 1e-3}), ("auto", {"tolerance": 1e-4})]
     t_bp = None
     for method, knobs in settings:
+        if method == "auto":   # a fall-back to direct on a big grid takes hours: report it, do not run it
+            from sarcli.formers.planner import recommend
+
+            pick = recommend(ph, grid, knobs["tolerance"])
+            if pick.method == "direct" and pick.seconds > 120:
+                print(f"| auto | tol {knobs['tolerance']:g} -> direct | not run | {pick.predicted_error:.2e} | "
+                      f"{pick.seconds:.3g} (predicted) | |", flush=True)
+                continue
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             try:
