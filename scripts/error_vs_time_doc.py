@@ -26,7 +26,7 @@ COMMANDS = {
                              "--model farfield --repeat 3",
     "shepp-logan": "sar bench configs/shepp-logan.yaml -o docs/bench/shepp-logan --repeat 3 --regularizers ptv,tv",
     "near-field-circle": "sar bench configs/near-field-circle.yaml -o docs/bench/near-field-circle --repeat 3",
-    "gotcha": "sar bench ../shared/data/gotcha/data_3dsar_pass1_az00*_HH.mat -o docs/bench/gotcha --repeat 3 "
+    "gotcha": "sar bench GOTCHA_DIR/data_3dsar_pass1_az00*_HH.mat -o docs/bench/gotcha --repeat 3 "
               "--methods direct,backprojection,nufft,ffbp,subimage --extent 40 --pixel-size 0.25",
 }
 
