@@ -15,7 +15,16 @@ import numpy as np
 
 from ..core.grid import Grid
 
-__all__ = ["subaperture_windows", "tile_layout", "input_geometry"]
+__all__ = ["subaperture_windows", "tile_layout", "input_geometry", "is_cphd"]
+
+
+def is_cphd(path) -> bool:
+    """The file starts as a CPHD file does (any other is read as a sarcli phase history)."""
+    try:
+        with open(path, "rb") as f:
+            return f.read(5) == b"CPHD/"
+    except OSError:
+        return False
 
 
 def input_geometry(path: Path):
@@ -24,6 +33,11 @@ def input_geometry(path: Path):
         from ..io.gotcha import read_gotcha
 
         acq = read_gotcha(path).acquisition
+        return acq.azimuth_rad, acq.grid
+    if is_cphd(path):   # the header and per-vector parameters; the signal stays on disk
+        from ..io.cphd import read_cphd
+
+        acq = read_cphd(path, lazy=True).acquisition
         return acq.azimuth_rad, acq.grid
     import h5py
 

@@ -43,7 +43,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import errors
-from .layout import subaperture_windows, tile_layout
+from .layout import is_cphd, subaperture_windows, tile_layout
 from .plan import COMPOSITES, POINTWISE_METHODS, Job, Plan, load_plan, parse_plan
 from ..errors import SarcliError
 from ..core.grid import Grid, resolve_grid
@@ -118,21 +118,12 @@ def _valid_output(path: Path, fingerprint: str) -> bool:
         return False
 
 
-def _is_cphd(path) -> bool:
-    """The file starts as a CPHD file does (any other is read as a sarcli phase history)."""
-    try:
-        with open(path, "rb") as f:
-            return f.read(5) == b"CPHD/"
-    except OSError:
-        return False
-
-
 def _read_input(job: Job) -> PhaseHistory:
     if job.input.lower().endswith(".mat"):
         from ..io.gotcha import read_gotcha
 
         ph = read_gotcha(job.input)
-    elif _is_cphd(job.input):
+    elif is_cphd(job.input):
         from ..io.cphd import read_cphd
 
         ph = read_cphd(job.input, lazy=True)  # left on disk, as below
