@@ -15,6 +15,23 @@ CONFIGS = REPO / "configs"
 GOTCHA_DIR = Path(os.environ.get("SARCLI_GOTCHA_DIR") or REPO.parent / "shared" / "data" / "gotcha")
 
 
+def spy_rows(monkeypatch) -> list:
+    """Record the number of pulses of every block read from samples left on disk (HDF5 or CPHD:
+    both go through ``PulseSource.__getitem__``); returns the list it appends to."""
+    from sarcli.io.pulses import PulseSource
+
+    asked = []
+    real = PulseSource.__getitem__
+
+    def spy(self, key):
+        out = real(self, key)
+        asked.append(out.shape[0])
+        return out
+
+    monkeypatch.setattr(PulseSource, "__getitem__", spy)
+    return asked
+
+
 def small_config(**overrides) -> dict:
     """A small three-points-like acquisition (fast to simulate and image)."""
     cfg = {

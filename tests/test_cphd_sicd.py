@@ -16,6 +16,7 @@ from sarcli.errors import InputFileError, SarcliInputError
 from sarcli.core.grid import Grid
 from sarcli.core.types import PhaseHistory, Truth
 from sarcli.io.hdf5 import read_phase_history, write_phase_history
+from .conftest import spy_rows
 
 pytestmark = [
     # a schema-invalid SICD makes sarkit's NitfWriter warn: treat that as a failure
@@ -676,25 +677,10 @@ def test_lazy_and_eager_cphd_give_the_same_image(tmp_path, method):
     np.testing.assert_allclose(lazy.image, eager.image, rtol=0, atol=1e-12 * np.abs(eager.image).max())
 
 
-def _spy_rows(monkeypatch):
-    from sarcli.io._cphd_parts import CphdSignal
-
-    asked = []
-    real = CphdSignal.__getitem__
-
-    def spy(self, key):
-        out = real(self, key)
-        asked.append(out.shape[0])
-        return out
-
-    monkeypatch.setattr(CphdSignal, "__getitem__", spy)
-    return asked
-
-
 def test_form_image_command_streams_cphd(tmp_path, monkeypatch):
     """`sar form-image X.cphd --method backprojection` reads the signal by blocks, never whole."""
     make_cphd_fixture(tmp_path / "f.cphd", P=96)
-    asked = _spy_rows(monkeypatch)
+    asked = spy_rows(monkeypatch)
     res = CliRunner().invoke(cli, ["form-image", str(tmp_path / "f.cphd"), "-o", str(tmp_path / "img.h5"),
                                    "--method", "backprojection", "--extent", "8"])
     assert res.exit_code == 0, res.output
@@ -714,7 +700,7 @@ def test_batch_job_streams_cphd(tmp_path, monkeypatch):
     plan.write_text(yaml.safe_dump({"jobs": [{"input": str(tmp_path / "f.cphd"), "method": "backprojection",
                                               "options": {"nthreads": 1}}]}))
     ref = form_image(read_cphd(tmp_path / "f.cphd"), "backprojection", nthreads=1)
-    asked = _spy_rows(monkeypatch)
+    asked = spy_rows(monkeypatch)
     job, = load_plan(plan).jobs
     res = run_job(job, tmp_path / "out")
     assert res.status == "done", res.error

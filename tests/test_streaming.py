@@ -12,7 +12,7 @@ from sarcli.formers.direct import direct_spherical
 from sarcli.io.hdf5 import read_phase_history, write_phase_history
 from sarcli.io.pulses import PulseArray
 
-from .conftest import small_config
+from .conftest import small_config, spy_rows
 
 
 @pytest.fixture(scope="module")
@@ -37,15 +37,7 @@ def test_lazy_and_in_memory_give_the_same_image(ph_file, method):
 
 def test_block_formers_never_read_the_whole_collection(ph_file, monkeypatch):
     """Backprojection and the spherical matched filter ask for blocks, never for all pulses at once."""
-    asked = []
-    real = PulseArray.__getitem__
-
-    def spy(self, key):
-        out = real(self, key)
-        asked.append(out.shape[0])
-        return out
-
-    monkeypatch.setattr(PulseArray, "__getitem__", spy)
+    asked = spy_rows(monkeypatch)
     ph = read_phase_history(ph_file, lazy=True)
     n = ph.data.shape[0]
     sarcli.form_image(ph, "backprojection", extent=2.0)  # blocks of 32 pulses
@@ -77,10 +69,7 @@ def test_form_image_command_streams(ph_file, tmp_path, monkeypatch):
 
     from sarcli.cli.main import cli
 
-    asked = []
-    real = PulseArray.__getitem__
-    monkeypatch.setattr(PulseArray, "__getitem__", lambda self, key: asked.append(real(self, key).shape[0])
-                        or real(self, key))
+    asked = spy_rows(monkeypatch)
     res = CliRunner().invoke(cli, ["form-image", str(ph_file), "-o", str(tmp_path / "img.h5"),
                                    "--method", "backprojection", "--extent", "2"])
     assert res.exit_code == 0, res.output
