@@ -112,6 +112,16 @@ def _locate(f, lo, n, ntap):
 
 
 @njit(inline="always")
+def _row_scratch(n, ntap):
+    """Work arrays of :func:`_polar_row` for a row of ``n`` points: stencil starts (q, τ),
+    weights (q, τ), carrier (re, im), fractions (q, τ), and the 6-tap gather's flat index and
+    float32 weights."""
+    return (np.empty(n, np.int64), np.empty(n, np.int64), np.empty((ntap, n)), np.empty((ntap, n)),
+            np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n, np.int32),
+            np.empty((12, n), np.float32))
+
+
+@njit(inline="always")
 def _gather6(are, aim, idx_q, idx_t, wq, wt, cr, ci, acc_re, acc_im, flat, w32):
     """The gather of :func:`_polar_row` for 6-tap kernels.
 
@@ -383,18 +393,9 @@ def _merge(cre, cim, cgeo, cq0, dq, ct0, cdtau, pgeo, pq0, pt0, pdtau, first, co
         qp = np.empty(nq)
         qs = np.empty(nq)
         ts = np.empty(nq)
-        idx_q = np.empty(nq, np.int64)
-        idx_t = np.empty(nq, np.int64)
-        wq = np.empty((ntap, nq))
-        wt = np.empty((ntap, nq))
-        cr = np.empty(nq)
-        ci = np.empty(nq)
-        fq = np.empty(nq)
-        ft = np.empty(nq)
+        idx_q, idx_t, wq, wt, cr, ci, fq, ft, flat, w32 = _row_scratch(nq, ntap)
         acc_re = np.zeros(nq)
         acc_im = np.zeros(nq)
-        flat = np.empty(nq, np.int32)
-        w32 = np.empty((12, nq), np.float32)
         ncmax = max(cre.shape[2], nq) + ntap
         idx_t2 = np.empty(ncmax, np.int64)
         ftc = np.empty(ncmax)
@@ -438,18 +439,9 @@ def _final(cre, cim, cgeo, cq0, dq, ct0, cdtau, x, y, kind, tab_q, tab_t, kref, 
         zero = np.zeros(nx)
         qs = np.empty(nx)
         ts = np.empty(nx)
-        idx_q = np.empty(nx, np.int64)
-        idx_t = np.empty(nx, np.int64)
-        wq = np.empty((ntap, nx))
-        wt = np.empty((ntap, nx))
-        cr = np.empty(nx)
-        ci = np.empty(nx)
-        fq = np.empty(nx)
-        ft = np.empty(nx)
+        idx_q, idx_t, wq, wt, cr, ci, fq, ft, flat, w32 = _row_scratch(nx, ntap)
         acc_re = np.zeros(nx)
         acc_im = np.zeros(nx)
-        flat = np.empty(nx, np.int32)
-        w32 = np.empty((12, nx), np.float32)
         for c in range(n_child):
             g0, g1, g2, g3, g4, g5 = cgeo[0, c], cgeo[1, c], cgeo[2, c], cgeo[3, c], cgeo[4, c], cgeo[5, c]
             for ix in range(nx):
