@@ -71,17 +71,18 @@ def test_isotropic_shrinkage_is_the_vector_minimiser():
     assert np.max(np.abs(z - zb)) < 1e-8
 
 
-@pytest.mark.parametrize("group", [False, True])
-def test_compiled_shrink_update_satisfies_the_proposition(group):
+@pytest.mark.parametrize("group, k", [(False, 1), (True, 2), (True, 3)])
+def test_compiled_shrink_update_satisfies_the_proposition(group, k):
     """The fused numba g-step ADMM calls (linops._reduce.shrink_update) is the Proposition's
     minimiser of β/2|g - Tf|² + λ|g| + Re(σ̄ g): equal to complex_shrinkage, optimal by the
-    subgradient condition entry by entry, brute-force minimiser at a few entries; σ' = σ - β(Tf - g)."""
+    subgradient condition entry by entry, brute-force minimiser at a few entries; σ' = σ - β(Tf - g).
+    ℓ1 (k = 1) and isotropic TV (k = 2) have their own unrolled loops, k = 3 the general one."""
     from sarcli.linops._reduce import shrink_update
 
     rng = np.random.default_rng(11)
-    shape = (2, 300) if group else (300,)
+    shape = (k, 300) if group else (300,)
     tf, sigma = _crandn(rng, shape), _crandn(rng, shape)
-    beta, lam = 1.3, (2.0 if group else 0.9)
+    beta, lam = 1.3, (2.0 * np.sqrt(k / 2) if group else 0.9)
     g, sig_new, reg = shrink_update(tf, sigma, beta, lam / beta, group)
     ax = 0 if group else None
     assert np.max(np.abs(g - complex_shrinkage(tf, sigma, beta, lam, group_axis=ax))) < 1e-14
@@ -163,17 +164,18 @@ def test_admm_never_overwrites_arrays_held_outside():
     assert np.array_equal(view, view_copy)
 
 
-def test_shrink_update_w_output():
+@pytest.mark.parametrize("group, k", [(False, 2), (True, 2), (True, 3)])
+def test_shrink_update_w_output(group, k):
     """``shrink_update(..., w=)`` also writes β(Tf - g) - σ', what the next gradient needs."""
     from sarcli.linops._reduce import empty, shrink_update
 
     rng = np.random.default_rng(3)
-    tf, sigma = _crandn(rng, (2, 7, 9)), _crandn(rng, (2, 7, 9))
+    tf, sigma = _crandn(rng, (k, 7, 9)), _crandn(rng, (k, 7, 9))
     w = empty(tf.shape)
-    g, sig_new, _ = shrink_update(tf, sigma, 1.7, 0.4, True, w=w)
+    g, sig_new, _ = shrink_update(tf, sigma, 1.7, 0.4, group, w=w)
     assert np.max(np.abs(w - (1.7 * (tf - g) - sig_new))) < 1e-13
     with pytest.raises(ValueError):
-        shrink_update(tf, sigma, 1.7, 0.4, True, w=np.empty((2, 7, 8), complex))
+        shrink_update(tf, sigma, 1.7, 0.4, group, w=np.empty((k, 7, 8), complex))
 
 
 def test_shrink_zero_and_threshold():

