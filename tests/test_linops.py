@@ -116,6 +116,22 @@ def test_toeplitz_gram_matches_nufft_pair(shape):
         assert np.linalg.norm(op.toeplitz_gram().forward(f) - ref) / np.linalg.norm(ref) < 1e-6
 
 
+def test_toeplitz_gram_from_several_threads():
+    """The kept work arrays serve one caller at a time; concurrent callers get their own and the
+    same answers as one after another."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    freq, az, el = _kspace(P=40, M=48, ext_deg=6.0)
+    kx, ky = geometry.kspace_coordinates(freq, az, el)
+    gram = NufftOperator(kx, ky, Grid.square(2.0, 64), eps=1e-9).toeplitz_gram()
+    fs = [_crandn((64, 64)) for _ in range(8)]
+    ref = [gram.forward(f) for f in fs]
+    with ThreadPoolExecutor(4) as pool:
+        for _ in range(3):
+            got = list(pool.map(gram.forward, fs))
+            assert all(np.array_equal(a, b) for a, b in zip(got, ref))
+
+
 @pytest.mark.parametrize("fft_dtype", [np.complex128, np.complex64])
 def test_toeplitz_gram_blocks_and_folded_scale(fft_dtype):
     """The x-pass in uneven blocks of rows equals one block, and ``c·AᴴA`` equals ``c`` times it."""

@@ -71,7 +71,7 @@ class ToeplitzGram(Linop):
 
     def _buffers(self):
         ny, nx = self.ishape
-        if self._work is None:
+        if self._work is None or self._work[1].shape[0] < self._block:
             self._work = (empty((2 * ny, nx), self.fft_dtype), empty((self._block, 2 * nx), self.fft_dtype))
         return self._work
 
