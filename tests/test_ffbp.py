@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from numba import njit
 from click.testing import CliRunner
 
 from sarcli.core import geometry
@@ -19,7 +20,7 @@ from sarcli.core.types import PhaseHistory
 from sarcli.errors import SarcliInputError
 from sarcli.formers.direct import direct_spherical
 from sarcli.formers.ffbp import ffbp, plan_stages
-from sarcli.formers.ffbp_model import interp_error, optimal_table
+from sarcli.formers.ffbp_model import _poly_weights, interp_error, optimal_kernel, optimal_weights
 from sarcli.formers.formation import form_image, image_error
 
 GRID = Grid(48, 48, 0.3, 0.3)
@@ -111,8 +112,24 @@ def test_interp_error_model_orders():
     """The kernels' modelled errors fall with oversampling, and the optimal kernel beats cubic."""
     assert interp_error("cubic", 4) < interp_error("cubic", 2) < interp_error("linear", 2)
     assert interp_error("optimal", 3) < 0.05 * interp_error("cubic", 3)
-    tab = optimal_table(2.0)
-    np.testing.assert_allclose(tab.sum(axis=1), 1.0, atol=1e-2)   # nearly a partition of unity
+    t = np.linspace(0.0, 1.0, 101)
+    w = _poly_weights(optimal_kernel(2.0), t)
+    np.testing.assert_allclose(w.sum(axis=1), 1.0, atol=1e-2)   # nearly a partition of unity
+
+
+@pytest.mark.parametrize("beta", [1.0, 1.5, 2.0, 4.0])
+def test_optimal_kernel_polynomials_match_least_squares(beta):
+    """The degree-7 polynomials the kernels evaluate are the least-squares weights to 2e-6 at any
+    fraction (not only the fit points), and the compiled evaluation equals NumPy's."""
+    from sarcli.formers._ffbp_kernels import _row_weights
+
+    t = np.random.default_rng(5).random(40)
+    coef = optimal_kernel(beta)
+    w = _poly_weights(coef, t)
+    assert np.max(np.abs(w - optimal_weights(beta, t))) < 2e-6
+    out = np.empty((6, t.size))
+    njit(lambda f, o, c: _row_weights(3, f, o, c))(t, out, coef)
+    np.testing.assert_allclose(out.T, w, rtol=0, atol=1e-13)
 
 
 def test_ffbp_refuses_nadir_inside_the_grid():
@@ -120,6 +137,27 @@ def test_ffbp_refuses_nadir_inside_the_grid():
     r0 = np.linalg.norm(a, axis=1)
     with pytest.raises(SarcliInputError, match="nadir"):
         ffbp(point_data(a, r0), FREQ, a, r0, GRID)
+
+
+@pytest.mark.parametrize("n, size, merge", [(469, 8, 4), (2048, 8, 4), (800, 8, 4), (40, 8, 4), (1000, 8, 3),
+                                            (17, 1, 4), (3, 8, 2)])
+def test_split_gives_equal_groups_and_an_even_tree(n, size, merge):
+    """Sub-apertures differ by at most one pulse, there are at least ceil(n/size) and at most a
+    quarter more, and when rounded up the count is r·merge^a so the merges group them evenly."""
+    from sarcli.formers.ffbp import _split
+
+    first, count = _split(n, size, merge)
+    k = -(-n // size)
+    assert count.sum() == n and np.all(first == np.concatenate([[0], np.cumsum(count)[:-1]]))
+    assert count.max() - count.min() <= 1
+    assert k <= first.size <= max(k, 1.25 * k)
+    if first.size > k:
+        a = 1
+        while first.size % merge ** (a + 1) == 0:
+            a += 1
+        assert first.size // merge ** a < 2 * merge
+    f2, c2 = _split(first.size, merge)   # the parents of one merge stage: children differ by <= 1
+    assert c2.max() - c2.min() <= 1 and c2.sum() == first.size
 
 
 def test_plan_stages_counts_operations():

@@ -76,18 +76,18 @@ def _pulse_range(x, y, g, bistatic):
 def _row_weights(kind, frac, w, tab):
     """Interpolation weights ``w[tap, i]`` for every fraction of a row (vectorisable pass).
 
-    ``tab[k, tap]`` (kind 3) holds the weights at fractions ``k / (len(tab) - 1)``; between rows
-    they are interpolated linearly.
+    ``tab[tap, k]`` (kind 3) holds the coefficients of the weights as polynomials of degree 7 in
+    ``2·frac − 1`` (:func:`sarcli.formers.ffbp_model.optimal_kernel`), evaluated tap by tap so
+    that the loop over the row vectorises.
     """
     n = frac.size
     if kind == 3:
-        nt = tab.shape[0] - 1
-        for i in range(n):
-            u = frac[i] * nt
-            k = min(int(u), nt - 1)
-            a = u - k
-            for j in range(6):
-                w[j, i] = tab[k, j] + a * (tab[k + 1, j] - tab[k, j])
+        for j in range(6):
+            c0, c1, c2, c3 = tab[j, 0], tab[j, 1], tab[j, 2], tab[j, 3]
+            c4, c5, c6, c7 = tab[j, 4], tab[j, 5], tab[j, 6], tab[j, 7]
+            for i in range(n):
+                x = 2.0 * frac[i] - 1.0
+                w[j, i] = ((((((c7 * x + c6) * x + c5) * x + c4) * x + c3) * x + c2) * x + c1) * x + c0
     elif kind == 0:
         for i in range(n):
             w[0, i] = 1.0 - frac[i]

@@ -54,10 +54,10 @@ import scipy.fft
 from ..core.geometry import C
 from ..core.grid import Grid
 from ..errors import SarcliInputError
-from .ffbp_model import INTERPOLATORS, NTAPS as _NTAPS, frequency_error, interp_error, optimal_table, predict_error
-from .ffbp_model import table as _table
+from .ffbp_model import INTERPOLATORS, NTAPS as _NTAPS, frequency_error, interp_error, optimal_kernel, predict_error
+from .ffbp_model import coefficients as _table
 
-__all__ = ["ffbp", "ffbp_image", "optimal_table", "plan_stages", "predict_error", "interp_error", "FfbpPlan", "DEFAULTS"]
+__all__ = ["ffbp", "ffbp_image", "optimal_kernel", "plan_stages", "predict_error", "interp_error", "FfbpPlan", "DEFAULTS"]
 
 #: Default knobs (see docs/ffbp.md for the error-vs-time frontier behind them).
 DEFAULTS = {"base": 8, "merge": 4, "os_range": 2.0, "os_angle": 2.0, "interp": "optimal", "upsample": 4.0}
@@ -167,11 +167,33 @@ def _frame(pos, first, count, grid, kmax, os_angle, margin):
 
 
 def _level(fr, dq, ext_q, ext_t) -> _Level:
-    """The polar grids of a frame, extended by ``ext_q``/``ext_t`` samples on each side."""
-    nt = int(np.max(np.ceil((fr["tmax"] - fr["tmin"]) / fr["dtau"]))) + 1 + 2 * ext_t
+    """The polar grids of a frame, extended by ``ext_q``/``ext_t`` samples on each side (``ext_t``
+    may differ between sub-apertures; the grids share the largest shape)."""
+    nt = int(np.max(np.ceil((fr["tmax"] - fr["tmin"]) / fr["dtau"]) + 2 * np.asarray(ext_t))) + 1
     nq = int(np.max(np.ceil((fr["qmax"] - fr["qmin"]) / dq))) + 1 + 2 * ext_q
     return _Level(fr["first"], fr["count"], fr["geo"], fr["qmin"] - ext_q * dq, fr["tmin"] - ext_t * fr["dtau"],
                   fr["dtau"], nt, nq)
+
+
+def _split(n, size, merge=None):
+    """``ceil(n / size)`` consecutive groups of ``n`` items, as equal as possible: (first, count).
+
+    Equal groups give sub-apertures of equal length, hence equal angular spacings; a short last
+    group would have a coarse spacing that sets every grid's extension (the grids share a shape).
+    With ``merge`` (the base sub-apertures), the number of groups is rounded up, by at most a
+    quarter, to ``r·merge^a`` (``r < 2·merge``), so that every merge stage groups them evenly too.
+    """
+    k = -(-int(n) // int(size))
+    if merge is not None:
+        m, cands = int(merge), []
+        while m <= 2 * k:
+            cand = m * -(-k // m)
+            if cand // m < 2 * int(merge) and cand <= min(1.25 * k, n):
+                cands.append(cand)
+            m *= int(merge)
+        k = min(cands, default=k)
+    edges = (np.arange(k + 1) * int(n)) // k
+    return edges[:-1], np.diff(edges)
 
 
 def plan_stages(antenna_position_m, freq_hz, grid: Grid, *, base=None, merge=None, os_range=None,
@@ -212,16 +234,14 @@ def plan_stages(antenna_position_m, freq_hz, grid: Grid, *, base=None, merge=Non
     n_pix = grid.nx * grid.ny
     P = pos.shape[0]
     margin = 2 * max(grid.dx, grid.dy)
-    first = np.arange(0, P, base)
-    count = np.minimum(base, P - first)
+    first, count = _split(P, base, merge)
     frames = [_frame(pos, first, count, grid, kmax, k["os_angle"], margin)]
     children = [None]
     est = [_level(frames[0], dq, 2 * half, 2 * half)]
     while frames[-1]["first"].size > 1:   # merge while it costs less than it saves in the final stage
         cur = frames[-1]
         n_cur = cur["first"].size
-        pf = np.arange(0, n_cur, merge)
-        pc = np.minimum(merge, n_cur - pf)
+        pf, pc = _split(n_cur, merge)
         pcount = np.array([cur["count"][i:i + m].sum() for i, m in zip(pf, pc)])
         nxt = _frame(pos, cur["first"][pf], pcount, grid, kmax, k["os_angle"], margin)
         lv = _level(nxt, dq, 2 * half, 2 * half)
@@ -237,10 +257,16 @@ def plan_stages(antenna_position_m, freq_hz, grid: Grid, *, base=None, merge=Non
     n_lev = len(frames)
     levels = []
     for l, fr in enumerate(frames):
-        later = np.array([float(np.max(frames[j]["dtau"])) for j in range(l, n_lev)])
+        # angular reach in τ of the stencils of this level and of every later one, per sub-aperture:
+        # each later level counted at the spacing of the sub-aperture's own ancestor there
+        reach = fr["dtau"].copy()
+        anc = np.arange(fr["first"].size)
+        for j in range(l + 1, n_lev):
+            anc = np.searchsorted(children[j][0], anc, side="right") - 1
+            reach += frames[j]["dtau"][anc]
         ext_q = int(math.ceil(1.2 * half * (n_lev - l))) + 1
-        ext_t = int(math.ceil(1.2 * half * np.sum(later) / float(np.min(fr["dtau"]))
-                              + 0.2 * ext_q * dq / (fr["metres_per_tau"] * float(np.min(fr["dtau"]))))) + 1
+        ext_t = np.ceil(1.2 * half * reach / fr["dtau"]
+                        + 0.2 * ext_q * dq / (fr["metres_per_tau"] * fr["dtau"])).astype(np.int64) + 1
         lv = _level(fr, dq, ext_q, ext_t)
         lv.children = children[l]
         levels.append(lv)
@@ -307,7 +333,7 @@ def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weigh
         Oversampling of the polar grids over the Nyquist rate in range and angle.
     interp : {'linear', 'cubic', 'lanczos', 'optimal'}, default 'optimal'
         Interpolator of the range profiles and the polar grids (``optimal``: least-squares 6-tap
-        kernels designed for each grid's oversampling, :func:`optimal_table`).
+        kernels designed for each grid's oversampling, :func:`optimal_kernel`).
     upsample : float, default 4
         Range-profile oversampling (the IFFT length is ``upsample·M``).
     final : int, optional
