@@ -103,12 +103,14 @@ def _row_weights(kind, frac, w, tab):
 @njit(inline="always")
 def _locate(f, lo, n, ntap):
     """Stencil start and fraction of fractional index ``f``; ``ok`` False when the stencil leaves
-    ``[0, n)`` (the start is then clamped so every access stays in bounds)."""
+    ``[0, n)`` (the start is then clamped so every access stays in bounds). The start is formed
+    in floating point and converted once to int32: AVX2 converts four doubles to int32 in one
+    instruction but has no vector conversion to int64, which would keep the loop scalar."""
     fl = math.floor(f)
-    start = int(fl) + lo
-    ok = start >= 0 and start + ntap <= n
-    start = min(max(start, 0), n - ntap)
-    return start, f - fl, ok
+    s = fl + lo
+    ok = (s >= 0.0) & (s + ntap <= n)
+    s = min(max(s, 0.0), float(n - ntap))
+    return np.int32(s), f - fl, ok
 
 
 @njit(inline="always")
@@ -116,7 +118,7 @@ def _row_scratch(n, ntap):
     """Work arrays of :func:`_polar_row` for a row of ``n`` points: stencil starts (q, τ),
     weights (q, τ), carrier (re, im), fractions (q, τ), and the 6-tap gather's flat index and
     float32 weights."""
-    return (np.empty(n, np.int64), np.empty(n, np.int64), np.empty((ntap, n)), np.empty((ntap, n)),
+    return (np.empty(n, np.int32), np.empty(n, np.int32), np.empty((ntap, n)), np.empty((ntap, n)),
             np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n, np.int32),
             np.empty((12, n), np.float32))
 
@@ -302,7 +304,7 @@ def _separable_row(are, aim, q0, dq, t0, dtau, kref, qs, ts, qref, kind, ntap, l
         m = 1.0 if okq else 0.0
         cr[i] = m * c
         ci[i] = m * s
-        okc[i] = m
+        okc[i] = np.float32(m)
     # columns the stencils touch (qs increases, so the first and last points in range bound them)
     i0 = 0
     while i0 < n and okc[i0] == 0.0:
@@ -325,23 +327,35 @@ def _separable_row(are, aim, q0, dq, t0, dtau, kref, qs, ts, qref, kind, ntap, l
         st, tt, okt = _locate((ft[jj] - t0) * inv_dt, lo, nt, ntap)
         idx_t[jj] = st
         ft[jj] = tt
-        okc[jj] = 1.0 if okt else 0.0
+        okc[jj] = np.float32(1.0) if okt else _Z32
     _row_weights(kind, ft[:ncol], wt, tab_t)
     fr = are.reshape(are.size)
     fi = aim.reshape(aim.size)
-    if ntap == 6:   # literal trip counts: the compiler unrolls the taps
-        u1 = np.uint64(nq)
-        u2 = u1 + u1
-        u3 = u2 + u1
-        u4 = u3 + u1
-        u5 = u4 + u1
-        for jj in range(ncol):
-            k = np.uint64(idx_t[jj] * nq + jlo + jj)
-            w0, w1, w2, w3, w4, w5 = wt[0, jj], wt[1, jj], wt[2, jj], wt[3, jj], wt[4, jj], wt[5, jj]
-            vr = w0 * fr[k] + w1 * fr[k + u1] + w2 * fr[k + u2] + w3 * fr[k + u3] + w4 * fr[k + u4] + w5 * fr[k + u5]
-            vi = w0 * fi[k] + w1 * fi[k + u1] + w2 * fi[k + u2] + w3 * fi[k + u3] + w4 * fi[k + u4] + w5 * fi[k + u5]
-            gre[jj] = okc[jj] * vr
-            gim[jj] = okc[jj] * vi
+    if ntap == 6:   # runs of columns reading the same six child rows: contiguous loads
+        j0 = 0
+        while j0 < ncol:
+            st = idx_t[j0]
+            j1 = j0 + 1
+            while j1 < ncol and idx_t[j1] == st:
+                j1 += 1
+            r0 = are[st, jlo:]
+            r1 = are[st + 1, jlo:]
+            r2 = are[st + 2, jlo:]
+            r3 = are[st + 3, jlo:]
+            r4 = are[st + 4, jlo:]
+            r5 = are[st + 5, jlo:]
+            m0 = aim[st, jlo:]
+            m1 = aim[st + 1, jlo:]
+            m2 = aim[st + 2, jlo:]
+            m3 = aim[st + 3, jlo:]
+            m4 = aim[st + 4, jlo:]
+            m5 = aim[st + 5, jlo:]
+            for jj in range(np.uint64(j0), np.uint64(j1)):   # unsigned: no wrap-around tests
+                w0, w1, w2, w3, w4, w5 = wt[0, jj], wt[1, jj], wt[2, jj], wt[3, jj], wt[4, jj], wt[5, jj]
+                m = okc[jj]
+                gre[jj] = m * (w0 * r0[jj] + w1 * r1[jj] + w2 * r2[jj] + w3 * r3[jj] + w4 * r4[jj] + w5 * r5[jj])
+                gim[jj] = m * (w0 * m0[jj] + w1 * m1[jj] + w2 * m2[jj] + w3 * m3[jj] + w4 * m4[jj] + w5 * m5[jj])
+            j0 = j1
     else:
         for jj in range(ncol):
             k = idx_t[jj] * nq + jlo + jj
@@ -353,16 +367,23 @@ def _separable_row(are, aim, q0, dq, t0, dtau, kref, qs, ts, qref, kind, ntap, l
             gre[jj] = okc[jj] * vr
             gim[jj] = okc[jj] * vi
     _row_weights(kind, fq, wq, tab_q)
-    if ntap == 6:
-        for i in range(n):
-            b = np.uint64(idx_q[i] - jlo)
-            w0, w1, w2, w3, w4, w5 = wq[0, i], wq[1, i], wq[2, i], wq[3, i], wq[4, i], wq[5, i]
-            vr = (w0 * gre[b] + w1 * gre[b + _U1] + w2 * gre[b + _U2] + w3 * gre[b + _U3] + w4 * gre[b + _U4]
-                  + w5 * gre[b + _U5])
-            vi = (w0 * gim[b] + w1 * gim[b + _U1] + w2 * gim[b + _U2] + w3 * gim[b + _U3] + w4 * gim[b + _U4]
-                  + w5 * gim[b + _U5])
-            acc_re[i] += vr * cr[i] - vi * ci[i]
-            acc_im[i] += vr * ci[i] + vi * cr[i]
+    if ntap == 6:   # runs of points whose stencil starts advance with them: contiguous loads
+        i = 0
+        while i < n:
+            off = idx_q[i] - jlo - i
+            e = i + 1
+            while e < n and idx_q[e] - jlo - e == off:
+                e += 1
+            for k in range(np.uint64(i), np.uint64(e)):
+                b = k + np.uint64(off)   # modulo 2**64: the sum is the (non-negative) index
+                w0, w1, w2, w3, w4, w5 = wq[0, k], wq[1, k], wq[2, k], wq[3, k], wq[4, k], wq[5, k]
+                vr = np.float64(w0 * gre[b] + w1 * gre[b + _U1] + w2 * gre[b + _U2] + w3 * gre[b + _U3]
+                                + w4 * gre[b + _U4] + w5 * gre[b + _U5])
+                vi = np.float64(w0 * gim[b] + w1 * gim[b + _U1] + w2 * gim[b + _U2] + w3 * gim[b + _U3]
+                                + w4 * gim[b + _U4] + w5 * gim[b + _U5])
+                acc_re[k] += vr * cr[k] - vi * ci[k]
+                acc_im[k] += vr * ci[k] + vi * cr[k]
+            i = e
     else:
         for i in range(n):
             b0 = idx_q[i] - jlo
@@ -397,12 +418,15 @@ def _merge(cre, cim, cgeo, cq0, dq, ct0, cdtau, pgeo, pq0, pt0, pdtau, first, co
         acc_re = np.zeros(nq)
         acc_im = np.zeros(nq)
         ncmax = max(cre.shape[2], nq) + ntap
-        idx_t2 = np.empty(ncmax, np.int64)
+        idx_t2 = np.empty(ncmax, np.int32)
         ftc = np.empty(ncmax)
-        wtc = np.empty((ntap, ncmax))
-        okc = np.empty(ncmax)
-        gre = np.empty(ncmax)
-        gim = np.empty(ncmax)
+        # the separable passes run in float32 (the precision the sub-images are stored in): eight
+        # lanes a vector where float64 has four
+        wtc = np.empty((ntap, ncmax), np.float32)
+        wq32 = np.empty((ntap, nq), np.float32)
+        okc = np.empty(ncmax, np.float32)
+        gre = np.empty(ncmax, np.float32)
+        gim = np.empty(ncmax, np.float32)
         for iq in range(nq):
             qp[iq] = pq + iq * dq
             xs[iq], ys[iq] = _node(qp[iq], tau, p2, p3, p4, p5)
@@ -417,7 +441,7 @@ def _merge(cre, cim, cgeo, cq0, dq, ct0, cdtau, pgeo, pq0, pt0, pdtau, first, co
                     break
             if mono and nq >= 2:
                 _separable_row(cre[c], cim[c], cq0[c], dq, ct0[c], cdtau[c], kref, qs, ts, qp, kind, ntap, lo,
-                               idx_q, fq, wq, idx_t2, ftc, wtc, okc, gre, gim, cr, ci, acc_re, acc_im,
+                               idx_q, fq, wq32, idx_t2, ftc, wtc, okc, gre, gim, cr, ci, acc_re, acc_im,
                                tab_q, tab_t)
                 continue
             _polar_row(cre[c], cim[c], cq0[c], dq, ct0[c], cdtau[c], kref, qs, ts, qp, kind, ntap, lo,
