@@ -96,6 +96,24 @@ def profile_length(n_frequencies: int, upsample: float) -> int:
     return 2 * scipy.fft.next_fast_len(max(half, 1))
 
 
+def range_profiles(data, weights, total_weight, n_len, nthreads, dtype=np.complex128):
+    """Range profiles of pulses ``data`` [B, M] for backprojection and ffbp: real and imaginary parts
+    [B, n_len + 2·pad], C-contiguous.
+
+    ``w d / W`` go on the FFT slots ``(j - j_c) mod L`` (``j_c = M // 2``), an unnormalised inverse
+    FFT of length ``L = n_len`` follows, and fftshift: profile index ``q`` holds the differential
+    range ``Δr = (q - L/2) c / (2 Δα L)``. Periodic copies of ``pad`` samples at both ends let a
+    stencil run past either end; the shift and the padding are one gather, ``(j - pad - L//2) mod L``.
+    """
+    m = data.shape[1]
+    buf = np.zeros((data.shape[0], n_len), dtype=dtype)
+    wd = data if weights is None else data * weights
+    buf[:, (np.arange(m) - m // 2) % n_len] = wd / total_weight
+    buf = scipy.fft.ifft(buf, axis=1, norm="forward", workers=nthreads, overwrite_x=True)
+    idx = (np.arange(n_len + 2 * _PAD) - _PAD - n_len // 2) % n_len
+    return np.take(buf.real, idx, axis=1), np.take(buf.imag, idx, axis=1)   # C-contiguous (a[:, idx] is not)
+
+
 class _Setup:
     """Validated inputs, per-pulse constants (in the working precision) and the FFT layout."""
 
@@ -308,12 +326,8 @@ def backproject(data, freq_hz, antenna_position_m, range_to_center_m, grid, weig
         for sl in progress(blocks, total=len(blocks), desc="backprojection", unit="pulse block"):
             # w d / W on FFT slots (j - j_c) mod L, unnormalised IFFT, fftshift: profile index
             # q holds Δr = (q - L/2) c / (2 Δα L); periodic copies pad both ends
-            wd = d[sl] if st.weights is None else d[sl] * st.weights[sl]
-            buf = np.zeros((wd.shape[0], st.n_len), dtype=cdt)
-            buf[:, st.slots] = wd / st.total_weight
-            prof = scipy.fft.fftshift(scipy.fft.ifft(buf, axis=1, norm="forward", workers=nthr), axes=1)
-            prof = np.concatenate([prof[:, -_PAD:], prof, prof[:, :_PAD]], axis=1)
-            pre, pim = np.ascontiguousarray(prof.real), np.ascontiguousarray(prof.imag)
+            pre, pim = range_profiles(d[sl], None if st.weights is None else st.weights[sl], st.total_weight,
+                                      st.n_len, nthr, cdt)
             x, xx, y, *rest = st.geometry_args(sl)
             # rows per compiled call: numba holds the interpreter, signals are seen between calls
             step = max(1, _WORK // (st.shape[1] * (sl.stop - sl.start)))

@@ -49,7 +49,6 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-import scipy.fft
 
 from ..core.geometry import C
 from ..core.grid import Grid
@@ -61,7 +60,6 @@ __all__ = ["ffbp", "ffbp_image", "optimal_kernel", "plan_stages", "predict_error
 
 #: Default knobs (see docs/ffbp.md for the error-vs-time frontier behind them).
 DEFAULTS = {"base": 8, "merge": 4, "os_range": 2.0, "os_angle": 2.0, "interp": "optimal", "upsample": 4.0}
-_PAD = 3
 #: Storage of the polar sub-images: float32 halves their memory and traffic; its rounding (6e-8
 #: relative) is far below any interpolation error the knobs allow. Arithmetic stays float64.
 _STORE = np.float32
@@ -285,18 +283,6 @@ def plan_stages(antenna_position_m, freq_hz, grid: Grid, *, base=None, merge=Non
 # ---------------------------------------------------------------------------------------------
 # range profiles
 # ---------------------------------------------------------------------------------------------
-def _profiles(d, f, weights, total, n_len, sl, nthr):
-    """Padded range profiles (complex128) of pulses ``sl``, as backprojection forms them."""
-    m = d.shape[1]
-    jc = m // 2
-    slots = (np.arange(m) - jc) % n_len
-    wd = d[sl] if weights is None else d[sl] * weights[sl]
-    buf = np.zeros((wd.shape[0], n_len), dtype=np.complex128)
-    buf[:, slots] = wd / total
-    prof = scipy.fft.fftshift(scipy.fft.ifft(buf, axis=1, norm="forward", workers=nthr), axes=1)
-    return np.ascontiguousarray(np.concatenate([prof[:, -_PAD:], prof, prof[:, :_PAD]], axis=1))
-
-
 def _pulse_geometry(t, q, r0):
     """Rows tx, ty, |t|², |t|, qx, qy, |q|², |q|, offset of the per-pulse range (kernel ``_pulse_range``)."""
     nt = np.sqrt(np.sum(t.astype(np.longdouble) ** 2, axis=1))
@@ -350,7 +336,7 @@ def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weigh
         ``(1/W) Σ w d e_pj(x)`` to within the predicted error (unit point peaks ≈ 1).
     """
     from . import _ffbp_kernels as kern
-    from .backprojection import FREQUENCY_SPACING_TOLERANCE, _Threads, profile_length
+    from .backprojection import FREQUENCY_SPACING_TOLERANCE, _PAD, _Threads, profile_length, range_profiles
 
     d = np.asarray(data)
     if d.ndim != 2 or d.size == 0:
@@ -402,13 +388,13 @@ def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weigh
         for s0 in range(0, lev.n, per):
             s1 = min(lev.n, s0 + per)
             p0, p1 = int(lev.first[s0]), int(lev.first[s1 - 1] + lev.count[s1 - 1])
-            prof = _profiles(d, f, w, total, n_len, slice(p0, p1), nthr)
-            kern._stage0(np.ascontiguousarray(prof.real), np.ascontiguousarray(prof.imag),
+            pre, pim = range_profiles(d[p0:p1], None if w is None else w[p0:p1], total, n_len, nthr)
+            kern._stage0(pre, pim,
                          lev.first[s0:s1] - p0, lev.count[s0:s1], np.ascontiguousarray(geo[:, p0:p1]),
                          bistatic, inv_bin[p0:p1], kc[p0:p1], float(n_len // 2), float(n_len), _PAD, kind,
                          tab_p, np.ascontiguousarray(lev.geo[:, s0:s1]), lev.q0[s0:s1], plan.dq, lev.t0[s0:s1],
                          lev.dtau[s0:s1], plan.kref, cur_re[s0:s1], cur_im[s0:s1])
-            del prof
+            del pre, pim
         for child, parent in zip(plan.levels[:-1], plan.levels[1:]):
             pf, pc = parent.children
             nxt_re = np.empty((parent.n, parent.nt, parent.nq), dtype=_STORE)
