@@ -65,7 +65,7 @@ def section(name: str, folder: Path) -> list[str]:
             "| method | knobs | error vs direct | seconds |", "|---|---|---|---|"]
     defaults = {"nufft": {"eps": 1e-9}, "pfa": {"kernel": "kaiser", "oversample": 2.0, "width": 6},
                 "backprojection": {"upsample": 8, "interp": "cubic", "precision": "float64"},
-                "ffbp": {"os_range": 2.0, "os_angle": 2.0, "base": 8}, "subimage": {"tolerance": 1e-2}}
+                "ffbp": {"os_range": 2.0, "os_angle": 2.0, "base": 16}, "subimage": {"tolerance": 1e-2}}
     for m, want in defaults.items():
         for r in rows:
             k = r["knobs"]

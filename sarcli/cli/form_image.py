@@ -37,7 +37,7 @@ _METHOD_KNOBS = ("eps", "kernel", "oversample", "width", "upsample", "interp", "
               help="Backprojection / ffbp interpolator (default cubic / optimal; 'optimal' is ffbp only).")
 @click.option("--precision", type=click.Choice(["float64", "float32"]), default="float64", show_default=True,
               help="Backprojection arithmetic.")
-@click.option("--base", type=click.IntRange(min=1), default=None, help="ffbp: pulses per base sub-aperture (default 8).")
+@click.option("--base", type=click.IntRange(min=1), default=None, help="ffbp: pulses per base sub-aperture (default 16).")
 @click.option("--merge", type=click.IntRange(min=2), default=None, help="ffbp: sub-apertures merged per stage (default 4).")
 @click.option("--os-range", type=click.FloatRange(min=1), default=None, help="ffbp: polar-grid range oversampling (default 2).")
 @click.option("--os-angle", type=click.FloatRange(min=1), default=None, help="ffbp: polar-grid angular oversampling (default 2).")

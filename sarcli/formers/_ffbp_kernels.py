@@ -216,6 +216,7 @@ def _stage0(pre, pim, first, count, geo, bistatic, inv_bin, kc, half_len, n_len,
     top = n_len - 1.0
     ntap = NTAPS[kind]
     lo = -(ntap // 2 - 1)
+    off = float(pad + lo)
     for job in prange(n_sub * nt):
         s = job // nt
         it = job - s * nt
@@ -246,7 +247,7 @@ def _stage0(pre, pim, first, count, geo, bistatic, inv_bin, kc, half_len, n_len,
                 inside = (pos >= 0.0) & (pos < n_len)
                 pos = min(max(pos, 0.0), top)
                 fl = math.floor(pos)
-                idx[iq] = int(fl) + pad + lo
+                idx[iq] = np.int32(fl + off)   # a vector conversion to int32 (see _locate)
                 frac[iq] = pos - fl
                 c, sn = _sincos(kcp * dr)
                 m = 1.0 if inside else 0.0

@@ -59,7 +59,7 @@ from .ffbp_model import coefficients as _table
 __all__ = ["ffbp", "ffbp_image", "optimal_kernel", "plan_stages", "predict_error", "interp_error", "FfbpPlan", "DEFAULTS"]
 
 #: Default knobs (see docs/ffbp.md for the error-vs-time frontier behind them).
-DEFAULTS = {"base": 8, "merge": 4, "os_range": 2.0, "os_angle": 2.0, "interp": "optimal", "upsample": 4.0}
+DEFAULTS = {"base": 16, "merge": 4, "os_range": 2.0, "os_angle": 2.0, "interp": "optimal", "upsample": 4.0}
 #: Storage of the polar sub-images: float32 halves their memory and traffic; its rounding (6e-8
 #: relative) is far below any interpolation error the knobs allow. Arithmetic stays float64.
 _STORE = np.float32
@@ -311,9 +311,9 @@ def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weigh
     range_to_center_m : array_like, shape (P,)
     grid : Grid
     weights : array_like, shape (M,) or (P, M), optional
-    base : int, default 8
+    base : int, default 16
         Pulses per base sub-aperture.
-    merge : int, default 2
+    merge : int, default 4
         Sub-apertures merged per stage.
     os_range, os_angle : float, default 2
         Oversampling of the polar grids over the Nyquist rate in range and angle.

@@ -129,7 +129,7 @@ def candidates(ph, grid: Grid, tolerance: float, *, costs=None, nthreads=None) -
         best = {}
         for os_ in (1.5, 2.0, 3.0, 4.0, 6.0):
             up = next((u for u in (2, 4, 8, 16) if interp_error("optimal", float(u)) <= target / 8), 16)
-            for base in (8, 32):
+            for base in (8, 16, 32):
                 try:
                     plan = fb.plan_stages(mono, f, grid, base=base, os_range=os_, os_angle=os_, upsample=up,
                                           interp="optimal")
