@@ -24,7 +24,7 @@ def ph_file(tmp_path_factory):
 
 
 @pytest.mark.filterwarnings("ignore::sarcli.errors.DefocusWarning")  # nufft on spherical data: only equality matters
-@pytest.mark.parametrize("method", ["backprojection", "direct", "nufft"])
+@pytest.mark.parametrize("method", ["backprojection", "direct", "nufft", "ffbp"])
 def test_lazy_and_in_memory_give_the_same_image(ph_file, method):
     eager = sarcli.form_image(read_phase_history(ph_file), method)
     lazy_ph = read_phase_history(ph_file, lazy=True)
@@ -36,12 +36,15 @@ def test_lazy_and_in_memory_give_the_same_image(ph_file, method):
 
 
 def test_block_formers_never_read_the_whole_collection(ph_file, monkeypatch):
-    """Backprojection and the spherical matched filter ask for blocks, never for all pulses at once."""
+    """Backprojection, ffbp and the spherical matched filter ask for blocks, never for all pulses at once."""
     asked = spy_rows(monkeypatch)
     ph = read_phase_history(ph_file, lazy=True)
     n = ph.data.shape[0]
     sarcli.form_image(ph, "backprojection", extent=2.0)  # blocks of 32 pulses
     assert asked and sum(asked) == n and max(asked) < n, asked
+    asked.clear()
+    sarcli.form_image(ph, "ffbp", extent=2.0)  # stage 0: whole sub-apertures, at most 64 pulses a block
+    assert asked and sum(asked) == n and max(asked) <= 64, asked
     asked.clear()
     acq = ph.acquisition  # the spherical matched filter's chunk is set by a memory budget; force a small one
     direct_spherical(ph.data, acq.frequency_hz, acq.antenna_position_m, acq.range_to_center_m,

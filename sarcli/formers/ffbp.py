@@ -336,11 +336,10 @@ def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weigh
         ``(1/W) Σ w d e_pj(x)`` to within the predicted error (unit point peaks ≈ 1).
     """
     from . import _ffbp_kernels as kern
-    from .backprojection import FREQUENCY_SPACING_TOLERANCE, _PAD, _Threads, profile_length, range_profiles
+    from .backprojection import (FREQUENCY_SPACING_TOLERANCE, _PAD, _Threads, _check_data, profile_length,
+                                 range_profiles)
 
-    d = np.asarray(data)
-    if d.ndim != 2 or d.size == 0:
-        raise SarcliInputError(f"phase history must be a non-empty [P, M] array, got shape {d.shape}")
+    d = _check_data(data)   # a phase history left on disk stays there: stage 0 reads it by blocks
     P, M = d.shape
     if M < 2:
         raise SarcliInputError("ffbp needs at least two frequencies per pulse; use method 'direct'")
