@@ -24,8 +24,8 @@ from numba import njit, prange
 
 from ._bp_kernels import _FM, _U1, _U2, _U3, _U4, _U5, _keys, _lanczos, _sincos
 
-#: Interpolation kernels (codes 0-2 shared with backprojection; 3: a tabulated 6-tap kernel) and
-#: their number of taps.
+#: Interpolation kernels (codes 0-2 shared with backprojection; 3: a 6-tap kernel whose weights
+#: are polynomials in the fraction) and their number of taps.
 NTAPS = (2, 4, 6, 6)
 _Z32 = np.float32(0.0)
 

@@ -54,7 +54,7 @@ from ..core.geometry import C
 from ..core.grid import Grid
 from ..errors import SarcliInputError
 from .ffbp_model import INTERPOLATORS, NTAPS as _NTAPS, frequency_error, interp_error, optimal_kernel, predict_error
-from .ffbp_model import coefficients as _table
+from .ffbp_model import coefficients as _coefficients
 
 __all__ = ["ffbp", "ffbp_image", "optimal_kernel", "plan_stages", "predict_error", "interp_error", "FfbpPlan", "DEFAULTS"]
 
@@ -376,9 +376,9 @@ def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weigh
     geo = _pulse_geometry(t, q, r0)
     bistatic = receive_position_m is not None and not np.array_equal(t, q)
     lev = plan.levels[0]
-    tab_p = _table(k["interp"], k["upsample"])
-    tab_q = _table(k["interp"], k["os_range"])
-    tab_t = _table(k["interp"], k["os_angle"])
+    tab_p = _coefficients(k["interp"], k["upsample"])
+    tab_q = _coefficients(k["interp"], k["os_range"])
+    tab_t = _coefficients(k["interp"], k["os_angle"])
     with _Threads(nthreads) as nthr:
         cur_re = np.empty((lev.n, lev.nt, lev.nq), dtype=_STORE)
         cur_im = np.empty((lev.n, lev.nt, lev.nq), dtype=_STORE)
