@@ -9,7 +9,7 @@ every method <= 3 x (phase history + image) bytes.
     python bench/bench_memory.py                                 # the table at 2048² and 4096²
     python bench/bench_memory.py stream                          # streaming: 1x and 4x the pulses
 
-Streaming (issue 13): ``sar form-image --method backprojection`` on collections of P and 4P
+Streaming (issue 13): ``sar form-image --method backprojection`` (and ``ffbp``) on collections of P and 4P
 pulses with the image fixed, whole-process peak RSS of each, from the sarcli HDF5 phase history
 and from the same collection exported as CPHD; either is read by blocks of pulses, so the 4x
 longer collection should raise the peak by <= 20 %.
@@ -57,8 +57,8 @@ _PEAK = ("import resource, sys; from sarcli.cli.main import cli\n"
          "print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024)")
 
 
-def stream(pulses=(2048, 8192), freqs=2048, pixels=256):
-    """Whole-process peak RSS of backprojection from disk for 1x and 4x the pulses, image fixed.
+def stream(pulses=(2048, 8192), freqs=2048, pixels=256, methods=("backprojection", "ffbp")):
+    """Whole-process peak RSS of the block-reading formers from disk for 1x and 4x the pulses, image fixed.
 
     Each collection is imaged from its HDF5 phase history and from its CPHD export.
     """
@@ -69,7 +69,7 @@ def stream(pulses=(2048, 8192), freqs=2048, pixels=256):
 
     cfg = yaml.safe_load((Path(__file__).resolve().parents[1] / "configs" / "three-points.yaml").read_text())
     sar = str(Path(sys.executable).parent / "sar")
-    rows = {"HDF5": [], "CPHD": []}
+    rows = {(m, f): [] for m in methods for f in ("HDF5", "CPHD")}
     with tempfile.TemporaryDirectory() as tmp:
         for p in pulses:
             cfg["azimuths"] = {"center_deg": 50.0, "extent_deg": 3.0 * p / pulses[0], "count": p}
@@ -80,17 +80,19 @@ def stream(pulses=(2048, 8192), freqs=2048, pixels=256):
             cphd = Path(tmp) / f"ph{p}.cphd"
             subprocess.run([sar, "-q", "simulate", str(yml), "-o", str(ph), "--noiseless"], check=True)
             subprocess.run([sar, "-q", "export-cphd", str(ph), "-o", str(cphd)], check=True)
-            for fmt, src in (("HDF5", ph), ("CPHD", cphd)):
+            for (method, fmt), rs in rows.items():
+                src = ph if fmt == "HDF5" else cphd
                 out = subprocess.run([sys.executable, "-c", _PEAK, "-q", "form-image", str(src), "-o",
-                                      str(Path(tmp) / "img.h5"), "--method", "backprojection"],
+                                      str(Path(tmp) / "img.h5"), "--method", method],
                                      check=True, capture_output=True, text=True).stdout.split()[-1]
-                rows[fmt].append((p, Path(src).stat().st_size / 2**20, float(out)))
+                rs.append((p, Path(src).stat().st_size / 2**20, float(out)))
     image_mib = pixels * pixels * 16 / 2**20
-    for fmt, rs in rows.items():
+    for (method, fmt), rs in rows.items():
         for p, size, peak in rs:
-            print(f"backprojection from {fmt}: {p} pulses x {freqs} ({size:.0f} MiB on disk), image {pixels}² "
+            print(f"{method} from {fmt}: {p} pulses x {freqs} ({size:.0f} MiB on disk), image {pixels}² "
                   f"({image_mib:.0f} MiB): whole-process peak RSS {peak:.0f} MiB")
-        print(f"{fmt}: 4x the pulses raises the peak by {100 * (rs[-1][2] / rs[0][2] - 1):.1f} % (target <= 20 %)")
+        print(f"{method}, {fmt}: 4x the pulses raises the peak by {100 * (rs[-1][2] / rs[0][2] - 1):.1f} % "
+              "(target <= 20 %)")
 
 
 if __name__ == "__main__":

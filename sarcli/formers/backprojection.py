@@ -96,6 +96,28 @@ def profile_length(n_frequencies: int, upsample: float) -> int:
     return 2 * scipy.fft.next_fast_len(max(half, 1))
 
 
+def frequency_steps(f, who: str = "backprojection") -> np.ndarray:
+    """Frequency step ``Δα`` of each row of ``f`` [rows, M] (one row when all pulses share their
+    frequencies), after checking that every row is equally spaced to within
+    :data:`FREQUENCY_SPACING_TOLERANCE` of its step (else a one-line error naming ``who``).
+    Works through the rows in blocks, so a [P, M] table costs no [P, M] temporaries."""
+    m = f.shape[1]
+    dalpha = (f[:, -1] - f[:, 0]) / (m - 1)
+    if not np.all(dalpha != 0):
+        raise SarcliInputError(f"{who} needs equally spaced frequencies in every pulse (a pulse has one "
+                               "frequency repeated); use method 'direct'")
+    rel, ramp = 0.0, np.arange(m)
+    for r in range(0, f.shape[0], 256):
+        blk = slice(r, r + 256)
+        dev = np.abs(f[blk] - (f[blk, :1] + ramp * dalpha[blk, None])) / np.abs(dalpha[blk, None])
+        rel = max(rel, float(np.max(dev)))
+    if not rel <= FREQUENCY_SPACING_TOLERANCE:
+        raise SarcliInputError(
+            f"{who} needs equally spaced frequencies in every pulse (largest deviation "
+            f"{rel:.3g} of the spacing, tolerance {FREQUENCY_SPACING_TOLERANCE:g}); use method 'direct'")
+    return dalpha
+
+
 def range_profiles(data, weights, total_weight, n_len, nthreads, dtype=np.complex128):
     """Range profiles of pulses ``data`` [B, M] for backprojection and ffbp: real and imaginary parts
     [B, n_len + 2·pad], C-contiguous.
@@ -146,13 +168,7 @@ class _Setup:
         if b.shape != a.shape:
             raise SarcliInputError(f"receive positions {b.shape} do not match the transmit positions {a.shape}")
         self.bistatic = not np.array_equal(a, b)
-        dalpha = (f[:, -1] - f[:, 0]) / (m - 1)
-        dev = np.abs(f - (f[:, :1] + np.arange(m) * dalpha[:, None]))
-        rel = np.max(dev / np.abs(dalpha)[:, None]) if np.all(dalpha != 0) else np.inf
-        if not rel <= FREQUENCY_SPACING_TOLERANCE:
-            raise SarcliInputError(
-                f"backprojection needs equally spaced frequencies in every pulse (largest deviation "
-                f"{rel:.3g} of the spacing, tolerance {FREQUENCY_SPACING_TOLERANCE:g}); use method 'direct'")
+        dalpha = frequency_steps(f, "backprojection")
         if weights is None:
             w = None
             self.total_weight = float(n_pulses * m)

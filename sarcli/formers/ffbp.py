@@ -336,8 +336,7 @@ def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weigh
         ``(1/W) Σ w d e_pj(x)`` to within the predicted error (unit point peaks ≈ 1).
     """
     from . import _ffbp_kernels as kern
-    from .backprojection import (FREQUENCY_SPACING_TOLERANCE, _PAD, _Threads, _check_data, profile_length,
-                                 range_profiles)
+    from .backprojection import _PAD, _Threads, _check_data, frequency_steps, profile_length, range_profiles
 
     d = _check_data(data)   # a phase history left on disk stays there: stage 0 reads it by blocks
     P, M = d.shape
@@ -348,14 +347,12 @@ def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weigh
     q = t if receive_position_m is None else np.asarray(receive_position_m, dtype=np.float64)
     if t.shape != (P, 3) or q.shape != (P, 3) or r0.shape != (P,):
         raise SarcliInputError(f"antenna positions {t.shape} / ranges {r0.shape} do not match {P} pulses")
-    f = np.broadcast_to(np.asarray(freq_hz, dtype=np.float64), (P, M)) if np.ndim(freq_hz) == 1 \
-        else np.asarray(freq_hz, dtype=np.float64)
-    if f.shape != (P, M):
+    # one row when every pulse has the same frequencies: the checks cost O(M), not O(P M)
+    f = np.asarray(freq_hz, dtype=np.float64)
+    f = f[None, :] if f.ndim == 1 else f
+    if f.shape not in ((1, M), (P, M)):
         raise SarcliInputError(f"frequencies have shape {np.shape(freq_hz)}, expected ({M},) or ({P}, {M})")
-    dalpha = (f[:, -1] - f[:, 0]) / (M - 1)
-    dev = np.abs(f - (f[:, :1] + np.arange(M) * dalpha[:, None]))
-    if not (np.all(dalpha != 0) and np.max(dev / np.abs(dalpha)[:, None]) <= FREQUENCY_SPACING_TOLERANCE):
-        raise SarcliInputError("ffbp needs equally spaced frequencies in every pulse; use method 'direct'")
+    dalpha = np.broadcast_to(frequency_steps(f, "ffbp"), (P,))
     if weights is None:
         w, total = None, float(P * M)
     else:
@@ -372,7 +369,7 @@ def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weigh
     jc = M // 2
     bin_m = C / (2.0 * dalpha * n_len)
     inv_bin = 1.0 / bin_m
-    kc = 4.0 * np.pi * (f[:, 0] + jc * dalpha) / C
+    kc = 4.0 * np.pi * (np.broadcast_to(f[:, 0], (P,)) + jc * dalpha) / C
     geo = _pulse_geometry(t, q, r0)
     bistatic = receive_position_m is not None and not np.array_equal(t, q)
     lev = plan.levels[0]
