@@ -144,8 +144,11 @@ def frequency_error(freq_hz, antenna_position_m, grid) -> float:
     if m < 2:
         return 0.0
     step = (f[:, -1] - f[:, 0]) / (m - 1)
-    dev = f - (f[:, :1] + np.arange(m) * step[:, None])
+    ramp, sq = np.arange(m), 0.0
+    for r in range(0, f.shape[0], 256):   # blocks of pulses: no [P, M] temporaries
+        dev = f[r:r + 256] - (f[r:r + 256, :1] + ramp * step[r:r + 256, None])
+        sq += float(np.sum(dev * dev))
     a = np.asarray(antenna_position_m, dtype=np.float64)
     cos_el = float(np.mean(np.hypot(a[:, 0], a[:, 1]) / np.linalg.norm(a, axis=1)))
     rms_dr = max(grid.nx * grid.dx, grid.ny * grid.dy) * cos_el / np.sqrt(12.0)
-    return float(4 * np.pi * np.sqrt(np.mean(dev ** 2)) * rms_dr / 299_792_458.0)
+    return float(4 * np.pi * np.sqrt(sq / f.size) * rms_dr / 299_792_458.0)
