@@ -204,6 +204,22 @@ def _polar_row(are, aim, q0, dq, t0, dtau, kref, qs, ts, qref, kind, ntap, lo, i
         acc_im[i] += vr * ci[i] + vi * cr[i]
 
 
+@njit(inline="always")
+def _taps_acc(src_re, src_im, start, shift, w, ntap, cr, ci, acc_re, acc_im):
+    """``acc[i] += (cr + i·ci)[i] · Σ_b w[b, i] · src[start[i] - shift + b]`` for every ``i`` of
+    ``start``: a 1-D interpolation with any number of taps, re-modulated and accumulated (the
+    general path; the 6-tap kernels have literal, unrolled loops)."""
+    for i in range(start.size):
+        k = start[i] - shift
+        vr = 0.0
+        vi = 0.0
+        for b in range(ntap):
+            vr += w[b, i] * src_re[k + b]
+            vi += w[b, i] * src_im[k + b]
+        acc_re[i] += vr * cr[i] - vi * ci[i]
+        acc_im[i] += vr * ci[i] + vi * cr[i]
+
+
 @njit(parallel=True, cache=True, fastmath=_FM)
 def _stage0(pre, pim, first, count, geo, bistatic, inv_bin, kc, half_len, n_len, pad, kind, tab,
             cgeo, q0, dq, t0, dtau, kref, out_re, out_im):
@@ -264,15 +280,7 @@ def _stage0(pre, pim, first, count, geo, bistatic, inv_bin, kc, half_len, n_len,
                     acc_re[iq] += vr * cr[iq] - vi * ci[iq]
                     acc_im[iq] += vr * ci[iq] + vi * cr[iq]
                 continue
-            for iq in range(nq):
-                i = idx[iq]
-                vr = 0.0
-                vi = 0.0
-                for b in range(ntap):
-                    vr += w[b, iq] * rp[i + b]
-                    vi += w[b, iq] * ip[i + b]
-                acc_re[iq] += vr * cr[iq] - vi * ci[iq]
-                acc_im[iq] += vr * ci[iq] + vi * cr[iq]
+            _taps_acc(rp, ip, idx, 0, w, ntap, cr, ci, acc_re, acc_im)
         for iq in range(nq):
             c, sn = _sincos(-kref * (q0[s] + iq * dq))
             out_re[s, it, iq] = acc_re[iq] * c - acc_im[iq] * sn
@@ -386,15 +394,7 @@ def _separable_row(are, aim, q0, dq, t0, dtau, kref, qs, ts, qref, kind, ntap, l
                 acc_im[k] += vr * ci[k] + vi * cr[k]
             i = e
     else:
-        for i in range(n):
-            b0 = idx_q[i] - jlo
-            vr = 0.0
-            vi = 0.0
-            for b in range(ntap):
-                vr += wq[b, i] * gre[b0 + b]
-                vi += wq[b, i] * gim[b0 + b]
-            acc_re[i] += vr * cr[i] - vi * ci[i]
-            acc_im[i] += vr * ci[i] + vi * cr[i]
+        _taps_acc(gre, gim, idx_q, jlo, wq, ntap, cr, ci, acc_re, acc_im)
 
 
 @njit(parallel=True, cache=True, fastmath=_FM)
