@@ -22,7 +22,7 @@ import math
 import numpy as np
 from numba import njit, prange
 
-from ._bp_kernels import _FM, _U1, _U2, _U3, _U4, _U5, _keys, _lanczos, _sincos
+from ._bp_kernels import _F1, _F2, _FM, _U1, _U2, _U3, _U4, _U5, _keys, _lanczos, _sincos
 
 #: Interpolation kernels (codes 0-2 shared with backprojection; 3: a 6-tap kernel whose weights
 #: are polynomials in the fraction) and their number of taps.
@@ -78,7 +78,8 @@ def _row_weights(kind, frac, w, tab):
 
     ``tab[tap, k]`` (kind 3) holds the coefficients of the weights as polynomials of degree 7 in
     ``2·frac − 1`` (:func:`sarcli.formers.ffbp_model.optimal_kernel`), evaluated tap by tap so
-    that the loop over the row vectorises.
+    that the loop over the row vectorises. With float32 fractions and coefficients the arithmetic
+    is float32 (eight lanes a vector), else float64.
     """
     n = frac.size
     if kind == 3:
@@ -86,7 +87,7 @@ def _row_weights(kind, frac, w, tab):
             c0, c1, c2, c3 = tab[j, 0], tab[j, 1], tab[j, 2], tab[j, 3]
             c4, c5, c6, c7 = tab[j, 4], tab[j, 5], tab[j, 6], tab[j, 7]
             for i in range(n):
-                x = 2.0 * frac[i] - 1.0
+                x = _F2 * frac[i] - _F1
                 w[j, i] = ((((((c7 * x + c6) * x + c5) * x + c4) * x + c3) * x + c2) * x + c1) * x + c0
     elif kind == 0:
         for i in range(n):
@@ -116,15 +117,15 @@ def _locate(f, lo, n, ntap):
 @njit(inline="always")
 def _row_scratch(n, ntap):
     """Work arrays of :func:`_polar_row` for a row of ``n`` points: stencil starts (q, τ),
-    weights (q, τ), carrier (re, im), fractions (q, τ), and the 6-tap gather's flat index and
-    float32 weights."""
-    return (np.empty(n, np.int32), np.empty(n, np.int32), np.empty((ntap, n)), np.empty((ntap, n)),
-            np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n, np.int32),
-            np.empty((12, n), np.float32))
+    float32 weights (q, τ), carrier (re, im), float32 fractions (q, τ), and the 6-tap gather's
+    flat index."""
+    return (np.empty(n, np.int32), np.empty(n, np.int32), np.empty((ntap, n), np.float32),
+            np.empty((ntap, n), np.float32), np.empty(n), np.empty(n), np.empty(n, np.float32),
+            np.empty(n, np.float32), np.empty(n, np.int32))
 
 
 @njit(inline="always")
-def _gather6(are, aim, idx_q, idx_t, wq, wt, cr, ci, acc_re, acc_im, flat, w32):
+def _gather6(are, aim, idx_q, idx_t, wq, wt, cr, ci, acc_re, acc_im, flat):
     """The gather of :func:`_polar_row` for 6-tap kernels.
 
     Literal trip counts (the compiler unrolls the 36 taps), one 32-bit flat index per node and
@@ -138,14 +139,10 @@ def _gather6(are, aim, idx_q, idx_t, wq, wt, cr, ci, acc_re, acc_im, flat, w32):
     fi = aim.reshape(aim.size)
     for i in range(n):
         flat[i] = idx_t[i] * nq + idx_q[i]
-    for j in range(6):
-        for i in range(n):
-            w32[j, i] = wq[j, i]
-            w32[6 + j, i] = wt[j, i]
     unq = np.uint64(nq)
     for i in range(n):
         k = np.uint64(flat[i])
-        w0, w1, w2, w3, w4, w5 = w32[0, i], w32[1, i], w32[2, i], w32[3, i], w32[4, i], w32[5, i]
+        w0, w1, w2, w3, w4, w5 = wq[0, i], wq[1, i], wq[2, i], wq[3, i], wq[4, i], wq[5, i]
         vr = _Z32
         vi = _Z32
         for a in range(6):
@@ -153,7 +150,7 @@ def _gather6(are, aim, idx_q, idx_t, wq, wt, cr, ci, acc_re, acc_im, flat, w32):
                   + w5 * fr[k + _U5])
             ri = (w0 * fi[k] + w1 * fi[k + _U1] + w2 * fi[k + _U2] + w3 * fi[k + _U3] + w4 * fi[k + _U4]
                   + w5 * fi[k + _U5])
-            ta = w32[6 + a, i]
+            ta = wt[a, i]
             vr += ta * rr
             vi += ta * ri
             k += unq
@@ -165,7 +162,7 @@ def _gather6(are, aim, idx_q, idx_t, wq, wt, cr, ci, acc_re, acc_im, flat, w32):
 
 @njit(inline="always")
 def _polar_row(are, aim, q0, dq, t0, dtau, kref, qs, ts, qref, kind, ntap, lo, idx_q, idx_t, wq, wt,
-               cr, ci, fq, ft, acc_re, acc_im, tab_q, tab_t, flat, w32):
+               cr, ci, fq, ft, acc_re, acc_im, tab_q, tab_t, flat):
     """Add one sub-image, interpolated at the polar coordinates ``(qs, ts)`` of a row of points and
     re-modulated by ``exp(i k_ref (q - qref))``, to ``acc``: three passes (positions and carriers,
     weights, gather) so the first two vectorise."""
@@ -185,7 +182,7 @@ def _polar_row(are, aim, q0, dq, t0, dtau, kref, qs, ts, qref, kind, ntap, lo, i
     _row_weights(kind, fq, wq, tab_q)
     _row_weights(kind, ft, wt, tab_t)
     if ntap == 6:
-        _gather6(are, aim, idx_q, idx_t, wq, wt, cr, ci, acc_re, acc_im, flat, w32)
+        _gather6(are, aim, idx_q, idx_t, wq, wt, cr, ci, acc_re, acc_im, flat)
         return
     for i in range(n):
         sq = idx_q[i]
@@ -220,13 +217,32 @@ def _taps_acc(src_re, src_im, start, shift, w, ntap, cr, ci, acc_re, acc_im):
         acc_im[i] += vr * ci[i] + vi * cr[i]
 
 
+#: Coefficients of ``√(1 + ε) − 1 = Σ_k C_k ε^k``, k = 1 .. 8 (binomial series of 1/2).
+SQRT_SERIES = (0.5, -0.125, 0.0625, -0.0390625, 0.02734375, -0.0205078125, 0.01611328125, -0.013092041015625)
+
+
+@njit(inline="always")
+def _series(e, c):
+    """``√(1 + e) − 1`` by the series :data:`SQRT_SERIES` (``c``), eight terms by Horner."""
+    return e * (c[0] + e * (c[1] + e * (c[2] + e * (c[3] + e * (c[4] + e * (c[5] + e * (c[6] + e * c[7])))))))
+
+
 @njit(parallel=True, cache=True, fastmath=_FM)
-def _stage0(pre, pim, first, count, geo, bistatic, inv_bin, kc, half_len, n_len, pad, kind, tab,
+def _stage0(pre, pim, first, count, geo, dlt, series, bistatic, inv_bin, kc, half_len, n_len, pad, kind, tab,
             cgeo, q0, dq, t0, dtau, kref, out_re, out_im):
     """Backproject the pulses ``first[s] .. first[s]+count[s]-1`` onto sub-aperture s's polar grid.
 
-    ``cgeo`` rows: cx, cy, |c|, ρ0, e0x, e0y. Profile interpolation as in backprojection, in the
-    same three passes (positions and carriers, weights, gather).
+    ``cgeo`` rows: cx, cy, |c|, ρ0, e0x, e0y, cz. Profile interpolation as in backprojection, in
+    the same three passes (positions and carriers, weights, gather); the profiles, weights, gather
+    and sums are float32 (the sub-images are stored in float32), positions and carriers float64.
+
+    Where ``series[s]`` is set, the range of a pulse at ``t = c + Δ`` to the node ``x`` comes from
+    the node's own range ``R = |c − x| = |c| + q`` (exact on the polar grid) and a short series:
+    ``|t − x| = R √(1 + ε)``, ``ε = (2 (c − x)·Δ + |Δ|²) / R²`` (:func:`_series`; the caller sets
+    ``series[s]`` only where the truncated tail is below a micro-radian of phase). That trades the
+    square root and division of :func:`_pulse_range` for eight fused multiply-adds. ``dlt`` rows
+    per pulse: Δ and |Δ|² of the transmit position (0-3) and of the receive position (4-7), and
+    ``|c| − r0`` (8).
     """
     n_sub, nt, nq = out_re.shape
     top = n_len - 1.0
@@ -239,36 +255,70 @@ def _stage0(pre, pim, first, count, geo, bistatic, inv_bin, kc, half_len, n_len,
         tau = t0[s] + it * dtau[s]
         xs = np.empty(nq)
         ys = np.empty(nq)
+        ax = np.empty(nq)
+        ay = np.empty(nq)
+        az = np.empty(nq)
+        ir2 = np.empty(nq)
+        rr = np.empty(nq)
+        qq = np.empty(nq)
+        dr = np.empty(nq)
         idx = np.empty(nq, np.int32)
-        frac = np.empty(nq)
-        cr = np.empty(nq)
-        ci = np.empty(nq)
-        w = np.empty((ntap, nq))
-        acc_re = np.zeros(nq)
-        acc_im = np.zeros(nq)
+        frac = np.empty(nq, np.float32)
+        cr = np.empty(nq, np.float32)
+        ci = np.empty(nq, np.float32)
+        w = np.empty((ntap, nq), np.float32)
+        acc_re = np.zeros(nq, np.float32)
+        acc_im = np.zeros(nq, np.float32)
         qa = q0[s]
-        c2, c3, c4, c5 = cgeo[2, s], cgeo[3, s], cgeo[4, s], cgeo[5, s]
-        for iq in range(nq):
-            xs[iq], ys[iq] = _node(qa + iq * dq, tau, c2, c3, c4, c5)
+        c0, c1, c2, c3, c4, c5, c6 = cgeo[0, s], cgeo[1, s], cgeo[2, s], cgeo[3, s], cgeo[4, s], cgeo[5, s], cgeo[6, s]
+        for iq in range(nq):   # the node, its range from the centre and the series' factors
+            q = qa + iq * dq
+            x, y = _node(q, tau, c2, c3, c4, c5)
+            r = c2 + q
+            i2 = 1.0 / (r * r)
+            xs[iq] = x
+            ys[iq] = y
+            ax[iq] = 2.0 * (c0 - x) * i2
+            ay[iq] = 2.0 * (c1 - y) * i2
+            az[iq] = 2.0 * c6 * i2
+            ir2[iq] = i2
+            rr[iq] = r
+            qq[iq] = q
+        use_series = series[s]
         for p in range(first[s], first[s] + count[s]):
             rp = pre[p]
             ip = pim[p]
             ib = inv_bin[p]
             kcp = kc[p]
-            g = (geo[0, p], geo[1, p], geo[2, p], geo[3, p], geo[4, p], geo[5, p], geo[6, p], geo[7, p],
-                 geo[8, p])
+            if use_series:
+                tx, ty, tz, t2, offp = dlt[0, p], dlt[1, p], dlt[2, p], dlt[3, p], dlt[8, p]
+                if bistatic:
+                    bx, by, bz, b2 = dlt[4, p], dlt[5, p], dlt[6, p], dlt[7, p]
+                    for iq in range(nq):
+                        et = ax[iq] * tx + ay[iq] * ty + az[iq] * tz + t2 * ir2[iq]
+                        eb = ax[iq] * bx + ay[iq] * by + az[iq] * bz + b2 * ir2[iq]
+                        dr[iq] = qq[iq] + 0.5 * rr[iq] * (_series(et, SQRT_SERIES) + _series(eb, SQRT_SERIES)) + offp
+                else:
+                    for iq in range(nq):
+                        e = ax[iq] * tx + ay[iq] * ty + az[iq] * tz + t2 * ir2[iq]
+                        dr[iq] = qq[iq] + rr[iq] * _series(e, SQRT_SERIES) + offp
+            else:
+                g = (geo[0, p], geo[1, p], geo[2, p], geo[3, p], geo[4, p], geo[5, p], geo[6, p], geo[7, p],
+                     geo[8, p])
+                for iq in range(nq):
+                    dr[iq] = _pulse_range(xs[iq], ys[iq], g, bistatic)
             for iq in range(nq):
-                dr = _pulse_range(xs[iq], ys[iq], g, bistatic)
-                pos = dr * ib + half_len
+                d = dr[iq]
+                pos = d * ib + half_len
                 inside = (pos >= 0.0) & (pos < n_len)
                 pos = min(max(pos, 0.0), top)
                 fl = math.floor(pos)
                 idx[iq] = np.int32(fl + off)   # a vector conversion to int32 (see _locate)
-                frac[iq] = pos - fl
-                c, sn = _sincos(kcp * dr)
+                frac[iq] = np.float32(pos - fl)
+                c, sn = _sincos(kcp * d)
                 m = 1.0 if inside else 0.0
-                cr[iq] = m * c
-                ci[iq] = m * sn
+                cr[iq] = np.float32(m * c)
+                ci[iq] = np.float32(m * sn)
             _row_weights(kind, frac, w, tab)
             if ntap == 6:
                 for iq in range(nq):
@@ -283,13 +333,15 @@ def _stage0(pre, pim, first, count, geo, bistatic, inv_bin, kc, half_len, n_len,
             _taps_acc(rp, ip, idx, 0, w, ntap, cr, ci, acc_re, acc_im)
         for iq in range(nq):
             c, sn = _sincos(-kref * (q0[s] + iq * dq))
-            out_re[s, it, iq] = acc_re[iq] * c - acc_im[iq] * sn
-            out_im[s, it, iq] = acc_re[iq] * sn + acc_im[iq] * c
+            ar = np.float64(acc_re[iq])
+            ai = np.float64(acc_im[iq])
+            out_re[s, it, iq] = ar * c - ai * sn
+            out_im[s, it, iq] = ar * sn + ai * c
 
 
 @njit(inline="always")
 def _separable_row(are, aim, q0, dq, t0, dtau, kref, qs, ts, qref, kind, ntap, lo, idx_q, fq, wq, idx_t, ft,
-                   wt, okc, gre, gim, cr, ci, acc_re, acc_im, tab_q, tab_t):
+                   wt, okc, gre, gim, cr, ci, acc_re, acc_im, tab_q, tab_t, extra):
     """:func:`_polar_row` in two 1-D passes, for a row of points whose child range ``qs``
     increases strictly (a parent's row of constant τ seen from a child: the merge stages).
 
@@ -300,7 +352,12 @@ def _separable_row(are, aim, q0, dq, t0, dtau, kref, qs, ts, qref, kind, ntap, l
     ``g`` is band-limited like F in q (the curve's slope adds ~``δ/ρ²`` times the angular band,
     a few per cent at most), so the two passes cost 2·ntap taps per point instead of ntap².
     Returns False (nothing added) when the row's stencils reach no column.
+
+    ``extra``: work arrays (slopes of T between the row's points, float32 fractions in τ and in q)
+    passed as one tuple (numba cannot inline a call with more arguments). The weights are
+    float32 polynomials (``tab_q``, ``tab_t`` float32), eight lanes a vector.
     """
+    slope, ft32, fq32 = extra
     n = qs.size
     nt, nq = are.shape
     inv_dq = 1.0 / dq
@@ -326,18 +383,20 @@ def _separable_row(are, aim, q0, dq, t0, dtau, kref, qs, ts, qref, kind, ntap, l
     jlo = idx_q[i0]
     ncol = idx_q[i1] + ntap - jlo
     # T at the columns: walk the row (scalar), then locate in τ (vectorisable)
+    for i in range(n - 1):
+        slope[i] = (ts[i + 1] - ts[i]) / (qs[i + 1] - qs[i])
     k = 0
     for jj in range(ncol):
         qj = q0 + (jlo + jj) * dq
         while k < n - 2 and qs[k + 1] <= qj:
             k += 1
-        ft[jj] = ts[k] + (qj - qs[k]) * (ts[k + 1] - ts[k]) / (qs[k + 1] - qs[k])
+        ft[jj] = ts[k] + (qj - qs[k]) * slope[k]
     for jj in range(ncol):
         st, tt, okt = _locate((ft[jj] - t0) * inv_dt, lo, nt, ntap)
         idx_t[jj] = st
-        ft[jj] = tt
+        ft32[jj] = np.float32(tt)
         okc[jj] = np.float32(1.0) if okt else _Z32
-    _row_weights(kind, ft[:ncol], wt, tab_t)
+    _row_weights(kind, ft32[:ncol], wt, tab_t)
     fr = are.reshape(are.size)
     fi = aim.reshape(aim.size)
     if ntap == 6:   # runs of columns reading the same six child rows: contiguous loads
@@ -375,7 +434,9 @@ def _separable_row(are, aim, q0, dq, t0, dtau, kref, qs, ts, qref, kind, ntap, l
                 vi += wt[a, jj] * fi[k + a * nq]
             gre[jj] = okc[jj] * vr
             gim[jj] = okc[jj] * vi
-    _row_weights(kind, fq, wq, tab_q)
+    for i in range(n):
+        fq32[i] = np.float32(fq[i])
+    _row_weights(kind, fq32, wq, tab_q)
     if ntap == 6:   # runs of points whose stencil starts advance with them: contiguous loads
         i = 0
         while i < n:
@@ -403,6 +464,8 @@ def _merge(cre, cim, cgeo, cq0, dq, ct0, cdtau, pgeo, pq0, pt0, pdtau, first, co
     """Parent sub-image s = Σ over children ``first[s] .. +count[s]`` interpolated at its nodes."""
     n_par, nt, nq = out_re.shape
     ntap = NTAPS[kind]
+    tab_q32 = tab_q.astype(np.float32)
+    tab_t32 = tab_t.astype(np.float32)
     lo = -(ntap // 2 - 1)
     for job in prange(n_par * nt):
         s = job // nt
@@ -415,7 +478,7 @@ def _merge(cre, cim, cgeo, cq0, dq, ct0, cdtau, pgeo, pq0, pt0, pdtau, first, co
         qp = np.empty(nq)
         qs = np.empty(nq)
         ts = np.empty(nq)
-        idx_q, idx_t, wq, wt, cr, ci, fq, ft, flat, w32 = _row_scratch(nq, ntap)
+        idx_q, idx_t, wq, wt, cr, ci, fq, ft, flat = _row_scratch(nq, ntap)
         acc_re = np.zeros(nq)
         acc_im = np.zeros(nq)
         ncmax = max(cre.shape[2], nq) + ntap
@@ -428,6 +491,9 @@ def _merge(cre, cim, cgeo, cq0, dq, ct0, cdtau, pgeo, pq0, pt0, pdtau, first, co
         okc = np.empty(ncmax, np.float32)
         gre = np.empty(ncmax, np.float32)
         gim = np.empty(ncmax, np.float32)
+        slope = np.empty(nq)
+        ft32 = np.empty(ncmax, np.float32)
+        fq32 = np.empty(nq, np.float32)
         for iq in range(nq):
             qp[iq] = pq + iq * dq
             xs[iq], ys[iq] = _node(qp[iq], tau, p2, p3, p4, p5)
@@ -443,10 +509,10 @@ def _merge(cre, cim, cgeo, cq0, dq, ct0, cdtau, pgeo, pq0, pt0, pdtau, first, co
             if mono and nq >= 2:
                 _separable_row(cre[c], cim[c], cq0[c], dq, ct0[c], cdtau[c], kref, qs, ts, qp, kind, ntap, lo,
                                idx_q, fq, wq32, idx_t2, ftc, wtc, okc, gre, gim, cr, ci, acc_re, acc_im,
-                               tab_q, tab_t)
+                               tab_q32, tab_t32, (slope, ft32, fq32))
                 continue
             _polar_row(cre[c], cim[c], cq0[c], dq, ct0[c], cdtau[c], kref, qs, ts, qp, kind, ntap, lo,
-                       idx_q, idx_t, wq, wt, cr, ci, fq, ft, acc_re, acc_im, tab_q, tab_t, flat, w32)
+                       idx_q, idx_t, wq, wt, cr, ci, fq, ft, acc_re, acc_im, tab_q32, tab_t32, flat)
         out_re[s, it] = acc_re
         out_im[s, it] = acc_im
 
@@ -459,12 +525,14 @@ def _final(cre, cim, cgeo, cq0, dq, ct0, cdtau, x, y, kind, tab_q, tab_t, kref, 
     n_child = cre.shape[0]
     ntap = NTAPS[kind]
     lo = -(ntap // 2 - 1)
+    tab_q32 = tab_q.astype(np.float32)
+    tab_t32 = tab_t.astype(np.float32)
     for row in prange(ny):
         yv = y[row]
         zero = np.zeros(nx)
         qs = np.empty(nx)
         ts = np.empty(nx)
-        idx_q, idx_t, wq, wt, cr, ci, fq, ft, flat, w32 = _row_scratch(nx, ntap)
+        idx_q, idx_t, wq, wt, cr, ci, fq, ft, flat = _row_scratch(nx, ntap)
         acc_re = np.zeros(nx)
         acc_im = np.zeros(nx)
         for c in range(n_child):
@@ -472,6 +540,6 @@ def _final(cre, cim, cgeo, cq0, dq, ct0, cdtau, x, y, kind, tab_q, tab_t, kref, 
             for ix in range(nx):
                 qs[ix], ts[ix] = _coords(x[ix], yv, g0, g1, g2, g3, g4, g5)
             _polar_row(cre[c], cim[c], cq0[c], dq, ct0[c], cdtau[c], kref, qs, ts, zero, kind, ntap, lo,
-                       idx_q, idx_t, wq, wt, cr, ci, fq, ft, acc_re, acc_im, tab_q, tab_t, flat, w32)
+                       idx_q, idx_t, wq, wt, cr, ci, fq, ft, acc_re, acc_im, tab_q32, tab_t32, flat)
         out_re[row] = acc_re
         out_im[row] = acc_im

@@ -65,25 +65,27 @@ DEFAULTS = {"base": 16, "merge": 4, "os_range": 2.0, "os_angle": 2.0, "interp": 
 _STORE = np.float32
 #: Pulses whose range profiles are held at once in stage 0.
 _PROFILE_BLOCK = 64
+#: Largest phase (radians) the truncated range series of stage 0 may cost (:func:`_series_inputs`).
+SERIES_PHASE = 1e-7
 
 
 # ---------------------------------------------------------------------------------------------
 # polar grids
 # ---------------------------------------------------------------------------------------------
 def _centre_geometry(c):
-    """Rows cx, cy, |c|, ρ0, e0x, e0y of the polar frames of centres ``c`` [S, 3]."""
+    """Rows cx, cy, |c|, ρ0, e0x, e0y, cz of the polar frames of centres ``c`` [S, 3]."""
     cn = np.linalg.norm(c, axis=1)
     rho0 = np.hypot(c[:, 0], c[:, 1])
     if np.any(rho0 <= 0):
         raise SarcliInputError("ffbp needs every sub-aperture centre away from the scene origin's vertical; "
                                "use method 'backprojection'")
     e0 = -c[:, :2] / rho0[:, None]
-    return np.ascontiguousarray(np.stack([c[:, 0], c[:, 1], cn, rho0, e0[:, 0], e0[:, 1]]))
+    return np.ascontiguousarray(np.stack([c[:, 0], c[:, 1], cn, rho0, e0[:, 0], e0[:, 1], c[:, 2]]))
 
 
 def _coords_np(g, x, y):
     """NumPy twin of the compiled ``_coords``: (q, τ, denominator) [S, n] for points (x, y)."""
-    cx, cy, cn, rho0, e0x, e0y = (r[:, None] for r in g)
+    cx, cy, cn, rho0, e0x, e0y = (r[:, None] for r in g[:6])
     num = x * x + y * y - 2.0 * (cx * x + cy * y)
     q = num / (np.sqrt(cn * cn + num) + cn)
     den = rho0 + e0x * x + e0y * y
@@ -262,8 +264,10 @@ def plan_stages(antenna_position_m, freq_hz, grid: Grid, *, base=None, merge=Non
         for j in range(l + 1, n_lev):
             anc = np.searchsorted(children[j][0], anc, side="right") - 1
             reach += frames[j]["dtau"][anc]
-        ext_q = int(math.ceil(1.2 * half * (n_lev - l))) + 1
-        ext_t = np.ceil(1.2 * half * reach / fr["dtau"]
+        # exactly the stencils' reach, plus one sample (measured on GOTCHA: the image edges lose
+        # nothing down to 0.7 of this reach, and break at 0.5)
+        ext_q = int(math.ceil(half * (n_lev - l))) + 1
+        ext_t = np.ceil(half * reach / fr["dtau"]
                         + 0.2 * ext_q * dq / (fr["metres_per_tau"] * fr["dtau"])).astype(np.int64) + 1
         lv = _level(fr, dq, ext_q, ext_t)
         lv.children = children[l]
@@ -290,6 +294,35 @@ def _pulse_geometry(t, q, r0):
     off = (0.5 * (nt + nq) - r0.astype(np.longdouble)).astype(np.float64)
     nt, nq = nt.astype(np.float64), nq.astype(np.float64)
     return np.ascontiguousarray(np.stack([t[:, 0], t[:, 1], nt * nt, nt, q[:, 0], q[:, 1], nq * nq, nq, off]))
+
+
+def _series_inputs(t, q, r0, lev, dq, kmax):
+    """Per-pulse rows of stage 0's range series (``_ffbp_kernels._stage0``: Δ = position − centre
+    and |Δ|² for transmit and receive, ``|c| − r0``) and, per sub-aperture, whether the series'
+    truncated tail stays below :data:`SERIES_PHASE` radians of phase at every node of its grid.
+
+    With ``e = 2|Δ|/R + |Δ|²/R²`` (largest |Δ|, nearest node ``R = |c| + q``) the tail beyond the
+    eighth term is at most ``R_far |C_9| e⁹ / (1 − e)`` metres; a sub-aperture whose bound exceeds
+    ``SERIES_PHASE / k_max`` (or whose ``e`` reaches 1/2: near field, long sub-apertures, wide
+    bistatic baselines) keeps the exact square root.
+    """
+    sub = np.repeat(np.arange(lev.n), lev.count)
+    cen = np.stack([lev.geo[0], lev.geo[1], lev.geo[6]], axis=1)[sub]
+    dt, dr = t - cen, q - cen
+    dlt = np.empty((9, t.shape[0]))
+    dlt[0:3], dlt[3] = dt.T, np.sum(dt * dt, axis=1)
+    dlt[4:7], dlt[7] = dr.T, np.sum(dr * dr, axis=1)
+    dlt[8] = lev.geo[2][sub] - r0
+    reach = np.sqrt(np.maximum(dlt[3], dlt[7]))
+    dmax = np.zeros(lev.n)
+    np.maximum.at(dmax, sub, reach)
+    r_near = np.maximum(lev.geo[2] + lev.q0, 1e-300)
+    r_far = lev.geo[2] + lev.q0 + (lev.nq - 1) * dq
+    e = 2.0 * dmax / r_near + (dmax / r_near) ** 2
+    c9 = 0.0109100341796875   # |C_9|, and |C_k| falls with k
+    tail = r_far * c9 * np.minimum(e, 0.5) ** 9 / (1.0 - np.minimum(e, 0.5))
+    series = (e < 0.5) & (tail <= SERIES_PHASE / kmax)
+    return np.ascontiguousarray(dlt), series
 
 
 # ---------------------------------------------------------------------------------------------
@@ -373,7 +406,8 @@ def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weigh
     geo = _pulse_geometry(t, q, r0)
     bistatic = receive_position_m is not None and not np.array_equal(t, q)
     lev = plan.levels[0]
-    tab_p = _coefficients(k["interp"], k["upsample"])
+    dlt, series = _series_inputs(t, q, r0, lev, plan.dq, 4.0 * np.pi * float(f.max()) / C)
+    tab_p = _coefficients(k["interp"], k["upsample"]).astype(np.float32)   # stage 0 weighs in float32
     tab_q = _coefficients(k["interp"], k["os_range"])
     tab_t = _coefficients(k["interp"], k["os_angle"])
     with _Threads(nthreads) as nthr:
@@ -384,10 +418,11 @@ def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weigh
         for s0 in range(0, lev.n, per):
             s1 = min(lev.n, s0 + per)
             p0, p1 = int(lev.first[s0]), int(lev.first[s1 - 1] + lev.count[s1 - 1])
-            pre, pim = range_profiles(d[p0:p1], None if w is None else w[p0:p1], total, n_len, nthr)
+            pre, pim = range_profiles(d[p0:p1], None if w is None else w[p0:p1], total, n_len, nthr,
+                                      dtype=np.complex64)
             kern._stage0(pre, pim,
                          lev.first[s0:s1] - p0, lev.count[s0:s1], np.ascontiguousarray(geo[:, p0:p1]),
-                         bistatic, inv_bin[p0:p1], kc[p0:p1], float(n_len // 2), float(n_len), _PAD, kind,
+                         np.ascontiguousarray(dlt[:, p0:p1]), series[s0:s1], bistatic, inv_bin[p0:p1], kc[p0:p1], float(n_len // 2), float(n_len), _PAD, kind,
                          tab_p, np.ascontiguousarray(lev.geo[:, s0:s1]), lev.q0[s0:s1], plan.dq, lev.t0[s0:s1],
                          lev.dtau[s0:s1], plan.kref, cur_re[s0:s1], cur_im[s0:s1])
             del pre, pim
