@@ -141,7 +141,10 @@ class FfbpPlan:
 def _frame(pos, first, count, grid, kmax, os_angle, margin):
     """Polar frames of the sub-apertures ``first/count``: centres, bounds of the grid grown by
     ``margin`` in their coordinates, angular spacing and ground metres per τ unit."""
-    centres = np.stack([pos[f:f + n].mean(axis=0) for f, n in zip(first, count)])
+    first, count = np.asarray(first), np.asarray(count)
+    run = pos[first[0]:first[-1] + count[-1]]   # the sub-apertures are consecutive runs of pulses
+    starts = first - first[0]
+    centres = np.add.reduceat(run, starts, axis=0) / count[:, None]
     g = _centre_geometry(centres)
     xs, ys, (x0, x1, y0, y1) = _boundary(grid, margin)
     q, tau, den = _coords_np(g, xs[None, :], ys[None, :])
@@ -152,7 +155,8 @@ def _frame(pos, first, count, grid, kmax, os_angle, margin):
     qmin = np.minimum(q.min(axis=1), qn[:, 0])
     qmax = q.max(axis=1)
     # angular bandwidth: k_max (ρ/r)_max d_max
-    d = np.array([np.max(np.hypot(*(pos[f:f + n, :2] - c[:2]).T)) for f, n, c in zip(first, count, centres)])
+    sub = np.repeat(np.arange(first.size), count)
+    d = np.maximum.reduceat(np.hypot(*(run[:, :2] - centres[sub, :2]).T), starts)
     cn = g[2]
     rho_far = np.sqrt(g[3] ** 2 + qmax * (2 * cn + qmax))
     ratio = rho_far / (cn + qmax)
@@ -435,13 +439,10 @@ def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weigh
             cur_re, cur_im = nxt_re, nxt_im
             del nxt_re, nxt_im
         last = plan.levels[-1]
-        out_re = np.empty(grid.shape)
-        out_im = np.empty(grid.shape)
+        img = np.empty(grid.shape, dtype=np.complex128)   # the final stage writes its parts in place
         kern._final(cur_re, cur_im, last.geo, last.q0, plan.dq, last.t0, last.dtau,
-                    grid.x.astype(np.float64), grid.y.astype(np.float64), kind, tab_q, tab_t, plan.kref, out_re, out_im)
-    img = np.empty(grid.shape, dtype=np.complex128)
-    img.real = out_re
-    img.imag = out_im
+                    grid.x.astype(np.float64), grid.y.astype(np.float64), kind, tab_q, tab_t, plan.kref,
+                    img.real, img.imag)
     return (img, plan) if return_plan else img
 
 
