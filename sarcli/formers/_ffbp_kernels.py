@@ -2,7 +2,8 @@
 
 Three kernels, each parallel over rows of its output:
 
-- :func:`_stage0` backprojects the range profiles of each base sub-aperture onto its polar grid;
+- ``_ffbp_stage0._stage0`` backprojects the range profiles of each base sub-aperture onto its
+  polar grid (its own module; it uses the helpers here);
 - :func:`_merge` forms each parent sub-image on its polar grid from its children's (two 1-D
   interpolations along each parent row, :func:`_separable_row`; re-referenced phase);
 - :func:`_final` forms the Cartesian image from the last sub-images.
@@ -215,128 +216,6 @@ def _taps_acc(src_re, src_im, start, shift, w, ntap, cr, ci, acc_re, acc_im):
             vi += w[b, i] * src_im[k + b]
         acc_re[i] += vr * cr[i] - vi * ci[i]
         acc_im[i] += vr * ci[i] + vi * cr[i]
-
-
-#: Coefficients of ``√(1 + ε) − 1 = Σ_k C_k ε^k``, k = 1 .. 8 (binomial series of 1/2).
-SQRT_SERIES = (0.5, -0.125, 0.0625, -0.0390625, 0.02734375, -0.0205078125, 0.01611328125, -0.013092041015625)
-
-
-@njit(inline="always")
-def _series(e, c):
-    """``√(1 + e) − 1`` by the series :data:`SQRT_SERIES` (``c``), eight terms by Horner."""
-    return e * (c[0] + e * (c[1] + e * (c[2] + e * (c[3] + e * (c[4] + e * (c[5] + e * (c[6] + e * c[7])))))))
-
-
-@njit(parallel=True, cache=True, fastmath=_FM)
-def _stage0(pre, pim, first, count, geo, dlt, series, bistatic, inv_bin, kc, half_len, n_len, pad, kind, tab,
-            cgeo, q0, dq, t0, dtau, kref, out_re, out_im):
-    """Backproject the pulses ``first[s] .. first[s]+count[s]-1`` onto sub-aperture s's polar grid.
-
-    ``cgeo`` rows: cx, cy, |c|, ρ0, e0x, e0y, cz. Profile interpolation as in backprojection, in
-    the same three passes (positions and carriers, weights, gather); the profiles, weights, gather
-    and sums are float32 (the sub-images are stored in float32), positions and carriers float64.
-
-    Where ``series[s]`` is set, the range of a pulse at ``t = c + Δ`` to the node ``x`` comes from
-    the node's own range ``R = |c − x| = |c| + q`` (exact on the polar grid) and a short series:
-    ``|t − x| = R √(1 + ε)``, ``ε = (2 (c − x)·Δ + |Δ|²) / R²`` (:func:`_series`; the caller sets
-    ``series[s]`` only where the truncated tail is below a micro-radian of phase). That trades the
-    square root and division of :func:`_pulse_range` for eight fused multiply-adds. ``dlt`` rows
-    per pulse: Δ and |Δ|² of the transmit position (0-3) and of the receive position (4-7), and
-    ``|c| − r0`` (8).
-    """
-    n_sub, nt, nq = out_re.shape
-    top = n_len - 1.0
-    ntap = NTAPS[kind]
-    lo = -(ntap // 2 - 1)
-    off = float(pad + lo)
-    for job in prange(n_sub * nt):
-        s = job // nt
-        it = job - s * nt
-        tau = t0[s] + it * dtau[s]
-        xs = np.empty(nq)
-        ys = np.empty(nq)
-        ax = np.empty(nq)
-        ay = np.empty(nq)
-        az = np.empty(nq)
-        ir2 = np.empty(nq)
-        rr = np.empty(nq)
-        qq = np.empty(nq)
-        dr = np.empty(nq)
-        idx = np.empty(nq, np.int32)
-        frac = np.empty(nq, np.float32)
-        cr = np.empty(nq, np.float32)
-        ci = np.empty(nq, np.float32)
-        w = np.empty((ntap, nq), np.float32)
-        acc_re = np.zeros(nq, np.float32)
-        acc_im = np.zeros(nq, np.float32)
-        qa = q0[s]
-        c0, c1, c2, c3, c4, c5, c6 = cgeo[0, s], cgeo[1, s], cgeo[2, s], cgeo[3, s], cgeo[4, s], cgeo[5, s], cgeo[6, s]
-        for iq in range(nq):   # the node, its range from the centre and the series' factors
-            q = qa + iq * dq
-            x, y = _node(q, tau, c2, c3, c4, c5)
-            r = c2 + q
-            i2 = 1.0 / (r * r)
-            xs[iq] = x
-            ys[iq] = y
-            ax[iq] = 2.0 * (c0 - x) * i2
-            ay[iq] = 2.0 * (c1 - y) * i2
-            az[iq] = 2.0 * c6 * i2
-            ir2[iq] = i2
-            rr[iq] = r
-            qq[iq] = q
-        use_series = series[s]
-        for p in range(first[s], first[s] + count[s]):
-            rp = pre[p]
-            ip = pim[p]
-            ib = inv_bin[p]
-            kcp = kc[p]
-            if use_series:
-                tx, ty, tz, t2, offp = dlt[0, p], dlt[1, p], dlt[2, p], dlt[3, p], dlt[8, p]
-                if bistatic:
-                    bx, by, bz, b2 = dlt[4, p], dlt[5, p], dlt[6, p], dlt[7, p]
-                    for iq in range(nq):
-                        et = ax[iq] * tx + ay[iq] * ty + az[iq] * tz + t2 * ir2[iq]
-                        eb = ax[iq] * bx + ay[iq] * by + az[iq] * bz + b2 * ir2[iq]
-                        dr[iq] = qq[iq] + 0.5 * rr[iq] * (_series(et, SQRT_SERIES) + _series(eb, SQRT_SERIES)) + offp
-                else:
-                    for iq in range(nq):
-                        e = ax[iq] * tx + ay[iq] * ty + az[iq] * tz + t2 * ir2[iq]
-                        dr[iq] = qq[iq] + rr[iq] * _series(e, SQRT_SERIES) + offp
-            else:
-                g = (geo[0, p], geo[1, p], geo[2, p], geo[3, p], geo[4, p], geo[5, p], geo[6, p], geo[7, p],
-                     geo[8, p])
-                for iq in range(nq):
-                    dr[iq] = _pulse_range(xs[iq], ys[iq], g, bistatic)
-            for iq in range(nq):
-                d = dr[iq]
-                pos = d * ib + half_len
-                inside = (pos >= 0.0) & (pos < n_len)
-                pos = min(max(pos, 0.0), top)
-                fl = math.floor(pos)
-                idx[iq] = np.int32(fl + off)   # a vector conversion to int32 (see _locate)
-                frac[iq] = np.float32(pos - fl)
-                c, sn = _sincos(kcp * d)
-                m = 1.0 if inside else 0.0
-                cr[iq] = np.float32(m * c)
-                ci[iq] = np.float32(m * sn)
-            _row_weights(kind, frac, w, tab)
-            if ntap == 6:
-                for iq in range(nq):
-                    i = np.uint64(idx[iq])   # unsigned: no negative-index wrap-around tests
-                    vr = (w[0, iq] * rp[i] + w[1, iq] * rp[i + _U1] + w[2, iq] * rp[i + _U2]
-                          + w[3, iq] * rp[i + _U3] + w[4, iq] * rp[i + _U4] + w[5, iq] * rp[i + _U5])
-                    vi = (w[0, iq] * ip[i] + w[1, iq] * ip[i + _U1] + w[2, iq] * ip[i + _U2]
-                          + w[3, iq] * ip[i + _U3] + w[4, iq] * ip[i + _U4] + w[5, iq] * ip[i + _U5])
-                    acc_re[iq] += vr * cr[iq] - vi * ci[iq]
-                    acc_im[iq] += vr * ci[iq] + vi * cr[iq]
-                continue
-            _taps_acc(rp, ip, idx, 0, w, ntap, cr, ci, acc_re, acc_im)
-        for iq in range(nq):
-            c, sn = _sincos(-kref * (q0[s] + iq * dq))
-            ar = np.float64(acc_re[iq])
-            ai = np.float64(acc_im[iq])
-            out_re[s, it, iq] = ar * c - ai * sn
-            out_im[s, it, iq] = ar * sn + ai * c
 
 
 @njit(inline="always")

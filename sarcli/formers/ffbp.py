@@ -301,7 +301,7 @@ def _pulse_geometry(t, q, r0):
 
 
 def _series_inputs(t, q, r0, lev, dq, kmax):
-    """Per-pulse rows of stage 0's range series (``_ffbp_kernels._stage0``: Δ = position − centre
+    """Per-pulse rows of stage 0's range series (``_ffbp_stage0._stage0``: Δ = position − centre
     and |Δ|² for transmit and receive, ``|c| − r0``) and, per sub-aperture, whether the series'
     truncated tail stays below :data:`SERIES_PHASE` radians of phase at every node of its grid.
 
@@ -373,6 +373,7 @@ def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weigh
         ``(1/W) Σ w d e_pj(x)`` to within the predicted error (unit point peaks ≈ 1).
     """
     from . import _ffbp_kernels as kern
+    from ._ffbp_stage0 import _stage0
     from .backprojection import _PAD, _Threads, _check_data, frequency_steps, profile_length, range_profiles
 
     d = _check_data(data)   # a phase history left on disk stays there: stage 0 reads it by blocks
@@ -424,7 +425,7 @@ def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weigh
             p0, p1 = int(lev.first[s0]), int(lev.first[s1 - 1] + lev.count[s1 - 1])
             pre, pim = range_profiles(d[p0:p1], None if w is None else w[p0:p1], total, n_len, nthr,
                                       dtype=np.complex64)
-            kern._stage0(pre, pim,
+            _stage0(pre, pim,
                          lev.first[s0:s1] - p0, lev.count[s0:s1], np.ascontiguousarray(geo[:, p0:p1]),
                          np.ascontiguousarray(dlt[:, p0:p1]), series[s0:s1], bistatic, inv_bin[p0:p1], kc[p0:p1], float(n_len // 2), float(n_len), _PAD, kind,
                          tab_p, np.ascontiguousarray(lev.geo[:, s0:s1]), lev.q0[s0:s1], plan.dq, lev.t0[s0:s1],
