@@ -65,7 +65,7 @@ FAST_METHODS = ("nufft", "pfa", "backprojection")
 SPHERICAL_METHODS = ("ffbp", "subimage")
 #: ffbp: polar-grid oversampling (range = angle) × base sub-aperture, optimal kernels; plus cubic.
 FFBP_OS = (1.5, 2.0, 3.0, 4.0)
-FFBP_BASE = (8, 32)
+FFBP_BASE = (8, 16, 32)   # 16: the default
 #: subimage: the tolerance its tile (and NUFFT eps) is chosen for.
 SUBIMAGE_TOL = (1e-1, 1e-2, 1e-3)
 #: Largest P·M·pixels the exact reference is computed for (about 10 s on one core); beyond it a sub-grid.
