@@ -103,6 +103,12 @@ def test_ffbp_farfield_through_form_image():
     img = form_image(ph, "ffbp")
     err = image_error(img.image, ref)
     assert err <= 1e-2
+    # virtual antennas ~1e9 m away: stage 0's range series would round too much, so it is not used
+    import sarcli.formers.ffbp as mod
+    from sarcli.formers.formation import _positions
+    pos, r0 = _positions(ph, GRID)
+    plan = plan_stages(pos, FREQ, GRID)
+    assert not mod._series_inputs(pos, pos, r0, plan.levels[0], plan.dq, 4 * np.pi * FREQ.max() / geometry.C)[1].any()
     pred = img.parameters["predicted_error"]
     assert pred / 3 <= err <= 3 * pred
     assert img.parameters["virtual_range_m"] > 1e6 and img.method == "ffbp"
@@ -204,7 +210,7 @@ def test_stage0_range_series_matches_exact_ranges(monkeypatch, bistatic):
     assert series.all()            # 3 km range, short sub-apertures: the series holds everywhere
     monkeypatch.setattr(mod, "SERIES_PHASE", -1.0)   # no tail is small enough: exact everywhere
     exact = ffbp(data, FREQ, a, r0, GRID, receive_position_m=rcv)
-    assert image_error(fast, exact) < 1e-5
+    assert image_error(fast, exact) < 1e-7   # measured 5e-9 (monostatic), 1e-8 (bistatic)
 
 
 def test_stage0_range_series_falls_back_in_the_near_field():

@@ -308,7 +308,8 @@ def _series_inputs(t, q, r0, lev, dq, kmax):
     With ``e = 2|Δ|/R + |Δ|²/R²`` (largest |Δ|, nearest node ``R = |c| + q``) the tail beyond the
     eighth term is at most ``R_far |C_9| e⁹ / (1 − e)`` metres; a sub-aperture whose bound exceeds
     ``SERIES_PHASE / k_max`` (or whose ``e`` reaches 1/2: near field, long sub-apertures, wide
-    bistatic baselines) keeps the exact square root.
+    bistatic baselines), or whose sum ``~R e/2`` would round by more than that (the virtual
+    antennas of far-field data, ~1e9 m away), keeps the exact square root.
     """
     sub = np.repeat(np.arange(lev.n), lev.count)
     cen = np.stack([lev.geo[0], lev.geo[1], lev.geo[6]], axis=1)[sub]
@@ -325,7 +326,10 @@ def _series_inputs(t, q, r0, lev, dq, kmax):
     e = 2.0 * dmax / r_near + (dmax / r_near) ** 2
     c9 = 0.0109100341796875   # |C_9|, and |C_k| falls with k
     tail = r_far * c9 * np.minimum(e, 0.5) ** 9 / (1.0 - np.minimum(e, 0.5))
-    series = (e < 0.5) & (tail <= SERIES_PHASE / kmax)
+    # the series' sum, ~R e/2 metres, rounds at a few ulps of itself: far-field data's virtual
+    # antennas (R ~ 1e9 m) would lose ~1e-5 rad there, where the exact form loses nothing
+    rounding = 8.0 * np.finfo(np.float64).eps * r_far * e
+    series = (e < 0.5) & (tail + rounding <= SERIES_PHASE / kmax)
     return np.ascontiguousarray(dlt), series
 
 
