@@ -243,3 +243,17 @@ def test_ffbp_keeps_targets_at_the_image_edge():
     border[:, :3] = border[:, -3:] = True
     err_border = np.linalg.norm((img - ref)[border]) / np.linalg.norm(ref[border])
     assert err_border <= 2 * max(image_error(img, ref), plan.predicted_error), (err_border, image_error(img, ref))
+
+
+def test_ffbp_depth_first_groups_give_the_same_image(monkeypatch):
+    """Sub-images formed and imaged a subtree at a time (bounded memory) = all at once."""
+    import sarcli.formers.ffbp as mod
+
+    a, r0 = circle(P=384, aperture_deg=8.0)
+    data = point_data(a, r0)
+    whole, plan = ffbp(data, FREQ, a, r0, GRID, base=4, final=8, return_plan=True)
+    assert mod._subtree_groups(plan) == [(0, plan.levels[-1].n)]
+    monkeypatch.setattr(mod, "SUBTREE_BYTES", 1)   # one last-level sub-image (and its subtree) at a time
+    assert len(mod._subtree_groups(plan)) == plan.levels[-1].n >= 3
+    parts = ffbp(data, FREQ, a, r0, GRID, base=4, final=8)
+    assert image_error(parts, whole) < 1e-12

@@ -398,7 +398,8 @@ def _merge(cre, cim, cgeo, cq0, dq, ct0, cdtau, pgeo, pq0, pt0, pdtau, first, co
 
 @njit(parallel=True, cache=True, fastmath=_FM)
 def _final(cre, cim, cgeo, cq0, dq, ct0, cdtau, x, y, kind, tab_q, tab_t, kref, out_re, out_im):
-    """Cartesian image: Σ over all sub-images, interpolated at each pixel and re-modulated."""
+    """Cartesian image: Σ over the sub-images, interpolated at each pixel, re-modulated and added
+    to ``out``."""
     ny = y.size
     nx = x.size
     n_child = cre.shape[0]
@@ -420,5 +421,6 @@ def _final(cre, cim, cgeo, cq0, dq, ct0, cdtau, x, y, kind, tab_q, tab_t, kref, 
                 qs[ix], ts[ix] = _coords(x[ix], yv, g0, g1, g2, g3, g4, g5)
             _polar_row(cre[c], cim[c], cq0[c], dq, ct0[c], cdtau[c], kref, qs, ts, zero, kind, ntap, lo,
                        idx_q, idx_t, wq, wt, cr, ci, fq, ft, acc_re, acc_im, tab_q32, tab_t32, flat)
-        out_re[row] = acc_re
-        out_im[row] = acc_im
+        for ix in range(nx):   # added: the image is formed from groups of sub-images in turn
+            out_re[row, ix] += acc_re[ix]
+            out_im[row, ix] += acc_im[ix]

@@ -15,6 +15,11 @@ polar grid centred there. So
 3. **final stage**: when one more merge would cost more than it saves, the remaining sub-images are
    interpolated at every Cartesian pixel and summed.
 
+The tree is walked depth first: the last level's sub-images are taken in groups whose subtrees
+fit :data:`SUBTREE_BYTES`, and each group's stage 0, merges and final stage run before the next
+group's, adding to the image. So memory is the image plus one group's polar grids, whatever the
+number of pulses (a whole circular pass of 40 000 pulses), and short collections run in one group.
+
 Every step evaluates the exact spherical geometry of its own sub-aperture centre, so curved and
 climbing paths are fine; far-field data are imaged through virtual antennas exactly as
 backprojection does (:func:`sarcli.formers.formation._positions`).
@@ -65,6 +70,9 @@ DEFAULTS = {"base": 16, "merge": 4, "os_range": 2.0, "os_angle": 2.0, "interp": 
 _STORE = np.float32
 #: Pulses whose range profiles are held at once in stage 0.
 _PROFILE_BLOCK = 64
+#: Polar sub-images (bytes) formed at once: the last level's sub-images are formed and imaged in
+#: groups whose subtrees fit this (:func:`_subtree_groups`), so memory does not grow with the pulses.
+SUBTREE_BYTES = 256 * 2 ** 20
 #: Largest phase (radians) the truncated range series of stage 0 may cost (:func:`_series_inputs`).
 SERIES_PHASE = 1e-7
 
@@ -333,6 +341,27 @@ def _series_inputs(t, q, r0, lev, dq, kmax):
     return np.ascontiguousarray(dlt), series
 
 
+def _descend(levels, a, b):
+    """Index ranges ``[(lo, hi)]`` per level of the subtree below sub-images ``a .. b-1`` of the
+    last level (the sub-apertures of every level are consecutive runs of their children)."""
+    out = [(a, b)]
+    for lv in levels[:0:-1]:
+        pf, pc = lv.children
+        a, b = int(pf[a]), int(pf[b - 1] + pc[b - 1])
+        out.append((a, b))
+    return out[::-1]
+
+
+def _subtree_groups(plan):
+    """Groups ``(a, b)`` of the last level's sub-images whose subtrees (every level's polar grids
+    below them, float32) fit :data:`SUBTREE_BYTES` together; at least one sub-image a group."""
+    levels = plan.levels
+    n_last = levels[-1].n
+    per = sum(8.0 * lv.n * lv.nt * lv.nq for lv in levels) / n_last
+    g = max(1, min(n_last, int(SUBTREE_BYTES // per)))
+    return [(a, min(n_last, a + g)) for a in range(0, n_last, g)]
+
+
 # ---------------------------------------------------------------------------------------------
 # public function
 # ---------------------------------------------------------------------------------------------
@@ -419,35 +448,48 @@ def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weigh
     tab_p = _coefficients(k["interp"], k["upsample"]).astype(np.float32)   # stage 0 weighs in float32
     tab_q = _coefficients(k["interp"], k["os_range"])
     tab_t = _coefficients(k["interp"], k["os_angle"])
+    levels = plan.levels
+    img = None   # made at the first final stage (when only the last level is alive); parts add in place
     with _Threads(nthreads) as nthr:
-        cur_re = np.empty((lev.n, lev.nt, lev.nq), dtype=_STORE)
-        cur_im = np.empty((lev.n, lev.nt, lev.nq), dtype=_STORE)
-        # stage 0 in blocks of sub-apertures (bounded profile memory)
-        per = max(1, _PROFILE_BLOCK // int(lev.count.max()))
-        for s0 in range(0, lev.n, per):
-            s1 = min(lev.n, s0 + per)
-            p0, p1 = int(lev.first[s0]), int(lev.first[s1 - 1] + lev.count[s1 - 1])
-            pre, pim = range_profiles(d[p0:p1], None if w is None else w[p0:p1], total, n_len, nthr,
-                                      dtype=np.complex64)
-            _stage0(pre, pim,
-                         lev.first[s0:s1] - p0, lev.count[s0:s1], np.ascontiguousarray(geo[:, p0:p1]),
-                         np.ascontiguousarray(dlt[:, p0:p1]), series[s0:s1], bistatic, inv_bin[p0:p1], kc[p0:p1], float(n_len // 2), float(n_len), _PAD, kind,
-                         tab_p, np.ascontiguousarray(lev.geo[:, s0:s1]), lev.q0[s0:s1], plan.dq, lev.t0[s0:s1],
-                         lev.dtau[s0:s1], plan.kref, cur_re[s0:s1], cur_im[s0:s1])
-            del pre, pim
-        for child, parent in zip(plan.levels[:-1], plan.levels[1:]):
-            pf, pc = parent.children
-            nxt_re = np.empty((parent.n, parent.nt, parent.nq), dtype=_STORE)
-            nxt_im = np.empty((parent.n, parent.nt, parent.nq), dtype=_STORE)
-            kern._merge(cur_re, cur_im, child.geo, child.q0, plan.dq, child.t0, child.dtau, parent.geo,
-                        parent.q0, parent.t0, parent.dtau, pf, pc, kind, tab_q, tab_t, plan.kref, nxt_re, nxt_im)
-            cur_re, cur_im = nxt_re, nxt_im
-            del nxt_re, nxt_im
-        last = plan.levels[-1]
-        img = np.empty(grid.shape, dtype=np.complex128)   # the final stage writes its parts in place
-        kern._final(cur_re, cur_im, last.geo, last.q0, plan.dq, last.t0, last.dtau,
-                    grid.x.astype(np.float64), grid.y.astype(np.float64), kind, tab_q, tab_t, plan.kref,
-                    img.real, img.imag)
+        # depth first: the last level's sub-images in groups, each group's whole subtree (stage 0,
+        # merges) formed, added to the image and freed, so memory does not grow with the pulses
+        for a0, b0 in _subtree_groups(plan):
+            rng = _descend(levels, a0, b0)
+            lo, hi = rng[0]
+            cur_re = np.empty((hi - lo, lev.nt, lev.nq), dtype=_STORE)
+            cur_im = np.empty((hi - lo, lev.nt, lev.nq), dtype=_STORE)
+            # stage 0 in blocks of sub-apertures (bounded profile memory)
+            per = max(1, _PROFILE_BLOCK // int(lev.count.max()))
+            for s0 in range(lo, hi, per):
+                s1 = min(hi, s0 + per)
+                p0, p1 = int(lev.first[s0]), int(lev.first[s1 - 1] + lev.count[s1 - 1])
+                pre, pim = range_profiles(d[p0:p1], None if w is None else w[p0:p1], total, n_len, nthr,
+                                          dtype=np.complex64)
+                _stage0(pre, pim, lev.first[s0:s1] - p0, lev.count[s0:s1], np.ascontiguousarray(geo[:, p0:p1]),
+                        np.ascontiguousarray(dlt[:, p0:p1]), series[s0:s1], bistatic, inv_bin[p0:p1], kc[p0:p1],
+                        float(n_len // 2), float(n_len), _PAD, kind, tab_p, np.ascontiguousarray(lev.geo[:, s0:s1]),
+                        lev.q0[s0:s1], plan.dq, lev.t0[s0:s1], lev.dtau[s0:s1], plan.kref,
+                        cur_re[s0 - lo:s1 - lo], cur_im[s0 - lo:s1 - lo])
+                del pre, pim
+            for l in range(1, len(levels)):
+                child, parent = levels[l - 1], levels[l]
+                (c0, c1), (u0, u1) = rng[l - 1], rng[l]
+                pf, pc = parent.children
+                nxt_re = np.empty((u1 - u0, parent.nt, parent.nq), dtype=_STORE)
+                nxt_im = np.empty((u1 - u0, parent.nt, parent.nq), dtype=_STORE)
+                kern._merge(cur_re, cur_im, np.ascontiguousarray(child.geo[:, c0:c1]), child.q0[c0:c1], plan.dq,
+                            child.t0[c0:c1], child.dtau[c0:c1], np.ascontiguousarray(parent.geo[:, u0:u1]),
+                            parent.q0[u0:u1], parent.t0[u0:u1], parent.dtau[u0:u1], pf[u0:u1] - c0, pc[u0:u1],
+                            kind, tab_q, tab_t, plan.kref, nxt_re, nxt_im)
+                cur_re, cur_im = nxt_re, nxt_im
+                del nxt_re, nxt_im
+            last = levels[-1]
+            if img is None:
+                img = np.zeros(grid.shape, dtype=np.complex128)
+            kern._final(cur_re, cur_im, np.ascontiguousarray(last.geo[:, a0:b0]), last.q0[a0:b0], plan.dq,
+                        last.t0[a0:b0], last.dtau[a0:b0], grid.x.astype(np.float64), grid.y.astype(np.float64),
+                        kind, tab_q, tab_t, plan.kref, img.real, img.imag)
+            del cur_re, cur_im
     return (img, plan) if return_plan else img
 
 
