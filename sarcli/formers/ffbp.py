@@ -214,7 +214,8 @@ def plan_stages(antenna_position_m, freq_hz, grid: Grid, *, base=None, merge=Non
 
     Parameters as for :func:`ffbp`. ``ops`` holds the multiply-add counts of stage 0
     (pulse × node × taps), the merges (node × child × 2 taps: two 1-D passes) and the final stage
-    (pixel × child × taps²), from which :mod:`sarcli.formers.planner` predicts the time.
+    (pixel × child × taps²), from which :mod:`sarcli.formers.planner` predicts the time, and
+    ``grid_bytes``, the peak bytes of polar grids (two adjacent levels of one depth-first group).
 
     ``final``: merge until at most that many sub-images remain (default: while a merge costs less
     than it saves in the final stage).
@@ -290,6 +291,11 @@ def plan_stages(antenna_position_m, freq_hz, grid: Grid, *, base=None, merge=Non
     for lv in levels[1:]:
         ops["merge"] += float(lv.n) * lv.nt * lv.nq * merge * 2 * ntap
     plan = FfbpPlan(levels, dq, kref, levels[-1].n, ops, {**k, "base": base, "merge": merge})
+    # peak bytes of polar grids (float32 pairs): two adjacent levels of one depth-first group
+    lv_bytes = [8.0 * lv.n * lv.nt * lv.nq for lv in levels]
+    pair = max([a + b for a, b in zip(lv_bytes, lv_bytes[1:])] or lv_bytes)
+    a0, b0 = _subtree_groups(plan)[0]
+    ops["grid_bytes"] = pair * (b0 - a0) / levels[-1].n
     plan.predicted_error = predict_error([(int(fr["count"].max()), fr["beta"]) for fr in frames],
                                          interp=k["interp"], os_range=k["os_range"], os_angle=k["os_angle"],
                                          upsample=k["upsample"]) + frequency_error(f, pos, grid)

@@ -141,7 +141,7 @@ def candidates(ph, grid: Grid, tolerance: float, *, costs=None, nthreads=None) -
                      + c["bp_fft"] * P * L * math.log2(L)) / thr
                 cand = Candidate("ffbp", {"base": base, "merge": fb.DEFAULTS["merge"], "os_range": os_, "os_angle": os_,
                                           "interp": "optimal", "upsample": up}, plan.predicted_error, t,
-                                 16 * (2 * 2 * o["nodes"] + P * M + 2 * npix), f"{plan.n_stages} stages")
+                                 o["grid_bytes"] + 16 * (P * M + npix), f"{plan.n_stages} stages")
                 key = cand.predicted_error <= target
                 if key and (key not in best or t < best[key].seconds):
                     best[key] = cand
