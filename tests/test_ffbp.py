@@ -104,7 +104,7 @@ def test_ffbp_farfield_through_form_image():
     err = image_error(img.image, ref)
     assert err <= 1e-2
     # virtual antennas ~1e9 m away: stage 0's range series would round too much, so it is not used
-    import sarcli.formers.ffbp as mod
+    import sarcli.formers._ffbp_stage0 as mod
     from sarcli.formers.formation import _positions
     pos, r0 = _positions(ph, GRID)
     plan = plan_stages(pos, FREQ, GRID)
@@ -196,7 +196,7 @@ def test_cli_form_image_ffbp(tmp_path):
 @pytest.mark.parametrize("bistatic", [False, True])
 def test_stage0_range_series_matches_exact_ranges(monkeypatch, bistatic):
     """Stage 0's range series (``_series_inputs``) gives the image of the exact square roots."""
-    import sarcli.formers.ffbp as mod
+    import sarcli.formers._ffbp_stage0 as mod
 
     a, r0 = circle(P=128)
     rcv = a + np.array([0.0, 40.0, 5.0]) if bistatic else None
@@ -215,7 +215,7 @@ def test_stage0_range_series_matches_exact_ranges(monkeypatch, bistatic):
 
 def test_stage0_range_series_falls_back_in_the_near_field():
     """A long sub-aperture seen from close by keeps the exact square root (the tail bound fails)."""
-    import sarcli.formers.ffbp as mod
+    import sarcli.formers._ffbp_stage0 as mod
 
     a, r0 = circle(P=1024, r0=100.0, aperture_deg=40.0)
     kmax = 4 * np.pi * FREQ.max() / geometry.C

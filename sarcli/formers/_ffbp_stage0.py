@@ -1,7 +1,8 @@
 """Stage 0 of fast factorised backprojection (:mod:`sarcli.formers.ffbp`): the pulses of each base
 sub-aperture backprojected onto its polar grid, with ranges from a short series about the
-sub-aperture centre where its truncation allows (:func:`_stage0`). The polar-grid helpers it shares
-with the merges live in :mod:`sarcli.formers._ffbp_kernels`.
+sub-aperture centre where its truncation allows (:func:`_stage0`; the series' inputs and where it
+holds from :func:`_series_inputs`). The polar-grid helpers it shares with the merges live in
+:mod:`sarcli.formers._ffbp_kernels`.
 """
 
 from __future__ import annotations
@@ -13,6 +14,9 @@ from numba import njit, prange
 
 from ._bp_kernels import _FM, _U1, _U2, _U3, _U4, _U5, _sincos
 from ._ffbp_kernels import NTAPS, _node, _pulse_range, _row_weights, _taps_acc
+
+#: Largest phase (radians) the truncated range series of stage 0 may cost (:func:`_series_inputs`).
+SERIES_PHASE = 1e-7
 
 #: Coefficients of ``√(1 + ε) − 1 = Σ_k C_k ε^k``, k = 1 .. 8 (binomial series of 1/2).
 SQRT_SERIES = (0.5, -0.125, 0.0625, -0.0390625, 0.02734375, -0.0205078125, 0.01611328125, -0.013092041015625)
@@ -134,3 +138,36 @@ def _stage0(pre, pim, first, count, geo, dlt, series, bistatic, inv_bin, kc, hal
             ai = np.float64(acc_im[iq])
             out_re[s, it, iq] = ar * c - ai * sn
             out_im[s, it, iq] = ar * sn + ai * c
+
+
+def _series_inputs(t, q, r0, lev, dq, kmax):
+    """Per-pulse rows of stage 0's range series (:func:`_stage0`: Δ = position − centre
+    and |Δ|² for transmit and receive, ``|c| − r0``) and, per sub-aperture, whether the series'
+    truncated tail stays below :data:`SERIES_PHASE` radians of phase at every node of its grid.
+
+    With ``e = 2|Δ|/R + |Δ|²/R²`` (largest |Δ|, nearest node ``R = |c| + q``) the tail beyond the
+    eighth term is at most ``R_far |C_9| e⁹ / (1 − e)`` metres; a sub-aperture whose bound exceeds
+    ``SERIES_PHASE / k_max`` (or whose ``e`` reaches 1/2: near field, long sub-apertures, wide
+    bistatic baselines), or whose sum ``~R e/2`` would round by more than that (the virtual
+    antennas of far-field data, ~1e9 m away), keeps the exact square root.
+    """
+    sub = np.repeat(np.arange(lev.n), lev.count)
+    cen = np.stack([lev.geo[0], lev.geo[1], lev.geo[6]], axis=1)[sub]
+    dt, dr = t - cen, q - cen
+    dlt = np.empty((9, t.shape[0]))
+    dlt[0:3], dlt[3] = dt.T, np.sum(dt * dt, axis=1)
+    dlt[4:7], dlt[7] = dr.T, np.sum(dr * dr, axis=1)
+    dlt[8] = lev.geo[2][sub] - r0
+    reach = np.sqrt(np.maximum(dlt[3], dlt[7]))
+    dmax = np.zeros(lev.n)
+    np.maximum.at(dmax, sub, reach)
+    r_near = np.maximum(lev.geo[2] + lev.q0, 1e-300)
+    r_far = lev.geo[2] + lev.q0 + (lev.nq - 1) * dq
+    e = 2.0 * dmax / r_near + (dmax / r_near) ** 2
+    c9 = 0.0109100341796875   # |C_9|, and |C_k| falls with k
+    tail = r_far * c9 * np.minimum(e, 0.5) ** 9 / (1.0 - np.minimum(e, 0.5))
+    # the series' sum, ~R e/2 metres, rounds at a few ulps of itself: far-field data's virtual
+    # antennas (R ~ 1e9 m) would lose ~1e-5 rad there, where the exact form loses nothing
+    rounding = 8.0 * np.finfo(np.float64).eps * r_far * e
+    series = (e < 0.5) & (tail + rounding <= SERIES_PHASE / kmax)
+    return np.ascontiguousarray(dlt), series

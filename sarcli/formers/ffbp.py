@@ -73,8 +73,6 @@ _PROFILE_BLOCK = 64
 #: Polar sub-images (bytes) formed at once: the last level's sub-images are formed and imaged in
 #: groups whose subtrees fit this (:func:`_subtree_groups`), so memory does not grow with the pulses.
 SUBTREE_BYTES = 256 * 2 ** 20
-#: Largest phase (radians) the truncated range series of stage 0 may cost (:func:`_series_inputs`).
-SERIES_PHASE = 1e-7
 
 
 # ---------------------------------------------------------------------------------------------
@@ -314,39 +312,6 @@ def _pulse_geometry(t, q, r0):
     return np.ascontiguousarray(np.stack([t[:, 0], t[:, 1], nt * nt, nt, q[:, 0], q[:, 1], nq * nq, nq, off]))
 
 
-def _series_inputs(t, q, r0, lev, dq, kmax):
-    """Per-pulse rows of stage 0's range series (``_ffbp_stage0._stage0``: Δ = position − centre
-    and |Δ|² for transmit and receive, ``|c| − r0``) and, per sub-aperture, whether the series'
-    truncated tail stays below :data:`SERIES_PHASE` radians of phase at every node of its grid.
-
-    With ``e = 2|Δ|/R + |Δ|²/R²`` (largest |Δ|, nearest node ``R = |c| + q``) the tail beyond the
-    eighth term is at most ``R_far |C_9| e⁹ / (1 − e)`` metres; a sub-aperture whose bound exceeds
-    ``SERIES_PHASE / k_max`` (or whose ``e`` reaches 1/2: near field, long sub-apertures, wide
-    bistatic baselines), or whose sum ``~R e/2`` would round by more than that (the virtual
-    antennas of far-field data, ~1e9 m away), keeps the exact square root.
-    """
-    sub = np.repeat(np.arange(lev.n), lev.count)
-    cen = np.stack([lev.geo[0], lev.geo[1], lev.geo[6]], axis=1)[sub]
-    dt, dr = t - cen, q - cen
-    dlt = np.empty((9, t.shape[0]))
-    dlt[0:3], dlt[3] = dt.T, np.sum(dt * dt, axis=1)
-    dlt[4:7], dlt[7] = dr.T, np.sum(dr * dr, axis=1)
-    dlt[8] = lev.geo[2][sub] - r0
-    reach = np.sqrt(np.maximum(dlt[3], dlt[7]))
-    dmax = np.zeros(lev.n)
-    np.maximum.at(dmax, sub, reach)
-    r_near = np.maximum(lev.geo[2] + lev.q0, 1e-300)
-    r_far = lev.geo[2] + lev.q0 + (lev.nq - 1) * dq
-    e = 2.0 * dmax / r_near + (dmax / r_near) ** 2
-    c9 = 0.0109100341796875   # |C_9|, and |C_k| falls with k
-    tail = r_far * c9 * np.minimum(e, 0.5) ** 9 / (1.0 - np.minimum(e, 0.5))
-    # the series' sum, ~R e/2 metres, rounds at a few ulps of itself: far-field data's virtual
-    # antennas (R ~ 1e9 m) would lose ~1e-5 rad there, where the exact form loses nothing
-    rounding = 8.0 * np.finfo(np.float64).eps * r_far * e
-    series = (e < 0.5) & (tail + rounding <= SERIES_PHASE / kmax)
-    return np.ascontiguousarray(dlt), series
-
-
 def _descend(levels, a, b):
     """Index ranges ``[(lo, hi)]`` per level of the subtree below sub-images ``a .. b-1`` of the
     last level (the sub-apertures of every level are consecutive runs of their children)."""
@@ -412,7 +377,7 @@ def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weigh
         ``(1/W) Σ w d e_pj(x)`` to within the predicted error (unit point peaks ≈ 1).
     """
     from . import _ffbp_kernels as kern
-    from ._ffbp_stage0 import _stage0
+    from ._ffbp_stage0 import _series_inputs, _stage0
     from .backprojection import _PAD, _Threads, _check_data, frequency_steps, profile_length, range_profiles
 
     d = _check_data(data)   # a phase history left on disk stays there: stage 0 reads it by blocks
