@@ -199,14 +199,21 @@ def calibrate(path=None, *, repeat: int = 3) -> dict:
     c["bp"] = best(lambda: backproject(d, freq, a, r0, grid)) * thr / (P * N * N)
     small = Grid(32, 32, 0.5, 0.5)
     c["direct"] = best(lambda: direct_spherical(d, freq, a, r0, small)) * thr / (P * M * 32 * 32)
-    plan = fb.plan_stages(a, freq, grid)
-    t = best(lambda: fb.ffbp(d, freq, a, r0, grid)) * thr
-    o = plan.ops
-    # split the measured time between stage 0 and the MACs in the default ratio of the constants
-    share = _DEFAULT_COSTS["ffbp_stage0"] * o["stage0"] + _DEFAULT_COSTS["ffbp_mac"] * (o["merge"] + o["final"])
-    scale = (t - c["bp_fft"] * P * L * math.log2(L)) / share
-    c["ffbp_stage0"] = _DEFAULT_COSTS["ffbp_stage0"] * scale
-    c["ffbp_mac"] = _DEFAULT_COSTS["ffbp_mac"] * scale
+    # ffbp: two settings whose stage-0 and interpolation shares differ give both constants
+    lf = profile_length(M, fb.DEFAULTS["upsample"])
+    rows, rhs = [], []
+    for knobs in ({}, {"base": 8, "os_range": 3.0, "os_angle": 3.0}):
+        o = fb.plan_stages(a, freq, grid, **knobs).ops
+        t = best(lambda: fb.ffbp(d, freq, a, r0, grid, **knobs)) * thr
+        rows.append([o["stage0"], o["merge"] + o["final"]])
+        rhs.append(t - c["bp_fft"] * P * lf * math.log2(lf))
+    sol = np.linalg.solve(np.array(rows), np.array(rhs)) if abs(np.linalg.det(np.array(rows))) > 0 else None
+    if sol is None or not np.all(sol > 0):
+        # ill-posed on this machine's timings: split the default setting's time in the default ratio
+        o = rows[0]
+        scale = rhs[0] / (_DEFAULT_COSTS["ffbp_stage0"] * o[0] + _DEFAULT_COSTS["ffbp_mac"] * o[1])
+        sol = (_DEFAULT_COSTS["ffbp_stage0"] * scale, _DEFAULT_COSTS["ffbp_mac"] * scale)
+    c["ffbp_stage0"], c["ffbp_mac"] = float(sol[0]), float(sol[1])
     kx, ky = geometry.kspace_coordinates(freq, az, np.radians(30))
     w = _nufft_width(1e-6)
     t = best(lambda: nufft_farfield(d, kx, ky, grid, eps=1e-6)) * thr
