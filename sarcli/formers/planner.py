@@ -166,7 +166,8 @@ def calibrate(path=None, *, repeat: int = 3) -> dict:
     """Measure the per-operation constants on this machine and write them to ``cost_model.json``.
 
     Small instances of every former (a few seconds in all); each constant is its measured time
-    (best of ``repeat``) divided by its operation count.
+    (best of ``repeat``) divided by its operation count, except ffbp's two (stage 0 and the
+    interpolating stages), which solve the timings of two settings with different shares of each.
     """
     from ..core import geometry
     from . import ffbp as fb
