@@ -169,9 +169,11 @@ def _polar_row(are, aim, q0, dq, t0, dtau, kref, qs, ts, qref, kind, ntap, lo, i
     weights, gather) so the first two vectorise."""
     n = qs.size
     nt, nq = are.shape
+    inv_dq = 1.0 / dq
+    inv_dt = 1.0 / dtau
     for i in range(n):
-        sq, tq, okq = _locate((qs[i] - q0) / dq, lo, nq, ntap)
-        st, tt, okt = _locate((ts[i] - t0) / dtau, lo, nt, ntap)
+        sq, tq, okq = _locate((qs[i] - q0) * inv_dq, lo, nq, ntap)
+        st, tt, okt = _locate((ts[i] - t0) * inv_dt, lo, nt, ntap)
         idx_q[i] = sq
         idx_t[i] = st
         fq[i] = tq
