@@ -18,8 +18,20 @@ from ._ffbp_kernels import NTAPS, _node, _pulse_range, _row_weights, _taps_acc
 #: Largest phase (radians) the truncated range series of stage 0 may cost (:func:`_series_inputs`).
 SERIES_PHASE = 1e-7
 
-#: Coefficients of ``√(1 + ε) − 1 = Σ_k C_k ε^k``, k = 1 .. 8 (binomial series of 1/2).
-SQRT_SERIES = (0.5, -0.125, 0.0625, -0.0390625, 0.02734375, -0.0205078125, 0.01611328125, -0.013092041015625)
+
+def _binomial_half(n):
+    """``C_k = binom(1/2, k)``, k = 1 .. n: the coefficients of ``√(1 + ε) − 1 = Σ_k C_k ε^k``
+    (exact binary fractions; ``|C_k|`` falls with k)."""
+    c, out = 1.0, []
+    for k in range(1, n + 1):
+        c *= (1.5 - k) / k
+        out.append(c)
+    return tuple(out)
+
+
+#: The eight terms :func:`_series` sums, and ``|C_9|``, which bounds the tail it leaves.
+SQRT_SERIES = _binomial_half(8)
+SQRT_TAIL = abs(_binomial_half(9)[8])
 
 
 @njit(inline="always")
@@ -164,8 +176,7 @@ def _series_inputs(t, q, r0, lev, dq, kmax):
     r_near = np.maximum(lev.geo[2] + lev.q0, 1e-300)
     r_far = lev.geo[2] + lev.q0 + (lev.nq - 1) * dq
     e = 2.0 * dmax / r_near + (dmax / r_near) ** 2
-    c9 = 0.0109100341796875   # |C_9|, and |C_k| falls with k
-    tail = r_far * c9 * np.minimum(e, 0.5) ** 9 / (1.0 - np.minimum(e, 0.5))
+    tail = r_far * SQRT_TAIL * np.minimum(e, 0.5) ** 9 / (1.0 - np.minimum(e, 0.5))
     # the series' sum, ~R e/2 metres, rounds at a few ulps of itself: far-field data's virtual
     # antennas (R ~ 1e9 m) would lose ~1e-5 rad there, where the exact form loses nothing
     rounding = 8.0 * np.finfo(np.float64).eps * r_far * e

@@ -125,6 +125,11 @@ class _Level:
     def n(self):
         return self.first.size
 
+    @property
+    def nbytes(self) -> float:
+        """Bytes of this level's sub-images (float32 real and imaginary parts)."""
+        return 8.0 * self.n * self.nt * self.nq
+
 
 @dataclass
 class FfbpPlan:
@@ -290,7 +295,7 @@ def plan_stages(antenna_position_m, freq_hz, grid: Grid, *, base=None, merge=Non
         ops["merge"] += float(lv.n) * lv.nt * lv.nq * merge * 2 * ntap
     plan = FfbpPlan(levels, dq, kref, levels[-1].n, ops, {**k, "base": base, "merge": merge})
     # peak bytes of polar grids (float32 pairs): two adjacent levels of one depth-first group
-    lv_bytes = [8.0 * lv.n * lv.nt * lv.nq for lv in levels]
+    lv_bytes = [lv.nbytes for lv in levels]
     pair = max([a + b for a, b in zip(lv_bytes, lv_bytes[1:])] or lv_bytes)
     a0, b0 = _subtree_groups(plan)[0]
     ops["grid_bytes"] = pair * (b0 - a0) / levels[-1].n
@@ -328,7 +333,7 @@ def _subtree_groups(plan):
     below them, float32) fit :data:`SUBTREE_BYTES` together; at least one sub-image a group."""
     levels = plan.levels
     n_last = levels[-1].n
-    per = sum(8.0 * lv.n * lv.nt * lv.nq for lv in levels) / n_last
+    per = sum(lv.nbytes for lv in levels) / n_last
     g = max(1, min(n_last, int(SUBTREE_BYTES // per)))
     return [(a, min(n_last, a + g)) for a in range(0, n_last, g)]
 
