@@ -60,11 +60,17 @@ from ..core.grid import Grid
 from ..errors import SarcliInputError
 from .ffbp_model import INTERPOLATORS, NTAPS as _NTAPS, frequency_error, interp_error, optimal_kernel, predict_error
 from .ffbp_model import coefficients as _coefficients
+from .ffbp_model import deapodized_error, deapodized_kernel, deapodized_response, deapodized_slope
 
 __all__ = ["ffbp", "ffbp_image", "optimal_kernel", "plan_stages", "predict_error", "interp_error", "FfbpPlan", "DEFAULTS"]
 
 #: Default knobs (see docs/ffbp.md for the error-vs-time frontier behind them).
-DEFAULTS = {"base": 16, "merge": 4, "os_range": 2.0, "os_angle": 2.0, "interp": "optimal", "upsample": 4.0}
+DEFAULTS = {"base": 16, "merge": 4, "os_range": 2.0, "os_angle": 2.0, "interp": "optimal", "upsample": 2.0}
+#: ``os_range`` tried first when it is not given (``interp='optimal'``): kept where the plan
+#: deapodizes the range kernel and its range error is predicted no larger than at the default 2.
+OS_RANGE_DEAPODIZED = 1.5
+#: Profile upsampling of the analytic kernels (only ``optimal``'s profiles are deapodized).
+UPSAMPLE_ANALYTIC = 4.0
 #: Storage of the polar sub-images: float32 halves their memory and traffic; its rounding (6e-8
 #: relative) is far below any interpolation error the knobs allow. Arithmetic stays float64.
 _STORE = np.float32
@@ -142,6 +148,10 @@ class FfbpPlan:
     ops: dict = field(default_factory=dict)
     knobs: dict = field(default_factory=dict)
     predicted_error: float = float("nan")
+    #: whether the polar grids' range kernel is deapodized (:func:`plan_stages`), and the error
+    #: its frequency mismatch is predicted to cost
+    range_deapodized: bool = False
+    range_mismatch: float = 0.0
 
     @property
     def n_stages(self) -> int:
@@ -181,6 +191,33 @@ def _frame(pos, first, count, grid, kmax, os_angle, margin):
             "tmin": tmin, "tmax": tmax, "dtau": dtau, "metres_per_tau": float(np.max(rho_far))}
 
 
+def _range_slope(pos, fr, grid, margin):
+    """Largest ``|dR_p/dq − 1|`` over the pulses of a frame and points of the (grown) grid: how
+    much faster or slower than the sub-aperture centre's range q a pulse's range grows along the
+    polar grid's rows (ground rays from the centre's nadir). A pulse's range frequency along q is
+    ``k_j dR_p/dq``, not the ``k_j`` the range kernel's deapodization assumes: a climbing path, or a
+    sub-aperture whose depression angle varies, moves it by ``k_j`` times this."""
+    xs, ys, _ = _boundary(grid, margin)
+    xs = np.concatenate([xs[::4], [0.5 * (grid.x[0] + grid.x[-1])]])
+    ys = np.concatenate([ys[::4], [0.5 * (grid.y[0] + grid.y[-1])]])
+    sub = np.repeat(np.arange(fr["first"].size), fr["count"])
+    run = pos[fr["first"][0]:fr["first"][0] + sub.size]
+    g = fr["geo"]
+    worst = 0.0
+    for a in range(0, sub.size, 4096):   # blocks of pulses: no [P, points] temporaries beyond 4096 rows
+        sb = sub[a:a + 4096]
+        cx, cy, cz = g[0][sb][:, None], g[1][sb][:, None], g[6][sb][:, None]
+        hx, hy = xs[None, :] - cx, ys[None, :] - cy
+        h = np.hypot(hx, hy)
+        rc = np.sqrt(h * h + cz * cz)
+        t = run[a:a + 4096]
+        px, py, pz = xs[None, :] - t[:, 0:1], ys[None, :] - t[:, 1:2], t[:, 2:3]
+        rp = np.sqrt(px * px + py * py + pz * pz)
+        ratio = ((px * hx + py * hy) / (h * rp)) / (h / rc)
+        worst = max(worst, float(np.max(np.abs(ratio - 1.0))))
+    return worst
+
+
 def _level(fr, dq, ext_q, ext_t) -> _Level:
     """The polar grids of a frame, extended by ``ext_q``/``ext_t`` samples on each side (``ext_t``
     may differ between sub-apertures; the grids share the largest shape)."""
@@ -214,6 +251,28 @@ def _split(n, size, merge=None):
 def plan_stages(antenna_position_m, freq_hz, grid: Grid, *, base=None, merge=None, os_range=None,
                 os_angle=None, interp=None, upsample=None, final=None) -> FfbpPlan:
     """The FFBP stages for a geometry (no data needed): levels, operation counts, predicted error.
+
+    ``os_range=None`` with the ``optimal`` kernels tries :data:`OS_RANGE_DEAPODIZED` first and keeps
+    it where the range kernel is deapodized and its predicted range error (aliases of every range
+    interpolation plus the frequency mismatch) is no larger than the minimax stencil's at
+    ``DEFAULTS['os_range']``; otherwise the default. ``upsample=None``: ``DEFAULTS['upsample']``
+    for ``optimal`` (its profiles are deapodized), :data:`UPSAMPLE_ANALYTIC` for the others.
+    """
+    kw = dict(base=base, merge=merge, os_angle=os_angle, interp=interp, final=final)
+    if upsample is None and interp not in (None, "optimal"):
+        upsample = UPSAMPLE_ANALYTIC
+    kw["upsample"] = upsample
+    if os_range is None and interp in (None, "optimal"):
+        plan = _plan_stages(antenna_position_m, freq_hz, grid, os_range=OS_RANGE_DEAPODIZED, **kw)
+        e_fine = len(plan.levels) * deapodized_error(OS_RANGE_DEAPODIZED) + plan.range_mismatch
+        if plan.range_deapodized and e_fine <= len(plan.levels) * interp_error("optimal", DEFAULTS["os_range"]):
+            return plan
+    return _plan_stages(antenna_position_m, freq_hz, grid, os_range=os_range, **kw)
+
+
+def _plan_stages(antenna_position_m, freq_hz, grid: Grid, *, base=None, merge=None, os_range=None,
+                 os_angle=None, interp=None, upsample=None, final=None) -> FfbpPlan:
+    """:func:`plan_stages` for given knobs (``None``: :data:`DEFAULTS`).
 
     Parameters as for :func:`ffbp`. ``ops`` holds the multiply-add counts of stage 0
     (pulse × node × taps), the merges (node × child × 2 taps: two 1-D passes) and the final stage
@@ -294,6 +353,15 @@ def plan_stages(antenna_position_m, freq_hz, grid: Grid, *, base=None, merge=Non
     for lv in levels[1:]:
         ops["merge"] += float(lv.n) * lv.nt * lv.nq * merge * 2 * ntap
     plan = FfbpPlan(levels, dq, kref, levels[-1].n, ops, {**k, "base": base, "merge": merge})
+    if k["interp"] == "optimal":
+        # deapodize the polar grids' range kernel where its frequency mismatch (pulses whose range
+        # grows along q unlike the centre's) costs less than the minimax stencil's error
+        mismatch = deapodized_slope(float(k["os_range"])) * kmax * dq / (2 * np.pi) * \
+            sum(_range_slope(pos, fr, grid, margin) for fr in frames)
+        s_q = len(levels)
+        plan.range_deapodized = bool(s_q * deapodized_error(float(k["os_range"])) + mismatch
+                                     < s_q * interp_error("optimal", float(k["os_range"])))
+        plan.range_mismatch = float(mismatch) if plan.range_deapodized else 0.0
     # peak bytes of polar grids (float32 pairs): two adjacent levels of one depth-first group
     lv_bytes = [lv.nbytes for lv in levels]
     pair = max([a + b for a, b in zip(lv_bytes, lv_bytes[1:])] or lv_bytes)
@@ -301,7 +369,8 @@ def plan_stages(antenna_position_m, freq_hz, grid: Grid, *, base=None, merge=Non
     ops["grid_bytes"] = pair * (b0 - a0) / levels[-1].n
     plan.predicted_error = predict_error([(int(fr["count"].max()), fr["beta"]) for fr in frames],
                                          interp=k["interp"], os_range=k["os_range"], os_angle=k["os_angle"],
-                                         upsample=k["upsample"]) + frequency_error(f, pos, grid)
+                                         upsample=k["upsample"], range_deapodized=plan.range_deapodized,
+                                         range_mismatch=plan.range_mismatch) + frequency_error(f, pos, grid)
     return plan
 
 
@@ -315,6 +384,22 @@ def _pulse_geometry(t, q, r0):
     off = (0.5 * (nt + nq) - r0.astype(np.longdouble)).astype(np.float64)
     nt, nq = nt.astype(np.float64), nq.astype(np.float64)
     return np.ascontiguousarray(np.stack([t[:, 0], t[:, 1], nt * nt, nt, q[:, 0], q[:, 1], nq * nq, nq, off]))
+
+
+def _deapodization(freq_hz, plan, n_len):
+    """Weights [rows, M] that divide the deapodized kernels' mean responses out of the data
+    (:func:`sarcli.formers.ffbp_model.deapodized_kernel`): the range profiles' kernel at bin
+    frequency ``(j − j_c)/L``, exact, and where the plan says so the polar grids' range kernel,
+    ``Ψ(ν_j)^{−S}`` for its ``S`` range interpolations (every merge and the final stage) at
+    ``ν_j = (4π f_j / c − k_ref) Δq / 2π`` cycles per sample (the demodulated sub-images hold
+    ``e^{i (k_j − k_ref) q}``; all levels share ``Δq``)."""
+    f = np.asarray(freq_hz, dtype=np.float64)
+    m = f.shape[-1]
+    w = 1.0 / deapodized_response(float(plan.knobs["upsample"]), (np.arange(m) - m // 2) / float(n_len))[None, :]
+    if plan.range_deapodized:
+        nu = (4.0 * np.pi * f / C - plan.kref) * plan.dq / (2.0 * np.pi)
+        w = w * deapodized_response(float(plan.knobs["os_range"]), nu) ** (-float(len(plan.levels)))
+    return w
 
 
 def _descend(levels, a, b):
@@ -362,11 +447,12 @@ def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weigh
     merge : int, default 4
         Sub-apertures merged per stage.
     os_range, os_angle : float, default 2
-        Oversampling of the polar grids over the Nyquist rate in range and angle.
+        Oversampling of the polar grids over the Nyquist rate in range and angle (``os_range``
+        not given: 1.5 where the range kernel can be deapodized, :func:`plan_stages`).
     interp : {'linear', 'cubic', 'lanczos', 'optimal'}, default 'optimal'
         Interpolator of the range profiles and the polar grids (``optimal``: least-squares 6-tap
         kernels designed for each grid's oversampling, :func:`optimal_kernel`).
-    upsample : float, default 4
+    upsample : float, default 2 (4 for the analytic kernels)
         Range-profile oversampling (the IFFT length is ``upsample·M``).
     final : int, optional
         Merge until at most this many sub-images remain (default: as long as a merge pays).
@@ -421,10 +507,14 @@ def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weigh
     bistatic = receive_position_m is not None and not np.array_equal(t, q)
     lev = plan.levels[0]
     dlt, series = _series_inputs(t, q, r0, lev, plan.dq, 4.0 * np.pi * float(f.max()) / C)
-    tab_p = _coefficients(k["interp"], k["upsample"]).astype(np.float32)   # stage 0 weighs in float32
-    tab_q = _coefficients(k["interp"], k["os_range"])
+    deapodize = k["interp"] == "optimal"
+    tab_p = deapodized_kernel(float(k["upsample"])) if deapodize else _coefficients(k["interp"], k["upsample"])
+    tab_p = tab_p.astype(np.float32)   # stage 0 weighs in float32
+    tab_q = deapodized_kernel(float(k["os_range"])) if plan.range_deapodized else \
+        _coefficients(k["interp"], k["os_range"])
     tab_t = _coefficients(k["interp"], k["os_angle"])
     levels = plan.levels
+    deap = _deapodization(f, plan, n_len) if deapodize and f.shape[0] == 1 else None
     img = None   # made at the first final stage (when only the last level is alive); parts add in place
     with _Threads(nthreads) as nthr:
         # depth first: the last level's sub-images in groups, each group's whole subtree (stage 0,
@@ -439,8 +529,11 @@ def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weigh
             for s0 in range(lo, hi, per):
                 s1 = min(hi, s0 + per)
                 p0, p1 = int(lev.first[s0]), int(lev.first[s1 - 1] + lev.count[s1 - 1])
-                pre, pim = range_profiles(d[p0:p1], None if w is None else w[p0:p1], total, n_len, nthr,
-                                          dtype=np.complex64)
+                wb = None if w is None else w[p0:p1]
+                if deapodize:   # the deapodized kernels' mean responses, divided out of the data
+                    db = deap if deap is not None else _deapodization(f[p0:p1], plan, n_len)
+                    wb = db if wb is None else wb * db
+                pre, pim = range_profiles(d[p0:p1], wb, total, n_len, nthr, dtype=np.complex64)
                 _stage0(pre, pim, lev.first[s0:s1] - p0, lev.count[s0:s1], np.ascontiguousarray(geo[:, p0:p1]),
                         np.ascontiguousarray(dlt[:, p0:p1]), series[s0:s1], bistatic, inv_bin[p0:p1], kc[p0:p1],
                         float(n_len // 2), float(n_len), _PAD, kind, tab_p, np.ascontiguousarray(lev.geo[:, s0:s1]),

@@ -86,7 +86,7 @@ def candidates(ph, grid: Grid, tolerance: float, *, costs=None, nthreads=None) -
     "Meets" means a predicted error at most ``tolerance / SAFETY`` (:data:`SAFETY`)."""
     from . import ffbp as fb
     from .backprojection import profile_length
-    from .ffbp_model import frequency_error, interp_error
+    from .ffbp_model import deapodized_error, frequency_error, interp_error
     from .subimage import choose_tile
 
     if not (0 < tolerance < 1):
@@ -127,11 +127,15 @@ def candidates(ph, grid: Grid, tolerance: float, *, costs=None, nthreads=None) -
         # ffbp: a small sweep of its knobs
         mono = pos if rcv is None else 0.5 * (pos + rcv)
         best = {}
-        for os_ in (1.5, 2.0, 3.0, 4.0, 6.0):
-            up = next((u for u in (2, 4, 8, 16) if interp_error("optimal", float(u)) <= target / 8), 16)
+        # profiles: the deapodized kernel's error at an upsampling (exact frequencies)
+        up = next((u for u in (2, 4, 8, 16) if deapodized_error(float(u)) <= target / 8), 16)
+        # (os_range, os_angle): the range kernel is deapodized where the plan finds it pays, so
+        # range can be sampled more coarsely than angle
+        for os_r, os_ in ((1.5, 1.5), (1.5, 2.0), (2.0, 2.0), (1.5, 2.5), (2.0, 2.5), (1.5, 3.0), (3.0, 3.0),
+                          (4.0, 4.0), (6.0, 6.0)):
             for base in (8, 16, 32):
                 try:
-                    plan = fb.plan_stages(mono, f, grid, base=base, os_range=os_, os_angle=os_, upsample=up,
+                    plan = fb.plan_stages(mono, f, grid, base=base, os_range=os_r, os_angle=os_, upsample=up,
                                           interp="optimal")
                 except SarcliInputError:
                     continue
@@ -139,7 +143,7 @@ def candidates(ph, grid: Grid, tolerance: float, *, costs=None, nthreads=None) -
                 L = profile_length(M, up)
                 t = (c["ffbp_stage0"] * o["stage0"] + c["ffbp_mac"] * (o["merge"] + o["final"])
                      + c["bp_fft"] * P * L * math.log2(L)) / thr
-                cand = Candidate("ffbp", {"base": base, "merge": fb.DEFAULTS["merge"], "os_range": os_, "os_angle": os_,
+                cand = Candidate("ffbp", {"base": base, "merge": fb.DEFAULTS["merge"], "os_range": os_r, "os_angle": os_,
                                           "interp": "optimal", "upsample": up}, plan.predicted_error, t,
                                  o["grid_bytes"] + 16 * (P * M + npix), f"{plan.n_stages} stages")
                 key = cand.predicted_error <= target
