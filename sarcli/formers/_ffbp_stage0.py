@@ -182,3 +182,12 @@ def _series_inputs(t, q, r0, lev, dq, kmax):
     rounding = 8.0 * np.finfo(np.float64).eps * r_far * e
     series = (e < 0.5) & (tail + rounding <= SERIES_PHASE / kmax)
     return np.ascontiguousarray(dlt), series
+
+
+def _pulse_geometry(t, q, r0):
+    """Rows tx, ty, |t|², |t|, qx, qy, |q|², |q|, offset of the per-pulse range (kernel ``_pulse_range``)."""
+    nt = np.sqrt(np.sum(t.astype(np.longdouble) ** 2, axis=1))
+    nq = np.sqrt(np.sum(q.astype(np.longdouble) ** 2, axis=1))
+    off = (0.5 * (nt + nq) - r0.astype(np.longdouble)).astype(np.float64)
+    nt, nq = nt.astype(np.float64), nq.astype(np.float64)
+    return np.ascontiguousarray(np.stack([t[:, 0], t[:, 1], nt * nt, nt, q[:, 0], q[:, 1], nq * nq, nq, off]))

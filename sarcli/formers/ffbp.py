@@ -60,7 +60,9 @@ from ..core.grid import Grid
 from ..errors import SarcliInputError
 from .ffbp_model import INTERPOLATORS, NTAPS as _NTAPS, frequency_error, interp_error, optimal_kernel, predict_error
 from .ffbp_model import coefficients as _coefficients
-from .ffbp_model import deapodized_error, deapodized_kernel, deapodized_response, deapodized_slope
+from ._ffbp_grids import _boundary, _centre_geometry, _coords_np
+from ._ffbp_grids import deapodization as _deapodization, decide_range
+from .ffbp_model import deapodized_error, deapodized_kernel
 
 __all__ = ["ffbp", "ffbp_image", "optimal_kernel", "plan_stages", "predict_error", "interp_error", "FfbpPlan", "DEFAULTS"]
 
@@ -84,36 +86,6 @@ SUBTREE_BYTES = 256 * 2 ** 20
 # ---------------------------------------------------------------------------------------------
 # polar grids
 # ---------------------------------------------------------------------------------------------
-def _centre_geometry(c):
-    """Rows cx, cy, |c|, ρ0, e0x, e0y, cz of the polar frames of centres ``c`` [S, 3]."""
-    cn = np.linalg.norm(c, axis=1)
-    rho0 = np.hypot(c[:, 0], c[:, 1])
-    if np.any(rho0 <= 0):
-        raise SarcliInputError("ffbp needs every sub-aperture centre away from the scene origin's vertical; "
-                               "use method 'backprojection'")
-    e0 = -c[:, :2] / rho0[:, None]
-    return np.ascontiguousarray(np.stack([c[:, 0], c[:, 1], cn, rho0, e0[:, 0], e0[:, 1], c[:, 2]]))
-
-
-def _coords_np(g, x, y):
-    """NumPy twin of the compiled ``_coords``: (q, τ, denominator) [S, n] for points (x, y)."""
-    cx, cy, cn, rho0, e0x, e0y = (r[:, None] for r in g[:6])
-    num = x * x + y * y - 2.0 * (cx * x + cy * y)
-    q = num / (np.sqrt(cn * cn + num) + cn)
-    den = rho0 + e0x * x + e0y * y
-    return q, (e0x * y - e0y * x) / den, den
-
-
-def _boundary(grid: Grid, margin: float):
-    """Points on the boundary of the grid's rectangle grown by ``margin`` metres."""
-    x0, x1 = grid.x[0] - grid.dx / 2 - margin, grid.x[-1] + grid.dx / 2 + margin
-    y0, y1 = grid.y[0] - grid.dy / 2 - margin, grid.y[-1] + grid.dy / 2 + margin
-    s = np.linspace(0, 1, 33)
-    xs = np.concatenate([x0 + (x1 - x0) * s, np.full(33, x1), x1 - (x1 - x0) * s, np.full(33, x0)])
-    ys = np.concatenate([np.full(33, y0), y0 + (y1 - y0) * s, np.full(33, y1), y1 - (y1 - y0) * s])
-    return xs, ys, (x0, x1, y0, y1)
-
-
 @dataclass
 class _Level:
     """Sub-apertures of one stage and their polar grids (all of one shape nt × nq)."""
@@ -191,33 +163,6 @@ def _frame(pos, first, count, grid, kmax, os_angle, margin):
             "tmin": tmin, "tmax": tmax, "dtau": dtau, "metres_per_tau": float(np.max(rho_far))}
 
 
-def _range_slope(pos, fr, grid, margin):
-    """Largest ``|dR_p/dq − 1|`` over the pulses of a frame and points of the (grown) grid: how
-    much faster or slower than the sub-aperture centre's range q a pulse's range grows along the
-    polar grid's rows (ground rays from the centre's nadir). A pulse's range frequency along q is
-    ``k_j dR_p/dq``, not the ``k_j`` the range kernel's deapodization assumes: a climbing path, or a
-    sub-aperture whose depression angle varies, moves it by ``k_j`` times this."""
-    xs, ys, _ = _boundary(grid, margin)
-    xs = np.concatenate([xs[::4], [0.5 * (grid.x[0] + grid.x[-1])]])
-    ys = np.concatenate([ys[::4], [0.5 * (grid.y[0] + grid.y[-1])]])
-    sub = np.repeat(np.arange(fr["first"].size), fr["count"])
-    run = pos[fr["first"][0]:fr["first"][0] + sub.size]
-    g = fr["geo"]
-    worst = 0.0
-    for a in range(0, sub.size, 4096):   # blocks of pulses: no [P, points] temporaries beyond 4096 rows
-        sb = sub[a:a + 4096]
-        cx, cy, cz = g[0][sb][:, None], g[1][sb][:, None], g[6][sb][:, None]
-        hx, hy = xs[None, :] - cx, ys[None, :] - cy
-        h = np.hypot(hx, hy)
-        rc = np.sqrt(h * h + cz * cz)
-        t = run[a:a + 4096]
-        px, py, pz = xs[None, :] - t[:, 0:1], ys[None, :] - t[:, 1:2], t[:, 2:3]
-        rp = np.sqrt(px * px + py * py + pz * pz)
-        ratio = ((px * hx + py * hy) / (h * rp)) / (h / rc)
-        worst = max(worst, float(np.max(np.abs(ratio - 1.0))))
-    return worst
-
-
 def _level(fr, dq, ext_q, ext_t) -> _Level:
     """The polar grids of a frame, extended by ``ext_q``/``ext_t`` samples on each side (``ext_t``
     may differ between sub-apertures; the grids share the largest shape)."""
@@ -250,14 +195,11 @@ def _split(n, size, merge=None):
 
 def plan_stages(antenna_position_m, freq_hz, grid: Grid, *, base=None, merge=None, os_range=None,
                 os_angle=None, interp=None, upsample=None, final=None) -> FfbpPlan:
-    """The FFBP stages for a geometry (no data needed): levels, operation counts, predicted error.
-
-    ``os_range=None`` with the ``optimal`` kernels tries :data:`OS_RANGE_DEAPODIZED` first and keeps
-    it where the range kernel is deapodized and its predicted range error (aliases of every range
-    interpolation plus the frequency mismatch) is no larger than the minimax stencil's at
-    ``DEFAULTS['os_range']``; otherwise the default. ``upsample=None``: ``DEFAULTS['upsample']``
-    for ``optimal`` (its profiles are deapodized), :data:`UPSAMPLE_ANALYTIC` for the others.
-    """
+    """The FFBP stages for a geometry (no data needed): levels, operation counts, predicted error
+    (:func:`_plan_stages`). ``os_range=None`` with ``optimal`` kernels: :data:`OS_RANGE_DEAPODIZED`
+    where the range kernel is deapodized and its range error (aliases plus frequency mismatch) is
+    no larger than the minimax stencil's at the default, else the default. ``upsample=None``:
+    the default for ``optimal`` (deapodized profiles), :data:`UPSAMPLE_ANALYTIC` for the others."""
     kw = dict(base=base, merge=merge, os_angle=os_angle, interp=interp, final=final)
     if upsample is None and interp not in (None, "optimal"):
         upsample = UPSAMPLE_ANALYTIC
@@ -354,14 +296,7 @@ def _plan_stages(antenna_position_m, freq_hz, grid: Grid, *, base=None, merge=No
         ops["merge"] += float(lv.n) * lv.nt * lv.nq * merge * 2 * ntap
     plan = FfbpPlan(levels, dq, kref, levels[-1].n, ops, {**k, "base": base, "merge": merge})
     if k["interp"] == "optimal":
-        # deapodize the polar grids' range kernel where its frequency mismatch (pulses whose range
-        # grows along q unlike the centre's) costs less than the minimax stencil's error
-        mismatch = deapodized_slope(float(k["os_range"])) * kmax * dq / (2 * np.pi) * \
-            sum(_range_slope(pos, fr, grid, margin) for fr in frames)
-        s_q = len(levels)
-        plan.range_deapodized = bool(s_q * deapodized_error(float(k["os_range"])) + mismatch
-                                     < s_q * interp_error("optimal", float(k["os_range"])))
-        plan.range_mismatch = float(mismatch) if plan.range_deapodized else 0.0
+        plan.range_deapodized, plan.range_mismatch = decide_range(pos, frames, grid, margin, kmax, dq, k["os_range"])
     # peak bytes of polar grids (float32 pairs): two adjacent levels of one depth-first group
     lv_bytes = [lv.nbytes for lv in levels]
     pair = max([a + b for a, b in zip(lv_bytes, lv_bytes[1:])] or lv_bytes)
@@ -377,31 +312,6 @@ def _plan_stages(antenna_position_m, freq_hz, grid: Grid, *, base=None, merge=No
 # ---------------------------------------------------------------------------------------------
 # range profiles
 # ---------------------------------------------------------------------------------------------
-def _pulse_geometry(t, q, r0):
-    """Rows tx, ty, |t|², |t|, qx, qy, |q|², |q|, offset of the per-pulse range (kernel ``_pulse_range``)."""
-    nt = np.sqrt(np.sum(t.astype(np.longdouble) ** 2, axis=1))
-    nq = np.sqrt(np.sum(q.astype(np.longdouble) ** 2, axis=1))
-    off = (0.5 * (nt + nq) - r0.astype(np.longdouble)).astype(np.float64)
-    nt, nq = nt.astype(np.float64), nq.astype(np.float64)
-    return np.ascontiguousarray(np.stack([t[:, 0], t[:, 1], nt * nt, nt, q[:, 0], q[:, 1], nq * nq, nq, off]))
-
-
-def _deapodization(freq_hz, plan, n_len):
-    """Weights [rows, M] that divide the deapodized kernels' mean responses out of the data
-    (:func:`sarcli.formers.ffbp_model.deapodized_kernel`): the range profiles' kernel at bin
-    frequency ``(j − j_c)/L``, exact, and where the plan says so the polar grids' range kernel,
-    ``Ψ(ν_j)^{−S}`` for its ``S`` range interpolations (every merge and the final stage) at
-    ``ν_j = (4π f_j / c − k_ref) Δq / 2π`` cycles per sample (the demodulated sub-images hold
-    ``e^{i (k_j − k_ref) q}``; all levels share ``Δq``)."""
-    f = np.asarray(freq_hz, dtype=np.float64)
-    m = f.shape[-1]
-    w = 1.0 / deapodized_response(float(plan.knobs["upsample"]), (np.arange(m) - m // 2) / float(n_len))[None, :]
-    if plan.range_deapodized:
-        nu = (4.0 * np.pi * f / C - plan.kref) * plan.dq / (2.0 * np.pi)
-        w = w * deapodized_response(float(plan.knobs["os_range"]), nu) ** (-float(len(plan.levels)))
-    return w
-
-
 def _descend(levels, a, b):
     """Index ranges ``[(lo, hi)]`` per level of the subtree below sub-images ``a .. b-1`` of the
     last level (the sub-apertures of every level are consecutive runs of their children)."""
@@ -468,7 +378,7 @@ def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weigh
         ``(1/W) Σ w d e_pj(x)`` to within the predicted error (unit point peaks ≈ 1).
     """
     from . import _ffbp_kernels as kern
-    from ._ffbp_stage0 import _series_inputs, _stage0
+    from ._ffbp_stage0 import _pulse_geometry, _series_inputs, _stage0
     from .backprojection import _PAD, _Threads, _check_data, frequency_steps, profile_length, range_profiles
 
     d = _check_data(data)   # a phase history left on disk stays there: stage 0 reads it by blocks
