@@ -69,14 +69,16 @@ def range_slope(pos, fr, xs, ys):
 
 def deapodization(freq_hz, plan, n_len):
     """Weights [rows, M] that divide the deapodized kernels' mean responses out of the data
-    (:func:`sarcli.formers.ffbp_model.deapodized_kernel`): the range profiles' kernel at bin
-    frequency ``(j − j_c)/L``, exact, and where the plan says so the polar grids' range kernel,
+    (:func:`sarcli.formers.ffbp_model.deapodized_kernel`), as the plan says: the range profiles'
+    kernel at bin frequency ``(j − j_c)/L``, exact, and the polar grids' range kernel,
     ``Ψ(ν_j)^{−S}`` for its ``S`` range interpolations (every merge and the final stage) at
     ``ν_j = (4π f_j / c − k_ref) Δq / 2π`` cycles per sample (the demodulated sub-images hold
     ``e^{i (k_j − k_ref) q}``; all levels share ``Δq``)."""
     f = np.asarray(freq_hz, dtype=np.float64)
     m = f.shape[-1]
-    w = 1.0 / deapodized_response(float(plan.knobs["upsample"]), (np.arange(m) - m // 2) / float(n_len))[None, :]
+    w = np.ones((1, m))
+    if plan.profiles_deapodized:
+        w = w / deapodized_response(float(plan.knobs["upsample"]), (np.arange(m) - m // 2) / float(n_len))
     if plan.range_deapodized:
         nu = (4.0 * np.pi * f / C - plan.kref) * plan.dq / (2.0 * np.pi)
         w = w * deapodized_response(float(plan.knobs["os_range"]), nu) ** (-float(len(plan.levels)))

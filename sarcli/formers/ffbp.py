@@ -120,8 +120,9 @@ class FfbpPlan:
     ops: dict = field(default_factory=dict)
     knobs: dict = field(default_factory=dict)
     predicted_error: float = float("nan")
-    #: whether the polar grids' range kernel is deapodized (:func:`plan_stages`), and the error
-    #: its frequency mismatch is predicted to cost
+    #: whether the range profiles' kernel is deapodized, whether the polar grids' range kernel is
+    #: (:func:`plan_stages`), and the error the latter's frequency mismatch is predicted to cost
+    profiles_deapodized: bool = False
     range_deapodized: bool = False
     range_mismatch: float = 0.0
 
@@ -296,6 +297,7 @@ def _plan_stages(antenna_position_m, freq_hz, grid: Grid, *, base=None, merge=No
         ops["merge"] += float(lv.n) * lv.nt * lv.nq * merge * 2 * ntap
     plan = FfbpPlan(levels, dq, kref, levels[-1].n, ops, {**k, "base": base, "merge": merge})
     if k["interp"] == "optimal":
+        plan.profiles_deapodized = True
         plan.range_deapodized, plan.range_mismatch = decide_range(pos, frames, grid, margin, kmax, dq, k["os_range"])
     # peak bytes of polar grids (float32 pairs): two adjacent levels of one depth-first group
     lv_bytes = [lv.nbytes for lv in levels]
@@ -304,7 +306,8 @@ def _plan_stages(antenna_position_m, freq_hz, grid: Grid, *, base=None, merge=No
     ops["grid_bytes"] = pair * (b0 - a0) / levels[-1].n
     plan.predicted_error = predict_error([(int(fr["count"].max()), fr["beta"]) for fr in frames],
                                          interp=k["interp"], os_range=k["os_range"], os_angle=k["os_angle"],
-                                         upsample=k["upsample"], range_deapodized=plan.range_deapodized,
+                                         upsample=k["upsample"], profiles_deapodized=plan.profiles_deapodized,
+                                         range_deapodized=plan.range_deapodized,
                                          range_mismatch=plan.range_mismatch) + frequency_error(f, pos, grid)
     return plan
 
@@ -417,8 +420,9 @@ def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weigh
     bistatic = receive_position_m is not None and not np.array_equal(t, q)
     lev = plan.levels[0]
     dlt, series = _series_inputs(t, q, r0, lev, plan.dq, 4.0 * np.pi * float(f.max()) / C)
-    deapodize = k["interp"] == "optimal"
-    tab_p = deapodized_kernel(float(k["upsample"])) if deapodize else _coefficients(k["interp"], k["upsample"])
+    deapodize = plan.profiles_deapodized or plan.range_deapodized
+    tab_p = deapodized_kernel(float(k["upsample"])) if plan.profiles_deapodized else \
+        _coefficients(k["interp"], k["upsample"])
     tab_p = tab_p.astype(np.float32)   # stage 0 weighs in float32
     tab_q = deapodized_kernel(float(k["os_range"])) if plan.range_deapodized else \
         _coefficients(k["interp"], k["os_range"])

@@ -66,13 +66,7 @@ def optimal_kernel(beta: float, taps: int = 6) -> np.ndarray:
     """The ``optimal`` kernel for oversampling ``beta``: coefficients ``[tap, power]`` of
     polynomials of degree :data:`DEGREE` in ``x = 2t − 1`` (lowest power first) whose values at a
     fraction ``t ∈ [0, 1]`` are the :func:`optimal_weights` (fitted at 32 Chebyshev points)."""
-    x = np.cos(np.pi * (np.arange(32) + 0.5) / 32)
-    w = optimal_weights(beta, 0.5 * (x + 1.0), taps)
-    cheb = np.polynomial.chebyshev.chebfit(x, w, DEGREE)                  # [DEGREE+1, taps]
-    coef = np.stack([np.polynomial.chebyshev.cheb2poly(cheb[:, j]) for j in range(taps)])
-    coef = np.ascontiguousarray(coef)
-    coef.setflags(write=False)
-    return coef
+    return _poly_fit(lambda t: optimal_weights(beta, t, taps))
 
 
 def _poly_weights(coef, t):
@@ -120,21 +114,18 @@ def _poly_fit(w_of_t):
     return coef
 
 
-def _responses(coef, beta, n_nu=129, n_t=256):
-    """``H(ν, t) = Σ_n w_n(t) e^{2πiν(n − t)}`` [ν, t] of polynomial weights ``coef`` over
-    ``|ν| ≤ 1/(2β)``, and the ν."""
+def _response(coef, nu, t):
+    """``H(ν, t) = Σ_n w_n(t) e^{2πiν(n − t)}`` [ν, t] of the polynomial weights ``coef``."""
     offs = np.arange(-(coef.shape[0] // 2 - 1), coef.shape[0] // 2 + 1)
-    t = (np.arange(n_t) + 0.5) / n_t
-    nu = np.linspace(-0.5, 0.5, n_nu) / float(beta)
     w = _poly_weights(coef, t)                                                        # [t, taps]
-    ph = np.exp(2j * np.pi * nu[:, None, None] * (offs[None, None, :] - t[None, :, None]))
-    return np.einsum("tn,vtn->vt", w, ph), nu
+    ph = np.exp(2j * np.pi * np.asarray(nu)[:, None, None] * (offs[None, None, :] - t[None, :, None]))
+    return np.einsum("tn,vtn->vt", w, ph)
 
 
 def _fluctuation(coef, beta, n_nu=129, n_t=256):
-    """Largest over the band of the rms over fractions of ``H(ν, t) − H̄(ν)``, relative to ``H̄(ν)``:
-    what is left of an interpolation once its mean response ``H̄`` is divided out."""
-    h, _ = _responses(coef, beta, n_nu, n_t)
+    """Largest over the band ``|ν| ≤ 1/(2β)`` of the rms over fractions of ``H(ν, t) − H̄(ν)``,
+    relative to ``H̄(ν)``: what is left of an interpolation once its mean response ``H̄`` is divided out."""
+    h = _response(coef, np.linspace(-0.5, 0.5, n_nu) / float(beta), (np.arange(n_t) + 0.5) / n_t)
     hm = h.mean(axis=1)
     return float(np.max(np.sqrt(np.mean(np.abs(h - hm[:, None]) ** 2, axis=1)) / np.abs(hm)))
 
@@ -175,14 +166,9 @@ def deapodized_kernel(beta: float) -> np.ndarray:
 def _deapodized_table(beta: float):
     coef = deapodized_kernel(beta)
     g, gw = np.polynomial.legendre.leggauss(48)          # exact mean over t of polynomial × exp
-    t = 0.5 * (g + 1.0)
-    offs = np.arange(-2, 4)
     nu = np.linspace(-1.0, 1.0, 2049) * (0.6 / float(beta))
-    w = _poly_weights(coef, t)                                                        # [t, taps]
-    h = np.zeros(nu.size)
-    for a in range(0, nu.size, 1024):
-        ph = np.exp(2j * np.pi * nu[a:a + 1024, None, None] * (offs[None, None, :] - t[None, :, None]))
-        h[a:a + 1024] = (np.einsum("tn,vtn->vt", w, ph) @ (0.5 * gw)).real   # symmetric kernel: real
+    h = np.concatenate([(_response(coef, nu[a:a + 1024], 0.5 * (g + 1.0)) @ (0.5 * gw)).real   # even kernel: real
+                        for a in range(0, nu.size, 1024)])
     return nu, h
 
 
@@ -241,25 +227,21 @@ def interp_error(interp: str, beta: float, tones: int = 0, design_beta: float | 
     return float(np.sqrt(np.mean(np.abs(1.0 - resp) ** 2)))
 
 
-def predict_error(levels, *, interp="cubic", os_range=2.0, os_angle=2.0, upsample=4.0, range_deapodized=False,
-                  range_mismatch=0.0) -> float:
+def predict_error(levels, *, interp="cubic", os_range=2.0, os_angle=2.0, upsample=4.0, profiles_deapodized=False,
+                  range_deapodized=False, range_mismatch=0.0) -> float:
     """Predicted relative error of FFBP against the exact matched filter (module docstring).
 
     ``levels``: for every polar level that is interpolated (each merge reads its children's level,
     the final stage the last one), ``(pulses per sub-aperture, angular oversampling)``. Every
     interpolation mostly *attenuates* the upper part of the band, the same way at every stage, so
     the errors add coherently: ``ε ≈ ε_prof + Σ_levels (ε_range + ε_angle(pulses, β))`` (measured:
-    adding them in quadrature under-predicts three-stage runs by 1.7×). With ``interp='optimal'`` the
-    profiles' kernel is deapodized (:func:`deapodized_error`), and so are the polar grids' range
-    interpolations where ``range_deapodized``, whose frequency mismatch ``range_mismatch`` (from
-    the plan) is added once.
+    adding them in quadrature under-predicts three-stage runs by 1.7×). Where the plan deapodizes
+    the profiles' kernel (``profiles_deapodized``) or the polar grids' range kernel
+    (``range_deapodized``), their terms are :func:`deapodized_error`, and the latter's frequency
+    mismatch ``range_mismatch`` is added once.
     """
-    if interp == "optimal":   # profiles deapodized exactly; range per stage as the plan decided
-        total = deapodized_error(float(upsample))
-        e_range = deapodized_error(float(os_range)) if range_deapodized else interp_error(interp, float(os_range))
-    else:
-        total = interp_error(interp, float(upsample))
-        e_range = interp_error(interp, float(os_range))
+    total = deapodized_error(float(upsample)) if profiles_deapodized else interp_error(interp, float(upsample))
+    e_range = deapodized_error(float(os_range)) if range_deapodized else interp_error(interp, float(os_range))
     total += range_mismatch
     for n_pulses, beta in levels:
         total += e_range
