@@ -178,6 +178,17 @@ def test_range_deapodized_only_where_the_mismatch_allows():
     assert not plan.range_deapodized and plan.knobs["os_range"] == 2.0
 
 
+def test_profiles_deapodized_only_where_it_pays():
+    """At upsample 2 the profiles' kernel is deapodized (1.8e-5); at upsample 1 its mean response
+    nearly vanishes at the band edge and the minimax stencil is kept (its error in the prediction)."""
+    a, r0 = circle()
+    fine = plan_stages(a, FREQ, GRID)
+    assert fine.profiles_deapodized and fine.knobs["upsample"] == 2.0
+    coarse = plan_stages(a, FREQ, GRID, upsample=1.0)
+    assert not coarse.profiles_deapodized
+    assert coarse.predicted_error > fine.predicted_error + 0.5 * interp_error("optimal", 1.0)
+
+
 @pytest.mark.parametrize("beta", [1.0, 1.5, 2.0, 4.0])
 def test_optimal_kernel_polynomials_match_minimax_weights(beta):
     """The degree-7 polynomials the kernels evaluate are the minimax weights to 5e-6 at any
