@@ -1,12 +1,13 @@
 """Polar-grid geometry of ffbp (:mod:`sarcli.formers.ffbp`) in NumPy, and the deapodization of its
-range kernels: where it holds and the weights that divide the kernels' mean responses out of the
-data (:func:`sarcli.formers.ffbp_model.deapodized_kernel`)."""
+kernels: where it holds, each pulse's tones, and the profiles' weights that divide the kernels'
+mean responses out of the data (:func:`sarcli.formers.ffbp_model.deapodized_kernel`)."""
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
-from ..core.geometry import C
 from ..core.grid import Grid
 from ..errors import SarcliInputError
 from .ffbp_model import deapodized_error, deapodized_response, deapodized_slope, interp_error
@@ -24,12 +25,32 @@ def _centre_geometry(c):
 
 
 def _coords_np(g, x, y):
-    """NumPy twin of the compiled ``_coords``: (q, τ, denominator) [S, n] for points (x, y)."""
+    """NumPy twin of the compiled ``_coords``: (q, u, a) [S, n] for points (x, y); ``a`` is the
+    point's distance from the centre's nadir along ``e0``."""
     cx, cy, cn, rho0, e0x, e0y = (r[:, None] for r in g[:6])
     num = x * x + y * y - 2.0 * (cx * x + cy * y)
     q = num / (np.sqrt(cn * cn + num) + cn)
-    den = rho0 + e0x * x + e0y * y
-    return q, (e0x * y - e0y * x) / den, den
+    return q, (e0x * y - e0y * x) / (cn + q), rho0 + e0x * x + e0y * y
+
+
+def _ray_derivatives(g, sub, xs, ys):
+    """Ground displacements ``dx/dq`` (along a row: u fixed) and ``dx/du`` (q fixed) at points
+    (xs, ys) of the polar grids of centres ``g[:, sub]``: ``x = n0 + a e0 + uR e⊥`` with
+    ``a = √(R²(1 − u²) − c_z²)``, so ``dx/dR = (R(1 − u²)/a) e0 + u e⊥`` and
+    ``dx/du = −(R² u/a) e0 + R e⊥``. Rows are the centres ``sub``, columns the points."""
+    cx, cy, _, rho0, e0x, e0y, cz = (v[sub][:, None] for v in g)
+    r = np.sqrt((xs - cx) ** 2 + (ys - cy) ** 2 + cz * cz)
+    u = (e0x * ys - e0y * xs) / r
+    a = rho0 + e0x * xs + e0y * ys
+    ca, cu = r * (1.0 - u * u) / a, -r * r * u / a
+    return (ca * e0x - u * e0y, ca * e0y + u * e0x), (cu * e0x - r * e0y, cu * e0y + r * e0x)
+
+
+def _range_rate(pos, xs, ys, dx, dy):
+    """Directional derivative ``∇R_p · (dx, dy)`` of the ranges of pulses ``pos`` [n, 3] (rows)
+    at the ground points (xs, ys) (columns)."""
+    px, py, pz = xs - pos[:, 0:1], ys - pos[:, 1:2], pos[:, 2:3]
+    return (px * dx + py * dy) / np.sqrt(px * px + py * py + pz * pz)
 
 
 def _boundary(grid: Grid, margin: float):
@@ -42,59 +63,153 @@ def _boundary(grid: Grid, margin: float):
     return xs, ys, (x0, x1, y0, y1)
 
 
-def range_slope(pos, fr, xs, ys):
-    """Largest ``|dR_p/dq − 1|`` over the pulses of a frame and points of the (grown) grid: how
-    much faster or slower than the sub-aperture centre's range q a pulse's range grows along the
-    polar grid's rows (ground rays from the centre's nadir). A pulse's range frequency along q is
-    ``k_j dR_p/dq``, not the ``k_j`` the range kernel's deapodization assumes: a climbing path, or a
-    sub-aperture whose depression angle varies, moves it by ``k_j`` times this. ``fr``: a frame of
-    :func:`sarcli.formers.ffbp._frame`; ``xs, ys``: ground points to check."""
+@dataclass
+class _Level:
+    """Sub-apertures of one stage and their polar grids (all of one shape nt × nq)."""
+
+    first: np.ndarray       # first pulse of each sub-aperture
+    count: np.ndarray       # pulses in each
+    geo: np.ndarray         # [6, S] centre geometry
+    q0: np.ndarray
+    t0: np.ndarray
+    dtau: np.ndarray
+    nt: int
+    nq: int
+
+    @property
+    def n(self):
+        return self.first.size
+
+    @property
+    def nbytes(self) -> float:
+        """Bytes of this level's sub-images (float32 real and imaginary parts)."""
+        return 8.0 * self.n * self.nt * self.nq
+
+
+
+def _frame(pos, first, count, grid, kmax, os_angle, margin):
+    """Polar frames of the sub-apertures ``first/count``: centres, bounds of the grid grown by
+    ``margin`` in their coordinates, spacing in u and ground metres per unit u (the largest R)."""
+    first, count = np.asarray(first), np.asarray(count)
+    run = pos[first[0]:first[-1] + count[-1]]   # the sub-apertures are consecutive runs of pulses
+    starts = first - first[0]
+    centres = np.add.reduceat(run, starts, axis=0) / count[:, None]
+    g = _centre_geometry(centres)
+    xs, ys, (x0, x1, y0, y1) = _boundary(grid, margin)
+    q, tau, den = _coords_np(g, xs[None, :], ys[None, :])
+    if np.any(den <= 0.05 * g[3][:, None]):
+        raise SarcliInputError("ffbp needs the antennas' nadir well outside the image; use method 'backprojection'")
+    # nearest point of the rectangle to each centre's nadir: the smallest q (q is convex in x)
+    qn, _, _ = _coords_np(g, np.clip(centres[:, 0], x0, x1)[:, None], np.clip(centres[:, 1], y0, y1)[:, None])
+    qmin = np.minimum(q.min(axis=1), qn[:, 0])
+    qmax = q.max(axis=1)
+    # band along u: |∂R_p/∂u| = |Δ⊥ − Δ_e0 u R/a| ≤ d √(1 + (uR/a)²) for a pulse Δ from the centre
+    # (d its horizontal distance, a the point's distance from the nadir along e0)
+    sub = np.repeat(np.arange(first.size), count)
+    d = np.maximum.reduceat(np.hypot(*(run[:, :2] - centres[sub, :2]).T), starts)
+    tilt = np.max(np.abs(tau) * (g[2][:, None] + q) / den, axis=1)
+    tmin, tmax = tau.min(axis=1), tau.max(axis=1)
+    span = np.maximum(tmax - tmin, 1e-300)
+    band = kmax * d * np.sqrt(1.0 + tilt * tilt)
+    dtau = np.where(band > 0, np.pi / np.maximum(band, 1e-300) / os_angle, span)
+    dtau = np.minimum(dtau, span / 2.0)
+    beta = float(np.min(np.where(band > 0, np.pi / np.maximum(band * dtau, 1e-300), np.inf)))
+    return {"beta": beta, "first": np.asarray(first), "count": np.asarray(count), "geo": g, "qmin": qmin, "qmax": qmax,
+            "tmin": tmin, "tmax": tmax, "dtau": dtau, "metres_per_tau": float(np.max(g[2] + qmax))}
+
+
+def _level(fr, dq, ext_q, ext_t) -> _Level:
+    """The polar grids of a frame, extended by ``ext_q``/``ext_t`` samples on each side (``ext_t``
+    may differ between sub-apertures; the grids share the largest shape)."""
+    nt = int(np.max(np.ceil((fr["tmax"] - fr["tmin"]) / fr["dtau"]) + 2 * np.asarray(ext_t))) + 1
+    nq = int(np.max(np.ceil((fr["qmax"] - fr["qmin"]) / dq))) + 1 + 2 * ext_q
+    return _Level(fr["first"], fr["count"], fr["geo"], fr["qmin"] - ext_q * dq, fr["tmin"] - ext_t * fr["dtau"],
+                  fr["dtau"], nt, nq)
+
+
+def pulse_rates(t, r, fr, xs, ys, parent=None):
+    """Each pulse's ``∂R_p/∂q`` and ``∂R_p/∂u`` on its sub-aperture's polar grid (derivatives along
+    a row and across rows, :func:`_ray_derivatives`): the middle of each one's range over the points
+    (xs, ys) and half that range, as ``(q_mid, q_half, u_mid, u_half)`` over the frame's pulses.
+
+    A pulse's component of wavenumber ``k_j`` is locally the tone ``k_j ∂R_p/∂q`` along q (the
+    sub-image is demodulated by ``k_ref``) and ``k_j ∂R_p/∂u`` along u: ``≈ k_j`` and ``≈ k_j Δ⊥``
+    (Δ⊥ its offset across from the centre) wherever it is on the grid, which is why u, not an
+    angle, is the polar grids' coordinate. A climbing path or a long sub-aperture spreads them.
+    ``t``, ``r``: transmit and receive positions (the same array for a monostatic collection; the
+    range is their mean). ``parent``: the centre geometry of each sub-aperture's parent [7, S] when
+    a merge reads this level; its second pass interpolates along the parent's rows (direction
+    ``v``), so the range tone it reads is ``∇R_p·v / ∇q·v`` per unit of this grid's q."""
     sub = np.repeat(np.arange(fr["first"].size), fr["count"])
-    run = pos[fr["first"][0]:fr["first"][0] + sub.size]
+    a0 = fr["first"][0]
     g = fr["geo"]
-    worst = 0.0
+    out = np.empty((4, sub.size))
     for a in range(0, sub.size, 4096):   # blocks of pulses: no [P, points] temporaries beyond 4096 rows
         sb = sub[a:a + 4096]
-        cx, cy, cz = g[0][sb][:, None], g[1][sb][:, None], g[6][sb][:, None]
-        hx, hy = xs[None, :] - cx, ys[None, :] - cy
-        h = np.hypot(hx, hy)
-        rc = np.sqrt(h * h + cz * cz)
-        t = run[a:a + 4096]
-        px, py, pz = xs[None, :] - t[:, 0:1], ys[None, :] - t[:, 1:2], t[:, 2:3]
-        rp = np.sqrt(px * px + py * py + pz * pz)
-        ratio = ((px * hx + py * hy) / (h * rp)) / (h / rc)
-        worst = max(worst, float(np.max(np.abs(ratio - 1.0))))
-    return worst
+        (qx, qy), (ux, uy) = _ray_derivatives(g, sb, xs[None, :], ys[None, :])
+        den = 1.0
+        if parent is not None:
+            (qx, qy), _ = _ray_derivatives(parent, sb, xs[None, :], ys[None, :])
+            den = _range_rate(np.stack([g[0][sb], g[1][sb], g[6][sb]], axis=1), xs[None, :], ys[None, :], qx, qy)
+        for i, (dx, dy) in enumerate(((qx, qy), (ux, uy))):
+            rate = _range_rate(t[a0 + a:a0 + a + 4096], xs[None, :], ys[None, :], dx, dy)
+            if r is not t:
+                rate = 0.5 * (rate + _range_rate(r[a0 + a:a0 + a + 4096], xs[None, :], ys[None, :], dx, dy))
+            if i == 0:
+                rate = rate / den
+            hi, lo = rate.max(axis=1), rate.min(axis=1)
+            out[2 * i, a:a + hi.size], out[2 * i + 1, a:a + hi.size] = 0.5 * (hi + lo), 0.5 * (hi - lo)
+    return tuple(out)
 
 
 def deapodization(freq_hz, plan, n_len):
-    """Weights [rows, M] that divide the deapodized kernels' mean responses out of the data
-    (:func:`sarcli.formers.ffbp_model.deapodized_kernel`), as the plan says: the range profiles'
-    kernel at bin frequency ``(j − j_c)/L``, exact, and the polar grids' range kernel,
-    ``Ψ(ν_j)^{−S}`` for its ``S`` range interpolations (every merge and the final stage) at
-    ``ν_j = (4π f_j / c − k_ref) Δq / 2π`` cycles per sample (the demodulated sub-images hold
-    ``e^{i (k_j − k_ref) q}``; all levels share ``Δq``)."""
-    f = np.asarray(freq_hz, dtype=np.float64)
-    m = f.shape[-1]
-    w = np.ones((1, m))
-    if plan.profiles_deapodized:
-        w = w / deapodized_response(float(plan.knobs["upsample"]), (np.arange(m) - m // 2) / float(n_len))
-    if plan.range_deapodized:
-        nu = (4.0 * np.pi * f / C - plan.kref) * plan.dq / (2.0 * np.pi)
-        w = w * deapodized_response(float(plan.knobs["os_range"]), nu) ** (-float(len(plan.levels)))
-    return w
+    """Weights [1, M] that divide the range profiles' deapodized kernel's mean response out of the
+    data (:func:`sarcli.formers.ffbp_model.deapodized_kernel`) where the plan says: bin ``j − j_c``
+    of the FFT of length L is the frequency ``(j − j_c)/L``, exactly. (The polar grids' kernels read
+    a frequency per pulse and level: :func:`decide_deapodization`, ``_ffbp_stage0._tone_weights``.)"""
+    m = np.shape(freq_hz)[-1]
+    if not plan.profiles_deapodized:
+        return np.ones((1, m))
+    return 1.0 / deapodized_response(float(plan.knobs["upsample"]), (np.arange(m) - m // 2) / float(n_len))[None, :]
 
 
-def decide_range(pos, frames, grid, margin, kmax, dq, os_range):
-    """Whether to deapodize the polar grids' range kernel, and the error its frequency mismatch
-    costs: where that mismatch (``k_max Δq/2π · max |d ln Ψ/dν| · Σ_levels`` :func:`range_slope`,
-    on the grid grown by ``margin``) plus the aliases of every range
-    interpolation stays below the minimax stencil's error (:func:`sarcli.formers.ffbp_model.interp_error`)."""
+def _check_points(grid, margin):
+    """Points where the deapodization's frequency mismatch is bounded: every fourth point of the
+    grown grid's boundary, and its centre."""
     bx, by, _ = _boundary(grid, margin)
-    bx = np.concatenate([bx[::4], [0.5 * (grid.x[0] + grid.x[-1])]])
-    by = np.concatenate([by[::4], [0.5 * (grid.y[0] + grid.y[-1])]])
-    mismatch = deapodized_slope(float(os_range)) * kmax * dq / (2 * np.pi) * \
-        sum(range_slope(pos, fr, bx, by) for fr in frames)
-    s_q = len(frames)
-    ok = bool(s_q * deapodized_error(float(os_range)) + mismatch < s_q * interp_error("optimal", float(os_range)))
-    return ok, (float(mismatch) if ok else 0.0)
+    return (np.concatenate([bx[::4], [0.5 * (grid.x[0] + grid.x[-1])]]),
+            np.concatenate([by[::4], [0.5 * (grid.y[0] + grid.y[-1])]]))
+
+
+def decide_deapodization(t, r, frames, parents, grid, margin, kmax, kref, dq, os_range, os_angle):
+    """Whether to deapodize the polar grids' range and angular kernels, from each pulse's tones on
+    every level's grid (:func:`pulse_rates`, the middle over the grid grown by ``margin``).
+
+    Pulse p's component at ``k_j`` is read by level l's interpolations at
+    ``ν_q = k_j a_q[l, p] + b_q`` and ``ν_u = k_j a_u[l, p]`` cycles per sample, with
+    ``a_q = ∂R_p/∂q · Δq/2π``, ``b_q = −k_ref Δq/2π`` and ``a_u = ∂R_p/∂u · Δu_l/2π``, so
+    ``Π_l Ψ(ν)`` can be divided out of the data (``_ffbp_stage0._tone_weights``). What the spread of
+    the derivatives over a grid leaves costs ``rms_ν (d ln Ψ/dν) · k_max · rms_p (half-spread · Δ/2π)``
+    per level (the mismatch: rms over the band and the pulses, as the aliases,
+    :func:`sarcli.formers.ffbp_model.deapodized_error`). An axis is deapodized where its mismatch plus every level's aliases
+    (:func:`sarcli.formers.ffbp_model.deapodized_error`) stays below the minimax stencils' error at
+    the same oversampling. Returns ``{"range": (ok, mismatch, a_q, b_q), "angle": (ok, mismatch, a_u)}``
+    (the arrays ``None`` where not deapodized). ``parents[l]``: the index in level l+1 of each
+    level-l sub-aperture's parent (``None`` for the last level, which the final stage reads)."""
+    bx, by = _check_points(grid, margin)
+    n_lev, n_p = len(frames), t.shape[0]
+    a_q, a_u = np.empty((n_lev, n_p)), np.empty((n_lev, n_p))
+    mis_q = mis_u = minimax_u = 0.0
+    for l, fr in enumerate(frames):
+        up = None if parents[l] is None else frames[l + 1]["geo"][:, parents[l]]
+        q_mid, q_half, u_mid, u_half = pulse_rates(t, r, fr, bx, by, up)
+        du = np.repeat(fr["dtau"], fr["count"]) / (2 * np.pi)
+        a_q[l], a_u[l] = q_mid * dq / (2 * np.pi), u_mid * du
+        mis_q += deapodized_slope(float(os_range)) * kmax * float(np.sqrt(np.mean(q_half ** 2))) * dq / (2 * np.pi)
+        mis_u += deapodized_slope(float(os_angle)) * kmax * float(np.sqrt(np.mean((u_half * du) ** 2)))
+        n = int(fr["count"].max())
+        minimax_u += interp_error("optimal", float(round(fr["beta"], 3)), n if n < 64 else 0, float(os_angle))
+    ok_q = bool(n_lev * deapodized_error(float(os_range)) + mis_q < n_lev * interp_error("optimal", float(os_range)))
+    ok_u = bool(n_lev * deapodized_error(float(os_angle)) + mis_u < minimax_u)
+    return {"range": (ok_q, float(mis_q) if ok_q else 0.0, a_q if ok_q else None, -kref * dq / (2 * np.pi)),
+            "angle": (ok_u, float(mis_u) if ok_u else 0.0, a_u if ok_u else None)}

@@ -10,10 +10,11 @@ Three kernels, each parallel over rows of its output:
 
 A sub-aperture's polar grid is described by its centre ``c`` (|c|, ground distance ``ρ0`` of its
 nadir from the scene origin, unit vector ``e0`` from that nadir towards the origin) and the
-coordinates of a ground point ``x``: the differential slant range ``q = |c - x| - |c|`` and
-``τ = tan δψ``, ``δψ`` the ground angle at the nadir between ``x`` and the origin. Both are taken
-without cancellation, so virtual antennas 10^9 m away (far-field data) keep their accuracy. Stored
-sub-images are demodulated: ``F(q, τ) = I(x) exp(-i k_ref q)``.
+coordinates of a ground point ``x``: the differential slant range ``q = |c - x| - |c|`` and the
+direction cosine ``u = ((x - c)·e⊥)/|c - x|`` of the ray from ``c`` to ``x`` across ``e0``
+(``e⊥ = ẑ × e0``). Both are taken without cancellation, so virtual antennas 10^9 m away
+(far-field data) keep their accuracy. Stored sub-images are demodulated:
+``F(q, u) = I(x) exp(-i k_ref q)``. (The code's ``tau``/``t`` names the angular coordinate u.)
 """
 
 from __future__ import annotations
@@ -33,23 +34,23 @@ _Z32 = np.float32(0.0)
 
 @njit(inline="always")
 def _coords(x, y, cx, cy, cn, rho0, e0x, e0y):
-    """Polar coordinates ``(q, τ)`` of the ground point (x, y, 0) about a sub-aperture centre."""
+    """Polar coordinates ``(q, u)`` of the ground point (x, y, 0) about a sub-aperture centre."""
     num = x * x + y * y - 2.0 * (cx * x + cy * y)
     q = num / (math.sqrt(cn * cn + num) + cn)
-    tau = (e0x * y - e0y * x) / (rho0 + e0x * x + e0y * y)
-    return q, tau
+    return q, (e0x * y - e0y * x) / (cn + q)
 
 
 @njit(inline="always")
-def _node(q, tau, cn, rho0, e0x, e0y):
-    """Ground point (x, y) of the polar node ``(q, τ)``: the inverse of :func:`_coords`."""
+def _node(q, u, cn, rho0, e0x, e0y):
+    """Ground point (x, y) of the polar node ``(q, u)``: the inverse of :func:`_coords`.
+
+    With ``R = |c| + q`` the point lies ``uR`` across the line from the nadir to the origin and
+    ``a = √(ρ0² + g − (uR)²)`` along it (``g = q(2|c| + q) = R² − |c|²``); its offset along that
+    line from the origin, ``a − ρ0 = (g − (uR)²)/(a + ρ0)``, is formed without cancellation."""
     g = q * (2.0 * cn + q)
-    rho = math.sqrt(rho0 * rho0 + g)
-    drho = g / (rho + rho0)
-    s = math.sqrt(1.0 + tau * tau)
-    cosd = 1.0 / s
-    along = drho * cosd - rho0 * tau * tau * cosd / (1.0 + s)
-    across = rho * tau * cosd
+    across = u * (cn + q)
+    a2 = g - across * across
+    along = a2 / (math.sqrt(rho0 * rho0 + a2) + rho0)
     return along * e0x - across * e0y, along * e0y + across * e0x
 
 
@@ -117,8 +118,8 @@ def _locate(f, lo, n, ntap):
 
 @njit(inline="always")
 def _row_scratch(n, ntap):
-    """Work arrays of :func:`_polar_row` for a row of ``n`` points: stencil starts (q, τ),
-    float32 weights (q, τ), carrier (re, im), float32 fractions (q, τ), and the 6-tap gather's
+    """Work arrays of :func:`_polar_row` for a row of ``n`` points: stencil starts (q, u),
+    float32 weights (q, u), carrier (re, im), float32 fractions (q, u), and the 6-tap gather's
     flat index."""
     return (np.empty(n, np.int32), np.empty(n, np.int32), np.empty((ntap, n), np.float32),
             np.empty((ntap, n), np.float32), np.empty(n), np.empty(n), np.empty(n, np.float32),
@@ -224,17 +225,17 @@ def _taps_acc(src_re, src_im, start, shift, w, ntap, cr, ci, acc_re, acc_im):
 def _separable_row(are, aim, q0, dq, t0, dtau, kref, qs, ts, qref, kind, ntap, lo, idx_q, fq, wq, idx_t, ft,
                    wt, okc, gre, gim, cr, ci, acc_re, acc_im, tab_q, tab_t, extra):
     """:func:`_polar_row` in two 1-D passes, for a row of points whose child range ``qs``
-    increases strictly (a parent's row of constant τ seen from a child: the merge stages).
+    increases strictly (a parent's row of constant u seen from a child: the merge stages).
 
-    Along the row the child coordinates trace a smooth curve ``τ = T(q)``. Pass 1 interpolates
-    every child column ``j`` the row's stencils touch in τ, at ``T(q_j)`` (``T`` linear between the
+    Along the row the child coordinates trace a smooth curve ``u = T(q)``. Pass 1 interpolates
+    every child column ``j`` the row's stencils touch in u, at ``T(q_j)`` (``T`` linear between the
     row's points, extrapolated past its ends: the curve bends on the scale of the range, so the
-    error is ~1e-12 in τ): ``g_j = F(q_j, T(q_j))``. Pass 2 interpolates ``g`` in q at each point.
+    error is ~1e-12 in u): ``g_j = F(q_j, T(q_j))``. Pass 2 interpolates ``g`` in q at each point.
     ``g`` is band-limited like F in q (the curve's slope adds ~``δ/ρ²`` times the angular band,
     a few per cent at most), so the two passes cost 2·ntap taps per point instead of ntap².
     Returns False (nothing added) when the row's stencils reach no column.
 
-    ``extra``: work arrays (slopes of T between the row's points, float32 fractions in τ and in q)
+    ``extra``: work arrays (slopes of T between the row's points, float32 fractions in u and in q)
     passed as one tuple (numba cannot inline a call with more arguments). The weights are
     float32 polynomials (``tab_q``, ``tab_t`` float32), eight lanes a vector.
     """
@@ -263,7 +264,7 @@ def _separable_row(are, aim, q0, dq, t0, dtau, kref, qs, ts, qref, kind, ntap, l
         i1 -= 1
     jlo = idx_q[i0]
     ncol = idx_q[i1] + ntap - jlo
-    # T at the columns: walk the row (scalar), then locate in τ (vectorisable)
+    # T at the columns: walk the row (scalar), then locate in u (vectorisable)
     for i in range(n - 1):
         slope[i] = (ts[i + 1] - ts[i]) / (qs[i + 1] - qs[i])
     k = 0

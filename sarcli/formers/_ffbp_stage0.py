@@ -191,3 +191,24 @@ def _pulse_geometry(t, q, r0):
     off = (0.5 * (nt + nq) - r0.astype(np.longdouble)).astype(np.float64)
     nt, nq = nt.astype(np.float64), nq.astype(np.float64)
     return np.ascontiguousarray(np.stack([t[:, 0], t[:, 1], nt * nt, nt, q[:, 0], q[:, 1], nq * nq, nq, off]))
+
+
+@njit(parallel=True, cache=True)
+def _tone_weights(k, a, b, inv_h, inv_psi, out):
+    """``out[p, j] *= Π_l 1/Ψ(k_j a[l, p] + b)``: a deapodized kernel's mean response at each
+    pulse's tone on every level it passes (:func:`sarcli.formers._ffbp_grids.decide_deapodization`),
+    divided out of the data. ``k``: wavenumbers [1 or P, M]; ``inv_psi``: 1/Ψ at ``ν = i/inv_h``
+    (:func:`sarcli.formers.ffbp_model.deapodized_inverse`; Ψ is even), linearly interpolated."""
+    n_p, m = out.shape
+    top = inv_psi.size - 2
+    per_pulse = 1 if k.shape[0] > 1 else 0
+    for p in prange(n_p):
+        kp = k[p * per_pulse]
+        for j in range(m):
+            acc = 1.0
+            for l in range(a.shape[0]):
+                x = abs(kp[j] * a[l, p] + b) * inv_h
+                i = min(int(x), top)
+                fr = x - i
+                acc *= inv_psi[i] + fr * (inv_psi[i + 1] - inv_psi[i])
+            out[p, j] *= acc

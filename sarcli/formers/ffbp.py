@@ -11,7 +11,7 @@ polar grid centred there. So
 2. **merges**: groups of ``merge`` neighbouring sub-apertures are combined into one, whose polar
    grid has ``merge`` times finer angular sampling (its aperture is that much longer): every node
    of the parent interpolates each child at the same ground point, in two 1-D passes along the
-   parent's row (τ at the child's columns, then q at the nodes: 2·taps per node, not taps²);
+   parent's row (u at the child's columns, then q at the nodes: 2·taps per node, not taps²);
 3. **final stage**: when one more merge would cost more than it saves, the remaining sub-images are
    interpolated at every Cartesian pixel and summed.
 
@@ -27,13 +27,15 @@ backprojection does (:func:`sarcli.formers.formation._positions`).
 Polar grids
 -----------
 Around a sub-aperture centre ``c`` a ground point ``x`` has the differential slant range
-``q = |c - x| - |c|`` and ``τ = tan δψ`` (``δψ``: the ground angle at c's nadir between x and the
-scene origin); both, and their inverse, are evaluated without cancellation. A sub-image is stored
-demodulated, ``F(q, τ) = I(x) e^{-i k_ref q}`` with ``k_ref = 4π α_c/c``, which leaves it band
-limited to ``|k_q| ≤ K_B/2`` in ``q`` (``K_B = 4π B/c``, B the bandwidth) and to
-``|k_τ| ≤ k_max (ρ/r)_max d_max`` in ``τ`` (``d_max`` the largest horizontal distance of a pulse
-from ``c``, ``ρ/r`` the cosine of the depression angle). The grids sample these at
-``Δq = π/(K_B/2) / os_range`` and ``Δτ = π/(k_max (ρ/r) d_max) / os_angle``.
+``q = |c - x| - |c|`` and the direction cosine ``u = ((x - c)·e⊥)/|c - x|`` across the line from
+c's nadir to the scene origin (``e⊥`` horizontal, perpendicular to it); both, and their inverse,
+are evaluated without cancellation. A sub-image is stored demodulated,
+``F(q, u) = I(x) e^{-i k_ref q}`` with ``k_ref = 4π α_c/c``, which leaves it band limited to
+``|k_q| ≤ K_B/2`` in ``q`` (``K_B = 4π B/c``, B the bandwidth) and to ``|k_u| ≤ k_max d_max``
+in ``u`` (``d_max`` the largest horizontal distance of a pulse from ``c``; a pulse at ``Δ⊥``
+across is the tone ``k Δ⊥`` in u wherever it is on the grid, which lets the angular kernel be
+deapodized like the range kernel). The grids sample these at ``Δq = π/(K_B/2) / os_range`` and
+``Δu = π/(k_max d_max) / os_angle``.
 
 Error model
 -----------
@@ -60,9 +62,9 @@ from ..core.grid import Grid
 from ..errors import SarcliInputError
 from .ffbp_model import INTERPOLATORS, NTAPS as _NTAPS, frequency_error, interp_error, optimal_kernel, predict_error
 from .ffbp_model import coefficients as _coefficients
-from ._ffbp_grids import _boundary, _centre_geometry, _coords_np
-from ._ffbp_grids import deapodization as _deapodization, decide_range
-from .ffbp_model import deapodized_error, deapodized_kernel
+from ._ffbp_grids import _frame, _level
+from ._ffbp_grids import deapodization as _deapodization, decide_deapodization
+from .ffbp_model import deapodized_edge_error, deapodized_error, deapodized_inverse, deapodized_kernel
 
 __all__ = ["ffbp", "ffbp_image", "optimal_kernel", "plan_stages", "predict_error", "interp_error", "FfbpPlan", "DEFAULTS"]
 
@@ -71,6 +73,8 @@ DEFAULTS = {"base": 16, "merge": 4, "os_range": 2.0, "os_angle": 2.0, "interp": 
 #: ``os_range`` tried first when it is not given (``interp='optimal'``): kept where the plan
 #: deapodizes the range kernel and its range error is predicted no larger than at the default 2.
 OS_RANGE_DEAPODIZED = 1.5
+#: ``os_angle`` tried first when it is not given (``interp='optimal'``), on the same terms.
+OS_ANGLE_DEAPODIZED = 1.5
 #: Profile upsampling of the analytic kernels (only ``optimal``'s profiles are deapodized).
 UPSAMPLE_ANALYTIC = 4.0
 #: Storage of the polar sub-images: float32 halves their memory and traffic; its rounding (6e-8
@@ -87,29 +91,6 @@ SUBTREE_BYTES = 256 * 2 ** 20
 # polar grids
 # ---------------------------------------------------------------------------------------------
 @dataclass
-class _Level:
-    """Sub-apertures of one stage and their polar grids (all of one shape nt × nq)."""
-
-    first: np.ndarray       # first pulse of each sub-aperture
-    count: np.ndarray       # pulses in each
-    geo: np.ndarray         # [6, S] centre geometry
-    q0: np.ndarray
-    t0: np.ndarray
-    dtau: np.ndarray
-    nt: int
-    nq: int
-
-    @property
-    def n(self):
-        return self.first.size
-
-    @property
-    def nbytes(self) -> float:
-        """Bytes of this level's sub-images (float32 real and imaginary parts)."""
-        return 8.0 * self.n * self.nt * self.nq
-
-
-@dataclass
 class FfbpPlan:
     """The stages FFBP will run: sizes, operation counts and the predicted error."""
 
@@ -125,52 +106,19 @@ class FfbpPlan:
     profiles_deapodized: bool = False
     range_deapodized: bool = False
     range_mismatch: float = 0.0
+    #: and each pulse's tones on every level (cycles per sample per unit wavenumber, [levels, P],
+    #: and the range tones' offset; :func:`sarcli.formers._ffbp_grids.decide_deapodization`);
+    #: the same for the polar grids' angular kernel
+    range_rates: np.ndarray | None = None
+    range_offset: float = 0.0
+    angle_deapodized: bool = False
+    angle_mismatch: float = 0.0
+    angle_rates: np.ndarray | None = None
 
     @property
     def n_stages(self) -> int:
         """Interpolation stages after stage 0: merges plus the final stage."""
         return len(self.levels)
-
-
-def _frame(pos, first, count, grid, kmax, os_angle, margin):
-    """Polar frames of the sub-apertures ``first/count``: centres, bounds of the grid grown by
-    ``margin`` in their coordinates, angular spacing and ground metres per τ unit."""
-    first, count = np.asarray(first), np.asarray(count)
-    run = pos[first[0]:first[-1] + count[-1]]   # the sub-apertures are consecutive runs of pulses
-    starts = first - first[0]
-    centres = np.add.reduceat(run, starts, axis=0) / count[:, None]
-    g = _centre_geometry(centres)
-    xs, ys, (x0, x1, y0, y1) = _boundary(grid, margin)
-    q, tau, den = _coords_np(g, xs[None, :], ys[None, :])
-    if np.any(den <= 0.05 * g[3][:, None]):
-        raise SarcliInputError("ffbp needs the antennas' nadir well outside the image; use method 'backprojection'")
-    # nearest point of the rectangle to each centre's nadir: the smallest q (q is convex in x)
-    qn, _, _ = _coords_np(g, np.clip(centres[:, 0], x0, x1)[:, None], np.clip(centres[:, 1], y0, y1)[:, None])
-    qmin = np.minimum(q.min(axis=1), qn[:, 0])
-    qmax = q.max(axis=1)
-    # angular bandwidth: k_max (ρ/r)_max d_max
-    sub = np.repeat(np.arange(first.size), count)
-    d = np.maximum.reduceat(np.hypot(*(run[:, :2] - centres[sub, :2]).T), starts)
-    cn = g[2]
-    rho_far = np.sqrt(g[3] ** 2 + qmax * (2 * cn + qmax))
-    ratio = rho_far / (cn + qmax)
-    tmin, tmax = tau.min(axis=1), tau.max(axis=1)
-    span = np.maximum(tmax - tmin, 1e-300)
-    band = kmax * ratio * d
-    dtau = np.where(band > 0, np.pi / np.maximum(band, 1e-300) / os_angle, span)
-    dtau = np.minimum(dtau, span / 2.0)
-    beta = float(np.min(np.where(band > 0, np.pi / np.maximum(band * dtau, 1e-300), np.inf)))
-    return {"beta": beta, "first": np.asarray(first), "count": np.asarray(count), "geo": g, "qmin": qmin, "qmax": qmax,
-            "tmin": tmin, "tmax": tmax, "dtau": dtau, "metres_per_tau": float(np.max(rho_far))}
-
-
-def _level(fr, dq, ext_q, ext_t) -> _Level:
-    """The polar grids of a frame, extended by ``ext_q``/``ext_t`` samples on each side (``ext_t``
-    may differ between sub-apertures; the grids share the largest shape)."""
-    nt = int(np.max(np.ceil((fr["tmax"] - fr["tmin"]) / fr["dtau"]) + 2 * np.asarray(ext_t))) + 1
-    nq = int(np.max(np.ceil((fr["qmax"] - fr["qmin"]) / dq))) + 1 + 2 * ext_q
-    return _Level(fr["first"], fr["count"], fr["geo"], fr["qmin"] - ext_q * dq, fr["tmin"] - ext_t * fr["dtau"],
-                  fr["dtau"], nt, nq)
 
 
 def _split(n, size, merge=None):
@@ -194,27 +142,45 @@ def _split(n, size, merge=None):
     return edges[:-1], np.diff(edges)
 
 
+def default_upsample(os_range: float) -> float:
+    """Profile upsampling of the ``optimal`` kernels: the smallest multiple of ``os_range`` of at
+    least 1.5, so that the deapodized profiles' aliases land on their own tones on the polar grids
+    (:func:`sarcli.formers.ffbp_model.profile_alias_error`)."""
+    return float(os_range) * math.ceil(1.5 / float(os_range) - 1e-9)
+
+
 def plan_stages(antenna_position_m, freq_hz, grid: Grid, *, base=None, merge=None, os_range=None,
-                os_angle=None, interp=None, upsample=None, final=None) -> FfbpPlan:
+                os_angle=None, interp=None, upsample=None, final=None, receive_position_m=None) -> FfbpPlan:
     """The FFBP stages for a geometry (no data needed): levels, operation counts, predicted error
     (:func:`_plan_stages`). ``os_range=None`` with ``optimal`` kernels: :data:`OS_RANGE_DEAPODIZED`
     where the range kernel is deapodized and its range error (aliases plus frequency mismatch) is
-    no larger than the minimax stencil's at the default, else the default. ``upsample=None``:
-    the default for ``optimal`` (deapodized profiles), :data:`UPSAMPLE_ANALYTIC` for the others."""
-    kw = dict(base=base, merge=merge, os_angle=os_angle, interp=interp, final=final)
+    no larger than the minimax stencil's at the default, else the default; ``os_angle=None``
+    likewise with :data:`OS_ANGLE_DEAPODIZED` and the angular kernel. ``upsample=None``:
+    :func:`default_upsample` for ``optimal`` (deapodized profiles), :data:`UPSAMPLE_ANALYTIC` for
+    the others.
+    ``receive_position_m``: separate receive positions (``antenna_position_m`` then transmits)."""
+    kw = dict(base=base, merge=merge, interp=interp, final=final, receive_position_m=receive_position_m)
     if upsample is None and interp not in (None, "optimal"):
         upsample = UPSAMPLE_ANALYTIC
     kw["upsample"] = upsample
-    if os_range is None and interp in (None, "optimal"):
-        plan = _plan_stages(antenna_position_m, freq_hz, grid, os_range=OS_RANGE_DEAPODIZED, **kw)
-        e_fine = len(plan.levels) * deapodized_error(OS_RANGE_DEAPODIZED) + plan.range_mismatch
-        if plan.range_deapodized and e_fine <= len(plan.levels) * interp_error("optimal", DEFAULTS["os_range"]):
-            return plan
-    return _plan_stages(antenna_position_m, freq_hz, grid, os_range=os_range, **kw)
+    auto = interp in (None, "optimal")
+    r_try = (OS_RANGE_DEAPODIZED, None) if os_range is None and auto else (os_range,)
+    a_try = (OS_ANGLE_DEAPODIZED, None) if os_angle is None and auto else (os_angle,)
+    for o_r in r_try:
+        for o_a in a_try:
+            plan = _plan_stages(antenna_position_m, freq_hz, grid, os_range=o_r, os_angle=o_a, **kw)
+            n = len(plan.levels)
+            ok_r = o_r is not OS_RANGE_DEAPODIZED or (plan.range_deapodized and n * deapodized_error(o_r)
+                                                       + plan.range_mismatch <= n * interp_error("optimal", 2.0))
+            ok_a = o_a is not OS_ANGLE_DEAPODIZED or (plan.angle_deapodized and n * deapodized_error(o_a)
+                                                       + plan.angle_mismatch <= n * interp_error("optimal", 2.0))
+            if ok_r and ok_a:
+                return plan
+    return plan
 
 
 def _plan_stages(antenna_position_m, freq_hz, grid: Grid, *, base=None, merge=None, os_range=None,
-                 os_angle=None, interp=None, upsample=None, final=None) -> FfbpPlan:
+                 os_angle=None, interp=None, upsample=None, final=None, receive_position_m=None) -> FfbpPlan:
     """:func:`plan_stages` for given knobs (``None``: :data:`DEFAULTS`).
 
     Parameters as for :func:`ffbp`. ``ops`` holds the multiply-add counts of stage 0
@@ -231,6 +197,8 @@ def _plan_stages(antenna_position_m, freq_hz, grid: Grid, *, base=None, merge=No
     """
     k = {**DEFAULTS, **{n: v for n, v in dict(base=base, merge=merge, os_range=os_range, os_angle=os_angle,
                                                interp=interp, upsample=upsample).items() if v is not None}}
+    if upsample is None and k["interp"] == "optimal":
+        k["upsample"] = default_upsample(float(k["os_range"]))
     base, merge = int(k["base"]), int(k["merge"])
     if base < 1 or merge < 2:
         raise SarcliInputError(f"ffbp needs base >= 1 and merge >= 2, got base={base}, merge={merge}")
@@ -238,7 +206,9 @@ def _plan_stages(antenna_position_m, freq_hz, grid: Grid, *, base=None, merge=No
         raise SarcliInputError("ffbp oversampling factors (os_range, os_angle, upsample) must be >= 1")
     if k["interp"] not in INTERPOLATORS:
         raise SarcliInputError(f"unknown interpolation {k['interp']!r}; choose one of {sorted(INTERPOLATORS)}")
-    pos = np.asarray(antenna_position_m, dtype=np.float64)
+    t = np.asarray(antenna_position_m, dtype=np.float64)
+    r = t if receive_position_m is None else np.asarray(receive_position_m, dtype=np.float64)
+    pos = t if r is t else 0.5 * (t + r)
     f = np.asarray(freq_hz, dtype=np.float64)
     fmin, fmax = float(f.min()), float(f.max())
     if not fmax > fmin:
@@ -299,9 +269,13 @@ def _plan_stages(antenna_position_m, freq_hz, grid: Grid, *, base=None, merge=No
     if k["interp"] == "optimal":
         # the profiles' kernel is deapodized exactly, but near upsample 1 its Ψ vanishes at the
         # band edge (1.8e-3 at β = 1) and the minimax stencil errs less
-        plan.profiles_deapodized = bool(deapodized_error(float(k["upsample"]))
+        plan.profiles_deapodized = bool(deapodized_edge_error(float(k["upsample"]))
                                         < interp_error("optimal", float(k["upsample"])))
-        plan.range_deapodized, plan.range_mismatch = decide_range(pos, frames, grid, margin, kmax, dq, k["os_range"])
+        parents = [np.searchsorted(children[l + 1][0], np.arange(fr["first"].size), side="right") - 1
+                   for l, fr in enumerate(frames[:-1])] + [None]
+        dec = decide_deapodization(t, r, frames, parents, grid, margin, kmax, kref, dq, k["os_range"], k["os_angle"])
+        plan.range_deapodized, plan.range_mismatch, plan.range_rates, plan.range_offset = dec["range"]
+        plan.angle_deapodized, plan.angle_mismatch, plan.angle_rates = dec["angle"]
     # peak bytes of polar grids (float32 pairs): two adjacent levels of one depth-first group
     lv_bytes = [lv.nbytes for lv in levels]
     pair = max([a + b for a, b in zip(lv_bytes, lv_bytes[1:])] or lv_bytes)
@@ -311,7 +285,8 @@ def _plan_stages(antenna_position_m, freq_hz, grid: Grid, *, base=None, merge=No
                                          interp=k["interp"], os_range=k["os_range"], os_angle=k["os_angle"],
                                          upsample=k["upsample"], profiles_deapodized=plan.profiles_deapodized,
                                          range_deapodized=plan.range_deapodized,
-                                         range_mismatch=plan.range_mismatch) + frequency_error(f, pos, grid)
+                                         range_mismatch=plan.range_mismatch, angle_deapodized=plan.angle_deapodized,
+                                         angle_mismatch=plan.angle_mismatch) + frequency_error(f, pos, grid)
     return plan
 
 
@@ -368,8 +343,9 @@ def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weigh
     interp : {'linear', 'cubic', 'lanczos', 'optimal'}, default 'optimal'
         Interpolator of the range profiles and the polar grids (``optimal``: least-squares 6-tap
         kernels designed for each grid's oversampling, :func:`optimal_kernel`).
-    upsample : float, default 2 (4 for the analytic kernels)
-        Range-profile oversampling (the IFFT length is ``upsample·M``).
+    upsample : float, optional
+        Range-profile oversampling (the IFFT length is ``upsample·M``); default: ``os_range``
+        (at least 1.5: :func:`default_upsample`) for ``optimal``, 4 for the analytic kernels.
     final : int, optional
         Merge until at most this many sub-images remain (default: as long as a merge pays).
     nthreads : int, optional
@@ -384,7 +360,7 @@ def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weigh
         ``(1/W) Σ w d e_pj(x)`` to within the predicted error (unit point peaks ≈ 1).
     """
     from . import _ffbp_kernels as kern
-    from ._ffbp_stage0 import _pulse_geometry, _series_inputs, _stage0
+    from ._ffbp_stage0 import _pulse_geometry, _series_inputs, _stage0, _tone_weights
     from .backprojection import _PAD, _Threads, _check_data, frequency_steps, profile_length, range_profiles
 
     d = _check_data(data)   # a phase history left on disk stays there: stage 0 reads it by blocks
@@ -409,9 +385,9 @@ def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weigh
         total = float(w.sum())
         if not total > 0:
             raise SarcliInputError("window weights sum to zero")
-    mono = 0.5 * (t + q)
-    plan = plan_stages(mono, f, grid, base=base, merge=merge, os_range=os_range, os_angle=os_angle,
-                       interp=interp, upsample=upsample, final=final)
+    bistatic = receive_position_m is not None and not np.array_equal(t, q)
+    plan = plan_stages(t, f, grid, base=base, merge=merge, os_range=os_range, os_angle=os_angle, interp=interp,
+                       upsample=upsample, final=final, receive_position_m=q if bistatic else None)
     k = plan.knobs
     kind = INTERPOLATORS[k["interp"]]
     n_len = profile_length(M, k["upsample"])
@@ -420,18 +396,23 @@ def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weigh
     inv_bin = 1.0 / bin_m
     kc = 4.0 * np.pi * (np.broadcast_to(f[:, 0], (P,)) + jc * dalpha) / C
     geo = _pulse_geometry(t, q, r0)
-    bistatic = receive_position_m is not None and not np.array_equal(t, q)
     lev = plan.levels[0]
     dlt, series = _series_inputs(t, q, r0, lev, plan.dq, 4.0 * np.pi * float(f.max()) / C)
-    deapodize = plan.profiles_deapodized or plan.range_deapodized
+    deapodize = plan.profiles_deapodized or plan.range_deapodized or plan.angle_deapodized
     tab_p = deapodized_kernel(float(k["upsample"])) if plan.profiles_deapodized else \
         _coefficients(k["interp"], k["upsample"])
     tab_p = tab_p.astype(np.float32)   # stage 0 weighs in float32
     tab_q = deapodized_kernel(float(k["os_range"])) if plan.range_deapodized else \
         _coefficients(k["interp"], k["os_range"])
-    tab_t = _coefficients(k["interp"], k["os_angle"])
+    tab_t = deapodized_kernel(float(k["os_angle"])) if plan.angle_deapodized else \
+        _coefficients(k["interp"], k["os_angle"])
+    # the polar grids' deapodized kernels: 1/Ψ at each pulse's tones on every level (_tone_weights)
+    tones = [(rates, off, deapodized_inverse(float(k[os]))) for on, rates, off, os in
+             ((plan.range_deapodized, plan.range_rates, plan.range_offset, "os_range"),
+              (plan.angle_deapodized, plan.angle_rates, 0.0, "os_angle")) if on]
+    k_all = 4.0 * np.pi * f / C
     levels = plan.levels
-    deap = _deapodization(f, plan, n_len) if deapodize and f.shape[0] == 1 else None
+    deap = _deapodization(f, plan, n_len) if deapodize else None
     img = None   # made at the first final stage (when only the last level is alive); parts add in place
     with _Threads(nthreads) as nthr:
         # depth first: the last level's sub-images in groups, each group's whole subtree (stage 0,
@@ -448,8 +429,10 @@ def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weigh
                 p0, p1 = int(lev.first[s0]), int(lev.first[s1 - 1] + lev.count[s1 - 1])
                 wb = None if w is None else w[p0:p1]
                 if deapodize:   # the deapodized kernels' mean responses, divided out of the data
-                    db = deap if deap is not None else _deapodization(f[p0:p1], plan, n_len)
-                    wb = db if wb is None else wb * db
+                    wb = np.array(np.broadcast_to(deap if wb is None else wb * deap, (p1 - p0, M)))
+                    for rates, off, (h_t, inv_t) in tones:
+                        _tone_weights(k_all if k_all.shape[0] == 1 else k_all[p0:p1],
+                                      np.ascontiguousarray(rates[:, p0:p1]), off, 1.0 / h_t, inv_t, wb)
                 pre, pim = range_profiles(d[p0:p1], wb, total, n_len, nthr, dtype=np.complex64)
                 _stage0(pre, pim, lev.first[s0:s1] - p0, lev.count[s0:s1], np.ascontiguousarray(geo[:, p0:p1]),
                         np.ascontiguousarray(dlt[:, p0:p1]), series[s0:s1], bistatic, inv_bin[p0:p1], kc[p0:p1],

@@ -12,7 +12,8 @@ import functools
 import numpy as np
 
 __all__ = ["INTERPOLATORS", "NTAPS", "optimal_kernel", "optimal_weights", "interp_error", "predict_error",
-           "coefficients", "deapodized_kernel", "deapodized_response", "deapodized_error", "deapodized_slope"]
+           "coefficients", "deapodized_kernel", "deapodized_response", "deapodized_error", "deapodized_slope",
+           "deapodized_inverse", "deapodized_edge_error", "profile_alias_error"]
 
 #: Interpolators (codes 0-2 shared with backprojection's kernels) and their taps. ``optimal``: the
 #: 6-tap kernel with the least mean-square error over the band of a signal oversampled as much as
@@ -122,12 +123,14 @@ def _response(coef, nu, t):
     return np.einsum("tn,vtn->vt", w, ph)
 
 
-def _fluctuation(coef, beta, n_nu=129, n_t=256):
-    """Largest over the band ``|ν| ≤ 1/(2β)`` of the rms over fractions of ``H(ν, t) − H̄(ν)``,
-    relative to ``H̄(ν)``: what is left of an interpolation once its mean response ``H̄`` is divided out."""
+def _fluctuation(coef, beta, n_nu=129, n_t=256, rms=False):
+    """Largest (``rms``: the rms) over the band ``|ν| ≤ 1/(2β)`` of the rms over fractions of
+    ``H(ν, t) − H̄(ν)``, relative to ``H̄(ν)``: what is left of an interpolation once its mean
+    response ``H̄`` is divided out."""
     h = _response(coef, np.linspace(-0.5, 0.5, n_nu) / float(beta), (np.arange(n_t) + 0.5) / n_t)
     hm = h.mean(axis=1)
-    return float(np.max(np.sqrt(np.mean(np.abs(h - hm[:, None]) ** 2, axis=1)) / np.abs(hm)))
+    e = np.sqrt(np.mean(np.abs(h - hm[:, None]) ** 2, axis=1)) / np.abs(hm)
+    return float(np.sqrt(np.mean(e * e)) if rms else np.max(e))
 
 
 @functools.lru_cache(maxsize=64)
@@ -180,19 +183,70 @@ def deapodized_response(beta: float, nu) -> np.ndarray:
 
 
 @functools.lru_cache(maxsize=64)
-def deapodized_error(beta: float) -> float:
-    """Relative error of one interpolation by :func:`deapodized_kernel` with its mean response
-    divided out: the largest over the band of the aliases' rms over fractions."""
+def deapodized_edge_error(beta: float) -> float:
+    """:func:`deapodized_error` at its worst frequency (the band's edges, where Ψ is smallest):
+    near β = 1 Ψ vanishes there and dividing it out is no longer worth it."""
     return _fluctuation(deapodized_kernel(float(beta)), float(beta))
 
 
 @functools.lru_cache(maxsize=64)
+def deapodized_error(beta: float) -> float:
+    """Relative error of one interpolation by :func:`deapodized_kernel` with its mean response
+    divided out: the aliases' rms over fractions and the band (7.0e-6 at β = 2, 5.1e-5 at 1.5;
+    at the band's edge 2.5 to 3 times that). The rms, not the edge value as for the minimax
+    stencils: with Ψ divided out the edges no longer carry the error coherently from stage to
+    stage (measured on the 2048² circle, four levels at β = 1.5: 9.6e-4 against 1.0e-3 predicted
+    this way and 2.5e-3 from the edge values)."""
+    return _fluctuation(deapodized_kernel(float(beta)), float(beta), rms=True)
+
+
+def deapodized_inverse(beta: float):
+    """``(h, 1/Ψ)``: the reciprocal of :func:`deapodized_response` at ``ν = 0, h, 2h, ...`` up to
+    1.2 times the band (a table for compiled kernels; Ψ is even)."""
+    nu, h = _deapodized_table(float(beta))
+    half = nu.size // 2
+    return float(nu[half + 1] - nu[half]), np.ascontiguousarray(1.0 / h[half:])
+
+
+@functools.lru_cache(maxsize=64)
 def deapodized_slope(beta: float) -> float:
-    """``max |d ln Ψ / dν|`` over the band ``|ν| ≤ 1/(2β)``: the relative error per cycle-per-sample
-    that dividing out ``Ψ`` at a frequency off by ``δν`` leaves (``≈ slope · |δν|``)."""
+    """The rms over the band ``|ν| ≤ 1/(2β)`` of ``d ln Ψ / dν``: the relative error per
+    cycle-per-sample that dividing out ``Ψ`` at frequencies off by ``δν`` leaves over the band
+    (``≈ slope · |δν|``; the largest, at the band's edge, is ~2.5 times this)."""
     nu, h = _deapodized_table(float(beta))
     inside = np.abs(nu) <= 0.5 / float(beta) + 1e-12
-    return float(np.max(np.abs(np.gradient(np.log(h), nu))[inside]))
+    return float(np.sqrt(np.mean(np.gradient(np.log(h), nu)[inside] ** 2)))
+
+
+@functools.lru_cache(maxsize=256)
+def profile_alias_error(upsample: float, os_range: float, n_levels: int) -> float:
+    """Error of the deapodized range profiles where the polar grids' range kernel is deapodized
+    too (``n_levels`` range interpolations, each divided out at the pulse's tone).
+
+    The profiles' aliases are periodic in the profile bin, so on polar nodes ``Δq`` apart
+    (``r = upsample/os_range`` bins) a tone at ``ν`` (cycles per polar sample) leaves aliases at
+    ``ν ± m r`` folded into the band. The tone was amplified by ``Ψ(ν)^{−S}`` beforehand; an alias
+    landing at ``ν'`` is attenuated by ``Ψ(ν')^S`` only, so it grows by ``(Ψ(ν')/Ψ(ν))^S``: up to
+    ``0.2^{−S}`` at β = 1.5 where ``ν`` is at the band edge and ``ν'`` at its centre. Where ``r`` is
+    an integer the aliases land on the tone itself and nothing grows, hence the default
+    ``upsample`` = a multiple of ``os_range``. Returns the rms over the band of the amplified
+    aliases for the worst fold ``m`` (measured on the 2048² circle, four levels at os_range 1.5:
+    3.6e-3 at upsample 2 against 9.6e-4 at upsample 1.5)."""
+    up, os_r = float(upsample), float(os_range)
+    coef = deapodized_kernel(up)
+    nu_p = np.linspace(-0.5, 0.5, 129) / up
+    h = _response(coef, nu_p, (np.arange(256) + 0.5) / 256)
+    hm = h.mean(axis=1)
+    fluct = np.sqrt(np.mean(np.abs(h - hm[:, None]) ** 2, axis=1)) / np.abs(hm)
+    nu = nu_p * up / os_r
+    worst = float(np.sqrt(np.mean(fluct * fluct)))
+    for m in (1, -1, 2, -2):
+        dest = (nu + m * up / os_r + 0.5) % 1.0 - 0.5
+        inside = np.abs(dest) <= 0.6 / os_r
+        gain = (deapodized_response(os_r, np.clip(dest, -0.6 / os_r, 0.6 / os_r))
+                / deapodized_response(os_r, nu)) ** int(n_levels)
+        worst = max(worst, float(np.sqrt(np.mean(np.where(inside, fluct * gain, 0.0) ** 2))))
+    return worst
 
 
 def coefficients(interp: str, beta: float) -> np.ndarray:
@@ -228,7 +282,7 @@ def interp_error(interp: str, beta: float, tones: int = 0, design_beta: float | 
 
 
 def predict_error(levels, *, interp="cubic", os_range=2.0, os_angle=2.0, upsample=4.0, profiles_deapodized=False,
-                  range_deapodized=False, range_mismatch=0.0) -> float:
+                  range_deapodized=False, range_mismatch=0.0, angle_deapodized=False, angle_mismatch=0.0) -> float:
     """Predicted relative error of FFBP against the exact matched filter (module docstring).
 
     ``levels``: for every polar level that is interpolated (each merge reads its children's level,
@@ -236,17 +290,23 @@ def predict_error(levels, *, interp="cubic", os_range=2.0, os_angle=2.0, upsampl
     interpolation mostly *attenuates* the upper part of the band, the same way at every stage, so
     the errors add coherently: ``ε ≈ ε_prof + Σ_levels (ε_range + ε_angle(pulses, β))`` (measured:
     adding them in quadrature under-predicts three-stage runs by 1.7×). Where the plan deapodizes
-    the profiles' kernel (``profiles_deapodized``) or the polar grids' range kernel
-    (``range_deapodized``), their terms are :func:`deapodized_error`, and the latter's frequency
-    mismatch ``range_mismatch`` is added once.
+    the profiles' kernel (``profiles_deapodized``), the polar grids' range kernel
+    (``range_deapodized``) or their angular kernel (``angle_deapodized``), their terms are
+    :func:`deapodized_error` at the kernel's design oversampling (the profiles' with the growth of
+    their aliases, :func:`profile_alias_error`), and the frequency mismatches
+    ``range_mismatch`` and ``angle_mismatch`` are added once.
     """
-    total = deapodized_error(float(upsample)) if profiles_deapodized else interp_error(interp, float(upsample))
+    if profiles_deapodized:
+        total = profile_alias_error(float(upsample), float(os_range), len(levels)) if range_deapodized else \
+            deapodized_error(float(upsample))
+    else:
+        total = interp_error(interp, float(upsample))
     e_range = deapodized_error(float(os_range)) if range_deapodized else interp_error(interp, float(os_range))
-    total += range_mismatch
+    total += range_mismatch + angle_mismatch
     for n_pulses, beta in levels:
         total += e_range
-        total += interp_error(interp, float(round(beta, 3)), int(n_pulses) if n_pulses < 64 else 0,
-                              float(os_angle))
+        total += deapodized_error(float(os_angle)) if angle_deapodized else \
+            interp_error(interp, float(round(beta, 3)), int(n_pulses) if n_pulses < 64 else 0, float(os_angle))
     return float(total)
 
 

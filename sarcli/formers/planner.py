@@ -125,18 +125,18 @@ def candidates(ph, grid: Grid, tolerance: float, *, costs=None, nthreads=None) -
                                          16 * (P * M + 32 * L + 2 * npix)))
                     break
         # ffbp: a small sweep of its knobs
-        mono = pos if rcv is None else 0.5 * (pos + rcv)
         best = {}
-        # profiles: the deapodized kernel's error at an upsampling (exact frequencies)
-        up = next((u for u in (2, 4, 8, 16) if deapodized_error(float(u)) <= target / 8), 16)
-        # (os_range, os_angle): the range kernel is deapodized where the plan finds it pays, so
-        # range can be sampled more coarsely than angle
+        # (os_range, os_angle): the polar kernels are deapodized where the plan finds it pays
         for os_r, os_ in ((1.5, 1.5), (1.5, 2.0), (2.0, 2.0), (1.5, 2.5), (2.0, 2.5), (1.5, 3.0), (3.0, 3.0),
                           (4.0, 4.0), (6.0, 6.0)):
+            # profiles: a multiple of os_range (their aliases then land on their own tones) whose
+            # deapodized error is well inside the target
+            up = next((m * os_r for m in (1, 2, 4, 8, 16) if m * os_r >= 1.5
+                       and deapodized_error(float(m * os_r)) <= target / 8), 16 * os_r)
             for base in (8, 16, 32):
                 try:
-                    plan = fb.plan_stages(mono, f, grid, base=base, os_range=os_r, os_angle=os_, upsample=up,
-                                          interp="optimal")
+                    plan = fb.plan_stages(pos, f, grid, base=base, os_range=os_r, os_angle=os_, upsample=up,
+                                          interp="optimal", receive_position_m=rcv)
                 except SarcliInputError:
                     continue
                 o = plan.ops
