@@ -140,17 +140,20 @@ def pulse_rates(t, r, fr, xs, ys, parent=None):
     range is their mean). ``parent``: the centre geometry of each sub-aperture's parent [7, S] when
     a merge reads this level; its second pass interpolates along the parent's rows (direction
     ``v``), so the range tone it reads is ``∇R_p·v / ∇q·v`` per unit of this grid's q."""
-    sub = np.repeat(np.arange(fr["first"].size), fr["count"])
+    n_sub = fr["first"].size
+    sub = np.repeat(np.arange(n_sub), fr["count"])
     a0 = fr["first"][0]
     g = fr["geo"]
+    every = np.arange(n_sub)   # the grids' directions, once per sub-aperture
+    (gqx, gqy), (gux, guy) = _ray_derivatives(g, every, xs[None, :], ys[None, :])
+    gden = np.ones_like(gqx)
+    if parent is not None:
+        (gqx, gqy), _ = _ray_derivatives(parent, every, xs[None, :], ys[None, :])
+        gden = _range_rate(np.stack([g[0], g[1], g[6]], axis=1), xs[None, :], ys[None, :], gqx, gqy)
     out = np.empty((4, sub.size))
     for a in range(0, sub.size, 4096):   # blocks of pulses: no [P, points] temporaries beyond 4096 rows
         sb = sub[a:a + 4096]
-        (qx, qy), (ux, uy) = _ray_derivatives(g, sb, xs[None, :], ys[None, :])
-        den = 1.0
-        if parent is not None:
-            (qx, qy), _ = _ray_derivatives(parent, sb, xs[None, :], ys[None, :])
-            den = _range_rate(np.stack([g[0][sb], g[1][sb], g[6][sb]], axis=1), xs[None, :], ys[None, :], qx, qy)
+        qx, qy, ux, uy, den = gqx[sb], gqy[sb], gux[sb], guy[sb], gden[sb]
         for i, (dx, dy) in enumerate(((qx, qy), (ux, uy))):
             rate = _range_rate(t[a0 + a:a0 + a + 4096], xs[None, :], ys[None, :], dx, dy)
             if r is not t:
