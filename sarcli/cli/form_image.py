@@ -32,7 +32,7 @@ _METHOD_KNOBS = ("eps", "kernel", "oversample", "width", "upsample", "interp", "
 @click.option("--width", type=click.IntRange(*_cost.WIDTH_RANGE), default=6, show_default=True,
               help="PFA Kaiser-Bessel kernel width (cells).")
 @click.option("--upsample", type=click.FloatRange(*_cost.UPSAMPLE_RANGE), default=None,
-              help="Range-profile upsampling (default: backprojection 8; ffbp 2 with optimal, else 4).")
+              help="Range-profile upsampling (default: backprojection 8; ffbp os-range with optimal (at least 1.5), else 4).")
 @click.option("--interp", type=click.Choice(["linear", "cubic", "lanczos", "optimal"]), default=None,
               help="Backprojection / ffbp interpolator (default cubic / optimal; 'optimal' is ffbp only).")
 @click.option("--precision", type=click.Choice(["float64", "float32"]), default="float64", show_default=True,
@@ -40,7 +40,7 @@ _METHOD_KNOBS = ("eps", "kernel", "oversample", "width", "upsample", "interp", "
 @click.option("--base", type=click.IntRange(min=1), default=None, help="ffbp: pulses per base sub-aperture (default 16).")
 @click.option("--merge", type=click.IntRange(min=2), default=None, help="ffbp: sub-apertures merged per stage (default 4).")
 @click.option("--os-range", type=click.FloatRange(min=1), default=None, help="ffbp: polar-grid range oversampling (default 1.5 where its kernel can be deapodized, else 2).")
-@click.option("--os-angle", type=click.FloatRange(min=1), default=None, help="ffbp: polar-grid angular oversampling (default 2).")
+@click.option("--os-angle", type=click.FloatRange(min=1), default=None, help="ffbp: polar-grid angular oversampling (default 1.5 where its kernel can be deapodized, else 2).")
 @click.option("--tile", type=click.IntRange(min=1), default=None,
               help="subimage: tile side in pixels (default: the largest predicted to meet --tolerance).")
 @click.option("--tolerance", type=click.FloatRange(min=1e-12, max=0.5), default=None,
