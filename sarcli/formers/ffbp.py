@@ -185,7 +185,9 @@ def _plan_stages(antenna_position_m, freq_hz, grid: Grid, *, base=None, merge=No
 
     Parameters as for :func:`ffbp`. ``ops`` holds the multiply-add counts of stage 0
     (pulse × node × taps), the merges (node × child × 2 taps: two 1-D passes) and the final stage
-    (pixel × child × taps²), from which :mod:`sarcli.formers.planner` predicts the time, and
+    (pixel × child × taps²), the stage-0 nodes and the (node or pixel, child) pairs of the merges
+    and the final stage (each with its own coordinates and carrier), from which
+    :mod:`sarcli.formers.planner` predicts the time, and
     ``grid_bytes``, the peak bytes of polar grids (two adjacent levels of one depth-first group).
 
     ``final``: merge until at most that many sub-images remain (default: while a merge costs less
@@ -262,9 +264,11 @@ def _plan_stages(antenna_position_m, freq_hz, grid: Grid, *, base=None, merge=No
         levels.append(lv)
     ops = {"stage0": float(P) * levels[0].nt * levels[0].nq * ntap, "merge": 0.0,
            "final": float(n_pix) * levels[-1].n * ntap * ntap,
-           "nodes": float(max(lv.n * lv.nt * lv.nq for lv in levels))}
+           "nodes": float(max(lv.n * lv.nt * lv.nq for lv in levels)),
+           "stage0_nodes": float(levels[0].n) * levels[0].nt * levels[0].nq, "pairs": float(n_pix) * levels[-1].n}
     for lv in levels[1:]:
         ops["merge"] += float(lv.n) * lv.nt * lv.nq * merge * 2 * ntap
+        ops["pairs"] += float(lv.n) * lv.nt * lv.nq * merge
     plan = FfbpPlan(levels, dq, kref, levels[-1].n, ops, {**k, "base": base, "merge": merge})
     if k["interp"] == "optimal":
         # the profiles' kernel is deapodized exactly, but near upsample 1 its Ψ vanishes at the

@@ -34,6 +34,7 @@ __all__ = ["Candidate", "candidates", "recommend", "load_cost_model", "calibrate
 COST_MODEL_PATH = Path(__file__).with_name("cost_model.json")
 #: Per-operation seconds (one core) when no calibration file exists.
 _DEFAULT_COSTS = {"direct": 6e-9, "bp": 3e-9, "bp_fft": 4e-9, "ffbp_stage0": 4e-9, "ffbp_mac": 1.5e-9,
+                  "ffbp_node0": 0.0, "ffbp_pair": 0.0,
                   "nufft_spread": 3e-9, "nufft_fft": 3e-9, "subimage_point": 2e-9, "threads": 2}
 _BP_TAPS = {"linear": 2, "cubic": 4, "lanczos": 6}
 _NUFFT = ("nufft", "subimage")
@@ -68,6 +69,22 @@ def load_cost_model() -> dict:
     except (OSError, ValueError, KeyError):
         pass
     return costs
+
+
+#: ffbp's per-operation constants and the plan counts (``FfbpPlan.ops``) they multiply.
+_FFBP_TERMS = (("ffbp_stage0", ("stage0",)), ("ffbp_node0", ("stage0_nodes",)), ("ffbp_mac", ("merge", "final")),
+               ("ffbp_pair", ("pairs",)))
+
+
+def _ffbp_counts(ops) -> list:
+    return [sum(ops.get(k, 0.0) for k in keys) for _, keys in _FFBP_TERMS]
+
+
+def ffbp_seconds(c, ops, n_pulses, profile_len, threads=1) -> float:
+    """Predicted ffbp time: the plan's operation counts times the calibrated constants, plus the
+    range profiles' FFTs."""
+    work = sum(c.get(name, 0.0) * n for (name, _), n in zip(_FFBP_TERMS, _ffbp_counts(ops)))
+    return (work + c["bp_fft"] * n_pulses * profile_len * math.log2(profile_len)) / threads
 
 
 def _nufft_width(eps: float) -> int:
@@ -140,9 +157,7 @@ def candidates(ph, grid: Grid, tolerance: float, *, costs=None, nthreads=None) -
                 except SarcliInputError:
                     continue
                 o = plan.ops
-                L = profile_length(M, up)
-                t = (c["ffbp_stage0"] * o["stage0"] + c["ffbp_mac"] * (o["merge"] + o["final"])
-                     + c["bp_fft"] * P * L * math.log2(L)) / thr
+                t = ffbp_seconds(c, o, P, profile_length(M, up), thr)
                 cand = Candidate("ffbp", {"base": base, "merge": fb.DEFAULTS["merge"], "os_range": os_r, "os_angle": os_,
                                           "interp": "optimal", "upsample": up}, plan.predicted_error, t,
                                  o["grid_bytes"] + 16 * (P * M + npix), f"{plan.n_stages} stages")
@@ -170,8 +185,8 @@ def calibrate(path=None, *, repeat: int = 3) -> dict:
     """Measure the per-operation constants on this machine and write them to ``cost_model.json``.
 
     Small instances of every former (a few seconds in all); each constant is its measured time
-    (best of ``repeat``) divided by its operation count, except ffbp's two (stage 0 and the
-    interpolating stages), which solve the timings of two settings with different shares of each.
+    (best of ``repeat``) divided by its operation count, except ffbp's four (:data:`_FFBP_TERMS`),
+    fitted by non-negative least squares to six settings with different shares of each.
     """
     from ..core import geometry
     from . import ffbp as fb
@@ -204,21 +219,26 @@ def calibrate(path=None, *, repeat: int = 3) -> dict:
     c["bp"] = best(lambda: backproject(d, freq, a, r0, grid)) * thr / (P * N * N)
     small = Grid(32, 32, 0.5, 0.5)
     c["direct"] = best(lambda: direct_spherical(d, freq, a, r0, small)) * thr / (P * M * 32 * 32)
-    # ffbp: two settings whose stage-0 and interpolation shares differ give both constants
-    lf = profile_length(M, fb.DEFAULTS["upsample"])
+    # ffbp: settings whose shares of stage 0 (per pulse-node tap and per node), interpolation taps
+    # and (node, child) pairs differ; non-negative least squares gives the four constants
     rows, rhs = [], []
-    for knobs in ({}, {"base": 8, "os_range": 3.0, "os_angle": 3.0}):
-        o = fb.plan_stages(a, freq, grid, **knobs).ops
+    for knobs in ({}, {"base": 8}, {"base": 32}, {"base": 4}, {"os_range": 2.0, "os_angle": 2.0},
+                  {"base": 8, "os_range": 3.0, "os_angle": 3.0}):
+        plan = fb.plan_stages(a, freq, grid, **knobs)
+        lf = profile_length(M, plan.knobs["upsample"])
         t = best(lambda: fb.ffbp(d, freq, a, r0, grid, **knobs)) * thr
-        rows.append([o["stage0"], o["merge"] + o["final"]])
-        rhs.append(t - c["bp_fft"] * P * lf * math.log2(lf))
-    sol = np.linalg.solve(np.array(rows), np.array(rhs)) if abs(np.linalg.det(np.array(rows))) > 0 else None
-    if sol is None or not np.all(sol > 0):
+        rows.append(_ffbp_counts(plan.ops))
+        rhs.append(max(t - c["bp_fft"] * P * lf * math.log2(lf), 0.0))
+    from scipy.optimize import nnls
+    scale = np.max(np.array(rows), axis=0)
+    sol = nnls(np.array(rows) / scale, np.array(rhs))[0] / scale
+    if not np.any(sol > 0):
         # ill-posed on this machine's timings: split the default setting's time in the default ratio
         o = rows[0]
-        scale = rhs[0] / (_DEFAULT_COSTS["ffbp_stage0"] * o[0] + _DEFAULT_COSTS["ffbp_mac"] * o[1])
-        sol = (_DEFAULT_COSTS["ffbp_stage0"] * scale, _DEFAULT_COSTS["ffbp_mac"] * scale)
-    c["ffbp_stage0"], c["ffbp_mac"] = float(sol[0]), float(sol[1])
+        ref = sum(_DEFAULT_COSTS[name] * n for (name, _), n in zip(_FFBP_TERMS, o))
+        sol = [_DEFAULT_COSTS[name] * rhs[0] / ref for name, _ in _FFBP_TERMS]
+    for (name, _), v in zip(_FFBP_TERMS, sol):
+        c[name] = float(v)
     kx, ky = geometry.kspace_coordinates(freq, az, np.radians(30))
     w = _nufft_width(1e-6)
     t = best(lambda: nufft_farfield(d, kx, ky, grid, eps=1e-6)) * thr
