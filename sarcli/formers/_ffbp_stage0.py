@@ -46,13 +46,19 @@ def _gather_run(rp, ip, w, cr, ci, acc_re, acc_im, i0, e, off):
     ``node + off``: contiguous loads (the sum ``node + off`` modulo 2**64 is the non-negative bin)."""
     uoff = np.uint64(off)
     for k in range(np.uint64(i0), np.uint64(e)):
-        i = k + uoff
-        vr = (w[0, k] * rp[i] + w[1, k] * rp[i + _U1] + w[2, k] * rp[i + _U2]
-              + w[3, k] * rp[i + _U3] + w[4, k] * rp[i + _U4] + w[5, k] * rp[i + _U5])
-        vi = (w[0, k] * ip[i] + w[1, k] * ip[i + _U1] + w[2, k] * ip[i + _U2]
-              + w[3, k] * ip[i + _U3] + w[4, k] * ip[i + _U4] + w[5, k] * ip[i + _U5])
-        acc_re[k] += vr * cr[k] - vi * ci[k]
-        acc_im[k] += vr * ci[k] + vi * cr[k]
+        _tap6_acc(rp, ip, w, cr, ci, acc_re, acc_im, k, k + uoff)
+
+
+@njit(inline="always")
+def _tap6_acc(rp, ip, w, cr, ci, acc_re, acc_im, k, i):
+    """``acc[k] += (cr + i·ci)[k] · Σ_b w[b, k] · profile[i + b]``: one node's 6-tap profile read
+    (``i`` unsigned: no negative-index wrap-around tests)."""
+    vr = (w[0, k] * rp[i] + w[1, k] * rp[i + _U1] + w[2, k] * rp[i + _U2]
+          + w[3, k] * rp[i + _U3] + w[4, k] * rp[i + _U4] + w[5, k] * rp[i + _U5])
+    vi = (w[0, k] * ip[i] + w[1, k] * ip[i + _U1] + w[2, k] * ip[i + _U2]
+          + w[3, k] * ip[i + _U3] + w[4, k] * ip[i + _U4] + w[5, k] * ip[i + _U5])
+    acc_re[k] += vr * cr[k] - vi * ci[k]
+    acc_im[k] += vr * ci[k] + vi * cr[k]
 
 
 @njit(parallel=True, cache=True, fastmath=_FM)
@@ -165,14 +171,8 @@ def _stage0(pre, pim, first, count, geo, dlt, series, bistatic, inv_bin, kc, hal
                         _gather_run(rp, ip, w, cr, ci, acc_re, acc_im, i0, e, shift)
                         i0 = e
                     continue
-                for iq in range(nq):
-                    i = np.uint64(idx[iq])   # unsigned: no negative-index wrap-around tests
-                    vr = (w[0, iq] * rp[i] + w[1, iq] * rp[i + _U1] + w[2, iq] * rp[i + _U2]
-                          + w[3, iq] * rp[i + _U3] + w[4, iq] * rp[i + _U4] + w[5, iq] * rp[i + _U5])
-                    vi = (w[0, iq] * ip[i] + w[1, iq] * ip[i + _U1] + w[2, iq] * ip[i + _U2]
-                          + w[3, iq] * ip[i + _U3] + w[4, iq] * ip[i + _U4] + w[5, iq] * ip[i + _U5])
-                    acc_re[iq] += vr * cr[iq] - vi * ci[iq]
-                    acc_im[iq] += vr * ci[iq] + vi * cr[iq]
+                for iq in range(nq):   # gathers
+                    _tap6_acc(rp, ip, w, cr, ci, acc_re, acc_im, iq, np.uint64(idx[iq]))
                 continue
             _taps_acc(rp, ip, idx, 0, w, ntap, cr, ci, acc_re, acc_im)
         for iq in range(nq):
