@@ -89,7 +89,21 @@ def test_ffbp_bistatic_positions():
     a, r0 = circle()
     rcv = a + np.array([0.0, 40.0, 5.0])
     r0b = 0.5 * (np.linalg.norm(a, axis=1) + np.linalg.norm(rcv, axis=1))
-    check(point_data(a, r0b, rcv=rcv), a, r0b, rcv=rcv)
+    err, plan = check(point_data(a, r0b, rcv=rcv), a, r0b, rcv=rcv)
+    assert plan.band_scale == (1.0, 1.0)   # a short baseline keeps the tones in the nominal bands
+
+
+@pytest.mark.parametrize("offset", [(0.0, 600.0, 100.0), None])
+def test_ffbp_wide_bistatic_geometry_samples_its_grids_finer(offset):
+    """A 600 m baseline, and a fixed receiver 3 km from the transmitters' path: the polar grids
+    are centred on the mean of transmit and receive positions, so the pulses' tones reach past
+    the grids' nominal bands (range 14×, angle 4× for the fixed receiver). The plan samples the
+    grids finer to hold them (they imaged at 1.7e-2 and 1.28 relative error before)."""
+    a, r0 = circle()
+    rcv = a + np.array(offset) if offset is not None else np.broadcast_to([0.0, 3000.0, 800.0], a.shape).copy()
+    r0b = 0.5 * (np.linalg.norm(a, axis=1) + np.linalg.norm(rcv, axis=1))
+    err, plan = check(point_data(a, r0b, rcv=rcv), a, r0b, rcv=rcv, tol=5e-3)
+    assert max(plan.band_scale) > 1.2
 
 
 def test_ffbp_farfield_through_form_image():

@@ -87,9 +87,10 @@ class _Level:
 
 
 
-def _frame(pos, first, count, grid, kmax, os_angle, margin):
+def _frame(pos, first, count, grid, kmax, os_angle, margin, band_scale=1.0):
     """Polar frames of the sub-apertures ``first/count``: centres, bounds of the grid grown by
-    ``margin`` in their coordinates, spacing in u and ground metres per unit u (the largest R)."""
+    ``margin`` in their coordinates, spacing in u and ground metres per unit u (the largest R).
+    ``band_scale`` widens the band in u the spacing is made for (:func:`band_excess`)."""
     first, count = np.asarray(first), np.asarray(count)
     run = pos[first[0]:first[-1] + count[-1]]   # the sub-apertures are consecutive runs of pulses
     starts = first - first[0]
@@ -110,7 +111,7 @@ def _frame(pos, first, count, grid, kmax, os_angle, margin):
     tilt = np.max(np.abs(tau) * (g[2][:, None] + q) / den, axis=1)
     tmin, tmax = tau.min(axis=1), tau.max(axis=1)
     span = np.maximum(tmax - tmin, 1e-300)
-    band = kmax * d * np.sqrt(1.0 + tilt * tilt)
+    band = kmax * d * np.sqrt(1.0 + tilt * tilt) * float(band_scale)
     dtau = np.where(band > 0, np.pi / np.maximum(band, 1e-300) / os_angle, span)
     dtau = np.minimum(dtau, span / 2.0)
     beta = float(np.min(np.where(band > 0, np.pi / np.maximum(band * dtau, 1e-300), np.inf)))
@@ -184,9 +185,35 @@ def _check_points(grid, margin):
             np.concatenate([by[::4], [0.5 * (grid.y[0] + grid.y[-1])]]))
 
 
-def decide_deapodization(t, r, frames, parents, grid, margin, kmax, kref, dq, os_range, os_angle):
+def tone_rates(t, r, frames, parents, grid, margin):
+    """:func:`pulse_rates` of every level on the grid grown by ``margin`` (its edge and centre).
+    ``parents[l]``: the index in level l+1 of each level-l sub-aperture's parent (``None`` for
+    the last level, which the final stage reads)."""
+    bx, by = _check_points(grid, margin)
+    return [pulse_rates(t, r, fr, bx, by, None if parents[l] is None else frames[l + 1]["geo"][:, parents[l]])
+            for l, fr in enumerate(frames)]
+
+
+def band_excess(rates, frames, kmin, kmax, kref, os_angle):
+    """How far the pulses' tones reach past the bands the polar grids are sampled for, as
+    ``(range, angle)`` ratios (1: exactly to the band's edge). Range: ``max |k ∂R_p/∂q − k_ref|``
+    over the band and the grids against ``K_B/2``; angle: ``max k_max |∂R_p/∂u| Δu`` against
+    ``π/os_angle``. Monostatic paths stay within a few per cent; a receiver far from the
+    transmitter (the grids are centred on their mean) or a wide baseline does not, and then the
+    grids must be sampled that much finer (:func:`sarcli.formers.ffbp.plan_stages`)."""
+    rq = ru = 0.0
+    for (q_mid, q_half, u_mid, u_half), fr in zip(rates, frames):
+        for k in (kmin, kmax):
+            rq = max(rq, float(np.max(np.abs(k * (q_mid - q_half) - kref))),
+                     float(np.max(np.abs(k * (q_mid + q_half) - kref))))
+        du = np.repeat(fr["dtau"], fr["count"])
+        ru = max(ru, float(np.max(kmax * (np.abs(u_mid) + u_half) * du)) / (np.pi / float(os_angle)))
+    return rq / (0.5 * (kmax - kmin)), ru
+
+
+def decide_deapodization(rates, frames, kmax, kref, dq, os_range, os_angle):
     """Whether to deapodize the polar grids' range and angular kernels, from each pulse's tones on
-    every level's grid (:func:`pulse_rates`, the middle over the grid grown by ``margin``).
+    every level's grid (:func:`tone_rates`).
 
     Pulse p's component at ``k_j`` is read by level l's interpolations at
     ``ν_q = k_j a_q[l, p] + b_q`` and ``ν_u = k_j a_u[l, p]`` cycles per sample, with
@@ -197,15 +224,12 @@ def decide_deapodization(t, r, frames, parents, grid, margin, kmax, kref, dq, os
     :func:`sarcli.formers.ffbp_model.deapodized_error`). An axis is deapodized where its mismatch plus every level's aliases
     (:func:`sarcli.formers.ffbp_model.deapodized_error`) stays below the minimax stencils' error at
     the same oversampling. Returns ``{"range": (ok, mismatch, a_q, b_q), "angle": (ok, mismatch, a_u)}``
-    (the arrays ``None`` where not deapodized). ``parents[l]``: the index in level l+1 of each
-    level-l sub-aperture's parent (``None`` for the last level, which the final stage reads)."""
-    bx, by = _check_points(grid, margin)
-    n_lev, n_p = len(frames), t.shape[0]
+    (the arrays ``None`` where not deapodized). ``rates``: :func:`tone_rates`."""
+    n_lev, n_p = len(frames), rates[0][0].size
     a_q, a_u = np.empty((n_lev, n_p)), np.empty((n_lev, n_p))
     mis_q = mis_u = minimax_u = 0.0
     for l, fr in enumerate(frames):
-        up = None if parents[l] is None else frames[l + 1]["geo"][:, parents[l]]
-        q_mid, q_half, u_mid, u_half = pulse_rates(t, r, fr, bx, by, up)
+        q_mid, q_half, u_mid, u_half = rates[l]
         du = np.repeat(fr["dtau"], fr["count"]) / (2 * np.pi)
         a_q[l], a_u[l] = q_mid * dq / (2 * np.pi), u_mid * du
         mis_q += deapodized_slope(float(os_range)) * kmax * float(np.sqrt(np.mean(q_half ** 2))) * dq / (2 * np.pi)

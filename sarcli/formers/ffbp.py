@@ -63,7 +63,7 @@ from ..errors import SarcliInputError
 from .ffbp_model import INTERPOLATORS, NTAPS as _NTAPS, frequency_error, interp_error, optimal_kernel, predict_error
 from .ffbp_model import coefficients as _coefficients
 from ._ffbp_grids import _frame, _level
-from ._ffbp_grids import deapodization as _deapodization, decide_deapodization
+from ._ffbp_grids import band_excess, deapodization as _deapodization, decide_deapodization, tone_rates
 from .ffbp_model import deapodized_edge_error, deapodized_error, deapodized_inverse, deapodized_kernel
 
 __all__ = ["ffbp", "ffbp_image", "optimal_kernel", "plan_stages", "predict_error", "interp_error", "FfbpPlan", "DEFAULTS"]
@@ -75,6 +75,9 @@ DEFAULTS = {"base": 16, "merge": 4, "os_range": 2.0, "os_angle": 2.0, "interp": 
 OS_RANGE_DEAPODIZED = 1.5
 #: ``os_angle`` tried first when it is not given (``interp='optimal'``), on the same terms.
 OS_ANGLE_DEAPODIZED = 1.5
+#: How far (ratio) the pulses' tones may reach past the polar grids' nominal bands before the
+#: grids are sampled finer to hold them (:func:`sarcli.formers._ffbp_grids.band_excess`).
+BAND_SLACK = 1.02
 #: Profile upsampling of the analytic kernels (only ``optimal``'s profiles are deapodized).
 UPSAMPLE_ANALYTIC = 4.0
 #: Storage of the polar sub-images: float32 halves their memory and traffic; its rounding (6e-8
@@ -114,6 +117,8 @@ class FfbpPlan:
     angle_deapodized: bool = False
     angle_mismatch: float = 0.0
     angle_rates: np.ndarray | None = None
+    #: factors (range, angle) by which the grids' bands were widened to hold every pulse's tones
+    band_scale: tuple = (1.0, 1.0)
 
     @property
     def n_stages(self) -> int:
@@ -180,7 +185,8 @@ def plan_stages(antenna_position_m, freq_hz, grid: Grid, *, base=None, merge=Non
 
 
 def _plan_stages(antenna_position_m, freq_hz, grid: Grid, *, base=None, merge=None, os_range=None,
-                 os_angle=None, interp=None, upsample=None, final=None, receive_position_m=None) -> FfbpPlan:
+                 os_angle=None, interp=None, upsample=None, final=None, receive_position_m=None,
+                 _band=None) -> FfbpPlan:
     """:func:`plan_stages` for given knobs (``None``: :data:`DEFAULTS`).
 
     Parameters as for :func:`ffbp`. ``ops`` holds the multiply-add counts of stage 0
@@ -218,14 +224,15 @@ def _plan_stages(antenna_position_m, freq_hz, grid: Grid, *, base=None, merge=No
     kband = 4 * np.pi * (fmax - fmin) / C
     kmax = 4 * np.pi * fmax / C
     kref = 2 * np.pi * (fmax + fmin) / C
-    dq = np.pi / (kband / 2) / k["os_range"]
+    bq, bu = _band or (1.0, 1.0)
+    dq = np.pi / (kband / 2 * bq) / k["os_range"]
     ntap = _NTAPS[INTERPOLATORS[k["interp"]]]
     half = ntap // 2   # a stencil reaches ntap/2 samples past its point
     n_pix = grid.nx * grid.ny
     P = pos.shape[0]
     margin = 2 * max(grid.dx, grid.dy)
     first, count = _split(P, base, merge)
-    frames = [_frame(pos, first, count, grid, kmax, k["os_angle"], margin)]
+    frames = [_frame(pos, first, count, grid, kmax, k["os_angle"], margin, bu)]
     children = [None]
     est = [_level(frames[0], dq, 2 * half, 2 * half)]
     while frames[-1]["first"].size > 1:   # merge while it costs less than it saves in the final stage
@@ -233,7 +240,7 @@ def _plan_stages(antenna_position_m, freq_hz, grid: Grid, *, base=None, merge=No
         n_cur = cur["first"].size
         pf, pc = _split(n_cur, merge)
         pcount = np.array([cur["count"][i:i + m].sum() for i, m in zip(pf, pc)])
-        nxt = _frame(pos, cur["first"][pf], pcount, grid, kmax, k["os_angle"], margin)
+        nxt = _frame(pos, cur["first"][pf], pcount, grid, kmax, k["os_angle"], margin, bu)
         lv = _level(nxt, dq, 2 * half, 2 * half)
         if final is not None:
             if n_cur <= int(final):
@@ -269,15 +276,25 @@ def _plan_stages(antenna_position_m, freq_hz, grid: Grid, *, base=None, merge=No
     for lv in levels[1:]:
         ops["merge"] += float(lv.n) * lv.nt * lv.nq * merge * 2 * ntap
         ops["pairs"] += float(lv.n) * lv.nt * lv.nq * merge
+    # every pulse's tones on every level's grid: where they overflow the bands the grids were
+    # sampled for (a receiver far from the transmitter, a wide baseline), sample that much finer
+    parents = [np.searchsorted(children[l + 1][0], np.arange(fr["first"].size), side="right") - 1
+               for l, fr in enumerate(frames[:-1])] + [None]
+    rates = tone_rates(t, r, frames, parents, grid, margin)
+    excess = band_excess(rates, frames, 4 * np.pi * fmin / C, kmax, kref, k["os_angle"])
+    if _band is None and max(excess) > BAND_SLACK:
+        return _plan_stages(antenna_position_m, freq_hz, grid, base=base, merge=merge, os_range=k["os_range"],
+                            os_angle=k["os_angle"], interp=k["interp"], upsample=k["upsample"], final=final,
+                            receive_position_m=receive_position_m,
+                            _band=tuple(max(e, 1.0) * BAND_SLACK for e in excess))
     plan = FfbpPlan(levels, dq, kref, levels[-1].n, ops, {**k, "base": base, "merge": merge})
+    plan.band_scale = (bq, bu)
     if k["interp"] == "optimal":
         # the profiles' kernel is deapodized exactly, but near upsample 1 its Ψ vanishes at the
         # band edge (1.8e-3 at β = 1) and the minimax stencil errs less
         plan.profiles_deapodized = bool(deapodized_edge_error(float(k["upsample"]))
                                         < interp_error("optimal", float(k["upsample"])))
-        parents = [np.searchsorted(children[l + 1][0], np.arange(fr["first"].size), side="right") - 1
-                   for l, fr in enumerate(frames[:-1])] + [None]
-        dec = decide_deapodization(t, r, frames, parents, grid, margin, kmax, kref, dq, k["os_range"], k["os_angle"])
+        dec = decide_deapodization(rates, frames, kmax, kref, dq, k["os_range"], k["os_angle"])
         plan.range_deapodized, plan.range_mismatch, plan.range_rates, plan.range_offset = dec["range"]
         plan.angle_deapodized, plan.angle_mismatch, plan.angle_rates = dec["angle"]
     # peak bytes of polar grids (float32 pairs): two adjacent levels of one depth-first group
