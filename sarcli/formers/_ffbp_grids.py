@@ -69,7 +69,7 @@ class _Level:
 
     first: np.ndarray       # first pulse of each sub-aperture
     count: np.ndarray       # pulses in each
-    geo: np.ndarray         # [6, S] centre geometry
+    geo: np.ndarray         # [7, S] centre geometry (_centre_geometry)
     q0: np.ndarray
     t0: np.ndarray
     dtau: np.ndarray
@@ -84,7 +84,6 @@ class _Level:
     def nbytes(self) -> float:
         """Bytes of this level's sub-images (float32 real and imaginary parts)."""
         return 8.0 * self.n * self.nt * self.nq
-
 
 
 def _frame(pos, first, count, grid, kmax, os_angle, margin, band_scale=1.0):
@@ -198,7 +197,7 @@ def band_excess(rates, frames, kmin, kmax, kref, os_angle):
     """How far the pulses' tones reach past the bands the polar grids are sampled for, as
     ``(range, angle)`` ratios (1: exactly to the band's edge). Range: ``max |k ∂R_p/∂q − k_ref|``
     over the band and the grids against ``K_B/2``; angle: ``max k_max |∂R_p/∂u| Δu`` against
-    ``π/os_angle``. Monostatic paths stay within a few per cent; a receiver far from the
+    ``π/os_angle``. Level paths stay within 2 %, climbing or squinted ones within ~15 %; a receiver far from the
     transmitter (the grids are centred on their mean) or a wide baseline does not, and then the
     grids must be sampled that much finer (:func:`sarcli.formers.ffbp.plan_stages`)."""
     rq = ru = 0.0

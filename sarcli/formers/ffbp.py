@@ -64,12 +64,13 @@ from .ffbp_model import INTERPOLATORS, NTAPS as _NTAPS, frequency_error, interp_
 from .ffbp_model import coefficients as _coefficients
 from ._ffbp_grids import _frame, _level
 from ._ffbp_grids import band_excess, deapodization as _deapodization, decide_deapodization, tone_rates
-from .ffbp_model import deapodized_edge_error, deapodized_error, deapodized_inverse, deapodized_kernel
+from .ffbp_model import deapodized_edge_error, deapodized_error, deapodized_inverse, deapodized_kernel, default_upsample
 
 __all__ = ["ffbp", "ffbp_image", "optimal_kernel", "plan_stages", "predict_error", "interp_error", "FfbpPlan", "DEFAULTS"]
 
-#: Default knobs (see docs/ffbp.md for the error-vs-time frontier behind them).
-DEFAULTS = {"base": 16, "merge": 4, "os_range": 2.0, "os_angle": 2.0, "interp": "optimal", "upsample": 2.0}
+#: Default knobs (see docs/ffbp.md for the error-vs-time frontier behind them); ``upsample`` not
+#: given is :func:`default_upsample` for ``optimal``, :data:`UPSAMPLE_ANALYTIC` for the others.
+DEFAULTS = {"base": 16, "merge": 4, "os_range": 2.0, "os_angle": 2.0, "interp": "optimal"}
 #: ``os_range`` tried first when it is not given (``interp='optimal'``): kept where the plan
 #: deapodizes the range kernel and its range error is predicted no larger than at the default 2.
 OS_RANGE_DEAPODIZED = 1.5
@@ -147,13 +148,6 @@ def _split(n, size, merge=None):
     return edges[:-1], np.diff(edges)
 
 
-def default_upsample(os_range: float) -> float:
-    """Profile upsampling of the ``optimal`` kernels: the smallest multiple of ``os_range`` of at
-    least 1.5, so that the deapodized profiles' aliases land on their own tones on the polar grids
-    (:func:`sarcli.formers.ffbp_model.profile_alias_error`)."""
-    return float(os_range) * math.ceil(1.5 / float(os_range) - 1e-9)
-
-
 def plan_stages(antenna_position_m, freq_hz, grid: Grid, *, base=None, merge=None, os_range=None,
                 os_angle=None, interp=None, upsample=None, final=None, receive_position_m=None) -> FfbpPlan:
     """The FFBP stages for a geometry (no data needed): levels, operation counts, predicted error
@@ -164,22 +158,25 @@ def plan_stages(antenna_position_m, freq_hz, grid: Grid, *, base=None, merge=Non
     :func:`default_upsample` for ``optimal`` (deapodized profiles), :data:`UPSAMPLE_ANALYTIC` for
     the others.
     ``receive_position_m``: separate receive positions (``antenna_position_m`` then transmits)."""
-    kw = dict(base=base, merge=merge, interp=interp, final=final, receive_position_m=receive_position_m)
-    if upsample is None and interp not in (None, "optimal"):
-        upsample = UPSAMPLE_ANALYTIC
-    kw["upsample"] = upsample
+    kw = dict(base=base, merge=merge, interp=interp, final=final, upsample=upsample,
+              receive_position_m=receive_position_m)
     auto = interp in (None, "optimal")
     r_try = (OS_RANGE_DEAPODIZED, None) if os_range is None and auto else (os_range,)
     a_try = (OS_ANGLE_DEAPODIZED, None) if os_angle is None and auto else (os_angle,)
+
+    def pays(plan, deapodized, mismatch, os_fine, default):
+        # the coarse sampling tried first is kept where its kernel is deapodized and errs no more
+        # than the minimax stencil at the default
+        n = len(plan.levels)
+        return deapodized and n * deapodized_error(os_fine) + mismatch <= n * interp_error("optimal", default)
+
     for o_r in r_try:
         for o_a in a_try:
             plan = _plan_stages(antenna_position_m, freq_hz, grid, os_range=o_r, os_angle=o_a, **kw)
-            n = len(plan.levels)
-            ok_r = o_r is not OS_RANGE_DEAPODIZED or (plan.range_deapodized and n * deapodized_error(o_r)
-                                                       + plan.range_mismatch <= n * interp_error("optimal", 2.0))
-            ok_a = o_a is not OS_ANGLE_DEAPODIZED or (plan.angle_deapodized and n * deapodized_error(o_a)
-                                                       + plan.angle_mismatch <= n * interp_error("optimal", 2.0))
-            if ok_r and ok_a:
+            if ((o_r is not OS_RANGE_DEAPODIZED
+                 or pays(plan, plan.range_deapodized, plan.range_mismatch, o_r, DEFAULTS["os_range"]))
+                    and (o_a is not OS_ANGLE_DEAPODIZED
+                         or pays(plan, plan.angle_deapodized, plan.angle_mismatch, o_a, DEFAULTS["os_angle"]))):
                 return plan
     return plan
 
@@ -205,8 +202,8 @@ def _plan_stages(antenna_position_m, freq_hz, grid: Grid, *, base=None, merge=No
     """
     k = {**DEFAULTS, **{n: v for n, v in dict(base=base, merge=merge, os_range=os_range, os_angle=os_angle,
                                                interp=interp, upsample=upsample).items() if v is not None}}
-    if upsample is None and k["interp"] == "optimal":
-        k["upsample"] = default_upsample(float(k["os_range"]))
+    if upsample is None:
+        k["upsample"] = default_upsample(float(k["os_range"])) if k["interp"] == "optimal" else UPSAMPLE_ANALYTIC
     base, merge = int(k["base"]), int(k["merge"])
     if base < 1 or merge < 2:
         raise SarcliInputError(f"ffbp needs base >= 1 and merge >= 2, got base={base}, merge={merge}")
@@ -358,9 +355,9 @@ def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weigh
         Pulses per base sub-aperture.
     merge : int, default 4
         Sub-apertures merged per stage.
-    os_range, os_angle : float, default 2
-        Oversampling of the polar grids over the Nyquist rate in range and angle (``os_range``
-        not given: 1.5 where the range kernel can be deapodized, :func:`plan_stages`).
+    os_range, os_angle : float, optional
+        Oversampling of the polar grids over the Nyquist rate in range and angle (not given: 1.5
+        where that axis's kernel can be deapodized, else 2; :func:`plan_stages`).
     interp : {'linear', 'cubic', 'lanczos', 'optimal'}, default 'optimal'
         Interpolator of the range profiles and the polar grids (``optimal``: least-squares 6-tap
         kernels designed for each grid's oversampling, :func:`optimal_kernel`).
@@ -450,7 +447,9 @@ def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weigh
                 p0, p1 = int(lev.first[s0]), int(lev.first[s1 - 1] + lev.count[s1 - 1])
                 wb = None if w is None else w[p0:p1]
                 if deapodize:   # the deapodized kernels' mean responses, divided out of the data
-                    wb = np.array(np.broadcast_to(deap if wb is None else wb * deap, (p1 - p0, M)))
+                    wb = deap if wb is None else wb * deap
+                    if tones:   # per pulse: a [pulses, M] block of its own
+                        wb = np.array(np.broadcast_to(wb, (p1 - p0, M)))
                     for rates, off, (h_t, inv_t) in tones:
                         _tone_weights(k_all if k_all.shape[0] == 1 else k_all[p0:p1],
                                       np.ascontiguousarray(rates[:, p0:p1]), off, 1.0 / h_t, inv_t, wb)

@@ -13,7 +13,7 @@ import numpy as np
 
 __all__ = ["INTERPOLATORS", "NTAPS", "optimal_kernel", "optimal_weights", "interp_error", "predict_error",
            "coefficients", "deapodized_kernel", "deapodized_response", "deapodized_error", "deapodized_slope",
-           "deapodized_inverse", "deapodized_edge_error", "profile_alias_error"]
+           "deapodized_inverse", "deapodized_edge_error", "profile_alias_error", "default_upsample"]
 
 #: Interpolators (codes 0-2 shared with backprojection's kernels) and their taps. ``optimal``: the
 #: 6-tap kernel with the least mean-square error over the band of a signal oversampled as much as
@@ -123,13 +123,19 @@ def _response(coef, nu, t):
     return np.einsum("tn,vtn->vt", w, ph)
 
 
-def _fluctuation(coef, beta, n_nu=129, n_t=256, rms=False):
-    """Largest (``rms``: the rms) over the band ``|ν| ≤ 1/(2β)`` of the rms over fractions of
-    ``H(ν, t) − H̄(ν)``, relative to ``H̄(ν)``: what is left of an interpolation once its mean
-    response ``H̄`` is divided out."""
-    h = _response(coef, np.linspace(-0.5, 0.5, n_nu) / float(beta), (np.arange(n_t) + 0.5) / n_t)
+def _alias_rms(coef, beta, n_nu=129, n_t=256):
+    """``(ν, e(ν))`` over the band ``|ν| ≤ 1/(2β)``: the rms over fractions of ``H(ν, t) − H̄(ν)``,
+    relative to ``H̄(ν)``: what is left of an interpolation once its mean response ``H̄`` is
+    divided out."""
+    nu = np.linspace(-0.5, 0.5, n_nu) / float(beta)
+    h = _response(coef, nu, (np.arange(n_t) + 0.5) / n_t)
     hm = h.mean(axis=1)
-    e = np.sqrt(np.mean(np.abs(h - hm[:, None]) ** 2, axis=1)) / np.abs(hm)
+    return nu, np.sqrt(np.mean(np.abs(h - hm[:, None]) ** 2, axis=1)) / np.abs(hm)
+
+
+def _fluctuation(coef, beta, n_nu=129, n_t=256, rms=False):
+    """Largest (``rms``: the rms) over the band of :func:`_alias_rms`."""
+    e = _alias_rms(coef, beta, n_nu, n_t)[1]
     return float(np.sqrt(np.mean(e * e)) if rms else np.max(e))
 
 
@@ -233,11 +239,7 @@ def profile_alias_error(upsample: float, os_range: float, n_levels: int) -> floa
     aliases for the worst fold ``m`` (measured on the 2048² circle, four levels at os_range 1.5:
     3.6e-3 at upsample 2 against 9.6e-4 at upsample 1.5)."""
     up, os_r = float(upsample), float(os_range)
-    coef = deapodized_kernel(up)
-    nu_p = np.linspace(-0.5, 0.5, 129) / up
-    h = _response(coef, nu_p, (np.arange(256) + 0.5) / 256)
-    hm = h.mean(axis=1)
-    fluct = np.sqrt(np.mean(np.abs(h - hm[:, None]) ** 2, axis=1)) / np.abs(hm)
+    nu_p, fluct = _alias_rms(deapodized_kernel(up), up)
     nu = nu_p * up / os_r
     worst = float(np.sqrt(np.mean(fluct * fluct)))
     for m in (1, -1, 2, -2):
@@ -247,6 +249,13 @@ def profile_alias_error(upsample: float, os_range: float, n_levels: int) -> floa
                 / deapodized_response(os_r, nu)) ** int(n_levels)
         worst = max(worst, float(np.sqrt(np.mean(np.where(inside, fluct * gain, 0.0) ** 2))))
     return worst
+
+
+def default_upsample(os_range: float) -> float:
+    """Profile upsampling of the ``optimal`` kernels: the smallest multiple of ``os_range`` of at
+    least 1.5, so that the deapodized profiles' aliases land on their own tones on the polar grids
+    (:func:`profile_alias_error`)."""
+    return float(os_range) * float(np.ceil(1.5 / float(os_range) - 1e-9))
 
 
 def coefficients(interp: str, beta: float) -> np.ndarray:

@@ -103,7 +103,7 @@ def candidates(ph, grid: Grid, tolerance: float, *, costs=None, nthreads=None) -
     "Meets" means a predicted error at most ``tolerance / SAFETY`` (:data:`SAFETY`)."""
     from . import ffbp as fb
     from .backprojection import profile_length
-    from .ffbp_model import deapodized_error, frequency_error, interp_error
+    from .ffbp_model import deapodized_error, default_upsample, frequency_error, interp_error
     from .subimage import choose_tile
 
     if not (0 < tolerance < 1):
@@ -153,8 +153,9 @@ def candidates(ph, grid: Grid, tolerance: float, *, costs=None, nthreads=None) -
                 break
             # profiles: a multiple of os_range (their aliases then land on their own tones) whose
             # deapodized error is well inside the target
-            up = next((m * os_r for m in (1, 2, 4, 8, 16) if m * os_r >= 1.5
-                       and deapodized_error(float(m * os_r)) <= target / 8), 16 * os_r)
+            up = default_upsample(os_r)
+            while deapodized_error(up) > target / 8 and up < 16 * os_r:
+                up *= 2
             for base in (8, 16, 32):
                 try:
                     plan = fb.plan_stages(pos, f, grid, base=base, os_range=os_r, os_angle=os_, upsample=up,
