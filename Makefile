@@ -25,10 +25,18 @@ help:
 	@echo "make stability regenerate docs/stability.md from the stability cases in tests/stability/"
 
 # -- environment -------------------------------------------------------------------------------
-$(VENV)/.installed: pyproject.toml
-	$(PYTHON) -m venv $(VENV)
+# sarcli's kernels (src/native/) are C++17 compiled when the package is installed. The venv holds
+# the build requirements too, so `pip install -e .` runs without build isolation and an edit to a
+# kernel rebuilds only what changed (in build/): `make setup` after editing src/native.
+NATIVE := CMakeLists.txt $(wildcard src/native/*.cpp src/native/*.hpp)
+CXX ?= c++
+
+$(VENV)/.installed: pyproject.toml $(NATIVE)
+	@command -v $(CXX) >/dev/null 2>&1 || command -v g++ >/dev/null 2>&1 || { echo "sarcli's kernels need a C++17 compiler with OpenMP, and none was found (Debian/Ubuntu: apt-get install g++)"; exit 2; }
+	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -e '.[test]'
+	$(BIN)/python -m pip install --quiet $$($(BIN)/python -c "import tomllib; print(' '.join(repr(r) for r in tomllib.load(open('pyproject.toml', 'rb'))['build-system']['requires']))" | tr -d "'")
+	$(BIN)/python -m pip install --quiet --no-build-isolation -e '.[test]'
 	touch $@
 
 setup: $(VENV)/.installed
@@ -121,4 +129,4 @@ clean:
 	rm -rf $(OUT)
 
 distclean: clean
-	rm -rf $(VENV) *.egg-info
+	rm -rf $(VENV) build *.egg-info

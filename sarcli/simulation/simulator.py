@@ -66,7 +66,9 @@ def _farfield_extended(acq: Acquisition, values, grid) -> np.ndarray:
 
 def _spherical_extended(acq: Acquisition, values, grid) -> np.ndarray:
     """Exact spherical-model data of a fine grid (compiled loop, bounded memory)."""
-    from ._kernels import spherical_sum
+    from .._native import load
+
+    spherical_sum = load("simulate").spherical_sum
 
     mask = values != 0
     pts = grid.points()[mask]
@@ -76,8 +78,7 @@ def _spherical_extended(acq: Acquisition, values, grid) -> np.ndarray:
     a = np.ascontiguousarray(acq.antenna_position_m, dtype=np.float64)
     norm_ld = np.sqrt(np.sum(acq.antenna_position_m.astype(np.longdouble) ** 2, axis=1))
     r0 = (norm_ld - acq.range_to_center_m.astype(np.longdouble)).astype(np.float64)  # |a_p| - r0_p
-    # blocks of pulses and points small enough that one compiled call stays well under a second:
-    # numba holds the interpreter, so signals (Ctrl-C) are seen between calls
+    # blocks of pulses and points, one compiled call each, so the progress bar moves
     work = 1 << 23
     per_pulse = max(1, acq.n_frequencies * len(amp))
     step = max(1, min(acq.n_pulses // 32, work // per_pulse))

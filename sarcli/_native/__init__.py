@@ -1,0 +1,49 @@
+"""sarcli's compiled kernels: C++17, built by CMake when the package is installed.
+
+One extension module per kernel family, each from one source in ``src/native/`` of the
+repository (``src/native/NAME.cpp`` is ``sarcli._native._NAME``), bound with nanobind. The
+kernels hold only loops: planning, geometry, error models and I/O stay in Python, in the module
+that wraps each family. They release the interpreter lock while they run (so dask threads and the
+Ctrl-C watchdog run beside them), thread with OpenMP (static schedules, one parallel region per
+call) and pick their SIMD width when loaded (AVX-512, AVX2 + FMA or baseline x86-64).
+
+:func:`threads` sets the OpenMP thread count that kernels started from the calling thread use.
+"""
+
+from __future__ import annotations
+
+__all__ = ["load", "threads", "simd_level"]
+
+
+def load(family: str):
+    """The compiled module of ``family`` (``"simulate"`` -> ``sarcli._native._simulate``).
+
+    Raises an ImportError that says how to build it when the package was not installed with its
+    kernels (a source checkout on ``sys.path`` without ``pip install``).
+    """
+    import importlib
+
+    try:
+        return importlib.import_module(f"._{family}", __name__)
+    except ImportError as exc:
+        raise ImportError(
+            f"sarcli's compiled kernel module '_{family}' is missing: install the package "
+            "(`pip install .`, or `make setup` in a checkout), which compiles src/native/ with a "
+            f"C++17 compiler ({exc})") from exc
+
+
+def threads(n: int | None = None) -> int:
+    """Set (``n``) and return the thread count of kernels started from the calling thread.
+
+    OpenMP keeps it per calling thread, so batch jobs running in threads of their own can each
+    set theirs; ``OMP_NUM_THREADS`` sets the default.
+    """
+    rt = load("runtime")
+    if n is not None:
+        rt.set_num_threads(int(n))
+    return rt.get_max_threads()
+
+
+def simd_level() -> str:
+    """The instruction set the kernels' SIMD clones run on here: avx512, avx2 or baseline."""
+    return load("runtime").simd_level()
