@@ -4,6 +4,7 @@ mean responses out of the data (:func:`sarcli.formers.ffbp_model.deapodized_kern
 
 from __future__ import annotations
 
+import hashlib
 from dataclasses import dataclass
 
 import numpy as np
@@ -153,16 +154,22 @@ def pulse_rates(t, r, fr, xs, ys, parent=None):
     out = np.empty((4, sub.size))
     for a in range(0, sub.size, 4096):   # blocks of pulses: no [P, points] temporaries beyond 4096 rows
         sb = sub[a:a + 4096]
-        qx, qy, ux, uy, den = gqx[sb], gqy[sb], gux[sb], guy[sb], gden[sb]
-        for i, (dx, dy) in enumerate(((qx, qy), (ux, uy))):
-            rate = _range_rate(t[a0 + a:a0 + a + 4096], xs[None, :], ys[None, :], dx, dy)
-            if r is not t:
-                rate = 0.5 * (rate + _range_rate(r[a0 + a:a0 + a + 4096], xs[None, :], ys[None, :], dx, dy))
-            if i == 0:
-                rate = rate / den
+        rq, ru = _unit_rays(t[a0 + a:a0 + a + 4096], xs, ys, gqx[sb], gqy[sb], gux[sb], guy[sb])
+        if r is not t:
+            rq2, ru2 = _unit_rays(r[a0 + a:a0 + a + 4096], xs, ys, gqx[sb], gqy[sb], gux[sb], guy[sb])
+            rq, ru = 0.5 * (rq + rq2), 0.5 * (ru + ru2)
+        for i, rate in enumerate((rq / gden[sb], ru)):
             hi, lo = rate.max(axis=1), rate.min(axis=1)
             out[2 * i, a:a + hi.size], out[2 * i + 1, a:a + hi.size] = 0.5 * (hi + lo), 0.5 * (hi - lo)
     return tuple(out)
+
+
+def _unit_rays(pos, xs, ys, qx, qy, ux, uy):
+    """:func:`_range_rate` of pulses ``pos`` along (qx, qy) and (ux, uy), sharing the unit rays."""
+    px, py, pz = xs[None, :] - pos[:, 0:1], ys[None, :] - pos[:, 1:2], pos[:, 2:3]
+    inv = 1.0 / np.sqrt(px * px + py * py + pz * pz)
+    px, py = px * inv, py * inv
+    return px * qx + py * qy, px * ux + py * uy
 
 
 def deapodization(freq_hz, plan, n_len):
@@ -188,9 +195,28 @@ def tone_rates(t, r, frames, parents, grid, margin):
     """:func:`pulse_rates` of every level on the grid grown by ``margin`` (its edge and centre).
     ``parents[l]``: the index in level l+1 of each level-l sub-aperture's parent (``None`` for
     the last level, which the final stage reads)."""
-    bx, by = _check_points(grid, margin)
-    return [pulse_rates(t, r, fr, bx, by, None if parents[l] is None else frames[l + 1]["geo"][:, parents[l]])
-            for l, fr in enumerate(frames)]
+    key = (_digest(t), _digest(r) if r is not t else None, grid.x[0], grid.x[-1], grid.nx, grid.y[0], grid.y[-1],
+           grid.ny, float(margin), tuple((_digest(fr["first"]), _digest(fr["count"])) for fr in frames),
+           tuple(None if p is None else _digest(p) for p in parents))
+    hit = _RATES.get(key)
+    if hit is None:
+        bx, by = _check_points(grid, margin)
+        hit = [pulse_rates(t, r, fr, bx, by, None if parents[l] is None else frames[l + 1]["geo"][:, parents[l]])
+               for l, fr in enumerate(frames)]
+        if len(_RATES) >= 32:
+            _RATES.pop(next(iter(_RATES)))
+        _RATES[key] = hit
+    return hit
+
+
+#: :func:`tone_rates` of recent plans: they depend on the sub-apertures and the grid, not on the
+#: oversampling, so a sweep of oversamplings (the planner's) takes them once per base.
+_RATES: dict = {}
+
+
+def _digest(a) -> bytes:
+    a = np.ascontiguousarray(a)
+    return hashlib.blake2b(a.view(np.uint8), digest_size=16).digest() + str(a.shape).encode()
 
 
 def band_excess(rates, frames, kmin, kmax, kref, os_angle):

@@ -8,6 +8,7 @@
 from __future__ import annotations
 
 import functools
+from pathlib import Path
 
 import numpy as np
 
@@ -45,29 +46,86 @@ def optimal_weights(beta: float, t, taps: int = 6) -> np.ndarray:
     """
     offs = np.arange(-(taps // 2 - 1), taps // 2 + 1)
     nu = np.linspace(-0.5, 0.5, 129) / float(beta)
-    b = np.concatenate([np.ones(nu.size), np.zeros(nu.size)])
     t = np.atleast_1d(np.asarray(t, dtype=np.float64))
-    out = np.empty((t.size, taps))
-    for i, ti in enumerate(t):
-        a = np.exp(2j * np.pi * nu[:, None] * (offs[None, :] - ti))
-        m = np.vstack([a.real, a.imag])
-        lw = np.ones(nu.size)
-        for _ in range(LAWSON_ITERATIONS + 1):
-            sw = np.sqrt(np.concatenate([lw, lw]))
-            x = np.linalg.lstsq(m * sw[:, None], b * sw, rcond=None)[0]
-            err = np.abs(1.0 - a @ x)
-            lw = lw * (err + 1e-300)
-            lw /= lw.sum()
-        out[i] = x
-    return out
+    a = np.exp(2j * np.pi * nu[None, :, None] * (offs[None, None, :] - t[:, None, None]))   # [t, ν, tap]
+    m = np.concatenate([a.real, a.imag], axis=1)                                        # [t, 2ν, tap]
+    b = np.concatenate([np.ones(nu.size), np.zeros(nu.size)])
+    lw = np.ones((t.size, nu.size))
+    # every fraction at once: weighted least squares by a batched pseudo-inverse (the minimum-norm
+    # solution, as LAPACK's gelsd, where a narrow band makes the columns nearly dependent)
+    rcond = np.finfo(np.float64).eps * max(m.shape[1:])
+    for _ in range(LAWSON_ITERATIONS + 1):
+        sw = np.sqrt(np.concatenate([lw, lw], axis=1))[:, :, None]
+        x = np.linalg.pinv(m * sw, rcond=rcond) @ (b[None, :, None] * sw)                 # [t, tap, 1]
+        fit = (m @ x)[:, :, 0]                                                            # Re, Im of a x
+        err = np.hypot(1.0 - fit[:, :nu.size], fit[:, nu.size:])
+        lw = lw * (err + 1e-300)
+        lw /= lw.sum(axis=1, keepdims=True)
+    return x[:, :, 0]
 
 
 @functools.lru_cache(maxsize=64)
 def optimal_kernel(beta: float, taps: int = 6) -> np.ndarray:
     """The ``optimal`` kernel for oversampling ``beta``: coefficients ``[tap, power]`` of
     polynomials of degree :data:`DEGREE` in ``x = 2t − 1`` (lowest power first) whose values at a
-    fraction ``t ∈ [0, 1]`` are the :func:`optimal_weights` (fitted at 32 Chebyshev points)."""
+    fraction ``t ∈ [0, 1]`` are the :func:`optimal_weights` (fitted at 32 Chebyshev points).
+    Shipped precomputed for :data:`TABLE_BETAS` (6 taps)."""
+    if taps == 6:
+        return _tabled("optimal", beta, lambda: _poly_fit(lambda t: optimal_weights(beta, t, 6)))
     return _poly_fit(lambda t: optimal_weights(beta, t, taps))
+
+
+#: Oversamplings whose kernels and error tables ship precomputed in ``kernel_tables.npy`` beside
+#: this module (:func:`kernel_tables`, written by ``scripts/make_kernel_tables.py``): every
+#: oversampling that the planner's sweep and the defaults use, so that planning designs no kernel.
+#: Any other oversampling is designed when first asked for (about a tenth of a second each).
+TABLE_BETAS = (1.25, 1.5, 2.0, 2.5, 3.0, 4.0, 5.0, 6.0, 8.0, 10.0, 12.0, 16.0, 20.0, 24.0, 32.0, 48.0, 64.0,
+               96.0)
+TABLE_PATH = Path(__file__).with_name("kernel_tables.npy")
+#: The tables and their shapes, in the order of their columns in ``kernel_tables.npy`` (after a
+#: first column of β): the ``optimal`` and deapodized kernels' coefficients, the deapodized
+#: kernel's mean response on :func:`_table_nu` and its alias rms on the band (129 frequencies).
+_TABLES = {"optimal": (6, DEGREE + 1), "deapodized": (6, DEGREE + 1), "deapodized_mean": (2049,),
+           "deapodized_alias": (129,)}
+
+
+@functools.lru_cache(maxsize=1)
+def _shipped() -> dict:
+    """``{(table, β): array}`` from ``kernel_tables.npy`` (one row per β: β, then every table
+    flattened, in the order of :data:`_TABLES`); empty if the file is missing or malformed."""
+    try:
+        rows = np.load(TABLE_PATH)
+    except (OSError, ValueError):
+        return {}
+    width = 1 + sum(int(np.prod(shape)) for shape in _TABLES.values())
+    if rows.ndim != 2 or rows.shape[1] != width:
+        return {}
+    rows.setflags(write=False)
+    out, col = {}, 1
+    for name, shape in _TABLES.items():
+        size = int(np.prod(shape))
+        for b, row in zip(rows[:, 0], rows[:, col:col + size]):
+            out[(name, float(b))] = row.reshape(shape)
+        col += size
+    return out
+
+
+def _tabled(name: str, beta: float, compute):
+    """The shipped table ``name`` at ``beta`` if there is one, else ``compute()``."""
+    hit = _shipped().get((name, float(beta)))
+    return compute() if hit is None else hit
+
+
+def kernel_tables(betas=TABLE_BETAS) -> np.ndarray:
+    """Every shipped table at ``betas``: what ``kernel_tables.npy`` holds, a row per β (β, then
+    each table of :data:`_TABLES` flattened)."""
+    rows = []
+    for b in map(float, betas):
+        coef = _design_deapodized(b)
+        tabs = {"optimal": _poly_fit(lambda t, b=b: optimal_weights(b, t, 6)), "deapodized": coef,
+                "deapodized_mean": _mean_response(coef, b), "deapodized_alias": _alias_rms(coef, b)[1]}
+        rows.append(np.concatenate([[b]] + [np.ravel(tabs[name]) for name in _TABLES]))
+    return np.stack(rows)
 
 
 def _poly_weights(coef, t):
@@ -118,9 +176,15 @@ def _poly_fit(w_of_t):
 def _response(coef, nu, t):
     """``H(ν, t) = Σ_n w_n(t) e^{2πiν(n − t)}`` [ν, t] of the polynomial weights ``coef``."""
     offs = np.arange(-(coef.shape[0] // 2 - 1), coef.shape[0] // 2 + 1)
-    w = _poly_weights(coef, t)                                                        # [t, taps]
-    ph = np.exp(2j * np.pi * np.asarray(nu)[:, None, None] * (offs[None, None, :] - t[None, :, None]))
-    return np.einsum("tn,vtn->vt", w, ph)
+    return _stencil_response(offs, _poly_weights(coef, t), np.asarray(nu, dtype=np.float64), np.asarray(t))
+
+
+def _stencil_response(offs, w, nu, t):
+    """``Σ_n w[t, n] e^{2πiν(n − t)}`` [ν, t] as ``e^{−2πiνt} (E W^T)``, ``E = e^{2πiνn}``: two small
+    tables of exponentials and one product instead of one exponential per (ν, t, tap)."""
+    arg = 2 * np.pi * nu[:, None] * offs[None, :]                                      # [ν, tap]
+    wt = np.ascontiguousarray(np.asarray(w, dtype=np.float64).T)     # real products stay in BLAS
+    return np.exp(-2j * np.pi * nu[:, None] * t[None, :]) * ((np.cos(arg) @ wt) + 1j * (np.sin(arg) @ wt))
 
 
 def _alias_rms(coef, beta, n_nu=129, n_t=256):
@@ -158,6 +222,10 @@ def deapodized_kernel(beta: float) -> np.ndarray:
     ``γ π w (1 − 1/(2β))`` with γ picked from 0.95, 0.96, 0.97 (the best for β from 1.25 to 3) for
     the smallest alias error; the weights are scaled so that ``Ψ(0) = 1``.
     """
+    return _tabled("deapodized", beta, lambda: _design_deapodized(float(beta)))
+
+
+def _design_deapodized(beta: float) -> np.ndarray:
     best = None
     for gamma in (0.95, 0.96, 0.97):
         coef = _poly_fit(lambda t: _es_weights(t, gamma * np.pi * 6 * (1.0 - 0.5 / float(beta))))
@@ -171,14 +239,30 @@ def deapodized_kernel(beta: float) -> np.ndarray:
     return coef
 
 
+def _table_nu(beta: float) -> np.ndarray:
+    return np.linspace(-1.0, 1.0, 2049) * (0.6 / float(beta))
+
+
+def _mean_response(coef, beta: float) -> np.ndarray:
+    """``Ψ`` at :func:`_table_nu`: the exact mean over fractions (Gauss-Legendre, 48 points, of a
+    polynomial times an exponential) of the response; real, the kernel being even."""
+    g, gw = np.polynomial.legendre.leggauss(48)
+    nu = _table_nu(beta)
+    return np.concatenate([_response(coef, nu[a:a + 1024], 0.5 * (g + 1.0)).real @ (0.5 * gw)
+                           for a in range(0, nu.size, 1024)])
+
+
 @functools.lru_cache(maxsize=64)
 def _deapodized_table(beta: float):
-    coef = deapodized_kernel(beta)
-    g, gw = np.polynomial.legendre.leggauss(48)          # exact mean over t of polynomial × exp
-    nu = np.linspace(-1.0, 1.0, 2049) * (0.6 / float(beta))
-    h = np.concatenate([(_response(coef, nu[a:a + 1024], 0.5 * (g + 1.0)) @ (0.5 * gw)).real   # even kernel: real
-                        for a in range(0, nu.size, 1024)])
-    return nu, h
+    beta = float(beta)
+    return _table_nu(beta), _tabled("deapodized_mean", beta, lambda: _mean_response(deapodized_kernel(beta), beta))
+
+
+@functools.lru_cache(maxsize=64)
+def _deapodized_alias(beta: float) -> np.ndarray:
+    """:func:`_alias_rms` of the deapodized kernel over its band (129 frequencies)."""
+    beta = float(beta)
+    return _tabled("deapodized_alias", beta, lambda: _alias_rms(deapodized_kernel(beta), beta)[1])
 
 
 def deapodized_response(beta: float, nu) -> np.ndarray:
@@ -192,7 +276,7 @@ def deapodized_response(beta: float, nu) -> np.ndarray:
 def deapodized_edge_error(beta: float) -> float:
     """:func:`deapodized_error` at its worst frequency (the band's edges, where Ψ is smallest):
     near β = 1 Ψ vanishes there and dividing it out is no longer worth it."""
-    return _fluctuation(deapodized_kernel(float(beta)), float(beta))
+    return float(np.max(_deapodized_alias(float(beta))))
 
 
 @functools.lru_cache(maxsize=64)
@@ -203,7 +287,8 @@ def deapodized_error(beta: float) -> float:
     stencils: with Ψ divided out the edges no longer carry the error coherently from stage to
     stage (measured on the 2048² circle, four levels at β = 1.5: 9.6e-4 against 1.0e-3 predicted
     this way and 2.5e-3 from the edge values)."""
-    return _fluctuation(deapodized_kernel(float(beta)), float(beta), rms=True)
+    e = _deapodized_alias(float(beta))
+    return float(np.sqrt(np.mean(e * e)))
 
 
 def deapodized_inverse(beta: float):
@@ -239,7 +324,7 @@ def profile_alias_error(upsample: float, os_range: float, n_levels: int) -> floa
     aliases for the worst fold ``m`` (measured on the 2048² circle, four levels at os_range 1.5:
     3.6e-3 at upsample 2 against 9.6e-4 at upsample 1.5)."""
     up, os_r = float(upsample), float(os_range)
-    nu_p, fluct = _alias_rms(deapodized_kernel(up), up)
+    nu_p, fluct = np.linspace(-0.5, 0.5, 129) / up, _deapodized_alias(up)
     nu = nu_p * up / os_r
     worst = float(np.sqrt(np.mean(fluct * fluct)))
     for m in (1, -1, 2, -2):
@@ -285,8 +370,7 @@ def interp_error(interp: str, beta: float, tones: int = 0, design_beta: float | 
         nu = np.linspace(-0.5, 0.5, int(tones))
     nu = nu / float(beta)
     offs, w = _kernel_weights(kind, t, beta if design_beta is None else design_beta)   # [T, taps]
-    ph = np.exp(2j * np.pi * nu[:, None, None] * (offs[None, None, :] - t[None, :, None]))
-    resp = np.sum(w[None] * ph, axis=-1)                      # [V, T]
+    resp = _stencil_response(offs, w, nu, t)                  # [V, T]
     return float(np.sqrt(np.mean(np.abs(1.0 - resp) ** 2)))
 
 

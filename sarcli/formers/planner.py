@@ -97,10 +97,11 @@ def _nufft_seconds(c, n_samples, ny, nx, eps, threads=1):
     return (c["nufft_spread"] * n_samples * w * w + c["nufft_fft"] * n_fft * math.log2(max(n_fft, 2))) / threads
 
 
-def candidates(ph, grid: Grid, tolerance: float, *, costs=None, nthreads=None) -> list:
+def candidates(ph, grid: Grid, tolerance: float, *, costs=None, nthreads=None, prune=False) -> list:
     """Every former with knobs predicted to meet ``tolerance`` (and a few that do not, marked).
 
-    "Meets" means a predicted error at most ``tolerance / SAFETY`` (:data:`SAFETY`)."""
+    "Meets" means a predicted error at most ``tolerance / SAFETY`` (:data:`SAFETY`). ``prune``:
+    leave out candidates that cannot change :func:`recommend`'s pick (what it passes)."""
     from . import ffbp as fb
     from .backprojection import profile_length
     from .ffbp_model import deapodized_error, default_upsample, frequency_error, interp_error
@@ -123,13 +124,6 @@ def candidates(ph, grid: Grid, tolerance: float, *, costs=None, nthreads=None) -
         rcv = acq.receive_position_m if getattr(acq, "is_bistatic", False) else None
         pos = acq.transmit_position_m if rcv is not None else acq.antenna_position_m
         f = acq.frequency_hz
-        # subimage NUFFT
-        tile, pred = choose_tile(pos, rcv, acq.range_to_center_m, f, grid, target, eps=eps)
-        if tile is not None:
-            n_tiles = math.ceil(grid.nx / tile) * math.ceil(grid.ny / tile)
-            t = n_tiles * c["subimage_point"] * P * M * _nufft_width(eps) ** 2 / thr
-            out.append(Candidate("subimage", {"tile": int(tile), "tolerance": tolerance}, pred, t,
-                                 16 * (4 * P * M * thr + 2 * npix), f"{n_tiles} tiles"))
         # backprojection: the profile interpolation (and unequal frequency spacing) is its error
         e_freq = frequency_error(f, pos, grid)
         for interp in ("cubic", "lanczos", "linear"):
@@ -175,6 +169,18 @@ def candidates(ph, grid: Grid, tolerance: float, *, costs=None, nthreads=None) -
                 elif not key and (key not in best or cand.predicted_error < best[key].predicted_error):
                     best[key] = cand
         out += list(best.values())
+        # subimage NUFFT, unless even one tile could not beat the cheapest ffbp that meets the
+        # target while that ffbp is also the cheapest candidate (then it cannot change the pick)
+        one_tile = c["subimage_point"] * P * M * _nufft_width(eps) ** 2 / thr
+        met = [x for x in out if x.predicted_error <= target]
+        best_fast = min((x.seconds for x in met if x.method == "ffbp"), default=math.inf)
+        if not (prune and one_tile >= best_fast and best_fast <= min(x.seconds for x in met)):
+            tile, pred = choose_tile(pos, rcv, acq.range_to_center_m, f, grid, target, eps=eps)
+            if tile is not None:
+                n_tiles = math.ceil(grid.nx / tile) * math.ceil(grid.ny / tile)
+                t = n_tiles * c["subimage_point"] * P * M * _nufft_width(eps) ** 2 / thr
+                out.append(Candidate("subimage", {"tile": int(tile), "tolerance": tolerance}, pred, t,
+                                     16 * (4 * P * M * thr + 2 * npix), f"{n_tiles} tiles"))
     for cand in out:
         cand.meets = cand.predicted_error <= target
     return sorted(out, key=lambda x: (not x.meets, x.seconds))
@@ -183,7 +189,7 @@ def candidates(ph, grid: Grid, tolerance: float, *, costs=None, nthreads=None) -
 def recommend(ph, grid: Grid, tolerance: float, *, nthreads=None, costs=None) -> Candidate:
     """The cheapest candidate predicted to meet ``tolerance``; O(N²P) formers only when no NUFFT
     former meets it. Raises :class:`SarcliInputError` for a tolerance outside (0, 1)."""
-    cands = [x for x in candidates(ph, grid, tolerance, costs=costs, nthreads=nthreads) if x.meets]
+    cands = [x for x in candidates(ph, grid, tolerance, costs=costs, nthreads=nthreads, prune=True) if x.meets]
     if any(x.method in _NUFFT for x in cands):
         cands = [x for x in cands if x.method not in ("backprojection", "direct")]
     return min(cands, key=lambda x: x.seconds)   # direct always meets

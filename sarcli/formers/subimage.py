@@ -65,62 +65,94 @@ def _tile_centres(grid: Grid, tile: int):
     return out
 
 
-def _residual(t, q, r0, freq, grid, rs, cs, n_side=5, max_pulses=64):
-    """Residual phases ρ[p, j, s] of steps 3-4 at ``n_side²`` points of one tile."""
+def _tile_errors(t, q, r0, freq, grid: Grid, tiles, eps, n_side=5, max_pulses=64) -> np.ndarray:
+    """Predicted relative error of :func:`subimage_nufft` for each tile size in ``tiles`` (module
+    docstring): the worst of the tiles at the grid's centre and corners (ranges differ across the
+    scene), plus the NUFFT's own ``eps``.
+
+    At ``n_side²`` points of each of those tiles, the residual phases ``ρ[p, j, s]`` of steps 3-4
+    (the exact range minus its linearisation about the tile's centre pixel, at the band's ends and
+    middle, less the central pulse's curvature at the central frequency), for every size in one
+    pass over ``max_pulses`` pulses; the error is ``rms |e^{iρ} − 1|``."""
+    t = np.asarray(t, float)
+    q = None if q is None else np.asarray(q, float)
+    r0 = np.asarray(r0, float)
     P = t.shape[0]
     pi = np.unique(np.linspace(0, P - 1, min(P, max_pulses)).round().astype(int))
     fr = np.asarray(freq, float)
     fr = fr if fr.ndim == 1 else fr[0]
-    fj = fr[[0, fr.size // 2, -1]]
-    ny, nx = rs.stop - rs.start, cs.stop - cs.start
-    xc = np.array([grid.x[cs.start + nx // 2], grid.y[rs.start + ny // 2], 0.0])
-    xs = np.linspace(grid.x[cs.start], grid.x[cs.stop - 1], n_side)
-    ys = np.linspace(grid.y[rs.start], grid.y[rs.stop - 1], n_side)
-    pts = np.array([[x, y, 0.0] for y in ys for x in xs])
+    gx, gy = grid.x, grid.y
+    owner, centres, pts = [], [], []
+    for i_size, tile in enumerate(int(x) for x in tiles):
+        n_cols, n_rows = math.ceil(grid.nx / tile), math.ceil(grid.ny / tile)
+        n = n_cols * n_rows
+        for i in sorted(p for p in {0, n - 1, n // 2, n_cols - 1, n - n_cols} if 0 <= p < n):
+            r_, c_ = divmod(i, n_cols)
+            rs = slice(r_ * tile, min((r_ + 1) * tile, grid.ny))
+            cs = slice(c_ * tile, min((c_ + 1) * tile, grid.nx))
+            ny, nx = rs.stop - rs.start, cs.stop - cs.start
+            centres.append((gx[cs.start + nx // 2], gy[rs.start + ny // 2]))
+            xs = np.linspace(gx[cs.start], gx[cs.stop - 1], n_side)
+            ys = np.linspace(gy[rs.start], gy[rs.stop - 1], n_side)
+            pts.append(np.stack(np.meshgrid(xs, ys), axis=-1).reshape(-1, 2))
+            owner.append(i_size)
+    xc = np.column_stack([np.asarray(centres), np.zeros(len(centres))])                  # [T, 3]
+    pts = np.concatenate([np.stack(pts), np.zeros((len(pts), n_side * n_side, 1))], axis=2)   # [T, S, 3]
     tt, qq = t[pi], (None if q is None else q[pi])
-    exact = _ranges(tt, qq, r0[pi], pts) - _ranges(tt, qq, r0[pi], xc[None, :])      # (p, s)
-    lin = -(_look(tt, qq, xc) @ (pts - xc).T)                                           # (p, s)
-    rem = exact - lin
-    pc = tt.shape[0] // 2
-    k = 4 * np.pi * fj / geometry.C
+    rr = r0[pi]
+    exact = (_ranges(tt, qq, rr, pts.reshape(-1, 3)).reshape(pi.size, *pts.shape[:2])
+             - _ranges(tt, qq, rr, xc)[:, :, None])                                        # [p, T, S]
+
+    def unit(a):
+        v = a[:, None, :] - xc[None, :, :]
+        return v / np.linalg.norm(v, axis=2, keepdims=True)                               # [p, T, 3]
+
+    look = unit(tt) if qq is None else 0.5 * (unit(tt) + unit(qq))
+    d = pts[:, :, :2] - xc[:, None, :2]                          # the points lie in the plane z = 0
+    rem = exact + look[:, :, None, 0] * d[None, :, :, 0] + look[:, :, None, 1] * d[None, :, :, 1]
+    k = 4 * np.pi * fr[[0, fr.size // 2, -1]] / geometry.C
     kc = 4 * np.pi * fr[fr.size // 2] / geometry.C
-    return k[None, :, None] * rem[:, None, :] - kc * rem[pc][None, None, :]
+    rho = k[None, :, None, None] * rem[:, None] - kc * rem[pi.size // 2][None, None]       # [p, j, T, S]
+    per_tile = 2.0 * np.sqrt(np.mean(np.sin(0.5 * rho) ** 2, axis=(0, 1, 3)))              # rms |e^{iρ} − 1|
+    owner = np.asarray(owner)
+    return np.array([per_tile[owner == i].max() for i in range(len(tiles))]) + float(eps)
 
 
 def predict_tile_error(t, q, r0, freq, grid: Grid, tile: int, *, eps=1e-9) -> float:
     """Predicted relative error of :func:`subimage_nufft` with ``tile``-pixel tiles (module docstring).
 
     The worst of the tiles at the grid's centre and corners (ranges differ across the scene),
-    plus the NUFFT's own ``eps``.
+    plus the NUFFT's own ``eps`` (:func:`_tile_errors`).
     """
-    t = np.asarray(t, float)
-    q = None if q is None else np.asarray(q, float)
-    r0 = np.asarray(r0, float)
-    tiles = _tile_centres(grid, int(tile))
-    pick = {0, len(tiles) - 1, len(tiles) // 2}
-    n_cols = math.ceil(grid.nx / tile)
-    pick |= {n_cols - 1, len(tiles) - n_cols}
-    worst = 0.0
-    for i in sorted(p for p in pick if 0 <= p < len(tiles)):
-        rho = _residual(t, q, r0, freq, grid, *tiles[i])
-        worst = max(worst, float(np.sqrt(np.mean(np.abs(np.expm1(1j * rho)) ** 2))))
-    return worst + float(eps)
+    return float(_tile_errors(t, q, r0, freq, grid, [int(tile)], eps)[0])
 
 
 def choose_tile(t, q, r0, freq, grid: Grid, tolerance: float, *, eps=None):
     """Largest tile of :data:`TILE_SIZES` (capped at the grid) predicted to meet ``tolerance``.
 
     Returns ``(tile, predicted_error)``, or ``(None, error of the smallest tile)`` when none does.
+    The error grows with the tile (the residual of the linearised range grows with the distance
+    from the tile's centre), so the sizes are bisected: four or five predictions, not one a size.
     """
     eps = tolerance / 10 if eps is None else eps
     side = max(grid.nx, grid.ny)
-    sizes = [side] + [s for s in TILE_SIZES if s < side]
-    err = float("inf")
-    for s in sizes:
-        err = predict_tile_error(t, q, r0, freq, grid, s, eps=eps)
-        if err <= tolerance:
-            return s, err
-    return None, err
+    sizes = [side] + [s for s in TILE_SIZES if s < side]     # largest first
+
+    def err(i):
+        return float(_tile_errors(t, q, r0, freq, grid, [sizes[i]], eps)[0])
+
+    lo, hi = 0, len(sizes) - 1
+    e_hi = err(hi)
+    if e_hi > tolerance:
+        return None, e_hi
+    while lo < hi:                    # sizes[hi] meets; find the largest that does
+        mid = (lo + hi) // 2
+        e_mid = err(mid)
+        if e_mid <= tolerance:
+            hi, e_hi = mid, e_mid
+        else:
+            lo = mid + 1
+    return sizes[hi], e_hi
 
 
 def subimage_nufft(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weights=None, *,
