@@ -108,3 +108,34 @@ def test_cli_plan_and_form_image_auto(tmp_path, sph):
     assert res.exit_code == 0, res.output
     params = read_image(out).parameters
     assert params["auto"]["tolerance"] == 1e-3 and params["auto"]["choice"] == doc["auto"]["method"]
+
+
+@pytest.mark.parametrize("tol", [1e-2, 1e-4])
+def test_ffbp_without_knobs_takes_autos_ffbp_pick(sph, tol):
+    ph, ref = sph
+    ff = [c for c in candidates(ph, GRID, tol) if c.method == "ffbp"]
+    met = [c for c in ff if c.meets]
+    want = min(met, key=lambda c: c.seconds) if met else min(ff, key=lambda c: c.predicted_error)
+    img = form_image(ph, "ffbp", tolerance=tol)
+    assert img.parameters["knobs_for_tolerance"] == tol
+    for k, v in want.knobs.items():
+        assert img.parameters[k] == v, (k, img.parameters[k], v)
+    if met:
+        assert image_error(img.image, ref) <= tol
+
+
+def test_ffbp_with_one_knob_keeps_the_defaults_for_the_others(sph):
+    ph, _ = sph
+    img = form_image(ph, "ffbp", base=8)
+    assert "knobs_for_tolerance" not in img.parameters and img.parameters["base"] == 8
+
+
+def test_pruned_plan_picks_what_the_full_plan_picks(sph):
+    ph, _ = sph
+    for tol in (1e-2, 1e-3, 1e-4):
+        full = [c for c in candidates(ph, GRID, tol) if c.meets]
+        if any(c.method in ("nufft", "subimage") for c in full):
+            full = [c for c in full if c.method not in ("backprojection", "direct")]
+        best = min(full, key=lambda c: c.seconds)
+        pick = recommend(ph, GRID, tol)
+        assert (pick.method, pick.knobs) == (best.method, best.knobs)

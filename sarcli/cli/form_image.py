@@ -37,14 +37,14 @@ _METHOD_KNOBS = ("eps", "kernel", "oversample", "width", "upsample", "interp", "
               help="Backprojection / ffbp interpolator (default cubic / optimal; 'optimal' is ffbp only).")
 @click.option("--precision", type=click.Choice(["float64", "float32"]), default="float64", show_default=True,
               help="Backprojection arithmetic.")
-@click.option("--base", type=click.IntRange(min=1), default=None, help="ffbp: pulses per base sub-aperture (default 16).")
+@click.option("--base", type=click.IntRange(min=1), default=None, help="ffbp: pulses per base sub-aperture (default 16). With no ffbp knob given, ffbp takes auto's ffbp pick at --tolerance.")
 @click.option("--merge", type=click.IntRange(min=2), default=None, help="ffbp: sub-apertures merged per stage (default 4).")
 @click.option("--os-range", type=click.FloatRange(min=1), default=None, help="ffbp: polar-grid range oversampling (default 1.5 where its kernel can be deapodized, else 2).")
 @click.option("--os-angle", type=click.FloatRange(min=1), default=None, help="ffbp: polar-grid angular oversampling (default 1.5 where its kernel can be deapodized, else 2).")
 @click.option("--tile", type=click.IntRange(min=1), default=None,
               help="subimage: tile side in pixels (default: the largest predicted to meet --tolerance).")
 @click.option("--tolerance", type=click.FloatRange(min=1e-12, max=0.5), default=None,
-              help="Target relative error against the exact matched filter (auto: default 1e-3; subimage: 1e-2).")
+              help="Target relative error against the exact matched filter (auto, and ffbp given no ffbp knob: default 1e-3; subimage: 1e-2).")
 @click.option("--autofocus", "autofocus_method", type=click.Choice(["pga", "min-entropy"]), default=None,
               help="First estimate and remove per-pulse phase errors on the image grid (see sar autofocus).")
 @threads_option

@@ -142,11 +142,15 @@ def form_image(ph, method: str = "auto", *, grid: Grid | None = None, center=Non
     base, merge, os_range, os_angle :
         Fast factorised backprojection (``ffbp``, :mod:`sarcli.formers.ffbp`): pulses per base
         sub-aperture, sub-apertures merged per stage, polar-grid oversampling in range and angle;
-        with ``upsample`` and ``interp`` ('linear', 'cubic', 'lanczos', 'optimal'). ``None``: its defaults.
+        with ``upsample`` and ``interp`` ('linear', 'cubic', 'lanczos', 'optimal'). All ``None``:
+        the knobs ``auto`` picks for ffbp at ``tolerance`` (default :data:`DEFAULT_TOLERANCE`;
+        spherical data), recorded as ``parameters['knobs_for_tolerance']``; some ``None``: ffbp's
+        defaults for those.
     tile, tolerance :
         Sub-image NUFFT (``subimage``, :mod:`sarcli.formers.subimage`): tile side in pixels, or
         the largest predicted to meet ``tolerance`` (default 1e-2); its NUFFT runs at
-        ``eps = tolerance/10`` unless ``eps`` is set to other than its default.
+        ``eps = tolerance/10`` unless ``eps`` is set to other than its default. ``ffbp``: the
+        tolerance its knobs are picked for when none is given.
 
     Returns
     -------
@@ -239,6 +243,16 @@ def form_image(ph, method: str = "auto", *, grid: Grid | None = None, center=Non
     elif method == "ffbp":
         from .ffbp import ffbp_image
 
+        if all(v is None for v in (base, merge, os_range, os_angle, upsample, interp)):
+            # no knobs: what auto would pick for ffbp at the tolerance (formers/planner.py)
+            from .planner import ffbp_knobs
+
+            tol = DEFAULT_TOLERANCE if tolerance is None else float(tolerance)
+            picked = ffbp_knobs(ph, grid, tol, nthreads=nthreads)
+            if picked is not None:
+                base, merge, os_range, os_angle = (picked[k] for k in ("base", "merge", "os_range", "os_angle"))
+                upsample, interp = picked["upsample"], picked["interp"]
+                params["knobs_for_tolerance"] = tol
         pos, r0 = _positions(ph, grid)
         rcv = acq.receive_position_m if ph.model == "spherical" and getattr(acq, "is_bistatic", False) else None
         if rcv is not None:

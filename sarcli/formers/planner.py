@@ -29,7 +29,7 @@ import numpy as np
 from ..core.grid import Grid
 from ..errors import SarcliInputError
 
-__all__ = ["Candidate", "candidates", "recommend", "load_cost_model", "calibrate", "COST_MODEL_PATH"]
+__all__ = ["Candidate", "candidates", "recommend", "ffbp_knobs", "load_cost_model", "calibrate", "COST_MODEL_PATH"]
 
 COST_MODEL_PATH = Path(__file__).with_name("cost_model.json")
 #: Per-operation seconds (one core) when no calibration file exists.
@@ -97,11 +97,13 @@ def _nufft_seconds(c, n_samples, ny, nx, eps, threads=1):
     return (c["nufft_spread"] * n_samples * w * w + c["nufft_fft"] * n_fft * math.log2(max(n_fft, 2))) / threads
 
 
-def candidates(ph, grid: Grid, tolerance: float, *, costs=None, nthreads=None, prune=False) -> list:
+def candidates(ph, grid: Grid, tolerance: float, *, costs=None, nthreads=None, prune=False,
+               methods=None) -> list:
     """Every former with knobs predicted to meet ``tolerance`` (and a few that do not, marked).
 
     "Meets" means a predicted error at most ``tolerance / SAFETY`` (:data:`SAFETY`). ``prune``:
-    leave out candidates that cannot change :func:`recommend`'s pick (what it passes)."""
+    leave out candidates that cannot change :func:`recommend`'s pick (what it passes).
+    ``methods``: only these formers (``direct`` is always listed)."""
     from . import ffbp as fb
     from .backprojection import profile_length
     from .ffbp_model import deapodized_error, default_upsample, frequency_error, interp_error
@@ -117,16 +119,20 @@ def candidates(ph, grid: Grid, tolerance: float, *, costs=None, nthreads=None, p
     out = [Candidate("direct", {}, 0.0, c["direct"] * P * M * npix / thr, 16 * (P * M + 2 * npix))]
     target = tolerance / SAFETY
     eps = max(tolerance / 10, 1e-14)
+    def wanted(name):
+        return methods is None or name in methods
+
     if ph.model != "spherical":
-        out.append(Candidate("nufft", {"eps": eps}, eps, _nufft_seconds(c, P * M, grid.ny, grid.nx, eps, thr),
-                             16 * (P * M * 3 + 5 * npix)))
+        if wanted("nufft"):
+                out.append(Candidate("nufft", {"eps": eps}, eps, _nufft_seconds(c, P * M, grid.ny, grid.nx, eps, thr),
+                                 16 * (P * M * 3 + 5 * npix)))
     else:
         rcv = acq.receive_position_m if getattr(acq, "is_bistatic", False) else None
         pos = acq.transmit_position_m if rcv is not None else acq.antenna_position_m
         f = acq.frequency_hz
         # backprojection: the profile interpolation (and unequal frequency spacing) is its error
         e_freq = frequency_error(f, pos, grid)
-        for interp in ("cubic", "lanczos", "linear"):
+        for interp in ("cubic", "lanczos", "linear") if wanted("backprojection") else ():
             for up in (2, 4, 8, 16, 32):
                 e = interp_error(interp, float(up)) + e_freq
                 if e <= target or up == 32:
@@ -143,7 +149,7 @@ def candidates(ph, grid: Grid, tolerance: float, *, costs=None, nthreads=None, p
         met_at = None
         for i, (os_r, os_) in enumerate(((1.5, 1.5), (1.5, 2.0), (2.0, 2.0), (1.5, 2.5), (2.0, 2.5), (1.5, 3.0),
                                          (3.0, 3.0), (4.0, 4.0), (6.0, 6.0))):
-            if met_at is not None and i > met_at + 2:
+            if not wanted("ffbp") or (met_at is not None and i > met_at + 2):
                 break
             # profiles: a multiple of os_range (their aliases then land on their own tones) whose
             # deapodized error is well inside the target
@@ -174,7 +180,7 @@ def candidates(ph, grid: Grid, tolerance: float, *, costs=None, nthreads=None, p
         one_tile = c["subimage_point"] * P * M * _nufft_width(eps) ** 2 / thr
         met = [x for x in out if x.predicted_error <= target]
         best_fast = min((x.seconds for x in met if x.method == "ffbp"), default=math.inf)
-        if not (prune and one_tile >= best_fast and best_fast <= min(x.seconds for x in met)):
+        if wanted("subimage") and not (prune and one_tile >= best_fast and best_fast <= min(x.seconds for x in met)):
             tile, pred = choose_tile(pos, rcv, acq.range_to_center_m, f, grid, target, eps=eps)
             if tile is not None:
                 n_tiles = math.ceil(grid.nx / tile) * math.ceil(grid.ny / tile)
@@ -193,6 +199,18 @@ def recommend(ph, grid: Grid, tolerance: float, *, nthreads=None, costs=None) ->
     if any(x.method in _NUFFT for x in cands):
         cands = [x for x in cands if x.method not in ("backprojection", "direct")]
     return min(cands, key=lambda x: x.seconds)   # direct always meets
+
+
+def ffbp_knobs(ph, grid: Grid, tolerance: float, *, nthreads=None) -> dict | None:
+    """ffbp's knobs as ``auto`` would pick them at ``tolerance``: the cheapest ffbp predicted to meet
+    it, else the most accurate one planned; None for far-field data (ffbp's defaults serve)."""
+    if ph.model != "spherical":
+        return None
+    ff = [x for x in candidates(ph, grid, tolerance, nthreads=nthreads, methods=("ffbp",)) if x.method == "ffbp"]
+    if not ff:
+        return None
+    met = [x for x in ff if x.meets]
+    return dict(min(met, key=lambda x: x.seconds).knobs if met else min(ff, key=lambda x: x.predicted_error).knobs)
 
 
 def calibrate(path=None, *, repeat: int = 3) -> dict:
