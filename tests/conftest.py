@@ -15,6 +15,19 @@ CONFIGS = REPO / "configs"
 GOTCHA_DIR = Path(os.environ.get("SARCLI_GOTCHA_DIR") or REPO.parent / "shared" / "data" / "gotcha")
 
 
+@pytest.fixture(autouse=True, scope="session")
+def _no_user_calibration(tmp_path_factory):
+    """Tests plan with the shipped reference cost model, never a calibration left in the user's
+    cache by `sar plan` on this machine (sarcli.formers.calibration)."""
+    old = os.environ.get("SARCLI_CACHE_DIR")
+    os.environ["SARCLI_CACHE_DIR"] = str(tmp_path_factory.mktemp("sarcli-cache"))
+    yield
+    if old is None:
+        os.environ.pop("SARCLI_CACHE_DIR", None)
+    else:
+        os.environ["SARCLI_CACHE_DIR"] = old
+
+
 def spy_rows(monkeypatch) -> list:
     """Record the number of pulses of every block read from samples left on disk (HDF5 or CPHD:
     both go through ``PulseSource.__getitem__``); returns the list it appends to."""

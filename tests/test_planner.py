@@ -139,3 +139,31 @@ def test_pruned_plan_picks_what_the_full_plan_picks(sph):
         best = min(full, key=lambda c: c.seconds)
         pick = recommend(ph, GRID, tol)
         assert (pick.method, pick.knobs) == (best.method, best.knobs)
+
+
+def test_calibration_is_kept_per_machine(tmp_path, monkeypatch):
+    """A calibration serves only the machine it was measured on; until then the shipped one."""
+    import json
+
+    from sarcli.formers import calibration as cal
+
+    monkeypatch.setenv("SARCLI_CACHE_DIR", str(tmp_path))
+    assert not cal.is_calibrated() and load_cost_model()["calibrated"] is False
+    mine = cal.user_cost_model_path()
+    mine.write_text(json.dumps({"machine": cal.machine(), "seconds_per_op": {"bp": 1.25e-7}}))
+    c = load_cost_model()
+    assert c["calibrated"] is True and c["bp"] == 1.25e-7 and c["direct"] > 0
+    other = dict(cal.machine(), cpu="another CPU")
+    monkeypatch.setattr(cal, "machine", lambda: other)
+    assert cal.user_cost_model_path() != mine and not cal.is_calibrated()
+
+
+def test_command_seconds_adds_what_the_command_pays(sph):
+    from sarcli.formers.planner import command_seconds
+
+    ph, _ = sph
+    c = dict(load_cost_model(), startup=0.3, planning=0.02, read_per_byte=1e-9, write_per_byte=2e-9)
+    cand = recommend(ph, GRID, 1e-3, costs=c)
+    io = 1e-9 * 8 * ph.data.size + 2e-9 * 8 * GRID.nx * GRID.ny
+    assert command_seconds(cand, ph, GRID, c) == pytest.approx(0.3 + io + cand.seconds)
+    assert command_seconds(cand, ph, GRID, c, auto=True) == pytest.approx(0.32 + io + cand.seconds)

@@ -11,31 +11,26 @@ knobs its error model predicts to meet TOL, and :func:`recommend` picks the chea
   interpolation error model), and ``direct`` (exact, the slowest);
 - an O(N²P) former (backprojection, direct) is never picked when a NUFFT former meets TOL.
 
-Predicted times come from operation counts times per-operation constants measured on this machine
-(``cost_model.json`` next to this module; :func:`calibrate` re-measures them, e.g. from
-``bench/bench_ffbp.py --calibrate``). Memory is the formers' largest arrays.
+Predicted times come from operation counts times per-operation constants
+(:mod:`sarcli.formers.calibration`: measured on this machine once ``sar plan`` has calibrated
+it, else those of the reference machine shipped with the package); :func:`command_seconds` adds
+what the whole command pays besides (start-up, reading, writing). Memory is the formers' largest
+arrays.
 """
 
 from __future__ import annotations
 
-import json
 import math
-import time
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import numpy as np
 
 from ..core.grid import Grid
 from ..errors import SarcliInputError
+from .calibration import calibrate, load_cost_model
 
-__all__ = ["Candidate", "candidates", "recommend", "ffbp_knobs", "load_cost_model", "calibrate", "COST_MODEL_PATH"]
+__all__ = ["Candidate", "candidates", "recommend", "ffbp_knobs", "command_seconds", "load_cost_model", "calibrate"]
 
-COST_MODEL_PATH = Path(__file__).with_name("cost_model.json")
-#: Per-operation seconds (one core) when no calibration file exists.
-_DEFAULT_COSTS = {"direct": 6e-9, "bp": 3e-9, "bp_fft": 4e-9, "ffbp_stage0": 4e-9, "ffbp_mac": 1.5e-9,
-                  "ffbp_node0": 0.0, "ffbp_pair": 0.0,
-                  "nufft_spread": 3e-9, "nufft_fft": 3e-9, "subimage_point": 2e-9, "threads": 2}
 _BP_TAPS = {"linear": 2, "cubic": 4, "lanczos": 6}
 _NUFFT = ("nufft", "subimage")
 #: A candidate "meets" TOL when its predicted error is at most TOL / SAFETY: the error models are
@@ -59,16 +54,6 @@ class Candidate:
     def as_dict(self) -> dict:
         return {"method": self.method, "knobs": self.knobs, "predicted_error": self.predicted_error,
                 "predicted_s": self.seconds, "memory_bytes": self.memory, "meets": self.meets}
-
-
-def load_cost_model() -> dict:
-    """The calibrated constants (``cost_model.json``), defaults for any that are missing."""
-    costs = dict(_DEFAULT_COSTS)
-    try:
-        costs.update(json.loads(COST_MODEL_PATH.read_text())["seconds_per_op"])
-    except (OSError, ValueError, KeyError):
-        pass
-    return costs
 
 
 #: ffbp's per-operation constants and the plan counts (``FfbpPlan.ops``) they multiply.
@@ -213,76 +198,11 @@ def ffbp_knobs(ph, grid: Grid, tolerance: float, *, nthreads=None) -> dict | Non
     return dict(min(met, key=lambda x: x.seconds).knobs if met else min(ff, key=lambda x: x.predicted_error).knobs)
 
 
-def calibrate(path=None, *, repeat: int = 3) -> dict:
-    """Measure the per-operation constants on this machine and write them to ``cost_model.json``.
-
-    Small instances of every former (a few seconds in all); each constant is its measured time
-    (best of ``repeat``) divided by its operation count, except ffbp's four (:data:`_FFBP_TERMS`),
-    fitted by non-negative least squares to six settings with different shares of each.
-    """
-    from ..core import geometry
-    from . import ffbp as fb
-    from .backprojection import backproject, profile_length
-    from .direct import direct_spherical
-    from .nufft import nufft_farfield
-    from .subimage import subimage_nufft
-
-    def best(fn):
-        fn()
-        ts = []
-        for _ in range(repeat):
-            t0 = time.perf_counter()
-            fn()
-            ts.append(time.perf_counter() - t0)
-        return min(ts)
-
-    P, M, N = 256, 256, 256
-    freq = 9.6e9 + 2e6 * np.arange(M)
-    az = np.radians(np.linspace(-3, 3, P))
-    a = geometry.antenna_positions_circle(az, np.radians(30), 10e3)
-    r0 = np.linalg.norm(a, axis=1)
-    rng = np.random.default_rng(0)
-    d = rng.normal(size=(P, M)) + 1j * rng.normal(size=(P, M))
-    grid = Grid(N, N, 0.25, 0.25)
-    thr = 2
-    c = {"threads": thr}
-    L = profile_length(M, 8)
-    c["bp_fft"] = _DEFAULT_COSTS["bp_fft"]
-    c["bp"] = best(lambda: backproject(d, freq, a, r0, grid)) * thr / (P * N * N)
-    small = Grid(32, 32, 0.5, 0.5)
-    c["direct"] = best(lambda: direct_spherical(d, freq, a, r0, small)) * thr / (P * M * 32 * 32)
-    # ffbp: settings whose shares of stage 0 (per pulse-node tap and per node), interpolation taps
-    # and (node, child) pairs differ; non-negative least squares gives the four constants
-    rows, rhs = [], []
-    for knobs in ({}, {"base": 8}, {"base": 32}, {"base": 4}, {"os_range": 2.0, "os_angle": 2.0},
-                  {"base": 8, "os_range": 3.0, "os_angle": 3.0}):
-        plan = fb.plan_stages(a, freq, grid, **knobs)
-        lf = profile_length(M, plan.knobs["upsample"])
-        t = best(lambda: fb.ffbp(d, freq, a, r0, grid, **knobs)) * thr
-        rows.append(_ffbp_counts(plan.ops))
-        rhs.append(max(t - c["bp_fft"] * P * lf * math.log2(lf), 0.0))
-    from scipy.optimize import nnls
-    scale = np.max(np.array(rows), axis=0)
-    sol = nnls(np.array(rows) / scale, np.array(rhs))[0] / scale
-    if not np.any(sol > 0):
-        # ill-posed on this machine's timings: split the default setting's time in the default ratio
-        o = rows[0]
-        ref = sum(_DEFAULT_COSTS[name] * n for (name, _), n in zip(_FFBP_TERMS, o))
-        sol = [_DEFAULT_COSTS[name] * rhs[0] / ref for name, _ in _FFBP_TERMS]
-    for (name, _), v in zip(_FFBP_TERMS, sol):
-        c[name] = float(v)
-    kx, ky = geometry.kspace_coordinates(freq, az, np.radians(30))
-    w = _nufft_width(1e-6)
-    t = best(lambda: nufft_farfield(d, kx, ky, grid, eps=1e-6)) * thr
-    n_fft = 4.0 * N * N
-    c["nufft_fft"] = _DEFAULT_COSTS["nufft_fft"]
-    c["nufft_spread"] = max(1e-11, (t - c["nufft_fft"] * n_fft * math.log2(n_fft)) / (P * M * w * w))
-    tile = 16
-    t = best(lambda: subimage_nufft(d, freq, a, r0, grid, tile=tile, eps=1e-3)) * thr
-    n_tiles = (N // tile) ** 2
-    c["subimage_point"] = t / (n_tiles * P * M * _nufft_width(1e-3) ** 2)
-    path = Path(path) if path is not None else COST_MODEL_PATH
-    path.write_text(json.dumps({"note": "seconds per operation x threads, measured by "
-                                        "sarcli.formers.planner.calibrate on this machine",
-                                "measured": time.strftime("%Y-%m-%d"), "seconds_per_op": c}, indent=1) + "\n")
-    return c
+def command_seconds(cand: Candidate, ph, grid: Grid, costs=None, *, auto=False) -> float:
+    """Predicted wall time of the whole ``sar form-image`` command for ``cand``: start-up (imports,
+    kernel loads), reading the data, the formation, writing the image, and for ``auto`` the
+    planning too, from the calibrated constants (:func:`sarcli.formers.calibration.calibrate`)."""
+    c = load_cost_model() if costs is None else costs
+    P, M = ph.data.shape
+    io = c["read_per_byte"] * 8.0 * P * M + c["write_per_byte"] * 8.0 * grid.nx * grid.ny
+    return c["startup"] + (c["planning"] if auto else 0.0) + io + cand.seconds
