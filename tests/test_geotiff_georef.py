@@ -1,6 +1,6 @@
-"""GeoTIFF georeferencing is exact: every pixel corner of a 1 km scene lies where its CRS, as GDAL
-reads it, says, anywhere on Earth (within zones, at their edges, both hemispheres, near a pole,
-on the antimeridian, above the ellipsoid)."""
+"""Georeferencing is exact: every pixel corner of a 1 km GeoTIFF lies where its CRS, as GDAL reads
+it, says, anywhere on Earth (within UTM zones, at their edges, both hemispheres, near a pole, on the
+antimeridian, above the ellipsoid); SICD pixels are where sarkit's projection puts them."""
 
 from __future__ import annotations
 
@@ -73,3 +73,42 @@ def test_read_back_restores_local_coordinates(tmp_path):
     np.testing.assert_allclose(back.x_m, img.x_m, atol=1e-9)
     np.testing.assert_allclose(back.y_m, img.y_m, atol=1e-9)
     assert back.attrs["scene_center_height_m"] == 1200.0
+
+
+@pytest.mark.parametrize("lat,lon,hae", [(34.95, -106.52, 0.0), (-33.9, 18.4, 1500.0), (78.2, 15.6, 0.0),
+                                         (10.0, 179.99, 300.0)])
+def test_sicd_pixels_are_where_sarkit_projects_them(tmp_path, lat, lon, hae):
+    """sarkit's scene-to-image projection of a pixel's position (local frame -> ECF) lands on the
+    SICD pixel that holds it: marked pixels far from the centre, 1 km scene."""
+    import warnings
+
+    import sarkit.sicd as sksicd
+    from sarkit.sicd import projection
+
+    from sarcli.io.sicd import write_sicd
+
+    n, h = 100, 10.0
+    img = _scene(lat, lon, hae, n=n, pixel=h)
+    marks = [(0, 0), (0, n - 1), (n - 1, 0), (n - 1, n - 1), (3, 77), (60, 10)]  # (row, col), row 0 south
+    data = np.zeros((n, n), np.complex64)
+    for i, (r, c) in enumerate(marks):
+        data[r, c] = i + 1
+    img.image = data
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        write_sicd(img, tmp_path / "m.sicd")
+        with open(tmp_path / "m.sicd", "rb") as f, sksicd.NitfReader(f) as rd:
+            xml, arr = rd.metadata.xmltree, rd.read_image()
+        meta = projection.MetadataParams.from_xml(xml)
+        enu = np.array([[img.x_m[c], img.y_m[r], 0.0] for r, c in marks])
+        loc, _, ok = projection.scene_to_image(meta, enu_to_ecf(enu, ReferencePoint(lat, lon, hae)))
+    assert ok
+    scp = np.array([float(xml.findtext("{*}ImageData/{*}SCPPixel/{*}Row")),
+                    float(xml.findtext("{*}ImageData/{*}SCPPixel/{*}Col"))])
+    ss = np.array([float(xml.findtext("{*}Grid/{*}Row/{*}SS")), float(xml.findtext("{*}Grid/{*}Col/{*}SS"))])
+    first = np.array([float(xml.findtext("{*}ImageData/{*}FirstRow")), float(xml.findtext("{*}ImageData/{*}FirstCol"))])
+    pix = scp - first + loc / ss  # fractional SICD (row, col) of each marked position
+    print(f"sicd max pixel offset {np.max(np.abs(pix - np.rint(pix))):.2e}")
+    np.testing.assert_allclose(pix, np.rint(pix), atol=0.01)  # within a hundredth of a pixel
+    for i, (r, c) in enumerate(np.rint(pix).astype(int)):
+        assert arr[r, c] == i + 1
