@@ -127,3 +127,17 @@ def test_output_in_a_missing_folder_is_one_line(tmp_path, write_config, cmd):
     lines = [l for l in res.output.splitlines() if l.strip()]
     assert len(lines) == 1 and "tpyo" in lines[0] and "does not exist" in lines[0]
     assert not (tmp_path / "tpyo").exists()
+
+
+def test_info_does_not_warn_about_a_grid_clamped_to_the_alias_free_radius(tmp_path, write_config):
+    """The derived grid stops at the alias-free radius, rounded up to an even pixel count: no
+    warning that it exceeds the radius (the scene itself reaching beyond is the simulator's warning)."""
+    from .test_quality_matching import _cfg
+
+    cfg = _cfg([[0.0, 0.0, 0.0], [7.0, 7.0, 0.0]])  # 96 pulses over 5 deg: cross-range radius 6 m
+    path = write_config(cfg)
+    res = CliRunner().invoke(cli, ["simulate", str(path), "-o", str(tmp_path / "ph.h5")])
+    assert res.exit_code == 0 and "AliasingWarning" in res.output, res.output
+    doc = json.loads(CliRunner().invoke(cli, ["info", str(tmp_path / "ph.h5"), "--json"]).output)
+    assert max(doc["grid_extent_m"]) / 2 >= min(doc["alias_free_radius_m"].values())
+    assert not any("exceeds the alias-free radius" in w for w in doc["warnings"])

@@ -48,7 +48,8 @@ def command(path, as_json):
                      f"spherical former ({SPHERICAL_ADVICE})")
     ext = info.get("grid_extent_m")
     radii = info.get("alias_free_radius_m")
-    pixel = max((info.get("grid") or {}).get(k, 0.0) for k in ("dx", "dy")) if isinstance(info.get("grid"), dict) else 0.0
+    grid = info.get("grid") if isinstance(info.get("grid"), dict) else {}
+    pixel = max(float(grid.get("dx", 0.0)), float(grid.get("dy", 0.0)))
     # a derived grid is the alias-free radius rounded up to an even pixel count: up to a pixel more
     if ext and radii and max(ext) / 2 > min(radii.values()) + pixel:
         ww.append(f"the grid half-width {max(ext) / 2:.4g} m exceeds the alias-free radius "

@@ -35,10 +35,10 @@ def _table(results) -> str:
     measured = [r["measured"] for r in results if r["measured"]]
     if measured:
         m = measured[0]
-        rows.append(f"range direction {m['range_direction_deg']:.2f} deg; exp = where the target should focus "
-                    f"(truth position plus layover for points off the image plane); err = distance from exp "
-                    f"to the measured peak; dB values are 1-D cuts; ISLR within +/-{m['sidelobe_extent_cells']:g} "
-                    f"resolution cells of the peak")
+        rows.append(f"range direction {m['range_direction_deg']:.2f} deg; dB values are 1-D cuts; ISLR within "
+                    f"+/-{m['sidelobe_extent_cells']:g} resolution cells of the peak")
+        rows.append("exp_x, exp_y: where the target should focus (truth plus layover for points off the image "
+                    "plane); x_m, y_m: its own peak; err_m: the distance between the two")
     for r in results:
         if r["layover_m"] is not None and any(abs(v) > 0 for v in r["layover_m"]):
             dx, dy = r["layover_m"]
