@@ -141,3 +141,13 @@ def test_info_does_not_warn_about_a_grid_clamped_to_the_alias_free_radius(tmp_pa
     doc = json.loads(CliRunner().invoke(cli, ["info", str(tmp_path / "ph.h5"), "--json"]).output)
     assert max(doc["grid_extent_m"]) / 2 >= min(doc["alias_free_radius_m"].values())
     assert not any("exceeds the alias-free radius" in w for w in doc["warnings"])
+
+
+def test_a_folder_output_is_created_only_under_an_existing_parent(tmp_path):
+    from sarcli.cli.options import output_folder
+    from sarcli.errors import SarcliInputError
+
+    assert output_folder(tmp_path / "new").is_dir()
+    with pytest.raises(SarcliInputError, match="tpyo.* does not exist"):
+        output_folder(tmp_path / "tpyo" / "new")
+    assert not (tmp_path / "tpyo").exists()

@@ -6,7 +6,7 @@ import sys
 
 import click
 
-from .options import echo_info, handle_errors
+from .options import echo_info, handle_errors, output_folder
 
 
 @click.command("batch")
@@ -46,8 +46,7 @@ def command(ctx, plan_path, outdir, scheduler, n_workers, force):
     out = Path(outdir)
     inputs = [("plan", plan_path)] + sorted({("input of a job", j.input) for j in plan.jobs if j.input})
     refuse_overwrite(inputs, [("output", out / "batch-report.json")] + [("output", out / j.name) for j in plan.jobs])
-    if not out.is_dir() and out.parent.is_dir():
-        out.mkdir()  # the batch's own output folder (its parent must exist, like any output's)
+    output_folder(out)
     reserve(out / "batch-report.json")  # the output folder is writable, before any job starts
     report = run_plan(plan, outdir, scheduler=scheduler, n_workers=n_workers, force=force)
     for r in report.failed:
