@@ -168,8 +168,8 @@ gone.
 
 ## 6. Export for other tools
 
-`sar export IMG.h5 -o OUT.tif|.png|.sicd` writes a north-up GeoTIFF (local ENU frame, or UTM when the
-config gives `location`), a dB figure or raster (`--dynamic-range-db`, `--cmap`, `--bare`) or a SICD
+`sar export IMG.h5 -o OUT.tif|.png|.sicd` writes a north-up GeoTIFF (local ENU frame, or an orthographic
+projection centred on the scene, exact to micrometres, when the config gives `location`), a dB figure or raster (`--dynamic-range-db`, `--cmap`, `--bare`) or a SICD
 that sarkit validates; `sar export-cphd` and `sar import cphd` move phase history to and from CPHD.
 `sar info` describes any of these files.
 """

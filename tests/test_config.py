@@ -149,8 +149,14 @@ def test_derived_grid_and_alias_warning(write_config):
     acq = sarcli.load_acquisition(write_config(cfg))
     rho = min(acq.resolutions())
     assert np.isclose(acq.grid.dx, rho / 2)  # default oversampling 2
-    # scene reaches |y| = 1 m, |x| = 1.5 m: extent = scene + 4 cells, far below the alias-free radius
-    assert acq.grid.extent[0] / 2 == pytest.approx(1.5 + 4 * rho, abs=acq.grid.dx)
+    # scene reaches |y| = 1 m, |x| = 1.5 m: extent = scene + 4 range cells along the range direction and
+    # 4 cross-range cells across it (an ellipse's half-extents in x and y), far below the alias-free radius
+    rho_r, rho_cr = acq.resolutions()
+    th = float(np.angle(np.mean(np.exp(1j * acq.azimuth_rad))))
+    hx = 4 * np.hypot(rho_r * np.cos(th), rho_cr * np.sin(th))
+    hy = 4 * np.hypot(rho_r * np.sin(th), rho_cr * np.cos(th))
+    assert acq.grid.extent[0] / 2 == pytest.approx(max(1.5 + hx, 1.0 + hy), abs=acq.grid.dx)
+    assert acq.grid.extent[0] / 2 > 1.5 + 4 * rho + acq.grid.dx  # not the finest cell alone
     cfg = small_config(scene={"points": [{"position_m": [60.0, 0.0]}]})
     with pytest.warns(AliasingWarning, match=r"60 m .* alias-free radius is"):
         sarcli.load_acquisition(write_config(cfg))

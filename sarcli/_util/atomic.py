@@ -68,12 +68,13 @@ def _os_error(exc: BaseException | None, depth: int = 4):
 
 
 def _make_parent(final: Path) -> None:
+    """Refuse an output whose folder does not exist: a typo in a folder name is one line, not a
+    new folder created silently (create the folder first)."""
     parent = final.parent
-    if parent and not parent.exists():
-        try:
-            parent.mkdir(parents=True, exist_ok=True)
-        except OSError as exc:
-            raise SarcliInputError(f"{final}: cannot create the folder {parent} ({_first_line(exc)})") from None
+    if parent and not parent.is_dir():
+        if parent.exists():
+            raise SarcliInputError(f"{final}: {parent} is not a folder")
+        raise SarcliInputError(f"{final}: the output folder {parent} does not exist (create it first)")
 
 
 def reserve(path) -> Path:
@@ -82,7 +83,7 @@ def reserve(path) -> Path:
     Raises
     ------
     SarcliInputError
-        The folder cannot be created or written, or ``path`` is a folder.
+        The folder does not exist or cannot be written, or ``path`` is a folder.
     """
     final = Path(path)
     if final.is_dir():

@@ -67,7 +67,7 @@ def _first_null(amp, i0, step):
     return i
 
 
-def profile_metrics(s, amplitude, *, sidelobe_extent=None) -> dict:
+def profile_metrics(s, amplitude, *, sidelobe_extent=None, peak_near=None) -> dict:
     """IRW, PSLR and ISLR of a 1-D impulse-response cut.
 
     Parameters
@@ -79,11 +79,15 @@ def profile_metrics(s, amplitude, *, sidelobe_extent=None) -> dict:
     sidelobe_extent : float, optional
         Half-length (m) around the peak within which sidelobes count for PSLR and ISLR
         (default: the whole cut).
+    peak_near : float, optional
+        Take as the peak the local maximum reached by climbing from the sample nearest this
+        position instead of the cut's maximum (a brighter neighbour on the cut is then a
+        sidelobe, not the peak).
 
     Returns
     -------
     dict
-        ``peak`` (amplitude), ``peak_position`` (m, parabolic refinement), ``irw_m`` (-3 dB width),
+        ``peak`` (amplitude), ``peak_position`` (m along the cut, parabolic refinement), ``irw_m`` (-3 dB width),
         ``first_nulls_m`` (positions of the first minima either side), ``pslr_db``, ``islr_db``
         (None where the cut holds no sidelobe), ``sidelobe_extent_m``.
 
@@ -96,7 +100,15 @@ def profile_metrics(s, amplitude, *, sidelobe_extent=None) -> dict:
     amp = np.abs(np.asarray(amplitude))
     if s.ndim != 1 or s.shape != amp.shape or s.size < 5:
         raise SarcliInputError("a cut needs matching 1-D positions and amplitudes (at least 5 samples)")
-    i0 = int(np.argmax(amp))
+    if peak_near is None:
+        i0 = int(np.argmax(amp))
+    else:
+        i0 = int(np.argmin(np.abs(s - float(peak_near))))
+        while True:
+            nb = [j for j in (i0 - 1, i0 + 1) if 0 <= j < amp.size and amp[j] > amp[i0]]
+            if not nb:
+                break
+            i0 = max(nb, key=lambda j: amp[j])
     peak = float(amp[i0])
     ds = float(s[1] - s[0])
     pos = float(s[i0])
@@ -289,7 +301,8 @@ def measure_ipr(image, x_m, y_m, at=None, *, range_direction_rad=0.0, resolution
         row = prow + s * u[1] / fdy
         vals = (ndimage.map_coordinates(re, [row, col], order=3, mode="nearest", prefilter=False)
                 + 1j * ndimage.map_coordinates(im, [row, col], order=3, mode="nearest", prefilter=False))
-        cuts[name] = profile_metrics(s, np.abs(vals), sidelobe_extent=min(sidelobe_extent_cells * r, length))
+        cuts[name] = profile_metrics(s, np.abs(vals), sidelobe_extent=min(sidelobe_extent_cells * r, length),
+                                     peak_near=0.0)
         cuts[name]["resolution_m"] = r
     peak = max(cuts["range"]["peak"], cuts["cross_range"]["peak"])
     err = None if at is None else float(math.hypot(px - float(at[0]), py - float(at[1])))

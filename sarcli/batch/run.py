@@ -238,6 +238,7 @@ def run_job(job: Job, outdir, force: bool = False) -> JobResult:
             img.parameters = {**img.parameters, "subaperture": job.extra["subaperture"]}
         if job.extra.get("tile"):
             img.parameters = {**img.parameters, "tile": job.extra["tile"]}
+        out.parent.mkdir(parents=True, exist_ok=True)  # the batch owns its output folder (run_plan)
         write_image(out, img)
     except Exception as exc:  # noqa: BLE001 - a job's failure is reported, the batch goes on
         reason = str(exc) if isinstance(exc, SarcliError) else \

@@ -6,13 +6,13 @@ import sys
 
 import click
 
-from .options import echo_info, handle_errors
+from .options import echo_info, handle_errors, output_folder
 
 
 @click.command("batch")
 @click.argument("plan_path", metavar="PLAN.yaml", type=click.Path(dir_okay=False))
 @click.option("-o", "--output", "outdir", required=True, type=click.Path(file_okay=False),
-              help="Output folder; each job writes its image inside it.")
+              help="Output folder, created if its parent exists; each job writes its image inside it.")
 @click.option("--scheduler", default=None, metavar="ADDRESS",
               help="Run on an existing dask cluster, e.g. tcp://host:8786 (default: a local cluster).")
 @click.option("--workers", "n_workers", type=click.IntRange(min=1), default=None,
@@ -46,6 +46,7 @@ def command(ctx, plan_path, outdir, scheduler, n_workers, force):
     out = Path(outdir)
     inputs = [("plan", plan_path)] + sorted({("input of a job", j.input) for j in plan.jobs if j.input})
     refuse_overwrite(inputs, [("output", out / "batch-report.json")] + [("output", out / j.name) for j in plan.jobs])
+    output_folder(out)
     reserve(out / "batch-report.json")  # the output folder is writable, before any job starts
     report = run_plan(plan, outdir, scheduler=scheduler, n_workers=n_workers, force=force)
     for r in report.failed:

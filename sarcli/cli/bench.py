@@ -4,15 +4,15 @@ from __future__ import annotations
 
 import click
 
-from .options import (echo_info, grid_options, handle_errors, parse_pair, prepare_outputs, threads_option,
-                      wrote)
+from .options import (echo_info, grid_options, handle_errors, output_folder, parse_pair, prepare_outputs,
+                      threads_option, wrote)
 
 
 @click.command("bench")
 @click.argument("inputs", nargs=-1, required=True, metavar="CONFIG.yaml|PH.h5|GOTCHA.mat...",
                 type=click.Path(dir_okay=False))
 @click.option("-o", "--output", "out_dir", required=True, type=click.Path(file_okay=False),
-              help="Folder for error_vs_time.csv and error_vs_time.png.")
+              help="Folder for error_vs_time.csv and error_vs_time.png (created if its parent exists).")
 @click.option("--methods", default=None,
               help="Comma-separated methods to sweep [default: direct,nufft,pfa,backprojection, and ffbp,subimage "
                    "for spherical data].")
@@ -47,6 +47,7 @@ def command(ctx, inputs, out_dir, methods, repeat, windows, regularizers, reg_it
         iters = tuple(int(t) for t in split(reg_iters))
     except ValueError:
         raise SarcliInputError(f"--reg-iters expects comma-separated integers, got {reg_iters!r}") from None
+    output_folder(out_dir)
     prepare_outputs([("input", i) for i in inputs], [("output", Path(out_dir) / "error_vs_time.csv"),
                                                     ("output", Path(out_dir) / "error_vs_time.png")])
     ph = bm.load_input(inputs, seed=seed, model=model)

@@ -28,10 +28,15 @@ def command(path, as_json):
     """Describe any file sarcli reads: a YAML acquisition, a phase history (sarcli HDF5, GOTCHA .mat,
     CPHD), an image (sarcli HDF5, SICD, GeoTIFF) or a k-grid."""
     from ..core.geometry import DEFOCUS_WARN_RAD
+    from ..formers.formation import SPHERICAL_ADVICE
     from ..io.describe import describe
 
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
+        # a dependency's notes to its own developers (sarkit's use of importlib.resources) are not
+        # the user's concern: only warnings about the file are shown
+        warnings.simplefilter("ignore", DeprecationWarning)
+        warnings.simplefilter("ignore", PendingDeprecationWarning)
         info = describe(path)
     ww = [str(w.message) for w in caught]
     notes = []
@@ -39,11 +44,14 @@ def command(path, as_json):
     if defocus is not None and info.get("model") == "spherical" and defocus > DEFOCUS_WARN_RAD:
         # not a fault of the file: advice on which image formers suit it
         notes.append(f"far-field methods (nufft, pfa) would defocus the grid corner of this spherical-wavefront "
-                     f"collection by {defocus:.3g} rad (more than {DEFOCUS_WARN_RAD:g}): image it with "
-                     f"backprojection or direct")
+                     f"collection by {defocus:.3g} rad (more than {DEFOCUS_WARN_RAD:g} rad): image it with a "
+                     f"spherical former ({SPHERICAL_ADVICE})")
     ext = info.get("grid_extent_m")
     radii = info.get("alias_free_radius_m")
-    if ext and radii and max(ext) / 2 > min(radii.values()):
+    grid = info.get("grid") if isinstance(info.get("grid"), dict) else {}
+    pixel = max(float(grid.get("dx", 0.0)), float(grid.get("dy", 0.0)))
+    # a derived grid is the alias-free radius rounded up to an even pixel count: up to a pixel more
+    if ext and radii and max(ext) / 2 > min(radii.values()) + pixel:
         ww.append(f"the grid half-width {max(ext) / 2:.4g} m exceeds the alias-free radius "
                   f"{min(radii.values()):.4g} m: content beyond it wraps around")
     info["warnings"] = ww

@@ -144,6 +144,20 @@ def _guard_params(ctx) -> None:
         prepare_outputs(inputs, outputs)
 
 
+def output_folder(path):
+    """The output folder of a command that writes several files (``sar batch``, ``sar bench``):
+    created when missing if its parent exists; a missing parent is one line (as for any output),
+    so a typo in a folder name is not silently created a level deep."""
+    from pathlib import Path
+
+    out = Path(path)
+    if not out.is_dir():
+        if not out.parent.is_dir():
+            raise SarcliInputError(f"{out}: the folder {out.parent} does not exist (create it first)")
+        out.mkdir()
+    return out
+
+
 def prepare_outputs(inputs, outputs) -> None:
     """Before any work: refuse an output that is an input, then reserve every output.
 

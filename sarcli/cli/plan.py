@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import shutil
 
 import click
 
@@ -10,8 +11,50 @@ from ..formers.formation import DEFAULT_TOLERANCE
 from .options import grid_options, handle_errors, parse_pair, threads_option
 
 
+#: Status words of the table (and the JSON's ``status``), with what each means.
+STATUS_LEGEND = (
+    ("safe", "predicted error at most TOL/{safety:g}: meets the tolerance with the margin auto asks "
+             "for (the error models' own uncertainty)"),
+    ("meets", "predicted error at most TOL, without that margin (auto does not pick it)"),
+    ("misses", "predicted error above TOL"),
+)
+
+
+def status_of(cand, tolerance: float, safety: float) -> str:
+    """``safe``, ``meets`` or ``misses`` (see :data:`STATUS_LEGEND`)."""
+    if cand.predicted_error <= tolerance / safety:
+        return "safe"
+    return "meets" if cand.predicted_error <= tolerance else "misses"
+
+
 def _knobs(k: dict) -> str:
-    return ",".join(f"{n}={v:g}" if isinstance(v, float) else f"{n}={v}" for n, v in k.items() if n != "tolerance")
+    return ", ".join(f"{n}={v:g}" if isinstance(v, float) else f"{n}={v}" for n, v in k.items() if n != "tolerance")
+
+
+def table(cands, pick, tolerance: float, safety: float, width: int = 80) -> list[str]:
+    """Lines of the plan table: one row per candidate, its knobs wrapped below it, then the legend.
+
+    Fits ``width`` columns (at least 60): the fixed columns take 56, the knobs and the legend wrap.
+    """
+    import textwrap
+
+    width = max(60, int(width))
+    lines = [f"{'method':<15} {'pred.err':>9} {'pred.s':>9} {'MiB':>8}  {'status':<7}"]
+    for c in cands:
+        auto = c is pick or (c.method == pick.method and c.knobs == pick.knobs)
+        lines.append(f"{c.method:<15} {c.predicted_error:9.2e} {c.seconds:9.3g} {c.memory / 2**20:8.1f}  "
+                     f"{status_of(c, tolerance, safety):<7}{' <- auto' if auto else ''}")
+        knobs = _knobs(c.knobs)
+        if c.notes:
+            knobs = f"{knobs}; {c.notes}" if knobs else c.notes
+        if knobs:
+            lines += textwrap.wrap(knobs, width=width, initial_indent="    ", subsequent_indent="      ",
+                                   break_on_hyphens=False)
+    lines.append("status:")
+    for word, text in STATUS_LEGEND:
+        lines += textwrap.wrap(f"{word} = {text.format(safety=safety)}", width=width, initial_indent="  ",
+                               subsequent_indent="    ")
+    return lines
 
 
 @click.command("plan")
@@ -29,7 +72,7 @@ def command(input_path, center, extent, pixel_size, tolerance, as_json, nthreads
     this machine (sarcli/formers/cost_model.json, refreshed by bench/bench_ffbp.py --calibrate).
     """
     from ..core.grid import resolve_grid
-    from ..formers.planner import candidates, recommend
+    from ..formers.planner import SAFETY, candidates, recommend
     from ..io import open_input
 
     _, ph = open_input(input_path, expect=("phase-history", "gotcha", "cphd"), truth=False)
@@ -39,13 +82,11 @@ def command(input_path, center, extent, pixel_size, tolerance, as_json, nthreads
     pick = recommend(ph, grid, tolerance, nthreads=nthreads)
     if as_json:
         click.echo(json.dumps({"tolerance": tolerance, "grid": grid.as_dict(), "auto": pick.as_dict(),
-                               "candidates": [c.as_dict() for c in cands]}, indent=1, default=float))
+                               "status_legend": {w: t.format(safety=SAFETY) for w, t in STATUS_LEGEND},
+                               "candidates": [{**c.as_dict(), "status": status_of(c, tolerance, SAFETY)}
+                                              for c in cands]}, indent=1, default=float))
         return
     click.echo(f"{ph.model} data, {ph.data.shape[0]} x {ph.data.shape[1]} samples -> {grid.nx} x {grid.ny} "
                f"pixels of {grid.dx:g} m; tolerance {tolerance:g}")
-    click.echo(f"{'method':<15} {'knobs':<58} {'pred.err':>9} {'pred.s':>8} {'MiB':>7}  ")
-    for c in cands:
-        mark = "<- auto" if c is pick or (c.method == pick.method and c.knobs == pick.knobs) else \
-            ("" if c.meets else "(misses)")
-        click.echo(f"{c.method:<15} {_knobs(c.knobs)[:58]:<58} {c.predicted_error:9.2e} {c.seconds:8.3g} "
-                   f"{c.memory / 2**20:7.1f}  {mark}")
+    for line in table(cands, pick, tolerance, SAFETY, shutil.get_terminal_size((80, 24)).columns):
+        click.echo(line)

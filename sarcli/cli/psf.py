@@ -1,4 +1,5 @@
-"""``sar psf CONFIG.yaml|PH.h5 -o PSF.h5``: the matched filter's point spread function (Theorem main-theorem)."""
+"""``sar psf CONFIG.yaml|PH.h5 -o PSF.h5``: the matched filter's point spread function
+(CONVENTIONS.md "Image formation and its normalisation")."""
 
 from __future__ import annotations
 
@@ -14,7 +15,8 @@ from .options import (echo_info, grid_options, handle_errors, parse_pair, prepar
               help="Image file to write (.h5), method 'psf'.")
 @window_options(nbar_dest="nbar", sll_dest="sll_db")
 @click.option("--method", type=click.Choice(["auto", "theorem", "direct", "nufft"]), default="auto",
-              show_default=True, help="Theorem closed form, exact sum, or FINUFFT (windows need a sum).")
+              show_default=True, help="theorem: the closed-form kernel K; direct: the exact sum; nufft: the sum by FINUFFT "
+                   "(windows need a sum).")
 @click.option("--png", type=click.Path(dir_okay=False), default=None, help="Also write a PNG of 20 log10|K|.")
 @click.option("--dynamic-range-db", type=click.FloatRange(1, 400), default=60.0, show_default=True, help="PNG colour range.")
 @grid_options

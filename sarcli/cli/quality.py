@@ -14,25 +14,43 @@ def _num(v, fmt):
 
 
 def _table(results) -> str:
-    head = (f"{'target':<7s} {'x_m':>8s} {'y_m':>8s} {'err_m':>8s} {'peak':>7s} | "
-            f"{'IRW_r m':>8s} {'pred':>8s} {'PSLR_r':>7s} {'pred':>7s} {'ISLR_r':>7s} {'pred':>7s} | "
+    """The results as a table: every number is the JSON's, rounded (``measured`` x_m, y_m, ...)."""
+    head = (f"{'target':<7s} {'status':<7s} {'exp_x':>8s} {'exp_y':>8s} {'x_m':>8s} {'y_m':>8s} {'err_m':>7s} "
+            f"{'peak':>7s} | {'IRW_r m':>8s} {'pred':>8s} {'PSLR_r':>7s} {'pred':>7s} {'ISLR_r':>7s} {'pred':>7s} | "
             f"{'IRW_cr m':>8s} {'pred':>8s} {'PSLR_cr':>7s} {'pred':>7s} {'ISLR_cr':>7s} {'pred':>7s}")
     rows = [head, "-" * len(head)]
+    empty = {"x_m": None, "y_m": None, "peak_position_error_m": None, "peak_magnitude": None,
+             "range": {}, "cross_range": {}}
     for r in results:
-        m, p = r["measured"], r["predicted"]
-        cells = [f"{r['name']:<7s}", _num(m["x_m"], "8.3f"), _num(m["y_m"], "8.3f"),
-                 _num(m["peak_position_error_m"], "8.4f"), _num(m["peak_magnitude"], "7.4f") + " |"]
+        m, p = r["measured"] or empty, r["predicted"]
+        cells = [f"{r['name']:<7s}", f"{r['status']:<7s}", _num(r["expected_at_m"][0], "8.3f"),
+                 _num(r["expected_at_m"][1], "8.3f"), _num(m["x_m"], "8.3f"), _num(m["y_m"], "8.3f"),
+                 _num(m["peak_position_error_m"], "7.4f"), _num(m["peak_magnitude"], "7.4f") + " |"]
         for d in ("range", "cross_range"):
-            cells += [_num(m[d]["irw_m"], "8.4f"), _num(p[d]["irw_m"], "8.4f"), _num(m[d]["pslr_db"], "7.2f"),
-                      _num(p[d]["pslr_db"], "7.2f"), _num(m[d]["islr_db"], "7.2f"), _num(p[d]["islr_db"], "7.2f")]
+            cells += [_num(m[d].get("irw_m"), "8.4f"), _num(p[d]["irw_m"], "8.4f"), _num(m[d].get("pslr_db"), "7.2f"),
+                      _num(p[d]["pslr_db"], "7.2f"), _num(m[d].get("islr_db"), "7.2f"), _num(p[d]["islr_db"], "7.2f")]
             if d == "range":
                 cells[-1] += " |"
         rows.append(" ".join(cells))
-    if results:
-        m = results[0]["measured"]
-        rows.append(f"range direction {m['range_direction_deg']:.2f} deg; dB values are 1-D cuts; "
-                    f"ISLR within +/-{m['sidelobe_extent_cells']:g} resolution cells of the peak")
-    if any(r["measured"]["patch_truncated"] for r in results):
+    measured = [r["measured"] for r in results if r["measured"]]
+    if measured:
+        m = measured[0]
+        rows.append(f"range direction {m['range_direction_deg']:.2f} deg; dB values are 1-D cuts; ISLR within "
+                    f"+/-{m['sidelobe_extent_cells']:g} resolution cells of the peak")
+        rows.append("exp_x, exp_y: where the target should focus (truth plus layover for points off the image "
+                    "plane); x_m, y_m: its own peak; err_m: the distance between the two")
+    for r in results:
+        if r["layover_m"] is not None and any(abs(v) > 0 for v in r["layover_m"]):
+            dx, dy = r["layover_m"]
+            rows.append(f"{r['name']}: {r['truth_at_m'][2]:g} m off the image plane, focuses {dx:+.3f}, {dy:+.3f} m "
+                        "from its (x, y) (layover)")
+        if r["status"] == "close":
+            rows.append(f"{r['name']}: close to {r['neighbour']} ({r['neighbour_cells']:.2f} resolution cells): "
+                        "own peak measured, cut figures not (they would cross its main lobe)")
+        elif r["status"] == "no peak":
+            rows.append(f"{r['name']}: no peak of its own within reach of its expected position "
+                        "(merged with a neighbour, or absent)")
+    if any(r["measured"] and r["measured"]["patch_truncated"] for r in results):
         rows.append("note: some targets lie near the image border (neighbourhood truncated)")
     return "\n".join(rows)
 
@@ -80,7 +98,13 @@ def _speckle(img, region, as_json):
               help="Homogeneous region (m) for ENL and contrast (default: the whole image).")
 @handle_errors
 def command(image, ph_path, config_path, at, window, oversample, extent_cells, as_json, speckle, region):
-    """Measure IRW, PSLR, ISLR and peak position of point targets in IMAGE, beside the predicted values."""
+    """Measure IRW, PSLR, ISLR and peak position of point targets in IMAGE, beside the predicted values.
+
+    Each target is matched to its own peak of the image (no peak serves two targets), expected
+    where the geometry focuses it: a point off the image plane lies over toward the radar by its
+    height times tan(elevation). Targets within 3 resolution cells of another are marked 'close'
+    (position and peak measured, cut figures not); 'no peak': none of its own within reach.
+    """
     from ..errors import SarcliInputError
     from ..io.hdf5 import read_image
     from ..core.types import to_json

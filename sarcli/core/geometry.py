@@ -32,6 +32,7 @@ __all__ = [
     "bistatic_reference_range",
     "farfield_phase_error",
     "signal_phase",
+    "image_plane_position",
 ]
 
 #: Speed of light in vacuum (m/s).
@@ -375,3 +376,60 @@ def signal_phase(freq_hz, azimuth_rad, elevation_rad, points_m, *, model="farfie
         f = _as_pm(freq_hz, az.size)
         return (4.0 * np.pi / C) * f[:, :, None] * dr[:, None, :]
     raise ValueError(f"unknown model {model!r}; expected 'farfield' or 'spherical'")
+
+
+def image_plane_position(points_m, *, model="farfield", antenna_position_m=None, range_to_center_m=None,
+                         receive_position_m=None, iterations=6) -> np.ndarray:
+    """Where point scatterers focus in the image plane z = 0 (their layover), shape (S, 2).
+
+    A point off the plane (z ≠ 0) focuses at the ground point ``g`` whose range history matches
+    its own: the spread of ``δ_p(g) = R_p(g) - R_p(x_s)`` over the pulses is least (its phase
+    ``k_c δ_p`` must be constant for the pulses to add up, which fixes cross-range) and its mean is
+    zero (range). ``R_p`` is :func:`differential_range` (or :func:`bistatic_differential_range`
+    with ``receive_position_m``), solved by Gauss-Newton from ``(x_s, y_s)``. For a short aperture
+    this is the textbook layover: ``z tan φ`` toward the radar along the ground range. The
+    far-field model (eq. ``eq1``, :func:`signal_phase`) holds no height term, so there a point
+    focuses at its own ``(x, y)``.
+
+    Parameters
+    ----------
+    points_m : array_like, shape (S, 3) or (S, 2)
+    model : {'farfield', 'spherical'}
+    antenna_position_m, range_to_center_m, receive_position_m : array_like, optional
+        As in :func:`signal_phase` (needed for the spherical model).
+    iterations : int
+        Gauss-Newton steps (the problem is nearly linear: two or three reach 1e-9 m).
+
+    Returns
+    -------
+    ndarray, shape (S, 2)
+        Focus positions (x, y) in metres.
+    """
+    x, pts = _points3(np.atleast_2d(points_m))
+    g = pts[:, :2].copy()
+    if model == "farfield" or not np.any(pts[:, 2]):
+        return g
+    if antenna_position_m is None or range_to_center_m is None:
+        raise ValueError("the spherical model needs antenna positions and ranges")
+    t = np.asarray(antenna_position_m, dtype=np.float64)
+    q = t if receive_position_m is None else np.asarray(receive_position_m, dtype=np.float64)
+
+    def ranges(p3):
+        return bistatic_differential_range(t, q, range_to_center_m, p3)  # (P, S)
+
+    target = ranges(pts)
+    for _ in range(int(iterations)):
+        g3 = np.concatenate([g, np.zeros((g.shape[0], 1))], axis=1)
+        d = ranges(g3) - target  # (P, S)
+        ut = g3[None, :, :] - t[:, None, :]
+        uq = g3[None, :, :] - q[:, None, :]
+        jac = 0.5 * (ut / np.linalg.norm(ut, axis=2, keepdims=True)
+                     + uq / np.linalg.norm(uq, axis=2, keepdims=True))[:, :, :2]  # (P, S, 2)
+        for s in range(g.shape[0]):
+            jm, dm = jac[:, s].mean(axis=0), d[:, s].mean()
+            # rows: the pulses' deviations from their mean (spread), then the mean, weighted far above
+            w = 1e3 * np.sqrt(d.shape[0])
+            a = np.vstack([jac[:, s] - jm, w * jm])
+            b = -np.concatenate([d[:, s] - dm, [w * dm]])
+            g[s] += np.linalg.lstsq(a, b, rcond=None)[0]
+    return g

@@ -87,7 +87,7 @@ class Image:
     parameters : dict
         Every setting that shaped the image (JSON-serialisable).
     runtime_s : float
-        Wall seconds of the formation itself.
+        Wall seconds of the formation itself (NaN when a file does not say, e.g. another tool's SICD).
     history : dict of str -> ndarray, optional
         Per-iteration logs of iterative methods.
     attrs : dict

@@ -65,6 +65,10 @@ def _weights(ph: PhaseHistory, window, nbar, sll_db):
         raise SarcliInputError(str(exc)) from None
 
 
+#: The formers that model the spherical wavefront, as advice names them (auto picks among them).
+SPHERICAL_ADVICE = "--method auto picks among ffbp, backprojection, subimage and direct"
+
+
 def _warn_defocus(ph: PhaseHistory, grid: Grid, method: str):
     acq = ph.acquisition
     if ph.model != "spherical" or not acq.has_positions:
@@ -73,7 +77,7 @@ def _warn_defocus(ph: PhaseHistory, grid: Grid, method: str):
     if err > geometry.DEFOCUS_WARN_RAD:
         warnings.warn(f"far-field method '{method}' on spherical data: predicted phase error "
                       f"{err:.3g} rad at the grid corner ({grid.half_diagonal:.3g} m from the centre, "
-                      f"r0 = {acq.range_to_center_m.min():.4g} m); use direct or backprojection",
+                      f"r0 = {acq.range_to_center_m.min():.4g} m); use a spherical former ({SPHERICAL_ADVICE})",
                       DefocusWarning, stacklevel=3)
 
 

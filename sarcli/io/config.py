@@ -206,6 +206,37 @@ def _parse_geometry(ctx, sec, az, el_rad):
     return pos, az2, el2, path
 
 
+#: Resolution cells kept around each point target on a derived grid, in range and in cross-range:
+#: the main lobe and the first sidelobes (which end two cells out without a window, three with
+#: the widest windows sarcli offers).
+POINT_MARGIN_CELLS = 4.0
+
+
+def _points_half_width(scene, freq, az, el, pos, model) -> float:
+    """Half-width of the centred square holding every point target's focus (its layover included,
+    :func:`sarcli.core.geometry.image_plane_position`) with :data:`POINT_MARGIN_CELLS` range cells
+    along the range direction and as many cross-range cells across it (0 without points)."""
+    from ..simulation.scenes import point_targets
+
+    pts, _ = point_targets(scene)
+    if len(pts) == 0:
+        return 0.0
+    rho_r, rho_cr = (r if np.isfinite(r) else 0.0 for r in geometry.resolutions(freq, az, el))
+    spherical = model == "spherical" and pos is not None
+    focus = geometry.image_plane_position(pts, model="spherical" if spherical else "farfield",
+                                          antenna_position_m=pos,
+                                          range_to_center_m=None if pos is None else np.linalg.norm(pos, axis=1))
+    if geometry.total_aperture(az) >= np.pi:  # every direction is a range direction somewhere
+        hx = hy = max(rho_r, rho_cr)
+    else:
+        th = float(np.angle(np.mean(np.exp(1j * np.asarray(az, dtype=np.float64)))))
+        c, s = abs(math.cos(th)), abs(math.sin(th))
+        # half-extents along x and y of the ellipse with semi-axes rho_r (range) and rho_cr
+        hx, hy = math.hypot(rho_r * c, rho_cr * s), math.hypot(rho_r * s, rho_cr * c)
+    k = POINT_MARGIN_CELLS
+    return float(max(np.max(np.abs(focus[:, 0]) + k * hx), np.max(np.abs(focus[:, 1]) + k * hy)))
+
+
 def parse_acquisition(cfg, *, source=None, text=None) -> Acquisition:
     """Build an :class:`Acquisition` from an already-parsed YAML mapping.
 
@@ -261,10 +292,8 @@ def parse_acquisition(cfg, *, source=None, text=None) -> Acquisition:
     over = _number(ctx, "image.oversampling", img.get("oversampling", 2.0), lo=0.5, hi=64)
     scene_half = scene_radius = None
     if scene:
-        rho = [r for r in geometry.resolutions(freq, az, el_arr) if np.isfinite(r)]
-        # points get a margin of 4 resolution cells so their main lobes fit on the derived grid
-        margin = 4 * min(rho) if rho and scene.get("points") is not None else 0.0
-        scene_half = scenes.scene_half_width(scene) + margin or None
+        scene_half = max(scenes.scene_half_width(scene, points=False),
+                         _points_half_width(scene, freq, az, el_arr, pos, model)) or None
         scene_radius = scenes.scene_half_width(scene, radius=True)
     if "half_width_m" in img or "pixels" in img:
         if not ("half_width_m" in img and "pixels" in img):

@@ -27,7 +27,8 @@ def _image_summary(img) -> dict:
     return {"method": img.method, "shape": list(img.image.shape), "dtype": str(np.asarray(img.image).dtype),
             "pixel_m": [grid.dx, grid.dy], "x_m": [float(img.x_m[0]), float(img.x_m[-1])],
             "y_m": [float(img.y_m[0]), float(img.y_m[-1])], "peak_magnitude": float(mag.max()) if mag.size else 0.0,
-            "runtime_s": float(img.runtime_s), "parameters": img.parameters}
+            "runtime_s": float(img.runtime_s) if np.isfinite(img.runtime_s) else "unknown",
+            "parameters": img.parameters}
 
 
 def describe(path) -> dict:

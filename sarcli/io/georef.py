@@ -1,7 +1,7 @@
 """Where the local scene frame sits on the Earth: reference point, ENU <-> ECF, UTM zone.
 
 sarcli works in a local frame (CONVENTIONS.md "Units and frames": x east, y north, z up, origin at
-the scene centre). Formats that need Earth coordinates (GeoTIFF in UTM, SICD, CPHD) anchor that
+the scene centre). Formats that need Earth coordinates (GeoTIFF, SICD, CPHD) anchor that
 frame at a reference point read from the optional attributes ``scene_center_lat_deg``,
 ``scene_center_lon_deg`` (and ``scene_center_height_m``, default 0) of an image or phase history.
 Without them the placeholder :data:`DEFAULT_REFERENCE` is used and the writer says so in the file.
@@ -109,6 +109,7 @@ def ecf_to_enu(ecf_m, ref: ReferencePoint) -> np.ndarray:
 
 
 def utm_epsg(lat_deg: float, lon_deg: float) -> int:
-    """EPSG code of the WGS-84 UTM zone holding a point (326zz north, 327zz south)."""
+    """EPSG code of the WGS-84 UTM zone holding a point (326zz north, 327zz south); used to read
+    GeoTIFFs an earlier sarcli wrote in UTM."""
     zone = int(np.floor((lon_deg + 180.0) / 6.0)) % 60 + 1
     return (32600 if lat_deg >= 0 else 32700) + zone

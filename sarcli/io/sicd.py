@@ -27,6 +27,8 @@ Mapping (``docs/formats.md`` has the table):
 from __future__ import annotations
 
 import datetime
+import json
+import math
 
 import lxml.builder
 import lxml.etree
@@ -49,6 +51,29 @@ _UP = np.array([0.0, 0.0, 1.0])
 # --------------------------------------------------------------------------------------------
 # orientation
 # --------------------------------------------------------------------------------------------
+#: ``CollectionInfo/Parameter`` holding the sarcli image's method, runtime and parameters (JSON).
+IMAGE_PARAMETER = "sarcli-image"
+
+
+def _image_metadata(xml) -> tuple[str, float, dict]:
+    """``(method, runtime_s, parameters)`` of a SICD: from sarcli's own parameter when present;
+    otherwise the method from ``ImageFormation/Processing/Type`` ("sarcli <method>") or
+    ``ImageFormAlgo`` (another tool's file), the run time unknown (NaN)."""
+    for node in xml.findall("{*}CollectionInfo/{*}Parameter"):
+        if node.get("name") == IMAGE_PARAMETER:
+            try:
+                meta = json.loads(node.text or "")
+                return (str(meta.get("method") or "sicd"), float(meta.get("runtime_s", math.nan)),
+                        dict(meta.get("parameters") or {}))
+            except (TypeError, ValueError, AttributeError):
+                break
+    ptype = str(xml.findtext("{*}ImageFormation/{*}Processing/{*}Type") or "")
+    if ptype.startswith("sarcli "):
+        return ptype.split(" ", 1)[1], math.nan, {}
+    algo = str(xml.findtext("{*}ImageFormation/{*}ImageFormAlgo") or "").strip()
+    return (algo.lower() or "sicd"), math.nan, {}
+
+
 def sicd_orientation(image: np.ndarray, look_azimuth_rad: float, grid):
     """Re-index our ``[y, x]`` image into SICD ``[row, col]`` for a look azimuth.
 
@@ -253,6 +278,8 @@ def _build_xml(img: Image, acq: Acquisition, ref, orient, *, nominal: bool, ph_a
             E.RadarMode(E.ModeType("SPOTLIGHT")),
             E.Classification("UNCLASSIFIED"),
             *[E.Parameter(n, name="sarcli" if i == 0 else f"sarcli-note-{i}") for i, n in enumerate(notes)],
+            E.Parameter(json.dumps({"method": img.method, "runtime_s": float(img.runtime_s),
+                                    "parameters": params}, default=str), name=IMAGE_PARAMETER),
         ),
         E.ImageCreation(E.Application(f"sarcli {__version__}"), E.DateTime(now)),
         E.ImageData(
@@ -434,6 +461,9 @@ def _read_sicd(p) -> Image:
     y = (np.arange(ny) - r0) * dy
     attrs = {**ref.as_attrs(), "source_format": "SICD",
              "sicd_version": lxml.etree.QName(xml.getroot()).namespace}
+    method, runtime, params = _image_metadata(xml)
+    core = xml.findtext("{*}CollectionInfo/{*}CoreName")
+    if core:
+        attrs["collection_name"] = str(core)
     return Image(image=np.ascontiguousarray(img).astype(np.complex64), x_m=x, y_m=y,
-                 method=str(xml.findtext("{*}CollectionInfo/{*}CoreName") or "sicd"),
-                 parameters={}, attrs=attrs)
+                 method=method, parameters=params, runtime_s=runtime, attrs=attrs)

@@ -125,14 +125,15 @@ def validate_scene(sec, *, ctx, base_dir=Path(".")) -> dict:
     return out
 
 
-def scene_half_width(scene: dict, *, radius: bool = False) -> float:
+def scene_half_width(scene: dict, *, radius: bool = False, points: bool = True) -> float:
     """How far the scene reaches from the centre (m).
 
     With ``radius=False`` the largest |x| or |y| (half the side of the bounding square); with
     ``radius=True`` the largest distance from the centre (what aliasing is judged by).
+    ``points=False`` leaves the point targets out (extended parts only).
     """
     half = 0.0
-    if scene.get("points") is not None and len(scene["points"]["amplitude"]):
+    if points and scene.get("points") is not None and len(scene["points"]["amplitude"]):
         xy = scene["points"]["position_m"][:, :2]
         half = float(np.max(np.hypot(xy[:, 0], xy[:, 1]) if radius else np.abs(xy)))
     for kind in ("phantom", "image_file"):

@@ -272,11 +272,12 @@ def write_cases(ws: Workspace) -> list[Fault]:
     blocker.write_text("x")
     out = []
     t0 = time.perf_counter()
-    f = expect_refusal("W1", "output folder cannot be created (/proc)", ["form-image", ph, "-o", "/proc/sarcli/x.h5",
-                                                                       "--method", "direct"], "cannot")
+    f = expect_refusal("W1", "output folder does not exist (no silent creation)",
+                       ["form-image", ph, "-o", ws.path("no-such-folder") / "x.h5", "--method", "direct"],
+                       "does not exist")
     out.append(f)
     out.append(expect_refusal("W2", "output folder path is a regular file", ["form-image", ph, "-o", blocker / "x.h5"],
-                              "cannot|not a directory"))
+                              "cannot|not a directory|not a folder"))
     out.append(expect_refusal("W3", "output is an existing folder", ["form-image", ph, "-o", ws.tmp], "folder|directory"))
     out.append(expect_refusal("W4", "unwritable output found before a long direct run",
                               ["form-image", ws.big_ph, "-o", "/proc/x.h5", "--method", "direct"], "cannot"))
