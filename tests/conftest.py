@@ -18,9 +18,16 @@ GOTCHA_DIR = Path(os.environ.get("SARCLI_GOTCHA_DIR") or REPO.parent / "shared" 
 @pytest.fixture(autouse=True, scope="session")
 def _no_user_calibration(tmp_path_factory):
     """Tests plan with the shipped reference cost model, never a calibration left in the user's
-    cache by `sar plan` on this machine (sarcli.formers.calibration)."""
+    cache by `sar plan` on this machine (sarcli.formers.calibration): this machine's calibration
+    file is that model, so `sar plan` does not measure the machine in every test."""
+    import json
+
+    from sarcli.formers import calibration
+
     old = os.environ.get("SARCLI_CACHE_DIR")
     os.environ["SARCLI_CACHE_DIR"] = str(tmp_path_factory.mktemp("sarcli-cache"))
+    shipped = json.loads(calibration.COST_MODEL_PATH.read_text())
+    calibration.user_cost_model_path().write_text(json.dumps({**shipped, "machine": calibration.machine()}))
     yield
     if old is None:
         os.environ.pop("SARCLI_CACHE_DIR", None)

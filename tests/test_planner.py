@@ -167,3 +167,32 @@ def test_command_seconds_adds_what_the_command_pays(sph):
     io = 1e-9 * 8 * ph.data.size + 2e-9 * 8 * GRID.nx * GRID.ny
     assert command_seconds(cand, ph, GRID, c) == pytest.approx(0.3 + io + cand.seconds)
     assert command_seconds(cand, ph, GRID, c, auto=True) == pytest.approx(0.32 + io + cand.seconds)
+
+
+def test_sar_plan_measures_an_uncalibrated_machine_once(tmp_path, monkeypatch, sph):
+    import json
+
+    from sarcli.cli.main import cli
+    from sarcli.formers import calibration as cal
+    from sarcli.io.hdf5 import write_phase_history
+
+    monkeypatch.setenv("SARCLI_CACHE_DIR", str(tmp_path))
+    calls = []
+
+    def fake(path=None, **kw):
+        calls.append(1)
+        cal.user_cost_model_path().write_text(json.dumps({"seconds_per_op": dict(cal.DEFAULT_COSTS, startup=0.25)}))
+
+    monkeypatch.setattr(cal, "calibrate", fake)
+    src = tmp_path / "ph.h5"
+    write_phase_history(src, sph[0])
+    first = CliRunner().invoke(cli, ["plan", str(src), "--json"])
+    assert first.exit_code == 0, first.output
+    assert calls == [1] and "measuring this machine's cost model" in first.output
+    again = CliRunner().invoke(cli, ["plan", str(src), "--json"])
+    assert calls == [1] and "measuring" not in again.output
+    doc = json.loads(again.output)
+    for c in doc["candidates"]:
+        assert c["predicted_command_s"] >= c["predicted_s"] + 0.25
+    CliRunner().invoke(cli, ["plan", str(src), "--calibrate", "--json"])
+    assert calls == [1, 1]

@@ -31,18 +31,19 @@ def _knobs(k: dict) -> str:
     return ", ".join(f"{n}={v:g}" if isinstance(v, float) else f"{n}={v}" for n, v in k.items() if n != "tolerance")
 
 
-def table(cands, pick, tolerance: float, safety: float, width: int = 80) -> list[str]:
+def table(cands, pick, tolerance: float, safety: float, width: int = 80, seconds=None) -> list[str]:
     """Lines of the plan table: one row per candidate, its knobs wrapped below it, then the legend.
 
     Fits ``width`` columns (at least 60): the fixed columns take 56, the knobs and the legend wrap.
+    ``seconds``: the time column, one per candidate (default each candidate's formation time).
     """
     import textwrap
 
     width = max(60, int(width))
     lines = [f"{'method':<15} {'pred.err':>9} {'pred.s':>9} {'MiB':>8}  {'status':<7}"]
-    for c in cands:
+    for c, sec in zip(cands, seconds if seconds is not None else [c.seconds for c in cands]):
         auto = c is pick or (c.method == pick.method and c.knobs == pick.knobs)
-        lines.append(f"{c.method:<15} {c.predicted_error:9.2e} {c.seconds:9.3g} {c.memory / 2**20:8.1f}  "
+        lines.append(f"{c.method:<15} {c.predicted_error:9.2e} {sec:9.3g} {c.memory / 2**20:8.1f}  "
                      f"{status_of(c, tolerance, safety):<7}{' <- auto' if auto else ''}")
         knobs = _knobs(c.knobs)
         if c.notes:
@@ -63,30 +64,45 @@ def table(cands, pick, tolerance: float, safety: float, width: int = 80) -> list
 @click.option("--tolerance", type=click.FloatRange(min=1e-12, max=0.5), default=DEFAULT_TOLERANCE, show_default=True,
               help="Target relative error against the exact matched filter.")
 @click.option("--json", "as_json", is_flag=True, help="Print the candidates as JSON.")
+@click.option("--calibrate", is_flag=True,
+              help="Measure this machine's cost model again first (done once on first use; a few seconds).")
 @threads_option
 @handle_errors
-def command(input_path, center, extent, pixel_size, tolerance, as_json, nthreads):
+def command(input_path, center, extent, pixel_size, tolerance, as_json, calibrate, nthreads):
     """List image formers with knobs, predicted error, time and memory; mark the one --method auto picks.
 
-    Errors come from each former's error model, times from per-operation constants measured on
-    this machine (sarcli/formers/cost_model.json, refreshed by bench/bench_ffbp.py --calibrate).
+    Errors come from each former's error model. Times are of the whole `sar form-image` command
+    with that former (start-up, reading, forming, writing), from per-operation constants measured
+    on this machine: the first `sar plan` on a machine measures them (a few seconds) and keeps
+    them in the user's cache folder; --calibrate measures them again.
     """
     from ..core.grid import resolve_grid
-    from ..formers.planner import SAFETY, candidates, recommend
+    from ..formers import calibration
+    from ..formers.planner import SAFETY, candidates, command_seconds, recommend
     from ..io import open_input
+
+    if calibrate or not calibration.is_calibrated():
+        click.echo(f"measuring this machine's cost model (a few seconds, once; kept in "
+                   f"{calibration.user_cost_model_path()})", err=True)
+        calibration.calibrate()
 
     _, ph = open_input(input_path, expect=("phase-history", "gotcha", "cphd"), truth=False)
     grid = resolve_grid(ph.acquisition.grid, center=parse_pair(center, "--center"),
                         extent=parse_pair(extent, "--extent"), pixel_size=pixel_size)
     cands = candidates(ph, grid, tolerance, nthreads=nthreads)
     pick = recommend(ph, grid, tolerance, nthreads=nthreads)
+    whole = [command_seconds(c, ph, grid) for c in cands]
     if as_json:
-        click.echo(json.dumps({"tolerance": tolerance, "grid": grid.as_dict(), "auto": pick.as_dict(),
+        click.echo(json.dumps({"tolerance": tolerance, "grid": grid.as_dict(),
+                               "auto": {**pick.as_dict(), "predicted_command_s": command_seconds(pick, ph, grid, auto=True)},
                                "status_legend": {w: t.format(safety=SAFETY) for w, t in STATUS_LEGEND},
-                               "candidates": [{**c.as_dict(), "status": status_of(c, tolerance, SAFETY)}
-                                              for c in cands]}, indent=1, default=float))
+                               "candidates": [{**c.as_dict(), "predicted_command_s": w,
+                                               "status": status_of(c, tolerance, SAFETY)}
+                                              for c, w in zip(cands, whole)]}, indent=1, default=float))
         return
     click.echo(f"{ph.model} data, {ph.data.shape[0]} x {ph.data.shape[1]} samples -> {grid.nx} x {grid.ny} "
                f"pixels of {grid.dx:g} m; tolerance {tolerance:g}")
-    for line in table(cands, pick, tolerance, SAFETY, shutil.get_terminal_size((80, 24)).columns):
+    for line in table(cands, pick, tolerance, SAFETY, shutil.get_terminal_size((80, 24)).columns, whole):
         click.echo(line)
+    click.echo("pred.s: the whole `sar form-image` command with that former (start-up, read, form, write) "
+               "on this machine")
