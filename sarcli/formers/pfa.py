@@ -35,7 +35,6 @@ from __future__ import annotations
 
 import warnings
 
-import numba
 import numpy as np
 from scipy import fft as sfft
 from scipy.special import i0
@@ -105,17 +104,6 @@ def _kernel_ft(nu, kernel: str, width: int, beta: float):
     with np.errstate(invalid="ignore", divide="ignore"):
         val = np.where(z2 > 0, np.sinh(z) / z, np.sin(z) / z)
     return width * np.where(z < 1e-8, 1.0, val)
-
-
-@numba.njit(cache=True)
-def _spread(grid, fx, fy, tx, ty, c):  # pragma: no cover - compiled
-    """grid[fy+b, fx+a] += c tx[a] ty[b] for every sample (serial: no write races)."""
-    for s in range(c.size):
-        for b in range(ty.shape[1]):
-            row = fy[s] + b
-            vy = c[s] * ty[s, b]
-            for a in range(tx.shape[1]):
-                grid[row, fx[s] + a] += vy * tx[s, a]
 
 
 def _area_density(kx, ky):
@@ -198,13 +186,16 @@ def regrid_polar(data, kx, ky, weights=None, *, pixel_m, shape, center_m=(0.0, 0
         raise SarcliInputError(
             f"the PFA k-grid would need {nky} x {nkx} cells for a {aperture:.1f}° aperture "
             f"(limit {MAX_KGRID_CELLS}); use the NUFFT former or a coarser pixel")
+    from .._native import load
+
+    spread = load("pfa").spread
     samples = np.zeros((nky, nkx), dtype=np.complex128)
     starts = range(0, c.size, _SPREAD_CHUNK)
     for s in progress(starts, total=len(starts), desc="PFA gridding", unit="chunk"):
         sl = slice(s, s + _SPREAD_CHUNK)
         fx, tx = _kernel_taps((kxf[sl] - kx0) / dkx, kernel, width, beta)
         fy, ty = _kernel_taps((kyf[sl] - ky0) / dky, kernel, width, beta)
-        _spread(samples, fx, fy, tx, ty, np.ascontiguousarray(c[sl]))
+        spread(samples, fx, fy, tx, ty, np.ascontiguousarray(c[sl]))
     parameters = {"kernel": kernel, "width": width, "beta": beta, "oversample": oversample,
                   "density": density, "pixel_m": [dx, dy], "shape": [ny, nx],
                   "center_m": [cx, cy], "n_fft": [nfy, nfx], "aperture_deg": aperture}
