@@ -115,3 +115,12 @@ def test_results_do_not_depend_on_the_thread_count():
     finally:
         threads(old)
     assert one == several
+
+
+def test_shrink_update_refuses_overlapping_outputs():
+    tf, sigma = _c(2, 50), _c(2, 50)
+    out = R.empty(tf.shape)
+    with pytest.raises(ValueError, match="distinct"):
+        R.shrink_update(tf, sigma, 1.0, 0.5, True, g_out=out, sigma_out=out)
+    with pytest.raises(ValueError, match="distinct"):
+        R.shrink_update(tf, sigma, 1.0, 0.5, True, w=out, g_out=out)

@@ -93,6 +93,7 @@ def shrink_update(tf, sigma, beta: float, threshold: float, group: bool, *, w=No
     g_out, sigma_out : ndarray, optional
         Arrays (C-contiguous complex128, ``tf``'s shape) to write ``g`` and ``σ'`` into instead of
         new ones; ``sigma_out`` may be ``sigma`` itself (each entry is read before it is written).
+        The outputs (with ``w``) must not overlap one another.
 
     Returns
     -------
@@ -108,6 +109,9 @@ def shrink_update(tf, sigma, beta: float, threshold: float, group: bool, *, w=No
     t2, s2 = tf.reshape(k, -1), sigma.reshape(k, -1)
     g, sig = (empty(t2.shape) if a is None else _out(a, shape).reshape(t2.shape) for a in (g_out, sigma_out))
     w2 = None if w is None else _out(w, shape).reshape(k, -1)
+    outs = [a for a in (g, sig, w2) if a is not None]
+    if any(np.may_share_memory(a, b) for i, a in enumerate(outs) for b in outs[i + 1:]):
+        raise ValueError("g_out, sigma_out and w must be distinct arrays")
     reg = _K.shrink_update(t2, s2, float(beta), float(threshold), g, sig, w2)
     return (g.reshape(shape) if g_out is None else g_out, sig.reshape(shape) if sigma_out is None else sigma_out,
             float(reg))
