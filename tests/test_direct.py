@@ -110,3 +110,31 @@ def test_bad_inputs():
         direct_farfield(data, kx[:2], ky, grid)
     with pytest.raises(ValueError, match="pulses"):
         direct_spherical(data, freq, ant[:2], np.ones(2), grid)
+
+
+def test_kernel_sine_and_cosine_within_two_ulp():
+    """The spherical sum's own sine and cosine (vectorised polynomials) against the C library's."""
+    from sarcli._native import load
+
+    rng = np.random.default_rng(4)
+    x = np.concatenate([rng.uniform(-lim, lim, 20000) for lim in (1.0, 1e3, 1e5, 1e7, 9e7)]
+                       + [np.pi / 4 * np.arange(-9, 10), [0.0, -0.0, 1e-300]])
+    s, c = load("direct").sin_cos(x)
+    assert np.max(np.abs(s - np.sin(x))) <= 2 ** -52 and np.max(np.abs(c - np.cos(x))) <= 2 ** -52
+
+
+@pytest.mark.parametrize("scale", [1.0, 1e6])
+def test_spherical_kernel_matches_numpy(scale):
+    """Pixels not a multiple of the kernel's group of 8; ranges so large (scale 1e6) that the
+    phases leave the polynomials' range and the C library's sine and cosine take over."""
+    from sarcli._native import load
+
+    rng = np.random.default_rng(5)
+    P, M, n = 6, 33, 29
+    dr = rng.uniform(-50, 50, (P, n)) * scale
+    k4 = 4 * np.pi * (9.8e9 + 3e6 * rng.random((P, M))) / geometry.C
+    wd = rng.standard_normal((P, M)) + 1j * rng.standard_normal((P, M))
+    out = np.full(n, 1.0 - 2.0j)
+    load("direct").accumulate_spherical(out, dr, k4, wd)
+    ref = 1.0 - 2.0j + np.einsum("pj,pjn->n", wd, np.exp(1j * k4[:, :, None] * dr[:, None, :]))
+    assert np.max(np.abs(out - ref)) < 1e-13 * np.sqrt(P * M)

@@ -73,10 +73,10 @@ def test_isotropic_shrinkage_is_the_vector_minimiser():
 
 @pytest.mark.parametrize("group, k", [(False, 1), (True, 2), (True, 3)])
 def test_compiled_shrink_update_satisfies_the_proposition(group, k):
-    """The fused numba g-step ADMM calls (linops._reduce.shrink_update) is the Proposition's
+    """The fused compiled g-step ADMM calls (linops._reduce.shrink_update) is the Proposition's
     minimiser of β/2|g - Tf|² + λ|g| + Re(σ̄ g): equal to complex_shrinkage, optimal by the
     subgradient condition entry by entry, brute-force minimiser at a few entries; σ' = σ - β(Tf - g).
-    ℓ1 (k = 1) and isotropic TV (k = 2) have their own unrolled loops, k = 3 the general one."""
+    ℓ1 (k = 1) and isotropic TV (k = 2) have their own vectorised loops, k = 3 the general one."""
     from sarcli.linops._reduce import shrink_update
 
     rng = np.random.default_rng(11)

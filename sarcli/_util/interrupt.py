@@ -5,8 +5,8 @@ handler write the signal number to a pipe (:func:`signal.set_wakeup_fd`); a watc
 blocked on that pipe removes every temporary output file (:mod:`sarcli._util.atomic`), stops
 child processes (a local dask cluster), prints ``interrupted`` and leaves with ``128 + signal``
 (130 for SIGINT, 143 for SIGTERM). The watchdog runs as soon as the main thread lets go of the
-GIL, so native code that releases it (FFTs, FINUFFT, file I/O, sleeps) is interrupted at once;
-compiled numba loops hold it, which is why the long ones run in blocks of well under a second.
+GIL, so native code that releases it (sarcli's C++ kernels, FFTs, FINUFFT, file I/O, sleeps) is
+interrupted at once.
 The rename that commits an output is taken under :data:`sarcli._util.atomic.LOCK`: an
 interruption lands either before it (previous output untouched) or after it (new output complete).
 """

@@ -16,9 +16,9 @@ accuracy knobs and records, per setting,
   speckled, so this number is dominated by the PSF and nearly equal for the fast formers; it is the
   meaningful axis for the regularisers, which try to undo the PSF;
 - ``seconds``: the median of ``repeat`` calls after one warm-up call; ``compile_s`` = warm-up time
-  minus that median (numba compilation, FFTW/FINUFFT planning, caches), floored at 0;
+  minus that median (FFT/FINUFFT planning, first touches of memory, caches), floored at 0;
 - ``peak_mb``: peak of Python-visible allocations (``tracemalloc``, which sees NumPy arrays) during
-  one extra call. Memory that FINUFFT (C++) and numba's runtime allocate themselves is *not* seen,
+  one extra call. Memory that FINUFFT and sarcli's C++ kernels allocate themselves is *not* seen,
   so for ``nufft`` and ``backprojection`` it is a lower bound.
 
 For the regularisers (:mod:`sarcli.regularize`, when present) the sweep is over the iteration cap:
@@ -303,7 +303,7 @@ def run_benchmark(ph: PhaseHistory, *, methods=("direct",) + FAST_METHODS, repea
     else:
         notes.append(f"error_truth: || |f| - |a| || / ||a|| at the {int(truth[1].sum())} point targets' pixels "
                      "(peak amplitudes)")
-    notes.append("peak_mb: tracemalloc (Python/NumPy allocations; FINUFFT and numba-internal memory not seen)")
+    notes.append("peak_mb: tracemalloc (Python/NumPy allocations; FINUFFT and C++ kernel memory not seen)")
     settings = list(settings) if settings is not None else sweep([m for m in methods if m != "direct"],
                                                                  windows=windows)
     refs = {}

@@ -79,7 +79,8 @@ class Job:
     extra : dict
         Kind-specific settings (composite mode, tile layout, azimuth window), recorded in the output.
     threads : int
-        numba / FINUFFT threads inside the job.
+        Threads of the compiled kernels (:func:`sarcli._native.threads`) and of FINUFFT inside
+        the job.
     dep_fingerprints : tuple of str
         Fingerprints of ``depends`` (a combining job is redone when one of its inputs changes).
     origin : str

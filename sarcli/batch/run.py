@@ -219,18 +219,20 @@ def run_job(job: Job, outdir, force: bool = False) -> JobResult:
     JobResult
         'skipped' when a valid output existed, 'done', or 'failed' with the reason.
     """
-    import numba
+    from .._native import threads
 
     t0, c0 = time.perf_counter(), time.process_time()
     out = Path(outdir) / job.name
     fp = job.fingerprint
     if not force and _valid_output(out, fp):
         return JobResult(job.name, job.input, "skipped", wall_s=time.perf_counter() - t0)
-    old_threads = numba.get_num_threads()
+    # the kernels' thread count is kept per calling thread: this job's setting leaves the jobs
+    # running beside it in other threads of the worker alone
+    old_threads = threads()
     try:
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
-            numba.set_num_threads(max(1, min(job.threads, numba.config.NUMBA_NUM_THREADS)))
+            threads(max(1, job.threads))
             img = _form(job) if job.kind == "image" else _combine(job, Path(outdir))
         img.attrs = {**img.attrs, FINGERPRINT_ATTR: fp, "batch_job": to_json({"name": job.name, **job.spec()}),
                      "batch_input": job.input}
@@ -245,7 +247,7 @@ def run_job(job: Job, outdir, force: bool = False) -> JobResult:
             f"{type(exc).__name__}: {exc} ({traceback.extract_tb(exc.__traceback__)[-1].name})"
         return JobResult(job.name, job.input, "failed", error=reason, wall_s=time.perf_counter() - t0)
     finally:
-        numba.set_num_threads(old_threads)
+        threads(old_threads)
     msgs = [(w.category.__name__, str(w.message)) for w in caught]
     return JobResult(job.name, job.input, "done", runtime_s=img.runtime_s, wall_s=time.perf_counter() - t0,
                      cpu_s=time.process_time() - c0, warnings=msgs)

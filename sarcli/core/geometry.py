@@ -90,8 +90,7 @@ def wrap_phase(t):
     """Wrap phases or dimensionless frequencies into [-π, π): ``t - 2π floor((t + π) / 2π)``.
 
     The pixel lattice sees frequencies modulo 2π (section ``sec: alias``), so on it the wrap is
-    exact. Works on arrays and scalars, and compiles unchanged under numba (the NUFFT former's
-    preparation pass calls it from compiled code): the one home of the lattice wrap.
+    exact. Works on arrays and scalars: the one home of the lattice wrap.
 
     Examples
     --------

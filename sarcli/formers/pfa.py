@@ -35,10 +35,7 @@ from __future__ import annotations
 
 import warnings
 
-import numba
 import numpy as np
-from scipy import fft as sfft
-from scipy.special import i0
 
 from ..core import geometry
 from ..core.types import KGrid
@@ -53,8 +50,8 @@ PFA_KERNELS = ("kaiser", "linear")
 MAX_KGRID_CELLS = 1 << 25
 #: columns (then rows) inverse-transformed at once by pfa_image (bounds its work arrays)
 _FFT_BLOCK = 256
-#: samples whose kernel taps are evaluated at once (bounds the memory of the gridding step)
-_SPREAD_CHUNK = 1 << 18
+#: samples spread by one compiled call (one step of the progress bar)
+_SPREAD_CHUNK = 1 << 20
 
 
 def check_aperture(kx, ky) -> float:
@@ -83,16 +80,18 @@ def _kaiser_beta(width: int, oversample: float) -> float:
     return float(np.pi * np.sqrt(max((width / s) ** 2 * (s - 0.5) ** 2 - 0.8, 1e-12)))
 
 
-def _kernel_taps(u, kernel: str, width: int, beta: float):
-    """First grid index and tap weights [S, width] of the kernel centred at fractional indices u."""
-    first = np.floor(u - width / 2.0).astype(np.int64) + 1
-    offs = first[:, None] + np.arange(width)[None, :] - u[:, None]  # in (-w/2, w/2]
-    if kernel == "linear":
-        taps = np.maximum(0.0, 1.0 - np.abs(offs))
-    else:
-        arg = np.clip(1.0 - (2.0 * offs / width) ** 2, 0.0, None)
-        taps = i0(beta * np.sqrt(arg))
-    return first, taps
+def _next_fast_len(n: int) -> int:
+    """The smallest 11-smooth integer >= ``n``: a length the FFT factors into radices 2 to 11
+    (the complex ``scipy.fft.next_fast_len``)."""
+    m = max(1, int(n))
+    while True:
+        r = m
+        for p in (2, 3, 5, 7, 11):
+            while r % p == 0:
+                r //= p
+        if r == 1:
+            return m
+        m += 1
 
 
 def _kernel_ft(nu, kernel: str, width: int, beta: float):
@@ -105,17 +104,6 @@ def _kernel_ft(nu, kernel: str, width: int, beta: float):
     with np.errstate(invalid="ignore", divide="ignore"):
         val = np.where(z2 > 0, np.sinh(z) / z, np.sin(z) / z)
     return width * np.where(z < 1e-8, 1.0, val)
-
-
-@numba.njit(cache=True)
-def _spread(grid, fx, fy, tx, ty, c):  # pragma: no cover - compiled
-    """grid[fy+b, fx+a] += c tx[a] ty[b] for every sample (serial: no write races)."""
-    for s in range(c.size):
-        for b in range(ty.shape[1]):
-            row = fy[s] + b
-            vy = c[s] * ty[s, b]
-            for a in range(tx.shape[1]):
-                grid[row, fx[s] + a] += vy * tx[s, a]
 
 
 def _area_density(kx, ky):
@@ -188,7 +176,7 @@ def regrid_polar(data, kx, ky, weights=None, *, pixel_m, shape, center_m=(0.0, 0
     kc = (0.5 * (kxf.min() + kxf.max()), 0.5 * (kyf.min() + kyf.max()))
     axes = []
     for kf, n, h in ((kxf, nx, dx), (kyf, ny, dy)):
-        n_fft = sfft.next_fast_len(int(np.ceil(oversample * n)))
+        n_fft = _next_fast_len(int(np.ceil(oversample * n)))
         dk = 2.0 * np.pi / (n_fft * h)
         k0 = kf.min() - (width / 2.0 + 1.0) * dk
         nk = int(np.ceil((kf.max() - kf.min()) / dk)) + width + 3
@@ -198,13 +186,15 @@ def regrid_polar(data, kx, ky, weights=None, *, pixel_m, shape, center_m=(0.0, 0
         raise SarcliInputError(
             f"the PFA k-grid would need {nky} x {nkx} cells for a {aperture:.1f}° aperture "
             f"(limit {MAX_KGRID_CELLS}); use the NUFFT former or a coarser pixel")
+    from .._native import load
+
+    spread = load("pfa").spread
     samples = np.zeros((nky, nkx), dtype=np.complex128)
     starts = range(0, c.size, _SPREAD_CHUNK)
     for s in progress(starts, total=len(starts), desc="PFA gridding", unit="chunk"):
         sl = slice(s, s + _SPREAD_CHUNK)
-        fx, tx = _kernel_taps((kxf[sl] - kx0) / dkx, kernel, width, beta)
-        fy, ty = _kernel_taps((kyf[sl] - ky0) / dky, kernel, width, beta)
-        _spread(samples, fx, fy, tx, ty, np.ascontiguousarray(c[sl]))
+        spread(samples, (kxf[sl] - kx0) / dkx, (kyf[sl] - ky0) / dky, np.ascontiguousarray(c[sl]),
+               kernel, width, beta)
     parameters = {"kernel": kernel, "width": width, "beta": beta, "oversample": oversample,
                   "density": density, "pixel_m": [dx, dy], "shape": [ny, nx],
                   "center_m": [cx, cy], "n_fft": [nfy, nfx], "aperture_deg": aperture}
@@ -283,10 +273,10 @@ def pfa_image(kgrid: KGrid, grid) -> np.ndarray:
     half = np.empty((row.size, nkx), dtype=np.complex128)        # y transformed, rows cropped
     for c0 in range(0, nkx, _FFT_BLOCK):
         blk = _fold(g[:, c0:c0 + _FFT_BLOCK], nfy, 0)
-        half[:, c0:c0 + blk.shape[1]] = sfft.ifft(blk, axis=0, workers=-1)[row]
+        half[:, c0:c0 + blk.shape[1]] = np.fft.ifft(blk, axis=0)[row]
     image = np.empty((row.size, col.size), dtype=np.complex128)
     for r0 in range(0, row.size, _FFT_BLOCK):
         blk = _fold(half[r0:r0 + _FFT_BLOCK], nfx, 1)
-        image[r0:r0 + blk.shape[0]] = sfft.ifft(blk, axis=1, workers=-1)[:, col]
+        image[r0:r0 + blk.shape[0]] = np.fft.ifft(blk, axis=1)[:, col]
     image *= (nfy * nfx) * fac_y[:, None] * fac_x[None, :] / kgrid.weights_sum
     return image
