@@ -17,7 +17,8 @@ Usage::
 
     python bench/bench_ffbp.py [--synthetic 512x1024] [--no-gotcha] [--repeat 1] [--calibrate]
 
-``--calibrate`` first re-measures the planner's cost model (``sarcli/formers/cost_model.json``).
+``--calibrate`` first re-measures the planner's reference cost model, the one shipped with the
+package (``sarcli/formers/cost_model.json``; a user's machine measures its own on first `sar plan`).
 """
 
 from __future__ import annotations
@@ -131,9 +132,10 @@ def main(argv=None):
     print(f"machine: {os.cpu_count()} cores; load average {os.getloadavg()[0]:.1f} at start "
           "(a shared, loaded machine: compare ratios, not seconds)")
     if args.calibrate:
+        from sarcli.formers.calibration import COST_MODEL_PATH
         from sarcli.formers.planner import calibrate
 
-        print("cost model:", calibrate())
+        print("cost model:", calibrate(COST_MODEL_PATH))
     files = sorted(GOTCHA.glob("*.mat"))[:4] if GOTCHA.is_dir() else []
     if files and not args.no_gotcha:
         from sarcli.io.gotcha import read_gotcha

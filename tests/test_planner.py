@@ -183,7 +183,9 @@ def test_sar_plan_measures_an_uncalibrated_machine_once(tmp_path, monkeypatch, s
         calls.append(1)
         cal.user_cost_model_path().write_text(json.dumps({"seconds_per_op": dict(cal.DEFAULT_COSTS, startup=0.25)}))
 
-    monkeypatch.setattr(cal, "calibrate", fake)
+    import sarcli.formers.planner as planner_mod
+
+    monkeypatch.setattr(planner_mod, "calibrate", fake)
     src = tmp_path / "ph.h5"
     write_phase_history(src, sph[0])
     first = CliRunner().invoke(cli, ["plan", str(src), "--json"])

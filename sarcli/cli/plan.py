@@ -78,13 +78,13 @@ def command(input_path, center, extent, pixel_size, tolerance, as_json, calibrat
     """
     from ..core.grid import resolve_grid
     from ..formers import calibration
-    from ..formers.planner import SAFETY, candidates, command_seconds, recommend
+    from ..formers.planner import SAFETY, calibrate as measure, candidates, command_seconds, recommend
     from ..io import open_input
 
     if calibrate or not calibration.is_calibrated():
         click.echo(f"measuring this machine's cost model (a few seconds, once; kept in "
                    f"{calibration.user_cost_model_path()})", err=True)
-        calibration.calibrate()
+        measure()
 
     _, ph = open_input(input_path, expect=("phase-history", "gotcha", "cphd"), truth=False)
     grid = resolve_grid(ph.acquisition.grid, center=parse_pair(center, "--center"),

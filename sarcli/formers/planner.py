@@ -21,13 +21,16 @@ arrays.
 from __future__ import annotations
 
 import math
+import subprocess
+import sys
+import time
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from ..core.grid import Grid
 from ..errors import SarcliInputError
-from .calibration import calibrate, load_cost_model
+from .calibration import DEFAULT_COSTS, STARTUP_IMPORTS, load_cost_model, save_cost_model
 
 __all__ = ["Candidate", "candidates", "recommend", "ffbp_knobs", "command_seconds", "load_cost_model", "calibrate"]
 
@@ -206,3 +209,115 @@ def command_seconds(cand: Candidate, ph, grid: Grid, costs=None, *, auto=False) 
     P, M = ph.data.shape
     io = c["read_per_byte"] * 8.0 * P * M + c["write_per_byte"] * 8.0 * grid.nx * grid.ny
     return c["startup"] + (c["planning"] if auto else 0.0) + io + cand.seconds
+
+
+def _best(fn, repeat):
+    fn()
+    ts = []
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        fn()
+        ts.append(time.perf_counter() - t0)
+    return min(ts)
+
+
+def _command_costs(repeat) -> dict:
+    """Start-up of a fresh interpreter importing what ``sar form-image`` does, and HDF5 read and
+    write seconds per byte (a 32 MiB complex array)."""
+    import tempfile
+
+    import h5py
+
+    startup = _best(lambda: subprocess.run([sys.executable, "-c", STARTUP_IMPORTS], check=True,
+                                           stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL), repeat)
+    a = np.zeros((2048, 1024), np.complex128)
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "io.h5"
+
+        def write():
+            with h5py.File(path, "w") as f:
+                f["a"] = a
+
+        def read():
+            with h5py.File(path, "r") as f:
+                f["a"][()]
+
+        w = _best(write, repeat)
+        r = _best(read, repeat)
+    return {"startup": startup, "read_per_byte": r / a.nbytes, "write_per_byte": w / a.nbytes}
+
+
+def calibrate(path=None, *, repeat: int = 3) -> dict:
+    """Measure the constants on this machine and write them to ``path`` (default: this machine's
+    file in the user's cache, :func:`sarcli.formers.calibration.user_cost_model_path`; the shipped
+    reference is :data:`~sarcli.formers.calibration.COST_MODEL_PATH`); returns them.
+
+    Small instances of every former (a few seconds in all); each constant is its measured time
+    (best of ``repeat``) divided by its operation count, except ffbp's four
+    (:data:`_FFBP_TERMS`), fitted by non-negative least squares to six settings with
+    different shares of each; then the whole command's start-up, planning, reading and writing.
+    """
+    from ..core import geometry
+    from . import ffbp as fb
+    from .backprojection import backproject, profile_length
+    from .direct import direct_spherical
+    from .nufft import nufft_farfield
+    from .subimage import subimage_nufft
+
+    def best(fn):
+        return _best(fn, repeat)
+
+    P, M, N = 256, 256, 256
+    freq = 9.6e9 + 2e6 * np.arange(M)
+    az = np.radians(np.linspace(-3, 3, P))
+    a = geometry.antenna_positions_circle(az, np.radians(30), 10e3)
+    r0 = np.linalg.norm(a, axis=1)
+    rng = np.random.default_rng(0)
+    d = rng.normal(size=(P, M)) + 1j * rng.normal(size=(P, M))
+    grid = Grid(N, N, 0.25, 0.25)
+    thr = 2
+    c = {"threads": thr}
+    L = profile_length(M, 8)
+    c["bp_fft"] = DEFAULT_COSTS["bp_fft"]
+    c["bp"] = best(lambda: backproject(d, freq, a, r0, grid)) * thr / (P * N * N)
+    small = Grid(32, 32, 0.5, 0.5)
+    c["direct"] = best(lambda: direct_spherical(d, freq, a, r0, small)) * thr / (P * M * 32 * 32)
+    # ffbp: settings whose shares of stage 0 (per pulse-node tap and per node), interpolation taps
+    # and (node, child) pairs differ; non-negative least squares gives the four constants
+    rows, rhs = [], []
+    for knobs in ({}, {"base": 8}, {"base": 32}, {"base": 4}, {"os_range": 2.0, "os_angle": 2.0},
+                  {"base": 8, "os_range": 3.0, "os_angle": 3.0}):
+        plan = fb.plan_stages(a, freq, grid, **knobs)
+        lf = profile_length(M, plan.knobs["upsample"])
+        t = best(lambda: fb.ffbp(d, freq, a, r0, grid, **knobs)) * thr
+        rows.append(_ffbp_counts(plan.ops))
+        rhs.append(max(t - c["bp_fft"] * P * lf * math.log2(lf), 0.0))
+    from scipy.optimize import nnls
+    scale = np.max(np.array(rows), axis=0)
+    sol = nnls(np.array(rows) / scale, np.array(rhs))[0] / scale
+    if not np.any(sol > 0):
+        # ill-posed on this machine's timings: split the default setting's time in the default ratio
+        o = rows[0]
+        ref = sum(DEFAULT_COSTS[name] * n for (name, _), n in zip(_FFBP_TERMS, o))
+        sol = [DEFAULT_COSTS[name] * rhs[0] / ref for name, _ in _FFBP_TERMS]
+    for (name, _), v in zip(_FFBP_TERMS, sol):
+        c[name] = float(v)
+    kx, ky = geometry.kspace_coordinates(freq, az, np.radians(30))
+    w = _nufft_width(1e-6)
+    t = best(lambda: nufft_farfield(d, kx, ky, grid, eps=1e-6)) * thr
+    n_fft = 4.0 * N * N
+    c["nufft_fft"] = DEFAULT_COSTS["nufft_fft"]
+    c["nufft_spread"] = max(1e-11, (t - c["nufft_fft"] * n_fft * math.log2(n_fft)) / (P * M * w * w))
+    tile = 16
+    t = best(lambda: subimage_nufft(d, freq, a, r0, grid, tile=tile, eps=1e-3)) * thr
+    n_tiles = (N // tile) ** 2
+    c["subimage_point"] = t / (n_tiles * P * M * _nufft_width(1e-3) ** 2)
+    c.update(_command_costs(repeat))
+    from ..core.acquisition import Acquisition
+    from ..core.types import PhaseHistory
+
+    ph = PhaseHistory(d, Acquisition(freq, az, np.full(P, np.radians(30)), grid, antenna_position_m=a,
+                                     range_to_center_m=r0, model="spherical"))
+    c["planning"] = _best(lambda: recommend(ph, grid, 1e-3, costs=dict(DEFAULT_COSTS, **c)), repeat)
+    save_cost_model(c, path)
+    return c

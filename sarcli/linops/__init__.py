@@ -1,16 +1,31 @@
 """Linear operators of the regularised reconstruction: the SAR forward model A and the
-sparsifying transforms T (paper section ``sec: reg``, Appendix A)."""
+sparsifying transforms T (paper section ``sec: reg``, Appendix A).
 
-from .base import (Adjoint, Compose, Diagonal, Identity, Linop, MatrixLinop, Scaled, Sum,
-                   gram_eigmax, power_norm)
-from .finite_diff import PRIORS, FiniteDifference, phase_operator, sparsifying_operator
-from .fourier import NufftOperator, SubsampledDFT, wrapped_pixel_frequencies
-from .spherical import SphericalOperator
-from .toeplitz import NormalEquations, ToeplitzGram, normal_equations
+Names are imported lazily, so a module that needs one operator (or the compiled reductions of
+``_reduce``) does not pay for FINUFFT and SciPy's FFTs that others need.
+"""
 
-__all__ = [
-    "Linop", "Identity", "Diagonal", "MatrixLinop", "Compose", "Sum", "Scaled", "Adjoint",
-    "power_norm", "gram_eigmax", "FiniteDifference", "phase_operator", "sparsifying_operator",
-    "PRIORS", "NufftOperator", "SubsampledDFT", "wrapped_pixel_frequencies", "ToeplitzGram",
-    "NormalEquations", "normal_equations", "SphericalOperator",
-]
+from __future__ import annotations
+
+import importlib
+
+_LAZY = {
+    "Linop": "base", "Identity": "base", "Diagonal": "base", "MatrixLinop": "base", "Compose": "base",
+    "Sum": "base", "Scaled": "base", "Adjoint": "base", "power_norm": "base", "gram_eigmax": "base",
+    "FiniteDifference": "finite_diff", "phase_operator": "finite_diff", "sparsifying_operator": "finite_diff",
+    "PRIORS": "finite_diff", "NufftOperator": "fourier", "SubsampledDFT": "fourier",
+    "wrapped_pixel_frequencies": "fourier", "ToeplitzGram": "toeplitz", "NormalEquations": "toeplitz",
+    "normal_equations": "toeplitz", "SphericalOperator": "spherical",
+}
+
+__all__ = list(_LAZY)
+
+
+def __getattr__(name):
+    if name in _LAZY:
+        return getattr(importlib.import_module(f".{_LAZY[name]}", __name__), name)
+    raise AttributeError(f"module 'sarcli.linops' has no attribute {name!r}")
+
+
+def __dir__():
+    return sorted(__all__)
