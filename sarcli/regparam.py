@@ -297,15 +297,17 @@ class PathChoice:
 
 
 def select_lambda(solve: Callable, n_data: int, *, lams=SELECT_PATH, sigma2: float | None = None,
-                  gamma: float = GCV_GAMMA, stop_after: int = STOP_AFTER, callback=None) -> PathChoice:
+                  gamma: float = GCV_GAMMA, stop_after: int = STOP_AFTER, lam_max: float | None = None,
+                  callback=None) -> PathChoice:
     """λ minimising GCV (``sigma2`` None) or SURE (``sigma2`` given) on a decreasing path.
 
     Parameters
     ----------
     solve : callable
-        ``solve(lam) -> (f, residual2, dof)``: the solution at ``lam`` (warm-started by the
-        caller from the previous one), ``‖A f − b‖²`` and the degrees of freedom
-        ``tr ∂(A f)/∂b`` (e.g. Monte-Carlo, :func:`mc_dof`).
+        ``solve(lam, start) -> (f, residual2, dof)``: the solution at ``lam``, warm-started by
+        the caller from the solution of its call number ``start`` (None: the previous call),
+        ``‖A f − b‖²`` and the degrees of freedom ``tr ∂(A f)/∂b`` (e.g. Monte-Carlo,
+        :func:`mc_dof`).
     n_data : int
         Number of (complex) data samples n.
     lams : sequence of float
@@ -315,6 +317,10 @@ def select_lambda(solve: Callable, n_data: int, *, lams=SELECT_PATH, sigma2: flo
         (:func:`gcv_score`).
     stop_after : int
         Stop once the score has risen this many consecutive times after its running minimum.
+    lam_max : float, optional
+        When the smallest score is at the largest λ, the path is extended upwards by the path's
+        ratio, warm-started from the largest λ's solution, until the score rises or λ would
+        exceed ``lam_max``.
     callback : callable, optional
         ``callback(index, lam, score)`` after each path point.
 
@@ -327,23 +333,30 @@ def select_lambda(solve: Callable, n_data: int, *, lams=SELECT_PATH, sigma2: flo
         raise ValueError("select_lambda needs a λ path and data")
     out = PathChoice(lam=lams[0])
     sols = []
-    rises = 0
-    for k, lam in enumerate(lams):
-        f, r2, dof = solve(lam)
+    calls = []  # call number of each path point (the order of out.lams)
+
+    def point(lam, start, at):
+        f, r2, dof = solve(lam, start)
         dof = float(np.clip(dof, 0.0, n_data))
         score = (gcv_score(r2, dof, n_data, gamma) if sigma2 is None
                  else sure_score(r2, dof, n_data, sigma2))
-        out.lams.append(lam)
-        out.residuals.append(float(r2))
-        out.dofs.append(dof)
-        out.scores.append(score)
-        sols.append(f)
+        for lst, val in ((out.lams, lam), (out.residuals, float(r2)), (out.dofs, dof), (out.scores, score),
+                         (sols, f), (calls, len(calls))):
+            lst.insert(at, val)
         if callback is not None:
-            callback(k, lam, score)
+            callback(len(calls) - 1, lam, score)
+        return score
+
+    rises = 0
+    for k, lam in enumerate(lams):
+        score = point(lam, None, len(out.lams))
         best = int(np.argmin(out.scores))
         rises = rises + 1 if (k > best and score >= out.scores[k - 1]) else 0
         if rises >= stop_after:
             break
+    ratio = lams[0] / lams[1] if len(lams) > 1 else 10.0 ** 0.5
+    while lam_max is not None and int(np.argmin(out.scores)) == 0 and out.lams[0] * ratio <= lam_max * (1 + 1e-9):
+        point(out.lams[0] * ratio, calls[0], 0)
     s = np.asarray(out.scores)
     i = int(np.argmin(s))
     out.index, out.start = i, sols[i]

@@ -110,7 +110,10 @@ def matched_filter(ph: PhaseHistory, grid: Grid | None = None, *, operator: str 
 
 #: Iteration cap and tolerance of each solve on the λ path of ``lam='auto'`` (each warm-started
 #: from the previous λ; CG for 'tikhonov' runs to its own tolerance, capped the same).
-PATH_ITERS, PATH_TOL, PATH_CG_TOL = 25, 1e-3, 1e-6
+PATH_ITERS, PATH_TOL, PATH_CG_TOL = 25, 1e-3, 1e-4
+#: Largest λ the path of ``lam='auto'`` extends to when its criterion is smallest at the top
+#: (ℓ1: λ ≥ 2 zeroes the image).
+LAM_MAX = {"l1": 1.0, "tv": 10.0, "hotv": 10.0, "ptv": 10.0, "tikhonov": 10.0}
 #: Monte-Carlo probe of the degrees of freedom: seed (the same λ for the same data) and the step δ
 #: relative to the RMS of the scaled data.
 PROBE_SEED, PROBE_STEP = 26, 1e-2
@@ -140,9 +143,13 @@ class _PathSolver:
         self.u = self.up = u0
         self.path_iters, self.tick = int(path_iters), tick
         self.iterations = []
+        self.solutions = []  # (u, u perturbed) of every call, for warm starts out of order
 
-    def __call__(self, lam):
+    def __call__(self, lam, start=None):
         from .regparam import mc_dof
+
+        if start is not None:
+            self.u, self.up = self.solutions[start]
 
         if self.D is not None:
             with warnings.catch_warnings():
@@ -164,6 +171,7 @@ class _PathSolver:
                 self.tick(2)
             u, up, its, r2 = a.f, b.f, a.iteration, a.data_residual2()
         self.u, self.up = u, up
+        self.solutions.append((u, up))
         self.iterations.append(int(its))
         return u, r2, mc_dof(self.probe_adjoint, self.delta, u, up)
 
@@ -178,7 +186,7 @@ def _auto(ph, grid, op, scaled, s_a, s_b, D, T, prior, beta_ratio, isotropic, u0
     path = _PathSolver(op, ph.data, scaled, s_a, s_b, D, T, beta_ratio, isotropic, u0,
                        min(int(iters), PATH_ITERS), tick)
     s2_scaled = None if sigma2 is None else sigma2 / s_b**2
-    choice = regparam.select_lambda(path, n, sigma2=s2_scaled)
+    choice = regparam.select_lambda(path, n, sigma2=s2_scaled, lam_max=LAM_MAX[prior])
     criterion = "sure" if sigma2 is not None else "gcv"
     record = {"criterion": criterion,
               "gamma": None if sigma2 is not None else regparam.GCV_GAMMA,
