@@ -219,12 +219,12 @@ def regularize(ph: PhaseHistory, *, prior: str = "ptv", order: int = 1, lam: flo
     order : {1, 2, 3}
         k for 'hotv', 'ptv' and 'tikhonov'.
     lam : float, 'auto' or None
-        λ in the normalised units of the module docstring. 'auto' (default): the discrepancy
-        principle, ``‖Af − b‖² = n_b σ²`` with the noise power σ² from the file or estimated
-        from the data (:mod:`sarcli.regparam`); the chosen λ and the curve are recorded in
-        ``parameters['lam_selection']``; when no σ² is available, or no λ of the path fits the
-        data down to the noise level, it falls back to :data:`DEFAULT_LAM` with a
-        :class:`~sarcli.errors.SarcliWarning`. None: :data:`DEFAULT_LAM`.
+        λ in the normalised units of the module docstring. 'auto' (default): chosen on a short
+        warm-started path by SURE when the noise power is known (file attribute, or the range
+        bins outside the scene) and by modified generalised cross-validation otherwise, with
+        Monte-Carlo degrees of freedom (:mod:`sarcli.regparam`); the choice, the noise estimate
+        and its source, the criterion and the path are recorded in
+        ``parameters['lam_selection']``. None: :data:`DEFAULT_LAM`.
     beta : float, optional
         ADMM penalty β (default ``DEFAULT_BETA_RATIO · λ``; with ``lam='auto'`` the ratio β/λ
         of a given β at the default λ is kept).
@@ -251,6 +251,12 @@ def regularize(ph: PhaseHistory, *, prior: str = "ptv", order: int = 1, lam: flo
         'ptv': re-estimate Θ from the iterate every this many iterations (0: never).
     eps : float
         NUFFT tolerance.
+    progress : tqdm-like, optional
+        A bar (``reset(total=)``, ``update(n)``, ``set_description(s)``) advanced once per
+        iteration of the λ path (both of its solvers) and of the final solve.
+    notice : callable, optional
+        ``notice(line)`` once, before a run predicted to last longer than :data:`LONG_RUN_S`,
+        with the estimate and what would shorten it.
 
     Returns
     -------
@@ -264,8 +270,6 @@ def regularize(ph: PhaseHistory, *, prior: str = "ptv", order: int = 1, lam: flo
         A far-field operator on spherical data with a predicted phase error above the threshold.
     ConvergenceWarning
         The iteration cap was reached before ``tol``.
-    SarcliWarning
-        ``lam='auto'`` fell back to the default λ (no noise power, or no λ fits the data down to it).
     """
     t0 = time.perf_counter()
     if not isinstance(ph, PhaseHistory):
@@ -338,12 +342,13 @@ def regularize(ph: PhaseHistory, *, prior: str = "ptv", order: int = 1, lam: flo
     predicted = gram_s * (path_budget + int(iters))
     params["predicted_s"] = predicted
     if notice is not None and predicted > LONG_RUN_S:
-        faster = "give --lam (skips the lam path, about {:.0f} s)".format(gram_s * int(iters)) if auto else ""
-        faster = ", ".join(x for x in (faster, "fewer --iters", "a coarser --pixel-size or a smaller --extent")
-                           + (("--operator toeplitz (far-field; may defocus)",) if operator == "spherical" else ())
-                           if x)
-        notice(f"regularize {prior}: up to {predicted:.0f} s predicted ({'a lam path of up to ' + str(path_budget) + ' and ' if auto else ''}"
-               f"{int(iters)} iterations at {gram_s:.2g} s); faster: {faster}")
+        faster = [f"give --lam (skips the lam path, about {gram_s * int(iters):.0f} s)"] if auto else []
+        faster += ["fewer --iters", "a coarser --pixel-size or a smaller --extent"]
+        if operator == "spherical":
+            faster.append("--operator toeplitz (far-field; may defocus)")
+        path = f"a lam path of up to {path_budget} and " if auto else ""
+        notice(f"regularize {prior}: up to {predicted:.0f} s predicted ({path}{int(iters)} iterations at "
+               f"{gram_s:.2g} s); faster: {', '.join(faster)}")
     if auto:
         lam, beta, u0 = _auto(ph, grid, op, scaled, s_a, s_b, D, T, prior, beta_ratio, isotropic, u0, iters,
                               params, tick)
@@ -365,6 +370,7 @@ def regularize(ph: PhaseHistory, *, prior: str = "ptv", order: int = 1, lam: flo
             reest = lambda f: sparsifying_operator("ptv", grid.shape, order=order, f0=f)  # noqa: E731
         solver = ADMM(scaled, T, lam, beta, x0=u0, isotropic=isotropic, tol=tol, max_iter=iters,
                       inner_iters=inner_iters, reestimate=reest, reestimate_every=reestimate_every)
+
         def cb(state):
             tick(1)
             if callback is not None:
