@@ -2,7 +2,7 @@
 
 Criteria
 --------
-Along a short decreasing path ``SELECT_PATH`` (0.3 … 0.001 by factors √10, in the normalised
+Along a short decreasing path ``SELECT_PATH`` (0.3 … 0.001 in six steps of 3.13, in the normalised
 units of :mod:`sarcli.regularize`), each solve warm-started from the previous one, the residual
 ``‖A f_λ − b‖²`` and the degrees of freedom of the fit ``dof(λ) = tr ∂(A f_λ)/∂b`` are measured;
 the degrees of freedom by one Monte-Carlo probe (Ramani, Blu & Unser 2008): the same solver,
@@ -58,7 +58,9 @@ __all__ = ["LAM_PATH", "SELECT_PATH", "GCV_GAMMA", "STOP_AFTER", "DISCREPANCY_TA
 LAM_PATH = tuple(float(v) for v in np.geomspace(1.0, 1e-3, 13))
 #: Classical discrepancy factor τ: ‖Af − b‖² = τ n_b σ² (used when kappa is None).
 DISCREPANCY_TAU = 1.0
-#: Default target r_min + κ (1 − r_min) of the ratio ‖Af − b‖² / (n_b σ²) (module docstring).
+#: Degrees-of-freedom-corrected target r_min + κ (1 − r_min) of the ratio ‖Af − b‖² / (n_b σ²) of
+#: :func:`discrepancy_lambda` (an estimate with dof degrees of freedom has E‖Af − b‖² =
+#: σ²(n_b − dof), so the least-squares end already sits below 1; κ is a calibrated fraction).
 DISCREPANCY_KAPPA = 0.25
 #: ... and at least this far above the floor r_min (σ² estimated to ±15 % can put r_min above 1).
 FLOOR_MARGIN = 0.1
@@ -190,7 +192,7 @@ def discrepancy_lambda(solve: Callable, residual2: Callable, noise_energy: float
     kappa : float, optional
         Degrees-of-freedom-corrected target: the whole path is solved and the target is
         ``max(r_min + κ (1 − r_min), 1.1 r_min)``, ``r_min`` the ratio at the smallest λ; none
-        when ``r_min > UNFITTABLE_RATIO`` (module docstring).
+        when ``r_min > UNFITTABLE_RATIO`` (the data cannot be fitted to the noise level).
     callback : callable, optional
         ``callback(lam, ratio)`` after each solve.
 
@@ -237,7 +239,7 @@ def discrepancy_lambda(solve: Callable, residual2: Callable, noise_energy: float
 
 # -- criteria that need no noise level (or use an estimated one), on a short warm-started path ------
 
-#: Path of the generalised cross-validation / SURE selection: 0.3 down to 1e-3 by factors √10
+#: Path of the generalised cross-validation / SURE selection: 0.3 down to 1e-3 in steps of 3.13
 #: (normalised units of :mod:`sarcli.regularize`); it stops early once the criterion has risen
 #: ``STOP_AFTER`` times in a row past its minimum.
 SELECT_PATH = tuple(float(v) for v in np.geomspace(0.3, 1e-3, 6))
