@@ -2,7 +2,7 @@
 
 Criteria
 --------
-Along a short decreasing path ``SELECT_PATH`` (0.3 … 0.001 in six steps of 3.13, in the normalised
+Along a short decreasing path ``SELECT_PATH`` (six values from 0.3 to 0.001, ratio 3.13, in the normalised
 units of :mod:`sarcli.regularize`), each solve warm-started from the previous one, the residual
 ``‖A f_λ − b‖²`` and the degrees of freedom of the fit ``dof(λ) = tr ∂(A f_λ)/∂b`` are measured;
 the degrees of freedom by one Monte-Carlo probe (Ramani, Blu & Unser 2008): the same solver,
@@ -239,7 +239,7 @@ def discrepancy_lambda(solve: Callable, residual2: Callable, noise_energy: float
 
 # -- criteria that need no noise level (or use an estimated one), on a short warm-started path ------
 
-#: Path of the generalised cross-validation / SURE selection: 0.3 down to 1e-3 in steps of 3.13
+#: Path of the generalised cross-validation / SURE selection: 0.3 down to 1e-3, six values, ratio 3.13
 #: (normalised units of :mod:`sarcli.regularize`); it stops early once the criterion has risen
 #: ``STOP_AFTER`` times in a row past its minimum.
 SELECT_PATH = tuple(float(v) for v in np.geomspace(0.3, 1e-3, 6))
