@@ -1,31 +1,26 @@
-"""Choice of the regularisation weight λ: the discrepancy principle (``lam='auto'``).
+"""Choice of the regularisation weight λ (``lam='auto'``).
 
-Criterion (Morozov's discrepancy principle, corrected for the degrees of freedom)
-----------------------------------------------------------------------------------
-With data ``b = A f + n``, ``n`` white complex noise of power ``σ² = E|n_i|²`` over ``n_b``
-samples, a good reconstruction explains the data down to the noise and no further. The ratio
+Criteria
+--------
+Along a short decreasing path ``SELECT_PATH`` (six values from 0.3 to 0.001, ratio 3.13, in the normalised
+units of :mod:`sarcli.regularize`), each solve warm-started from the previous one, the residual
+``‖A f_λ − b‖²`` and the degrees of freedom of the fit ``dof(λ) = tr ∂(A f_λ)/∂b`` are measured;
+the degrees of freedom by one Monte-Carlo probe (Ramani, Blu & Unser 2008): the same solver,
+iteration for iteration, on ``b + δε``, and ``dof ≈ Re εᴴ A (f(b + δε) − f(b)) / δ``.
 
-    r(λ) = ‖A f_λ − b‖² / (n_b σ²)
+* **SURE** (the noise power σ² known): ``‖A f_λ − b‖² − n σ² + 2 σ² dof(λ)``, an unbiased
+  estimate of the prediction error ``E‖A f_λ − A f‖²``.
+* **Modified GCV** (no noise power needed): ``n ‖A f_λ − b‖² / (n − γ dof(λ))²`` with
+  γ = 1.4 (Kim & Gu 2004; γ = 1 is Wahba's GCV, which picks too small a λ when the image has
+  more unknowns than the data, as SAR grids at half the resolution do).
 
-grows monotonically with λ. The classical principle picks r(λ*) = τ = 1; but an estimate with
-``dof`` degrees of freedom has E‖r‖² = σ²(n_b − dof), and here the image has a sizeable fraction
-of the data's degrees of freedom (e.g. 1600 pixels for 3072 samples), so r = 1 over-smooths:
-the least-squares end of the path already sits at ``r_min ≈ 0.6``. The target used by default is
+λ* minimises the criterion: a parabola in log λ through the smallest path value and its two
+neighbours. The path stops once the criterion has risen twice in a row past its minimum. The
+criterion's curve is returned for the image file.
 
-    r(λ*) = max(r_min + κ (1 − r_min), 1.1 r_min),     κ = DISCREPANCY_KAPPA = 0.25,
-
-``r_min`` the ratio at the smallest λ of the path: a quarter of the way from the over-fitted floor
-to the full noise level, and at least 10 % above the floor (``FLOOR_MARGIN``: a σ² estimated to
-±15 % can put r_min slightly above 1). When r_min > ``UNFITTABLE_RATIO`` = 1.5 the data cannot be
-fitted to the noise level at all (noiseless data, clutter outside the image, model error) and no λ
-is chosen. κ was set on the scenes of ``bench/bench_lam.py`` (where the λ of
-smallest magnitude error sits at r = r_min + 0.1 .. 0.35 (1 − r_min) for ptv and TV), so it is a
-calibrated rule, not a theorem; ``tau`` (κ None) gives the classical principle.
-
-The whole decreasing path ``LAM_PATH`` (log-spaced over the normalised units of
-:mod:`sarcli.regularize`) is solved, each solve warm-started from the previous one; λ* is
-interpolated in log λ between the two path values that bracket the target. The curve
-(λ, r(λ)) is returned so that the image file can record it.
+The discrepancy principle (:func:`discrepancy_lambda`, ``‖A f_λ − b‖² = target · n σ²``) is kept
+as a function; it needs σ² and the whole path down to the least-squares end, and its
+degrees-of-freedom correction is a calibrated rule.
 
 Noise power σ²
 --------------
@@ -38,6 +33,13 @@ Noise power σ²
    over ln 2 (the median of an exponential variable), divided by ``Σ w²``. Needs uniformly spaced
    frequencies and a range window wider than the scene; scatterers outside the image (real
    clutter) raise the estimate, hence λ.
+3. Else no σ² is assumed: GCV chooses λ, and the residual estimate
+   ``σ̂² = ‖A f_λ* − b‖² / (n − dof(λ*))`` (Wahba) is recorded. It needs no empty range bin; it
+   counts everything the image does not explain as noise (clutter outside the image, model
+   error), and it is biased low where the image has as many degrees of freedom as the data.
+   A scale of the data's fine-scale part (MAD along frequency or pulses) is not used: a
+   random-phase scene that fills the range window is itself white along both, so that estimate
+   measures the scene.
 """
 
 from __future__ import annotations
@@ -47,14 +49,18 @@ from typing import Callable
 
 import numpy as np
 
-__all__ = ["LAM_PATH", "DISCREPANCY_TAU", "DISCREPANCY_KAPPA", "FLOOR_MARGIN", "UNFITTABLE_RATIO", "LamChoice", "estimate_noise_power", "noise_power",
-           "discrepancy_lambda", "blackman_harris"]
+__all__ = ["LAM_PATH", "SELECT_PATH", "GCV_GAMMA", "STOP_AFTER", "DISCREPANCY_TAU", "DISCREPANCY_KAPPA",
+           "FLOOR_MARGIN", "UNFITTABLE_RATIO", "LamChoice", "PathChoice", "estimate_noise_power",
+           "noise_power", "discrepancy_lambda", "select_lambda", "gcv_score", "sure_score", "mc_dof",
+           "blackman_harris"]
 
 #: Decreasing λ path (normalised units of :mod:`sarcli.regularize`; ℓ1 zeroes the image at λ ≥ 2).
 LAM_PATH = tuple(float(v) for v in np.geomspace(1.0, 1e-3, 13))
 #: Classical discrepancy factor τ: ‖Af − b‖² = τ n_b σ² (used when kappa is None).
 DISCREPANCY_TAU = 1.0
-#: Default target r_min + κ (1 − r_min) of the ratio ‖Af − b‖² / (n_b σ²) (module docstring).
+#: Degrees-of-freedom-corrected target r_min + κ (1 − r_min) of the ratio ‖Af − b‖² / (n_b σ²) of
+#: :func:`discrepancy_lambda` (an estimate with dof degrees of freedom has E‖Af − b‖² =
+#: σ²(n_b − dof), so the least-squares end already sits below 1; κ is a calibrated fraction).
 DISCREPANCY_KAPPA = 0.25
 #: ... and at least this far above the floor r_min (σ² estimated to ±15 % can put r_min above 1).
 FLOOR_MARGIN = 0.1
@@ -186,7 +192,7 @@ def discrepancy_lambda(solve: Callable, residual2: Callable, noise_energy: float
     kappa : float, optional
         Degrees-of-freedom-corrected target: the whole path is solved and the target is
         ``max(r_min + κ (1 − r_min), 1.1 r_min)``, ``r_min`` the ratio at the smallest λ; none
-        when ``r_min > UNFITTABLE_RATIO`` (module docstring).
+        when ``r_min > UNFITTABLE_RATIO`` (the data cannot be fitted to the noise level).
     callback : callable, optional
         ``callback(lam, ratio)`` after each solve.
 
@@ -231,41 +237,151 @@ def discrepancy_lambda(solve: Callable, residual2: Callable, noise_energy: float
     return out
 
 
-def auto_lambda(ph, grid, scaled, data_scale: float, solve: Callable, *, lams=LAM_PATH,
-                tau: float = DISCREPANCY_TAU, kappa: float | None = DISCREPANCY_KAPPA):
-    """λ for :func:`sarcli.regularize.regularize` by the discrepancy principle, and its record.
+# -- criteria that need no noise level (or use an estimated one), on a short warm-started path ------
+
+#: Path of the generalised cross-validation / SURE selection: 0.3 down to 1e-3, six values, ratio 3.13
+#: (normalised units of :mod:`sarcli.regularize`); it stops early once the criterion has risen
+#: ``STOP_AFTER`` times in a row past its minimum.
+SELECT_PATH = tuple(float(v) for v in np.geomspace(0.3, 1e-3, 6))
+#: Modified GCV weight γ of the degrees of freedom (Kim & Gu's γ = 1.4; γ = 1 is Wahba's GCV).
+GCV_GAMMA = 1.4
+#: Consecutive rises of the criterion past its minimum that end the path.
+STOP_AFTER = 2
+
+
+def gcv_score(residual2: float, dof: float, n_data: int, gamma: float = GCV_GAMMA) -> float:
+    """Modified generalised cross-validation ``V(λ) = n ‖A f_λ − b‖² / (n − γ dof(λ))²``.
+
+    Needs no noise level. ``dof(λ) = tr ∂(A f_λ)/∂b`` (degrees of freedom of the fit); γ > 1
+    penalises them more than Wahba's GCV (γ = 1), which under-regularises when the image has more
+    unknowns than the data. ``inf`` when ``γ dof ≥ n`` (the fit has used up the data).
+    """
+    room = n_data - gamma * dof
+    return float(n_data * residual2 / room**2) if room > 0 else float("inf")
+
+
+def sure_score(residual2: float, dof: float, n_data: int, sigma2: float) -> float:
+    """Stein's unbiased risk estimate of the prediction error ``E‖A f_λ − A f‖²``:
+    ``‖A f_λ − b‖² − n σ² + 2 σ² dof(λ)`` (complex circular noise of power σ² = E|n_i|²)."""
+    return float(residual2 - n_data * sigma2 + 2.0 * sigma2 * dof)
+
+
+@dataclass
+class PathChoice:
+    """λ chosen on a path by GCV or SURE.
+
+    Attributes
+    ----------
+    lam : float
+        λ*: the minimiser of the criterion, from a parabola in log λ through the three path
+        points around the smallest value (the smallest path point when it lies at an end).
+    lams, residuals, dofs, scores : list of float
+        Path λ (decreasing), ‖A f_λ − b‖², Monte-Carlo degrees of freedom, criterion.
+    index : int
+        Path point of the smallest score (its solution warm-starts the final solve).
+    start : ndarray or None
+        That solution.
+    status : str
+        'interior' (a minimum between two path points), 'at the largest λ' or 'at the smallest λ'.
+    noise_power : float
+        ``‖A f_λ − b‖² / (n − dof)`` at the path point ``index`` (Wahba's residual estimate of σ²).
+    """
+
+    lam: float
+    lams: list = field(default_factory=list)
+    residuals: list = field(default_factory=list)
+    dofs: list = field(default_factory=list)
+    scores: list = field(default_factory=list)
+    index: int = 0
+    start: np.ndarray | None = None
+    status: str = "interior"
+    noise_power: float = float("nan")
+
+
+def select_lambda(solve: Callable, n_data: int, *, lams=SELECT_PATH, sigma2: float | None = None,
+                  gamma: float = GCV_GAMMA, stop_after: int = STOP_AFTER, lam_max: float | None = None,
+                  callback=None) -> PathChoice:
+    """λ minimising GCV (``sigma2`` None) or SURE (``sigma2`` given) on a decreasing path.
 
     Parameters
     ----------
-    ph : PhaseHistory
-    grid : Grid
-    scaled : NormalEquations
-        The scaled problem (``b̂ = b / data_scale``).
-    data_scale : float
-        ``s_b`` of :func:`sarcli.regularize.scale_problem`.
     solve : callable
-        ``solve(lam, x0) -> u`` on the scaled problem.
+        ``solve(lam, start) -> (f, residual2, dof)``: the solution at ``lam``, warm-started by
+        the caller from the solution of its call number ``start`` (None: the previous call),
+        ``‖A f − b‖²`` and the degrees of freedom ``tr ∂(A f)/∂b`` (e.g. Monte-Carlo,
+        :func:`mc_dof`).
+    n_data : int
+        Number of (complex) data samples n.
+    lams : sequence of float
+        Decreasing λ values.
+    sigma2 : float, optional
+        Noise power in the units of ``residual2`` per sample: SURE; None: modified GCV
+        (:func:`gcv_score`).
+    stop_after : int
+        Stop once the score has risen this many consecutive times after its running minimum.
+    lam_max : float, optional
+        When the smallest score is at the largest λ, the path is extended upwards by the path's
+        ratio, warm-started from the largest λ's solution, until the score rises or λ would
+        exceed ``lam_max``.
+    callback : callable, optional
+        ``callback(index, lam, score)`` after each path point.
 
     Returns
     -------
-    choice : LamChoice or None
-        None when no noise power is known or can be estimated.
-    record : dict
-        JSON-ready: criterion, κ, σ² and its source, status, the target ratio, the λ path and
-        the ratios ``‖Âu − b̂‖² / (n_b σ̂²)`` (criterion's curve).
+    PathChoice
     """
-    sigma2, source = noise_power(ph, grid)
-    record = {"criterion": "discrepancy" if kappa is None else "discrepancy, dof-corrected",
-              "kappa": kappa, "noise_power": sigma2, "noise_source": source}
-    if sigma2 is None:
-        return None, record
-    noise_energy = ph.data.size * sigma2 / data_scale**2
-    gram = scaled.gram
+    lams = sorted((float(v) for v in lams), reverse=True)
+    if not lams or n_data < 1:
+        raise ValueError("select_lambda needs a λ path and data")
+    out = PathChoice(lam=lams[0])
+    sols = []
+    calls = []  # call number of each path point (the order of out.lams)
 
-    def residual2(u):
-        return scaled.residual_norm2(u, gram.forward(u))
+    def point(lam, start, at):
+        f, r2, dof = solve(lam, start)
+        dof = float(np.clip(dof, 0.0, n_data))
+        score = (gcv_score(r2, dof, n_data, gamma) if sigma2 is None
+                 else sure_score(r2, dof, n_data, sigma2))
+        for lst, val in ((out.lams, lam), (out.residuals, float(r2)), (out.dofs, dof), (out.scores, score),
+                         (sols, f), (calls, len(calls))):
+            lst.insert(at, val)
+        if callback is not None:
+            callback(len(calls) - 1, lam, score)
+        return score
 
-    choice = discrepancy_lambda(solve, residual2, noise_energy, lams=lams, tau=tau, kappa=kappa)
-    record.update(status=choice.status, lam=choice.lam, target=choice.target, lams=list(choice.lams),
-                  ratios=list(choice.ratios), data_norm_ratio=float(scaled.bnorm2 / noise_energy))
-    return choice, record
+    rises = 0
+    for k, lam in enumerate(lams):
+        score = point(lam, None, len(out.lams))
+        best = int(np.argmin(out.scores))
+        rises = rises + 1 if (k > best and score >= out.scores[k - 1]) else 0
+        if rises >= stop_after:
+            break
+    ratio = lams[0] / lams[1] if len(lams) > 1 else 10.0 ** 0.5
+    while lam_max is not None and int(np.argmin(out.scores)) == 0 and out.lams[0] * ratio <= lam_max * (1 + 1e-9):
+        point(out.lams[0] * ratio, calls[0], 0)
+    s = np.asarray(out.scores)
+    i = int(np.argmin(s))
+    out.index, out.start = i, sols[i]
+    room = n_data - out.dofs[i]
+    out.noise_power = float(out.residuals[i] / room) if room > 0 else float("nan")
+    if i == 0 or i == len(s) - 1 or not np.all(np.isfinite(s[i - 1:i + 2])):
+        out.lam = out.lams[i]
+        out.status = "at the largest λ" if i == 0 else ("at the smallest λ" if i == len(s) - 1 else "interior")
+        return out
+    # parabola through (log λ, score) at i-1, i, i+1; its vertex lies between the outer two
+    x = np.log(np.asarray(out.lams[i - 1:i + 2]))
+    y = s[i - 1:i + 2]
+    c2, c1, _ = np.polyfit(x, y, 2)
+    xv = -c1 / (2 * c2) if c2 > 0 else x[1]
+    out.lam = float(np.exp(np.clip(xv, min(x[0], x[2]), max(x[0], x[2]))))
+    return out
+
+
+def mc_dof(probe_adjoint: np.ndarray, delta: float, f: np.ndarray, f_perturbed: np.ndarray) -> float:
+    """Monte-Carlo degrees of freedom ``Re εᴴ A (f(b + δε) − f(b)) / δ`` (Ramani, Blu & Unser 2008).
+
+    ``probe_adjoint`` is ``Aᴴε`` for a probe ε with ``E εεᴴ = I`` (complex circular), so the
+    estimate needs no application of A; its expectation is ``tr ∂(Af)/∂b``, exact for a solver
+    that is linear in b (Tikhonov), the local divergence otherwise.
+    """
+    return float(np.vdot(probe_adjoint, f_perturbed - f).real) / delta

@@ -37,7 +37,9 @@ from .core.grid import Grid, resolve_grid
 from .core.types import Image, PhaseHistory
 from .linops import (NufftOperator, SphericalOperator, gram_eigmax, normal_equations,
                      sparsifying_operator)
+from .linops.toeplitz import NormalEquations
 from .linops.finite_diff import FiniteDifference
+from .regparam import SELECT_PATH
 from .solvers import ADMM, tikhonov
 
 __all__ = ["regularize", "PRIORS", "OPERATORS", "DEFAULT_LAM", "DEFAULT_BETA_RATIO",
@@ -106,47 +108,99 @@ def matched_filter(ph: PhaseHistory, grid: Grid | None = None, *, operator: str 
     return op.adjoint(ph.data) / ph.data.size
 
 
-#: Iteration cap and tolerance of each solve on the λ path of ``lam='auto'``.
-PATH_ITERS, PATH_TOL = 80, 1e-3
+#: Iteration cap and tolerance of each solve on the λ path of ``lam='auto'`` (each warm-started
+#: from the previous λ; CG for 'tikhonov' runs to its own tolerance, capped the same).
+PATH_ITERS, PATH_TOL, PATH_CG_TOL = 25, 1e-3, 1e-4
+#: Largest λ the path of ``lam='auto'`` extends to when its criterion is smallest at the top
+#: (ℓ1: λ ≥ 2 zeroes the image).
+LAM_MAX = {"l1": 1.0, "tv": 10.0, "hotv": 10.0, "ptv": 10.0, "tikhonov": 10.0}
+#: Monte-Carlo probe of the degrees of freedom: seed (the same λ for the same data) and the step δ
+#: relative to the RMS of the scaled data.
+PROBE_SEED, PROBE_STEP = 26, 1e-2
+#: A run predicted to last longer than this many seconds is announced (``notice``) with the
+#: estimate and what would shorten it.
+LONG_RUN_S = 60.0
 
 
-def _auto(ph, grid, scaled, s_b, D, T, prior, beta_ratio, isotropic, u0, iters, params):
-    """λ by the discrepancy principle (:func:`sarcli.regparam.auto_lambda`); records it in params.
+class _PathSolver:
+    """``solve(lam) -> (u, ‖Âu − b̂‖², dof)`` for :func:`sarcli.regparam.select_lambda`.
 
-    Returns ``(lam, beta, warm start)``; falls back to the default λ (warning) without σ².
+    Two solvers run iteration for iteration: one on the scaled data b̂, one on ``b̂ + δε`` (ε a
+    seeded complex circular probe); both warm-start from their own previous path solution, so the
+    Monte-Carlo degrees of freedom (:func:`sarcli.regparam.mc_dof`) are those of the path's map
+    from data to image. ``Âᴴε`` is computed once; no forward application of A is needed.
     """
+
+    def __init__(self, op, data, scaled, s_a, s_b, D, T, beta_ratio, isotropic, u0, path_iters, tick):
+        rng = np.random.default_rng(PROBE_SEED)
+        eps = (rng.standard_normal(data.shape) + 1j * rng.standard_normal(data.shape)) / np.sqrt(2.0)
+        self.delta = PROBE_STEP * float(np.sqrt(scaled.bnorm2 / data.size))
+        self.probe_adjoint = np.asarray(op.adjoint(eps), np.complex128) / s_a
+        b_pert = data / s_b + self.delta * eps
+        self.perturbed = NormalEquations(scaled.gram, scaled.atb + self.delta * self.probe_adjoint,
+                                         float(np.vdot(b_pert, b_pert).real))
+        self.scaled, self.D, self.T, self.beta_ratio, self.isotropic = scaled, D, T, beta_ratio, isotropic
+        self.u = self.up = u0
+        self.path_iters, self.tick = int(path_iters), tick
+        self.iterations = []
+        self.solutions = []  # (u, u perturbed) of every call, for warm starts out of order
+
+    def __call__(self, lam, start=None):
+        from .regparam import mc_dof
+
+        if start is not None:
+            self.u, self.up = self.solutions[start]
+
+        if self.D is not None:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", ConvergenceWarning)  # a path point need not converge
+                u, hist = tikhonov(self.scaled, self.D, lam, x0=self.u, tol=PATH_CG_TOL, max_iter=self.path_iters)
+                up, hp = tikhonov(self.perturbed, self.D, lam, x0=self.up, tol=PATH_CG_TOL,
+                                  max_iter=self.path_iters)
+            its = len(hist.get("objective", []))
+            self.tick(its + len(hp.get("objective", [])))
+            r2 = self.scaled.residual_norm2(u, self.scaled.gram.forward(u))
+        else:
+            a = ADMM(self.scaled, self.T, lam, self.beta_ratio * lam, x0=self.u, isotropic=self.isotropic,
+                     tol=PATH_TOL, max_iter=self.path_iters)
+            b = ADMM(self.perturbed, self.T, lam, self.beta_ratio * lam, x0=self.up, isotropic=self.isotropic,
+                     tol=PATH_TOL, max_iter=self.path_iters)
+            while not a.done():
+                a.step()
+                b.step()
+                self.tick(2)
+            u, up, its, r2 = a.f, b.f, a.iteration, a.data_residual2()
+        self.u, self.up = u, up
+        self.solutions.append((u, up))
+        self.iterations.append(int(its))
+        return u, r2, mc_dof(self.probe_adjoint, self.delta, u, up)
+
+
+def _auto(ph, grid, op, scaled, s_a, s_b, D, T, prior, beta_ratio, isotropic, u0, iters, params, tick):
+    """λ by SURE (noise power known) or modified GCV (:func:`sarcli.regparam.select_lambda`);
+    records the choice in ``params['lam_selection']``. Returns ``(lam, beta, warm start)``."""
     from . import regparam
 
-    path_iters = min(int(iters), PATH_ITERS)
-
-    def solve(lam, x0):
-        x0 = u0 if x0 is None else x0
-        if D is not None:
-            return tikhonov(scaled, D, lam, x0=x0, tol=PATH_TOL, max_iter=path_iters)[0]
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", ConvergenceWarning)  # a path point need not converge
-            return ADMM(scaled, T, lam, beta_ratio * lam, x0=x0, isotropic=isotropic, tol=PATH_TOL,
-                        max_iter=path_iters).run()
-
-    choice, record = regparam.auto_lambda(ph, grid, scaled, s_b, solve)
-    record["path_iters"] = path_iters
+    sigma2, source = regparam.noise_power(ph, grid)
+    n = ph.data.size
+    path = _PathSolver(op, ph.data, scaled, s_a, s_b, D, T, beta_ratio, isotropic, u0,
+                       min(int(iters), PATH_ITERS), tick)
+    s2_scaled = None if sigma2 is None else sigma2 / s_b**2
+    choice = regparam.select_lambda(path, n, sigma2=s2_scaled, lam_max=LAM_MAX[prior])
+    criterion = "sure" if sigma2 is not None else "gcv"
+    record = {"criterion": criterion,
+              "gamma": None if sigma2 is not None else regparam.GCV_GAMMA,
+              "noise_power": sigma2 if sigma2 is not None else choice.noise_power * s_b**2,
+              "noise_source": source if sigma2 is not None else
+              "GCV residual ||Af-b||^2 / (n - dof) at the chosen lam (no range bin outside the scene)",
+              "status": choice.status, "lam": choice.lam, "lams": list(choice.lams),
+              "scores": [float(v) if np.isfinite(v) else None for v in choice.scores],
+              "dofs": list(choice.dofs), "residuals": [r * s_b**2 for r in choice.residuals],
+              "n_data": int(n), "path_iters": min(int(iters), PATH_ITERS),
+              "path_iterations": list(path.iterations), "probe_step": path.delta * s_b}
+    if sigma2 is None and choice.status == "at the smallest λ" and np.isfinite(choice.noise_power):
+        record["note"] = "criterion still falling at the smallest lam: data explained to their noise (noiseless?)"
     params["lam_selection"] = record
-    if choice is None:
-        lam = DEFAULT_LAM[prior]
-        warnings.warn(f"lam='auto': {record['noise_source']}; using the default lam={lam} of prior "
-                      f"{prior!r}", SarcliWarning, stacklevel=3)
-        record["fallback"] = lam
-        return lam, beta_ratio * lam, u0
-    if choice.status == "above at the smallest λ":
-        # the data cannot be fitted down to the noise level (scatterers outside the image, model
-        # error, or an underestimated σ²): the criterion says nothing; keep the default and say so
-        lam = DEFAULT_LAM[prior]
-        r_min = min(choice.ratios)
-        warnings.warn(f"lam='auto': even the smallest lam leaves a residual {r_min:.3g} x the noise level "
-                      f"(noiseless data, scatterers outside the image or model error); using the default "
-                      f"lam={lam} of prior {prior!r}; give --lam to choose", SarcliWarning, stacklevel=3)
-        record["fallback"] = lam
-        return lam, beta_ratio * lam, u0
     return choice.lam, beta_ratio * choice.lam, choice.start
 
 
@@ -154,7 +208,7 @@ def regularize(ph: PhaseHistory, *, prior: str = "ptv", order: int = 1, lam: flo
                beta: float | None = None, iters: int = 300, tol: float = 1e-4, operator: str = "auto",
                grid: Grid | None = None, center=None, extent=None, pixel_size=None, init=None,
                isotropic: bool = True, callback=None, inner_iters: int = 1, reestimate_every: int = 0,
-               eps: float = 1e-9) -> Image:
+               eps: float = 1e-9, progress=None, notice=None) -> Image:
     """Regularised image of a phase history (paper eq. ``eq: reg`` / ``eq: main-L1``).
 
     Parameters
@@ -165,12 +219,12 @@ def regularize(ph: PhaseHistory, *, prior: str = "ptv", order: int = 1, lam: flo
     order : {1, 2, 3}
         k for 'hotv', 'ptv' and 'tikhonov'.
     lam : float, 'auto' or None
-        λ in the normalised units of the module docstring. 'auto' (default): the discrepancy
-        principle, ``‖Af − b‖² = n_b σ²`` with the noise power σ² from the file or estimated
-        from the data (:mod:`sarcli.regparam`); the chosen λ and the curve are recorded in
-        ``parameters['lam_selection']``; when no σ² is available, or no λ of the path fits the
-        data down to the noise level, it falls back to :data:`DEFAULT_LAM` with a
-        :class:`~sarcli.errors.SarcliWarning`. None: :data:`DEFAULT_LAM`.
+        λ in the normalised units of the module docstring. 'auto' (default): chosen on a short
+        warm-started path by SURE when the noise power is known (file attribute, or the range
+        bins outside the scene) and by modified generalised cross-validation otherwise, with
+        Monte-Carlo degrees of freedom (:mod:`sarcli.regparam`); the choice, the noise estimate
+        and its source, the criterion and the path are recorded in
+        ``parameters['lam_selection']``. None: :data:`DEFAULT_LAM`.
     beta : float, optional
         ADMM penalty β (default ``DEFAULT_BETA_RATIO · λ``; with ``lam='auto'`` the ratio β/λ
         of a given β at the default λ is kept).
@@ -197,6 +251,12 @@ def regularize(ph: PhaseHistory, *, prior: str = "ptv", order: int = 1, lam: flo
         'ptv': re-estimate Θ from the iterate every this many iterations (0: never).
     eps : float
         NUFFT tolerance.
+    progress : tqdm-like, optional
+        A bar (``reset(total=)``, ``update(n)``, ``set_description(s)``) advanced once per
+        iteration of the λ path (both of its solvers) and of the final solve.
+    notice : callable, optional
+        ``notice(line)`` once, before a run predicted to last longer than :data:`LONG_RUN_S`,
+        with the estimate and what would shorten it.
 
     Returns
     -------
@@ -210,8 +270,6 @@ def regularize(ph: PhaseHistory, *, prior: str = "ptv", order: int = 1, lam: flo
         A far-field operator on spherical data with a predicted phase error above the threshold.
     ConvergenceWarning
         The iteration cap was reached before ``tol``.
-    SarcliWarning
-        ``lam='auto'`` fell back to the default λ (no noise power, or no λ fits the data down to it).
     """
     t0 = time.perf_counter()
     if not isinstance(ph, PhaseHistory):
@@ -246,13 +304,15 @@ def regularize(ph: PhaseHistory, *, prior: str = "ptv", order: int = 1, lam: flo
         if init.shape != grid.shape:
             raise SarcliInputError(f"initial image shape {init.shape} does not match the grid {grid.shape}")
     operator, phase_err = _choose_operator(ph, grid, operator)
-    _, normal = _build(ph, grid, operator, eps)
+    op, normal = _build(ph, grid, operator, eps)
     n_samples = ph.data.size
     mf = normal.atb / n_samples
     # the spherical AᴴA is two backprojections: fewer power iterations (the far-field forms share 30
     # so that 'nufft' and 'toeplitz' scale identically)
     power_iters = 10 if operator == "spherical" else 30
+    t_scale = time.perf_counter()
     scaled, s_a, s_b = scale_problem(normal, power_iters=power_iters)
+    gram_s = (time.perf_counter() - t_scale) / power_iters  # one AᴴA application, measured
     params = {"prior": prior, "order": int(order), "lam": lam, "beta": beta, "iters": int(iters),
               "tol": float(tol), "operator": operator, "isotropic": bool(isotropic),
               "inner_iters": int(inner_iters), "reestimate_every": int(reestimate_every), "eps": eps,
@@ -270,17 +330,52 @@ def regularize(ph: PhaseHistory, *, prior: str = "ptv", order: int = 1, lam: flo
     f0 = init if init is not None else mf
     T = None if D is not None else sparsifying_operator(prior, grid.shape, order=order,
                                                         f0=f0 if prior == "ptv" else None)
+    path_budget = 2 * PATH_ITERS * len(SELECT_PATH) if auto else 0  # two solvers per path iteration
+    if progress is not None:
+        progress.reset(total=path_budget + int(iters))
+        progress.set_description(f"regularize {prior}" + (": lam path" if auto else ""))
+
+    def tick(k):
+        if progress is not None:
+            progress.update(k)
+
+    predicted = gram_s * (path_budget + int(iters))
+    params["predicted_s"] = predicted
+    if notice is not None and predicted > LONG_RUN_S:
+        faster = [f"give --lam (skips the lam path, about {gram_s * int(iters):.0f} s)"] if auto else []
+        faster += ["fewer --iters", "a coarser --pixel-size or a smaller --extent"]
+        if operator == "spherical":
+            faster.append("--operator toeplitz (far-field; may defocus)")
+        path = f"a lam path of up to {path_budget} and " if auto else ""
+        notice(f"regularize {prior}: up to {predicted:.0f} s predicted ({path}{int(iters)} iterations at "
+               f"{gram_s:.2g} s); faster: {', '.join(faster)}")
     if auto:
-        lam, beta, u0 = _auto(ph, grid, scaled, s_b, D, T, prior, beta_ratio, isotropic, u0, iters, params)
+        lam, beta, u0 = _auto(ph, grid, op, scaled, s_a, s_b, D, T, prior, beta_ratio, isotropic, u0, iters,
+                              params, tick)
+        if progress is not None:
+            done = getattr(progress, "n", 0)
+            progress.reset(total=done + int(iters))
+            progress.update(done)
+            progress.set_description(f"regularize {prior} lam={lam:.3g}")
     if prior == "tikhonov":
-        u, hist = tikhonov(scaled, D, lam, x0=u0, tol=tol, max_iter=iters, callback=callback)
+        def cg_cb(i, obj):
+            tick(1)
+            if callback is not None:
+                callback(i, obj)
+
+        u, hist = tikhonov(scaled, D, lam, x0=u0, tol=tol, max_iter=iters, callback=cg_cb)
     else:
         reest = None
         if prior == "ptv" and reestimate_every > 0:
             reest = lambda f: sparsifying_operator("ptv", grid.shape, order=order, f0=f)  # noqa: E731
         solver = ADMM(scaled, T, lam, beta, x0=u0, isotropic=isotropic, tol=tol, max_iter=iters,
                       inner_iters=inner_iters, reestimate=reest, reestimate_every=reestimate_every)
-        cb = None if callback is None else (lambda s: callback(s.iteration, s.history["objective"][-1]))
+
+        def cb(state):
+            tick(1)
+            if callback is not None:
+                callback(state.iteration, state.history["objective"][-1])
+
         u = solver.run(cb)
         hist = solver.history_arrays()
     f = u * (s_b / s_a)

@@ -1,5 +1,6 @@
-"""Automatic λ (:mod:`sarcli.regparam`): noise estimate, discrepancy path against a closed form,
-``regularize(lam='auto')`` on a random-phase piecewise-constant scene, and ``sar regularize``."""
+"""Automatic λ (:mod:`sarcli.regparam`): noise estimate, Monte-Carlo degrees of freedom, GCV, SURE and
+the discrepancy path against closed forms, ``regularize(lam='auto')`` on scenes with and without
+range bins outside the scene (every prior, both operators, noiseless data), and ``sar regularize``."""
 
 from __future__ import annotations
 
@@ -13,18 +14,34 @@ import pytest
 from click.testing import CliRunner
 
 from sarcli.cli.main import cli
-from sarcli.errors import ConvergenceWarning, SarcliWarning
+from sarcli.errors import AliasingWarning, ConvergenceWarning, SarcliWarning
 from sarcli.io.hdf5 import read_image, write_phase_history
-from sarcli.regparam import LAM_PATH, discrepancy_lambda, estimate_noise_power, noise_power
-from sarcli.regularize import matched_filter, regularize
+from sarcli.regparam import (GCV_GAMMA, LAM_PATH, STOP_AFTER, discrepancy_lambda, estimate_noise_power, gcv_score,
+                             mc_dof, noise_power, select_lambda, sure_score)
+from sarcli.regularize import PATH_ITERS, PRIORS, matched_filter, regularize
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "bench"))
-from bench_lam import mag_error, scene  # noqa: E402
+from bench_lam import disk_scene, gain_error, mag_error, scene  # noqa: E402
 
 
 @pytest.fixture(scope="module")
 def shapes():
     return scene("shapes", 10.0, n=32, seed=1)
+
+
+@pytest.fixture(scope="module")
+def disk():
+    """A random-phase scene filling the alias-free disk (32 x 32 samples, 64² grid): no range bin
+    outside the scene, so no noise estimate from the data."""
+    return disk_scene("shapes", 10.0, seed=7, P=32, M=32)
+
+
+def _quiet(fn, *args, **kw):
+    """Run fn; return (result, its warnings but convergence and the grid's aliasing warnings)."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        out = fn(*args, **kw)
+    return out, [w for w in caught if not issubclass(w.category, (ConvergenceWarning, AliasingWarning))]
 
 
 def test_noise_estimate_on_pure_noise_and_on_a_scene(shapes):
@@ -74,56 +91,204 @@ def test_discrepancy_path_against_tikhonov_denoising_closed_form():
     assert rel.lam == pytest.approx(s / (1 - s), rel=0.01)
 
 
-def test_auto_lambda_ptv_beats_matched_filter_by_the_target(shapes):
-    ph, truth = shapes
-    err_mf = mag_error(matched_filter(ph), truth)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", ConvergenceWarning)
-        img = regularize(ph, prior="ptv")
-    err = mag_error(img.image, truth)
-    assert err <= 0.65 * err_mf, (err, err_mf)
+def _diagonal_problem(n=4000, seed=2):
+    """A = diag(a), Tikhonov with D = I: f_λ = a b / (a² + λ), exact residual and dof."""
+    rng = np.random.default_rng(seed)
+    a = np.geomspace(1.0, 1e-2, n)
+    x = rng.standard_normal(n) * np.exp(-np.arange(n) / 800.0)
+    sigma2 = 1e-3
+    b = a * x + np.sqrt(sigma2 / 2) * (rng.standard_normal(n) + 1j * rng.standard_normal(n))
+
+    def exact(lam):
+        h = a**2 / (a**2 + lam)
+        return float(np.sum(np.abs((1 - h) * b) ** 2)), float(np.sum(h))
+
+    return a, b, sigma2, exact
+
+
+def test_mc_dof_against_the_exact_trace():
+    a, b, _, exact = _diagonal_problem(n=20000)
+    rng = np.random.default_rng(5)
+    eps = (rng.standard_normal(a.size) + 1j * rng.standard_normal(a.size)) / np.sqrt(2)
+    for lam in (1e-3, 1e-2, 0.3):
+        solve = lambda d: a * d / (a**2 + lam)  # noqa: E731  f(d) for data d
+        delta = 1e-3
+        est = mc_dof(a * eps, delta, solve(b), solve(b + delta * eps))   # Aᴴε = a ε
+        dof = exact(lam)[1]
+        # one probe: standard deviation sqrt(Σ h²) ≤ sqrt(n)
+        assert abs(est - dof) < 5 * np.sqrt(np.sum((a**2 / (a**2 + lam)) ** 2)), (lam, est, dof)
+
+
+@pytest.mark.parametrize("criterion", ["gcv", "sure"])
+def test_select_lambda_against_the_exact_minimiser(criterion):
+    a, b, sigma2, exact = _diagonal_problem()
+    n = a.size
+    sig = None if criterion == "gcv" else sigma2
+
+    def score(loglam):
+        r2, dof = exact(np.exp(loglam))
+        return gcv_score(r2, dof, n) if sig is None else sure_score(r2, dof, n, sig)
+
+    grid = np.linspace(np.log(1e-6), 0.0, 20001)
+    best = float(np.exp(grid[int(np.argmin([score(v) for v in grid]))]))
+    starts = []
+
+    def solve(lam, start):
+        starts.append(start)
+        r2, dof = exact(lam)
+        return None, r2, dof
+
+    lams = np.geomspace(1.0, 1e-6, 121)
+    choice = select_lambda(solve, n, lams=lams, sigma2=sig)
+    assert choice.status == "interior"
+    assert choice.lam == pytest.approx(best, rel=0.02)
+    assert 1e-6 < best < 1.0
+    # the path stopped STOP_AFTER points after the minimum, long before its end
+    assert len(choice.lams) == choice.index + 1 + STOP_AFTER < len(lams)
+    assert all(s is None for s in starts)                     # always warm from the previous point
+    assert np.all(np.diff(choice.lams) < 0) and choice.scores[choice.index] == min(choice.scores)
+
+
+def test_gcv_and_sure_scores():
+    assert gcv_score(2.0, 10.0, 100) == pytest.approx(100 * 2.0 / (100 - GCV_GAMMA * 10) ** 2)
+    assert gcv_score(2.0, 80.0, 100) == float("inf")          # γ dof ≥ n: the fit used up the data
+    assert sure_score(5.0, 10.0, 100, 0.1) == pytest.approx(5.0 - 10.0 + 2.0)
+
+
+def test_select_lambda_extends_upwards_when_the_largest_lambda_wins():
+    # GCV = r2 / n with dof 0 and r2 = 1 + 1/λ: smallest at the largest λ; the path goes up from its
+    # top by its ratio (3) while λ ≤ lam_max, each point warm-started from the previous top
+    starts = []
+
+    def solve(lam, start):
+        starts.append(start)
+        return lam, 1.0 + 1.0 / lam, 0.0
+
+    choice = select_lambda(solve, 100, lams=[0.3, 0.1, 0.03], lam_max=10.0)
+    assert choice.status == "at the largest λ" and choice.lam == pytest.approx(0.3 * 3.0**3)  # 8.1 ≤ 10 < 24.3
+    assert choice.lams == sorted(choice.lams, reverse=True) and len(choice.lams) == 6
+    assert starts == [None, None, None, 0, 3, 4]          # calls 3.. start from the top of their time
+    assert choice.start == choice.lam
+    top = select_lambda(lambda lam, start: (lam, 1.0 + 1.0 / lam, 0.0), 100, lams=[0.3, 0.1, 0.03])
+    assert top.lam == 0.3 and len(top.lams) == 3                 # no lam_max: no extension
+
+
+def test_auto_on_a_scene_filling_the_disk_uses_gcv_and_beats_the_matched_filter(disk):
+    ph, truth, sigma2 = disk
+    assert noise_power(ph, ph.acquisition.grid)[0] is None          # no range bin outside the scene
+    img, warns = _quiet(regularize, ph, prior="ptv")
+    assert not warns, [str(w.message) for w in warns]
     sel = img.parameters["lam_selection"]
-    assert sel["criterion"].startswith("discrepancy") and sel["status"] == "bracketed"
-    assert img.parameters["lam"] == pytest.approx(sel["lam"])
-    r = np.array(sel["ratios"])
-    assert sel["lams"] == list(LAM_PATH) and np.all(np.diff(r) < 0)   # the whole curve, monotone
-    assert sel["target"] == pytest.approx(max(r.min() + 0.25 * (1 - r.min()), 1.1 * r.min()))
-    i = int(np.argmax(r <= sel["target"]))
-    assert sel["lams"][i] <= sel["lam"] <= sel["lams"][i - 1]
-    assert img.parameters["beta"] == pytest.approx(32 * sel["lam"])
+    assert sel["criterion"] == "gcv" and sel["status"] == "interior"
+    assert img.parameters["lam"] == pytest.approx(sel["lam"]) and min(sel["lams"]) < sel["lam"] < max(sel["lams"])
+    err, err_mf = gain_error(img.image, truth), gain_error(matched_filter(ph), truth)
+    assert err <= 0.75 * err_mf, (err, err_mf)
+    # the fixed default of the earlier rule does worse on this scene
+    fixed, _ = _quiet(regularize, ph, prior="ptv", lam=0.02)
+    assert err < gain_error(fixed.image, truth)
+    # the residual noise estimate is of the right order (it is biased where dof ~ n)
+    assert 0.2 < sel["noise_power"] / sigma2 < 5
+    json.dumps(sel)
+    assert len(sel["lams"]) == len(sel["scores"]) == len(sel["dofs"]) == len(sel["path_iterations"])
+    assert max(sel["path_iterations"]) <= PATH_ITERS
+    # cost, counted in AᴴA applications: two solvers per path iteration, then the warm final solve,
+    # against one solve from zero at the chosen λ
+    fx, _ = _quiet(regularize, ph, prior="ptv", lam=img.parameters["lam"])
+    auto_its = 2 * sum(sel["path_iterations"]) + img.parameters["iterations"]
+    assert auto_its <= 3 * fx.parameters["iterations"], (auto_its, fx.parameters["iterations"])
 
 
-def test_auto_uses_the_file_noise_power_and_falls_back_with_a_warning(shapes):
-    ph, _ = shapes
+def test_auto_with_the_file_noise_power_uses_sure(shapes):
+    ph, truth = shapes
     from sarcli.core.types import PhaseHistory
 
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", ConvergenceWarning)
-        with pytest.warns(SarcliWarning, match="residual .* x the noise level"):
-            img = regularize(PhaseHistory(ph.data, ph.acquisition, attrs={"noise_power": 1e-30}), prior="tv",
-                             iters=30)
+    true = np.mean(np.abs(ph.data) ** 2) / 11
+    img, warns = _quiet(regularize, PhaseHistory(ph.data, ph.acquisition, attrs={"noise_power": true}), prior="ptv")
     sel = img.parameters["lam_selection"]
-    assert sel["noise_source"] == "file attribute noise_power" and sel["status"] == "above at the smallest λ"
-    assert img.parameters["lam"] == sel["fallback"] == 0.02
-    acq = ph.acquisition.with_(frequency_hz=np.sort(np.r_[ph.acquisition.frequency_hz[:-1], 10.2e9]))
-    with pytest.warns(SarcliWarning, match="no noise estimate"):
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", ConvergenceWarning)
-            img = regularize(PhaseHistory(ph.data, acq), prior="tv", iters=5)
-    assert img.parameters["lam"] == 0.02
+    assert not warns and sel["criterion"] == "sure" and sel["noise_source"] == "file attribute noise_power"
+    assert sel["noise_power"] == true and sel["status"] == "interior"
+    assert mag_error(img.image, truth) <= 0.65 * mag_error(matched_filter(ph), truth)
+    # the estimate from the range bins outside the scene gives nearly the same λ
+    est, _ = _quiet(regularize, ph, prior="ptv")
+    assert est.parameters["lam_selection"]["noise_source"].startswith("estimated from range bins")
+    assert est.parameters["lam"] == pytest.approx(img.parameters["lam"], rel=0.5)
 
 
-def test_cli_lam_auto_is_the_default_and_recorded(tmp_path, shapes):
-    ph, _ = shapes
+@pytest.mark.parametrize("prior", PRIORS)
+def test_every_prior_chooses_lambda_without_warning(prior, disk):
+    ph, _, _ = disk
+    img, warns = _quiet(regularize, ph, prior=prior, iters=60)
+    sel = img.parameters["lam_selection"]
+    assert not warns, [str(w.message) for w in warns]
+    assert sel["criterion"] == "gcv" and np.isfinite(img.parameters["lam"]) and img.parameters["lam"] > 0
+    assert np.all(np.isfinite(img.image)) and np.max(np.abs(img.image)) > 0
+    assert np.all(np.diff(sel["lams"]) < 0)
+
+
+def test_spherical_operator_auto_lambda():
+    ph, truth, _ = disk_scene("shapes", 10.0, spherical=True, seed=8, P=16, M=16)
+    img, warns = _quiet(regularize, ph, prior="ptv", iters=60)
+    assert img.parameters["operator"] == "spherical" and not warns
+    sel = img.parameters["lam_selection"]
+    assert sel["criterion"] == "gcv" and sel["status"] in ("interior", "at the largest λ")
+    mf, _ = _quiet(matched_filter, ph, operator="spherical")
+    assert gain_error(img.image, truth) < gain_error(mf, truth)
+
+
+def test_noiseless_data_get_a_small_lambda_and_no_warning():
+    ph, _ = scene("shapes", 300.0, n=32, seed=4)
+    noisy, _ = scene("shapes", 10.0, n=32, seed=4)
+    img, warns = _quiet(regularize, ph, prior="ptv", iters=60)
+    ref, _ = _quiet(regularize, noisy, prior="ptv", iters=60)
+    assert not warns
+    assert img.parameters["lam"] == min(img.parameters["lam_selection"]["lams"])
+    assert img.parameters["lam"] < 0.1 * ref.parameters["lam"]
+
+
+def test_progress_and_notice_cover_the_path_and_the_final_solve(disk, monkeypatch):
+    import sarcli.regularize as R
+
+    class Bar:
+        n, total, desc = 0, None, ""
+
+        def reset(self, total=None):
+            self.n, self.total = 0, total
+
+        def update(self, k=1):
+            self.n += k
+
+        def set_description(self, d):
+            self.desc = d
+
+    ph, _, _ = disk
+    bar, notes = Bar(), []
+    monkeypatch.setattr(R, "LONG_RUN_S", 0.0)
+    img, _ = _quiet(regularize, ph, prior="tv", iters=40, progress=bar, notice=notes.append)
+    sel = img.parameters["lam_selection"]
+    assert bar.n == 2 * sum(sel["path_iterations"]) + img.parameters["iterations"] <= bar.total
+    assert "lam=" in bar.desc
+    assert len(notes) == 1 and "predicted" in notes[0] and "--lam" in notes[0]
+    notes.clear()
+    _quiet(regularize, ph, prior="tv", iters=5, lam=0.1, notice=notes.append)
+    assert len(notes) == 1 and "--lam" not in notes[0]
+
+
+def test_cli_lam_auto_is_the_default_and_recorded(tmp_path, disk):
+    ph, _, _ = disk
     src, out = tmp_path / "ph.h5", tmp_path / "img.h5"
     write_phase_history(src, ph)
-    res = CliRunner().invoke(cli, ["regularize", str(src), "-o", str(out), "--iters", "40"])
+    res = CliRunner().invoke(cli, ["-v", "regularize", str(src), "-o", str(out), "--iters", "40"])
     assert res.exit_code == 0, res.output
     p = read_image(out).parameters
-    assert p["lam_selection"]["criterion"].startswith("discrepancy") and len(p["lam_selection"]["ratios"]) >= 2
+    assert p["lam_selection"]["criterion"] == "gcv" and len(p["lam_selection"]["scores"]) >= 3
     json.dumps(p)
+    line = [ln for ln in res.output.splitlines() if ln.startswith("lam selection:")]
+    assert len(line) == 1 and "gcv" in line[0] and "path lam" in line[0]
+    res = CliRunner().invoke(cli, ["regularize", str(src), "-o", str(out), "--iters", "40"])
+    assert "lam selection:" not in res.output
     res = CliRunner().invoke(cli, ["regularize", str(src), "-o", str(out), "--lam", "0.05", "--iters", "5"])
     assert res.exit_code == 0 and read_image(out).parameters["lam"] == 0.05
+    assert "lam_selection" not in read_image(out).parameters
     for bad in ("soon", "-1", "inf"):
         res = CliRunner().invoke(cli, ["regularize", str(src), "-o", str(tmp_path / "x.h5"), "--lam", bad])
         assert res.exit_code == 2 and "--lam" in res.output and "Traceback" not in res.output

@@ -30,8 +30,9 @@ def _parse_lam(text):
 @click.option("--order", type=click.IntRange(1, 3), default=1, show_default=True,
               help="Difference order k (hotv, ptv, tikhonov).")
 @click.option("--lam", default="auto", show_default=True, metavar="auto|NUMBER",
-              help="Regularisation weight λ in normalised units (l1: λ ≥ 2 zeroes the image); auto: the "
-                   "discrepancy principle with the noise power from the file or estimated from the data.")
+              help="Regularisation weight λ in normalised units (l1: λ ≥ 2 zeroes the image); auto: SURE "
+                   "with the noise power from the file or from range bins outside the scene, else "
+                   "generalised cross-validation (no noise level needed).")
 @click.option("--beta", type=click.FloatRange(min=0, min_open=True), default=None, help="ADMM penalty β (default 32 λ).")
 @click.option("--iters", type=click.IntRange(min=1), default=300, show_default=True, help="Iteration cap.")
 @click.option("--tol", type=click.FloatRange(min=0, min_open=True), default=1e-4, show_default=True, help="Relative-change tolerance.")
@@ -52,7 +53,7 @@ def command(ctx, input_path, output, prior, order, lam, beta, iters, tol, operat
             reestimate_every, init_path, center, extent, pixel_size, history_png, png_path, tif_path):
     """Regularised image of a phase history: min ‖Af − b‖² + λ‖Tf‖₁ (ADMM) or Tikhonov (CG)."""
     from ..io.hdf5 import read_image, read_phase_history, write_image
-    from .._util.progress import progress
+    from .._util.progress import message, progress
     from ..viz import plot_history
     from ..regularize import regularize
 
@@ -69,16 +70,17 @@ def command(ctx, input_path, output, prior, order, lam, beta, iters, tol, operat
                      iters=iters, operator=operator)
     init = read_image(init_path) if init_path else None
     bar = progress(total=iters, desc=f"regularize {prior}", unit="it")
+    quiet = bool((ctx.find_root().obj or {}).get("quiet"))
 
     def callback(iteration, objective):
-        bar.update(1)
         bar.set_postfix(objective=f"{objective:.4g}", refresh=False)
 
     try:
         img = regularize(ph, prior=prior, order=order, lam=lam, beta=beta, iters=iters, tol=tol,
                          operator=operator, center=parse_pair(center, "--center"),
                          extent=parse_pair(extent, "--extent"), pixel_size=pixel_size, init=init,
-                         isotropic=not anisotropic, reestimate_every=reestimate_every, callback=callback)
+                         isotropic=not anisotropic, reestimate_every=reestimate_every, callback=callback,
+                         progress=bar, notice=None if quiet else message)
     finally:
         bar.close()
     write_image(output, img)
@@ -88,8 +90,16 @@ def command(ctx, input_path, output, prior, order, lam, beta, iters, tol, operat
         wrote(history_png, "objective and relative change per iteration")
     p = img.parameters
     sel = p.get("lam_selection")
-    how = f"lam {p['lam']:.4g}"
-    if sel:
-        how += (f" (default: auto fell back, {sel.get('status', sel['noise_source'])})" if "fallback" in sel
-                else f" by {sel['criterion']}")
+    how = f"lam {p['lam']:.4g}" + (f" by {sel['criterion']}" if sel else "")
     wrote(output, f"{prior} ({p['operator']}), {how}, {p.get('iterations', 0)} iterations, {img.runtime_s:.3g} s")
+    if sel and (ctx.find_root().obj or {}).get("verbose") and not quiet:
+        click.echo(lam_selection_line(sel))
+
+
+def lam_selection_line(sel: dict) -> str:
+    """One line of ``parameters['lam_selection']``: criterion, λ, noise estimate and source, path."""
+    path = " ".join(f"{lam:.3g}" for lam in sel["lams"])
+    sigma2 = sel.get("noise_power")
+    noise = f"{sigma2:.3g}" if sigma2 is not None and sigma2 == sigma2 else "none"
+    return (f"lam selection: {sel['criterion']} -> lam {sel['lam']:.4g} ({sel['status']}); noise power {noise} "
+            f"({sel['noise_source']}); path lam {path}; {sum(sel.get('path_iterations', []))} path iterations x 2")
