@@ -135,6 +135,17 @@ def frequency_line(f, jc):
     return mean + slope * (jc - (m - 1) / 2.0), slope
 
 
+def _profiles(data, weights, total_weight, n_len, dtype):
+    """Range profiles [B, n_len + 2·pad] of ``dtype`` (complex): :func:`range_profiles` unsplit."""
+    m = data.shape[1]
+    buf = np.zeros((data.shape[0], n_len), dtype=dtype)
+    wd = data if weights is None else data * weights
+    buf[:, (np.arange(m) - m // 2) % n_len] = wd / total_weight
+    buf = np.fft.ifft(buf, axis=1, norm="forward")
+    idx = (np.arange(n_len + 2 * _PAD) - _PAD - n_len // 2) % n_len
+    return np.take(buf, idx, axis=1).astype(dtype, copy=False)
+
+
 def range_profiles(data, weights, total_weight, n_len, nthreads, dtype=np.complex128):
     """Range profiles of pulses ``data`` [B, M] for backprojection and ffbp: real and imaginary parts
     [B, n_len + 2·pad], C-contiguous.
@@ -361,14 +372,16 @@ def backproject(data, freq_hz, antenna_position_m, range_to_center_m, grid, weig
     out_re = np.zeros(st.shape)
     out_im = np.zeros(st.shape)
     kern = kernels()
-    with _Threads(nthreads) as nthr:
+    with _Threads(nthreads):
         blocks = st.blocks()
         for sl in progress(blocks, total=len(blocks), desc="backprojection", unit="pulse block"):
             # w d / W on FFT slots (j - j_c) mod L, unnormalised IFFT, fftshift: profile index
             # q holds Δr = (q - L/2) c / (2 Δα L); periodic copies pad both ends
-            pre, pim = range_profiles(d[sl], None if st.weights is None else st.weights[sl], st.total_weight,
-                                      st.n_len, nthr, cdt)
-            kern.bp_tiles(pre, pim, *st.kernel_args(sl), st.cache_block, out_re, out_im)
+            prof = _profiles(d[sl], None if st.weights is None else st.weights[sl], st.total_weight,
+                             st.n_len, cdt)
+            # real and imaginary parts interleaved: [B, n_len + 2 pad, 2]
+            kern.bp_tiles(prof.view(st.dtype).reshape(prof.shape + (2,)), *st.kernel_args(sl),
+                          st.cache_block, out_re, out_im)
     img = np.empty(st.shape, dtype=np.complex128)
     img.real = out_re
     img.imag = out_im
@@ -416,11 +429,9 @@ def reproject(image, freq_hz, antenna_position_m, range_to_center_m, grid, weigh
     with _Threads(nthreads):
         for sl in st.blocks():
             nb = sl.stop - sl.start
-            h_re = np.zeros((nb, n_padded), dtype=st.dtype)
-            h_im = np.zeros((nb, n_padded), dtype=st.dtype)
-            kern.rp_tiles(fre, fim, *st.kernel_args(sl), h_re, h_im)
-            h = h_re.astype(np.complex128)
-            h.imag = h_im
+            hri = np.zeros((nb, n_padded, 2), dtype=st.dtype)
+            kern.rp_tiles(fre, fim, *st.kernel_args(sl), hri)
+            h = hri.astype(np.float64).view(np.complex128)[..., 0]
             # transpose of the periodic padding: fold the copies back onto their sources
             g = h[:, _PAD:_PAD + st.n_len].copy()
             g[:, st.n_len - _PAD:] += h[:, :_PAD]

@@ -19,6 +19,10 @@
 #include <cstdlib>
 #include <vector>
 
+#if defined(__x86_64__)
+#include <immintrin.h>
+#endif
+
 #include "sarcli_simd.hpp"
 
 namespace sarcli {
@@ -245,9 +249,173 @@ SARCLI_INLINE long tile_lanes(const Args& A, long c0, float* uf, double* ud, dou
   return wv;
 }
 
+#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__)) && !defined(SARCLI_NO_CLONES)
+#define SARCLI_BP_V4 __attribute__((target("arch=x86-64-v4")))
+#define SARCLI_BP_V3 __attribute__((target("arch=x86-64-v3")))
+#define SARCLI_BP_DISPATCH 1
+#else
+#define SARCLI_BP_V4
+#define SARCLI_BP_V3
+#define SARCLI_BP_DISPATCH 0
+#endif
+
+// The profile samples of every lane's stencil, transposed: t[2k][i] and t[2k + 1][i] are the real
+// and imaginary parts of tap k of lane i (profiles interleave real and imaginary parts). The
+// generic version reads them one by one; the AVX-512 and AVX2 versions below load each lane's
+// stencil as one contiguous vector and transpose in registers.
+template <typename PT, int K, int ISA>
+struct Taps {
+  static SARCLI_INLINE void load(const PT* pp, const int* idx, PT (*t)[kLanes]) {
+    for (int i = 0; i < kLanes; ++i) {
+      const PT* q = pp + 2 * idx[i];
+      for (int k = 0; k < 2 * Kernel<K>::taps; ++k) t[k][i] = q[k];
+    }
+  }
+};
+
+#if SARCLI_BP_DISPATCH
+#define SARCLI_V4_INLINE __attribute__((target("arch=x86-64-v4"), always_inline)) inline
+#define SARCLI_V3_INLINE __attribute__((target("arch=x86-64-v3"), always_inline)) inline
+// the loaders: inlined once bp_row is inlined into a worker of the same target
+#define SARCLI_V4_LOAD __attribute__((target("arch=x86-64-v4"))) inline
+#define SARCLI_V3_LOAD __attribute__((target("arch=x86-64-v3"))) inline
+
+// 8 x 8 transpose of floats within each 256-bit half of eight AVX-512 registers.
+SARCLI_V4_INLINE void transpose8_v4(__m512* r) {
+  __m512 t[8], u[8];
+  for (int i = 0; i < 4; ++i) {
+    t[2 * i] = _mm512_unpacklo_ps(r[2 * i], r[2 * i + 1]);
+    t[2 * i + 1] = _mm512_unpackhi_ps(r[2 * i], r[2 * i + 1]);
+  }
+  for (int h = 0; h < 2; ++h) {
+    u[4 * h + 0] = _mm512_shuffle_ps(t[4 * h + 0], t[4 * h + 2], 0x44);
+    u[4 * h + 1] = _mm512_shuffle_ps(t[4 * h + 0], t[4 * h + 2], 0xEE);
+    u[4 * h + 2] = _mm512_shuffle_ps(t[4 * h + 1], t[4 * h + 3], 0x44);
+    u[4 * h + 3] = _mm512_shuffle_ps(t[4 * h + 1], t[4 * h + 3], 0xEE);
+  }
+  // 128-bit blocks: u[k] = [A0 A1 | B0 B1], u[k + 4] = [C0 C1 | D0 D1] -> [A0 C0 | B0 D0], [A1 C1 | B1 D1]
+  const __m512i lo = _mm512_setr_epi32(0, 1, 2, 3, 16, 17, 18, 19, 8, 9, 10, 11, 24, 25, 26, 27);
+  const __m512i hi = _mm512_setr_epi32(4, 5, 6, 7, 20, 21, 22, 23, 12, 13, 14, 15, 28, 29, 30, 31);
+  for (int k = 0; k < 4; ++k) {
+    r[k] = _mm512_permutex2var_ps(u[k], lo, u[k + 4]);
+    r[k + 4] = _mm512_permutex2var_ps(u[k], hi, u[k + 4]);
+  }
+}
+
+// 8 x 8 transpose of floats in eight AVX2 registers.
+SARCLI_V3_INLINE void transpose8_v3(__m256* r) {
+  __m256 t[8], u[8];
+  for (int i = 0; i < 4; ++i) {
+    t[2 * i] = _mm256_unpacklo_ps(r[2 * i], r[2 * i + 1]);
+    t[2 * i + 1] = _mm256_unpackhi_ps(r[2 * i], r[2 * i + 1]);
+  }
+  for (int h = 0; h < 2; ++h) {
+    u[4 * h + 0] = _mm256_shuffle_ps(t[4 * h + 0], t[4 * h + 2], 0x44);
+    u[4 * h + 1] = _mm256_shuffle_ps(t[4 * h + 0], t[4 * h + 2], 0xEE);
+    u[4 * h + 2] = _mm256_shuffle_ps(t[4 * h + 1], t[4 * h + 3], 0x44);
+    u[4 * h + 3] = _mm256_shuffle_ps(t[4 * h + 1], t[4 * h + 3], 0xEE);
+  }
+  for (int k = 0; k < 4; ++k) {
+    r[k] = _mm256_permute2f128_ps(u[k], u[k + 4], 0x20);
+    r[k + 4] = _mm256_permute2f128_ps(u[k], u[k + 4], 0x31);
+  }
+}
+
+// float, 4 taps (8 floats a lane), AVX-512: lanes i and i + 8 share a register.
+template <>
+struct Taps<float, 1, 2> {
+  static SARCLI_V4_LOAD void load(const float* pp, const int* idx, float (*t)[kLanes]) {
+    __m512 r[8];
+    for (int i = 0; i < 8; ++i)
+      r[i] = _mm512_insertf32x8(_mm512_castps256_ps512(_mm256_loadu_ps(pp + 2 * idx[i])),
+                                _mm256_loadu_ps(pp + 2 * idx[i + 8]), 1);
+    transpose8_v4(r);
+    for (int k = 0; k < 8; ++k) _mm512_storeu_ps(t[k], r[k]);
+  }
+};
+
+// float, 2 taps (4 floats a lane), AVX-512: lanes i, i + 4, i + 8, i + 12 share a register.
+template <>
+struct Taps<float, 0, 2> {
+  static SARCLI_V4_LOAD void load(const float* pp, const int* idx, float (*t)[kLanes]) {
+    __m512 r[4];
+    for (int i = 0; i < 4; ++i) {
+      __m512 v = _mm512_castps128_ps512(_mm_loadu_ps(pp + 2 * idx[i]));
+      v = _mm512_insertf32x4(v, _mm_loadu_ps(pp + 2 * idx[i + 4]), 1);
+      v = _mm512_insertf32x4(v, _mm_loadu_ps(pp + 2 * idx[i + 8]), 2);
+      r[i] = _mm512_insertf32x4(v, _mm_loadu_ps(pp + 2 * idx[i + 12]), 3);
+    }
+    const __m512 t0 = _mm512_unpacklo_ps(r[0], r[1]), t1 = _mm512_unpackhi_ps(r[0], r[1]);
+    const __m512 t2 = _mm512_unpacklo_ps(r[2], r[3]), t3 = _mm512_unpackhi_ps(r[2], r[3]);
+    _mm512_storeu_ps(t[0], _mm512_shuffle_ps(t0, t2, 0x44));
+    _mm512_storeu_ps(t[1], _mm512_shuffle_ps(t0, t2, 0xEE));
+    _mm512_storeu_ps(t[2], _mm512_shuffle_ps(t1, t3, 0x44));
+    _mm512_storeu_ps(t[3], _mm512_shuffle_ps(t1, t3, 0xEE));
+  }
+};
+
+// double, 4 taps (8 doubles a lane), AVX-512: one register a lane, two 8 x 8 transposes.
+template <>
+struct Taps<double, 1, 2> {
+  static SARCLI_V4_LOAD void load(const double* pp, const int* idx, double (*t)[kLanes]) {
+    const __m512i lo = _mm512_setr_epi64(0, 1, 8, 9, 4, 5, 12, 13);
+    const __m512i hi = _mm512_setr_epi64(2, 3, 10, 11, 6, 7, 14, 15);
+    for (int g = 0; g < 2; ++g) {
+      __m512d r[8], a[8], b[8];
+      for (int i = 0; i < 8; ++i) r[i] = _mm512_loadu_pd(pp + 2 * idx[8 * g + i]);
+      for (int i = 0; i < 4; ++i) {
+        a[2 * i] = _mm512_unpacklo_pd(r[2 * i], r[2 * i + 1]);
+        a[2 * i + 1] = _mm512_unpackhi_pd(r[2 * i], r[2 * i + 1]);
+      }
+      for (int h = 0; h < 2; ++h)
+        for (int j = 0; j < 2; ++j) {
+          b[4 * h + j] = _mm512_permutex2var_pd(a[4 * h + j], lo, a[4 * h + j + 2]);
+          b[4 * h + j + 2] = _mm512_permutex2var_pd(a[4 * h + j], hi, a[4 * h + j + 2]);
+        }
+      for (int k = 0; k < 4; ++k) {
+        _mm512_storeu_pd(t[k] + 8 * g, _mm512_shuffle_f64x2(b[k], b[k + 4], 0x44));
+        _mm512_storeu_pd(t[k + 4] + 8 * g, _mm512_shuffle_f64x2(b[k], b[k + 4], 0xEE));
+      }
+    }
+  }
+};
+
+// float, 4 taps, AVX2: two groups of eight lanes.
+template <>
+struct Taps<float, 1, 1> {
+  static SARCLI_V3_LOAD void load(const float* pp, const int* idx, float (*t)[kLanes]) {
+    for (int g = 0; g < 2; ++g) {
+      __m256 r[8];
+      for (int i = 0; i < 8; ++i) r[i] = _mm256_loadu_ps(pp + 2 * idx[8 * g + i]);
+      transpose8_v3(r);
+      for (int k = 0; k < 8; ++k) _mm256_storeu_ps(t[k] + 8 * g, r[k]);
+    }
+  }
+};
+
+// float, 2 taps, AVX2: lanes i and i + 4 of each group of eight share a register.
+template <>
+struct Taps<float, 0, 1> {
+  static SARCLI_V3_LOAD void load(const float* pp, const int* idx, float (*t)[kLanes]) {
+    for (int g = 0; g < 2; ++g) {
+      __m256 r[4];
+      for (int i = 0; i < 4; ++i)
+        r[i] = _mm256_insertf128_ps(_mm256_castps128_ps256(_mm_loadu_ps(pp + 2 * idx[8 * g + i])),
+                                    _mm_loadu_ps(pp + 2 * idx[8 * g + i + 4]), 1);
+      const __m256 t0 = _mm256_unpacklo_ps(r[0], r[1]), t1 = _mm256_unpackhi_ps(r[0], r[1]);
+      const __m256 t2 = _mm256_unpacklo_ps(r[2], r[3]), t3 = _mm256_unpackhi_ps(r[2], r[3]);
+      _mm256_storeu_ps(t[0] + 8 * g, _mm256_shuffle_ps(t0, t2, 0x44));
+      _mm256_storeu_ps(t[1] + 8 * g, _mm256_shuffle_ps(t0, t2, 0xEE));
+      _mm256_storeu_ps(t[2] + 8 * g, _mm256_shuffle_ps(t1, t3, 0x44));
+      _mm256_storeu_ps(t[3] + 8 * g, _mm256_shuffle_ps(t1, t3, 0xEE));
+    }
+  }
+};
+#endif
+
 // Forward: pulses [p0, p1) into image row `row` (accumulators in registers per tile).
-template <typename PT, int K>
-SARCLI_INLINE void bp_row(const Args& A, const PT* pre, const PT* pim, long row, long p0, long p1,
+template <typename PT, int K, int ISA>
+SARCLI_INLINE void bp_row(const Args& A, const PT* prof, long row, long p0, long p1,
                           Anchors& an, double* ore, double* oim) {
   const double y = A.y[row];
   float uf[kLanes];
@@ -260,15 +428,14 @@ SARCLI_INLINE void bp_row(const Args& A, const PT* pre, const PT* pim, long row,
     PT ar[kLanes] = {}, ai[kLanes] = {};
     for (long p = p0; p < p1; ++p) {
       eval_lanes<K>(an.get(p - p0), uf, ud, A.pad, L);
-      const PT* rp = pre + p * A.lp;
-      const PT* ip = pim + p * A.lp;
+      PT tp[2 * Kernel<K>::taps][kLanes];
+      Taps<PT, K, ISA>::load(prof + 2 * p * A.lp, L.idx, tp);
 #pragma omp simd
       for (int i = 0; i < kLanes; ++i) {
-        const int j = L.idx[i];
         PT vr = 0, vi = 0;
         for (int k = 0; k < Kernel<K>::taps; ++k) {
-          vr += static_cast<PT>(L.w[k][i]) * rp[j + k];
-          vi += static_cast<PT>(L.w[k][i]) * ip[j + k];
+          vr += static_cast<PT>(L.w[k][i]) * tp[2 * k][i];
+          vi += static_cast<PT>(L.w[k][i]) * tp[2 * k + 1][i];
         }
         const PT c = L.c[i], s = L.s[i];
         ar[i] += vr * c - vi * s;
@@ -286,7 +453,7 @@ SARCLI_INLINE void bp_row(const Args& A, const PT* pre, const PT* pim, long row,
 
 // Adjoint: every pixel of the image scattered onto pulse p's profile.
 template <typename PT, int K>
-SARCLI_INLINE void rp_pulse(const Args& A, const PT* fre, const PT* fim, long p, PT* hr, PT* hi) {
+SARCLI_INLINE void rp_pulse(const Args& A, const PT* fre, const PT* fim, long p, PT* h) {
   float uf[kLanes];
   double ud[kLanes];
   Lanes<K> L;
@@ -309,8 +476,8 @@ SARCLI_INLINE void rp_pulse(const Args& A, const PT* fre, const PT* fim, long p,
         const int j = L.idx[i];
         for (int k = 0; k < Kernel<K>::taps; ++k) {
           const PT w = static_cast<PT>(L.w[k][i]);
-          hr[j + k] += w * ur[i];
-          hi[j + k] += w * ui[i];
+          h[2 * (j + k)] += w * ur[i];
+          h[2 * (j + k) + 1] += w * ui[i];
         }
       }
     }
@@ -320,33 +487,24 @@ SARCLI_INLINE void rp_pulse(const Args& A, const PT* fre, const PT* fim, long p,
 // The SIMD-dispatched workers, one per instance and instruction set, picked when the module
 // loads. Explicit targets rather than SARCLI_CLONES: the AVX-512 and AVX2 copies are tuned so
 // that the compiler vectorises the profile reads as gathers (generic tuning keeps them scalar).
-#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__)) && !defined(SARCLI_NO_CLONES)
-#define SARCLI_BP_V4 __attribute__((target("arch=x86-64-v4")))
-#define SARCLI_BP_V3 __attribute__((target("arch=x86-64-v3")))
-#define SARCLI_BP_DISPATCH 1
-#else
-#define SARCLI_BP_V4
-#define SARCLI_BP_V3
-#define SARCLI_BP_DISPATCH 0
-#endif
-#define SARCLI_BP_WORKER(PT, K, SUF, ATTR)                                                      \
-  ATTR void bp_row_##SUF(const Args& A, const PT* pre, const PT* pim, long row, long p0, long p1, \
-                         Anchors& an, double* ore, double* oim) {                               \
-    bp_row<PT, K>(A, pre, pim, row, p0, p1, an, ore, oim);                                      \
+#define SARCLI_BP_WORKER(PT, K, SUF, ATTR, ISA)                                                 \
+  ATTR void bp_row_##SUF(const Args& A, const PT* prof, long row, long p0, long p1, Anchors& an, \
+                         double* ore, double* oim) {                                            \
+    bp_row<PT, K, ISA>(A, prof, row, p0, p1, an, ore, oim);                                     \
   }                                                                                             \
-  ATTR void rp_pulse_##SUF(const Args& A, const PT* fre, const PT* fim, long p, PT* hr, PT* hi) { \
-    rp_pulse<PT, K>(A, fre, fim, p, hr, hi);                                                    \
+  ATTR void rp_pulse_##SUF(const Args& A, const PT* fre, const PT* fim, long p, PT* h) {        \
+    rp_pulse<PT, K>(A, fre, fim, p, h);                                                         \
   }
-#define SARCLI_BP_ISA(SUF, ATTR)              \
-  SARCLI_BP_WORKER(float, 0, f0_##SUF, ATTR)  \
-  SARCLI_BP_WORKER(float, 1, f1_##SUF, ATTR)  \
-  SARCLI_BP_WORKER(float, 2, f2_##SUF, ATTR)  \
-  SARCLI_BP_WORKER(double, 0, d0_##SUF, ATTR) \
-  SARCLI_BP_WORKER(double, 1, d1_##SUF, ATTR) \
-  SARCLI_BP_WORKER(double, 2, d2_##SUF, ATTR)
-SARCLI_BP_ISA(v4, SARCLI_BP_V4)
-SARCLI_BP_ISA(v3, SARCLI_BP_V3)
-SARCLI_BP_ISA(v1, )
+#define SARCLI_BP_ISA(SUF, ATTR, ISA)              \
+  SARCLI_BP_WORKER(float, 0, f0_##SUF, ATTR, ISA)  \
+  SARCLI_BP_WORKER(float, 1, f1_##SUF, ATTR, ISA)  \
+  SARCLI_BP_WORKER(float, 2, f2_##SUF, ATTR, ISA)  \
+  SARCLI_BP_WORKER(double, 0, d0_##SUF, ATTR, ISA) \
+  SARCLI_BP_WORKER(double, 1, d1_##SUF, ATTR, ISA) \
+  SARCLI_BP_WORKER(double, 2, d2_##SUF, ATTR, ISA)
+SARCLI_BP_ISA(v4, SARCLI_BP_V4, 2)
+SARCLI_BP_ISA(v3, SARCLI_BP_V3, 1)
+SARCLI_BP_ISA(v1, , 0)
 #undef SARCLI_BP_ISA
 #undef SARCLI_BP_WORKER
 
@@ -363,9 +521,9 @@ int isa_level() {
 }
 
 template <typename PT>
-using RowFn = void (*)(const Args&, const PT*, const PT*, long, long, long, Anchors&, double*, double*);
+using RowFn = void (*)(const Args&, const PT*, long, long, long, Anchors&, double*, double*);
 template <typename PT>
-using PulseFn = void (*)(const Args&, const PT*, const PT*, long, PT*, PT*);
+using PulseFn = void (*)(const Args&, const PT*, const PT*, long, PT*);
 
 #define SARCLI_PICK(NAME, P)                                                               \
   (level == 2 ? (kind == 0 ? NAME##_##P##0_v4 : kind == 1 ? NAME##_##P##1_v4 : NAME##_##P##2_v4) \
@@ -408,17 +566,16 @@ Args make_args(in<double, 1> x, in<double, 1> y, in<double, 2> geo, long lp, lon
 }
 
 template <typename PT>
-void bp_tiles(in<PT, 2> pre, in<PT, 2> pim, in<double, 1> x, in<double, 1> y, in<double, 2> geo,
-              long n_len, long pad, int kind, bool bist, long width, long block, out<double, 2> ore,
+void bp_tiles(in<PT, 3> prof, in<double, 1> x, in<double, 1> y, in<double, 2> geo, long n_len,
+              long pad, int kind, bool bist, long width, long block, out<double, 2> ore,
               out<double, 2> oim) {
-  Args A = make_args(x, y, geo, static_cast<long>(pre.shape(1)), n_len, pad, width, bist);
-  if (pre.shape(0) != static_cast<size_t>(A.B) || pim.shape(0) != pre.shape(0) ||
-      pim.shape(1) != pre.shape(1) || ore.shape(0) != static_cast<size_t>(A.ny) ||
-      ore.shape(1) != static_cast<size_t>(A.nx) || oim.shape(0) != ore.shape(0) ||
-      oim.shape(1) != ore.shape(1) || kind < 0 || kind > 2)
+  Args A = make_args(x, y, geo, static_cast<long>(prof.shape(1)), n_len, pad, width, bist);
+  if (prof.shape(0) != static_cast<size_t>(A.B) || prof.shape(2) != 2 ||
+      ore.shape(0) != static_cast<size_t>(A.ny) || ore.shape(1) != static_cast<size_t>(A.nx) ||
+      oim.shape(0) != ore.shape(0) || oim.shape(1) != ore.shape(1) || kind < 0 || kind > 2)
     throw nb::value_error("bp_tiles: inconsistent shapes or options");
   const long nb_ = std::max<long>(1, block);
-  const PT *r = pre.data(), *i = pim.data();
+  const PT* pr = prof.data();
   double *o_r = ore.data(), *o_i = oim.data();
   const RowFn<PT> fn = row_fn<PT>(kind);
   nb::gil_scoped_release nogil;
@@ -429,26 +586,25 @@ void bp_tiles(in<PT, 2> pre, in<PT, 2> pim, in<double, 1> x, in<double, 1> y, in
     for (long p0 = 0; p0 < A.B; p0 += nb_) {
       const long p1 = std::min(A.B, p0 + nb_);
 #pragma omp for schedule(static) nowait
-      for (long row = 0; row < A.ny; ++row) fn(A, r, i, row, p0, p1, an, o_r, o_i);
+      for (long row = 0; row < A.ny; ++row) fn(A, pr, row, p0, p1, an, o_r, o_i);
     }
   }
 }
 
 template <typename PT>
 void rp_tiles(in<PT, 2> fre, in<PT, 2> fim, in<double, 1> x, in<double, 1> y, in<double, 2> geo,
-              long n_len, long pad, int kind, bool bist, long width, out<PT, 2> hre, out<PT, 2> him) {
-  Args A = make_args(x, y, geo, static_cast<long>(hre.shape(1)), n_len, pad, width, bist);
-  if (hre.shape(0) != static_cast<size_t>(A.B) || him.shape(0) != hre.shape(0) ||
-      him.shape(1) != hre.shape(1) || fre.shape(0) != static_cast<size_t>(A.ny) ||
-      fre.shape(1) != static_cast<size_t>(A.nx) || fim.shape(0) != fre.shape(0) ||
-      fim.shape(1) != fre.shape(1) || kind < 0 || kind > 2)
+              long n_len, long pad, int kind, bool bist, long width, out<PT, 3> h) {
+  Args A = make_args(x, y, geo, static_cast<long>(h.shape(1)), n_len, pad, width, bist);
+  if (h.shape(0) != static_cast<size_t>(A.B) || h.shape(2) != 2 ||
+      fre.shape(0) != static_cast<size_t>(A.ny) || fre.shape(1) != static_cast<size_t>(A.nx) ||
+      fim.shape(0) != fre.shape(0) || fim.shape(1) != fre.shape(1) || kind < 0 || kind > 2)
     throw nb::value_error("rp_tiles: inconsistent shapes or options");
   const PT *f_r = fre.data(), *f_i = fim.data();
-  PT *h_r = hre.data(), *h_i = him.data();
+  PT* hp = h.data();
   const PulseFn<PT> fn = pulse_fn<PT>(kind);
   nb::gil_scoped_release nogil;
 #pragma omp parallel for schedule(static)
-  for (long p = 0; p < A.B; ++p) fn(A, f_r, f_i, p, h_r + p * A.lp, h_i + p * A.lp);
+  for (long p = 0; p < A.B; ++p) fn(A, f_r, f_i, p, hp + 2 * p * A.lp);
 }
 
 // The carrier and interpolation weights as the kernels evaluate them (for tests).
@@ -486,14 +642,14 @@ NB_MODULE(_backprojection, m) {
       "pixels along rows, float64 anchors); geo rows: 2ax, 2ay, |a|², |a|, 2bx, 2by, |b|², |b|, "
       "offset, 1/bin, kc.";
   const char* rp_doc = "Adjoint of bp_tiles: h[p, :] += transposed interpolation of f exp(-i kc Δr).";
-  m.def("bp_tiles", &bp_tiles<float>, "pre"_a, "pim"_a, "x"_a, "y"_a, "geo"_a, "n_len"_a, "pad"_a,
+  m.def("bp_tiles", &bp_tiles<float>, "profiles"_a, "x"_a, "y"_a, "geo"_a, "n_len"_a, "pad"_a,
         "kind"_a, "bist"_a, "width"_a, "block"_a, "out_re"_a, "out_im"_a, bp_doc);
-  m.def("bp_tiles", &bp_tiles<double>, "pre"_a, "pim"_a, "x"_a, "y"_a, "geo"_a, "n_len"_a, "pad"_a,
+  m.def("bp_tiles", &bp_tiles<double>, "profiles"_a, "x"_a, "y"_a, "geo"_a, "n_len"_a, "pad"_a,
         "kind"_a, "bist"_a, "width"_a, "block"_a, "out_re"_a, "out_im"_a, bp_doc);
   m.def("rp_tiles", &rp_tiles<float>, "fre"_a, "fim"_a, "x"_a, "y"_a, "geo"_a, "n_len"_a, "pad"_a,
-        "kind"_a, "bist"_a, "width"_a, "h_re"_a, "h_im"_a, rp_doc);
+        "kind"_a, "bist"_a, "width"_a, "h"_a, rp_doc);
   m.def("rp_tiles", &rp_tiles<double>, "fre"_a, "fim"_a, "x"_a, "y"_a, "geo"_a, "n_len"_a, "pad"_a,
-        "kind"_a, "bist"_a, "width"_a, "h_re"_a, "h_im"_a, rp_doc);
+        "kind"_a, "bist"_a, "width"_a, "h"_a, rp_doc);
   m.def("isa_level", &isa_level, "The kernels' instruction set here: 2 AVX-512, 1 AVX2, 0 baseline.");
   m.def("carrier_values", &carrier_values, "phase"_a, "cos"_a, "sin"_a,
         "(cos, sin) of float64 phases as the kernels evaluate them (float32).");
