@@ -73,7 +73,7 @@ __all__ = ["backproject", "reproject", "profile_length", "INTERPOLATORS", "DEFAU
 INTERPOLATORS = {"linear": 0, "cubic": 1, "lanczos": 2}
 #: Default profile oversampling and interpolation: relative error 3e-4 vs the exact matched
 #: filter and unit-point peaks 1 ± 1e-4 (measured: see tests/test_backprojection.py).
-DEFAULT_UPSAMPLE = 8
+DEFAULT_UPSAMPLE = 16
 DEFAULT_INTERP = "cubic"
 #: Largest allowed deviation of a pulse's frequencies from equal spacing, as a fraction of Δα
 #: (float32 files such as GOTCHA round their frequencies by ~3e-4 Δα). A deviation δ costs at most
