@@ -1,6 +1,6 @@
 """Backprojection's compiled kernels (``src/native/backprojection.cpp``) and their planning.
 
-The kernels cut the image into tiles of up to 16 pixels along a row. Per tile and pulse they
+The kernels cut the image into tiles of up to 64 pixels along a row (groups of 16 lanes). Per tile and pulse they
 evaluate, in float64, the differential range at the tile's centre ``Δr_c`` and its derivatives
 along the row; inside the tile a pixel at offset ``u`` from the centre takes
 
@@ -32,7 +32,7 @@ __all__ = ["GEO_ROWS", "MODEL_TOLERANCE", "next_fast_len", "tile_width", "kernel
 GEO_ROWS = 11
 #: Largest model error of a tile, in radians of carrier phase and in profile bins.
 MODEL_TOLERANCE = 1e-5
-_WIDTHS = (16, 12, 8, 4, 2, 1)
+_WIDTHS = (64, 48, 32, 16, 12, 8, 4, 2, 1)
 
 # names the ffbp kernels still import from here (numba helpers), until they are ported
 _LEGACY = {"_F0", "_F1", "_F2", "_F4", "_FH", "_F15", "_F25", "_U1", "_U2", "_U3", "_U4", "_U5",
@@ -86,7 +86,7 @@ def min_range(pos, grid) -> float:
 
 
 def tile_width(grid, r_min: float, kc_max: float, inv_bin_max: float) -> int:
-    """Widest tile (pixels along a row, at most 16) whose range model stays within tolerance.
+    """Widest tile (pixels along a row, at most 64) whose range model stays within tolerance.
 
     Bounds the model error by ``|d3| h³/4 + |d4| h⁴`` with ``|d3| <= 0.19245 / R²`` and
     ``|d4| <= 5 / (8 R³)`` at the smallest range ``R`` (``h`` the tile's half width) and asks

@@ -29,6 +29,7 @@ namespace sarcli {
 namespace {
 
 constexpr int kLanes = 16;
+constexpr int kGroups = 4;  // lane groups a tile may hold (tiles of up to 64 pixels)
 constexpr double kTwoPi = 6.283185307179586;
 constexpr double kInvTwoPi = 0.15915494309189535;
 constexpr double kTwoPiLo = 2.4492935982947064e-16;  // 2π - kTwoPi
@@ -141,14 +142,16 @@ struct Anchor {
 
 // The same terms for a block of pulses, one array each (the pulse loop vectorises).
 struct Anchors {
-  std::vector<int> j0;
-  std::vector<float> f0, s1, s2, lo, hi, top;
-  std::vector<double> ph0, ph1, ph2;
-  explicit Anchors(size_t n)
-      : j0(n), f0(n), s1(n), s2(n), lo(n), hi(n), top(n), ph0(n), ph1(n), ph2(n) {}
-  SARCLI_INLINE void set(long i, const Anchor& a) {
-    j0[i] = a.j0; f0[i] = a.f0; s1[i] = a.s1; s2[i] = a.s2; lo[i] = a.lo; hi[i] = a.hi;
-    top[i] = a.top; ph0[i] = a.ph0; ph1[i] = a.ph1; ph2[i] = a.ph2;
+  std::vector<double> store;
+  int* j0;
+  float *f0, *s1, *s2, *lo, *hi, *top;
+  double *ph0, *ph1, *ph2;
+  explicit Anchors(size_t n) : store(10 * n) {
+    double* d = store.data();
+    ph0 = d; ph1 = d + n; ph2 = d + 2 * n;
+    j0 = reinterpret_cast<int*>(d + 3 * n);
+    float* f = reinterpret_cast<float*>(d + 4 * n);
+    f0 = f; s1 = f + n; s2 = f + 2 * n; lo = f + 3 * n; hi = f + 4 * n; top = f + 5 * n;
   }
   SARCLI_INLINE Anchor get(long i) const {
     return Anchor{j0[i], f0[i], s1[i], s2[i], lo[i], hi[i], top[i], ph0[i], ph1[i], ph2[i]};
@@ -167,12 +170,13 @@ SARCLI_INLINE void one_way(double xc, double y, double two_ax, double two_ay, do
   d1 = c - he * c * s2 / (2.0 * r * r);
 }
 
+template <bool BIST>
 SARCLI_INLINE Anchor anchor(const Args& A, long p, double xc, double y, double he) {
   const double* g = A.geo;
   const long B = A.B;
   double dr, d1, d2;
   one_way(xc, y, g[G2AX * B + p], g[G2AY * B + p], g[GA2 * B + p], g[GNA * B + p], he, dr, d1, d2);
-  if (A.bist) {
+  if (BIST) {
     double drb, d1b, d2b;
     one_way(xc, y, g[G2BX * B + p], g[G2BY * B + p], g[GB2 * B + p], g[GNB * B + p], he, drb, d1b, d2b);
     dr = 0.5 * (dr + drb);
@@ -199,6 +203,28 @@ SARCLI_INLINE Anchor anchor(const Args& A, long p, double xc, double y, double h
   an.ph1 = kc * d1;
   an.ph2 = kc * d2;
   return an;
+}
+
+// anchor() for pulses [p0, p1) into `an` (a loop the compiler vectorises over pulses).
+SARCLI_INLINE void anchors(const Args& A, long p0, long p1, double xc, double y, double he,
+                           Anchors& an) {
+  int* __restrict j0 = an.j0;
+  float *__restrict f0 = an.f0, *__restrict s1 = an.s1, *__restrict s2 = an.s2;
+  float *__restrict lo = an.lo, *__restrict hi = an.hi, *__restrict top = an.top;
+  double *__restrict ph0 = an.ph0, *__restrict ph1 = an.ph1, *__restrict ph2 = an.ph2;
+#define SARCLI_ANCHOR_LOOP(BIST)                                                              \
+  for (long p = p0; p < p1; ++p) {                                                              \
+    const Anchor a = anchor<BIST>(A, p, xc, y, he);                                             \
+    const long i = p - p0;                                                                      \
+    j0[i] = a.j0; f0[i] = a.f0; s1[i] = a.s1; s2[i] = a.s2; lo[i] = a.lo; hi[i] = a.hi;         \
+    top[i] = a.top; ph0[i] = a.ph0; ph1[i] = a.ph1; ph2[i] = a.ph2;                             \
+  }
+  if (A.bist) {
+    SARCLI_ANCHOR_LOOP(true)
+  } else {
+    SARCLI_ANCHOR_LOOP(false)
+  }
+#undef SARCLI_ANCHOR_LOOP
 }
 
 // Per lane: first tap index (into the padded profile), interpolation weights, masked carrier.
@@ -236,16 +262,20 @@ SARCLI_INLINE void eval_lanes(const Anchor& an, const float* uf, const double* u
 }
 
 // The tile starting at column c0: its width, lane offsets from the anchor, and 3/4 h².
-SARCLI_INLINE long tile_lanes(const Args& A, long c0, float* uf, double* ud, double& xc, double& he) {
+// A tile holds up to kGroups groups of kLanes pixels that share one anchor.
+SARCLI_INLINE long tile_lanes(const Args& A, long c0, float (*uf)[kLanes], double (*ud)[kLanes],
+                              double& xc, double& he) {
   const long wv = std::min<long>(A.width, A.nx - c0);
   const double xa = A.x[c0], xb = A.x[c0 + wv - 1];
   xc = 0.5 * (xa + xb);
   const double h = 0.5 * std::fabs(xb - xa);
   he = 0.75 * h * h;
-  for (int i = 0; i < kLanes; ++i) {
-    ud[i] = i < wv ? A.x[c0 + i] - xc : 0.0;
-    uf[i] = static_cast<float>(ud[i]);
-  }
+  for (long g = 0; g * kLanes < wv; ++g)
+    for (int i = 0; i < kLanes; ++i) {
+      const long c = g * kLanes + i;
+      ud[g][i] = c < wv ? A.x[c0 + c] - xc : 0.0;
+      uf[g][i] = static_cast<float>(ud[g][i]);
+    }
   return wv;
 }
 
@@ -418,35 +448,42 @@ template <typename PT, int K, int ISA>
 SARCLI_INLINE void bp_row(const Args& A, const PT* prof, long row, long p0, long p1,
                           Anchors& an, double* ore, double* oim) {
   const double y = A.y[row];
-  float uf[kLanes];
-  double ud[kLanes];
+  float uf[kGroups][kLanes];
+  double ud[kGroups][kLanes];
   Lanes<K> L;
   for (long c0 = 0; c0 < A.nx; c0 += A.width) {
     double xc, he;
     const long wv = tile_lanes(A, c0, uf, ud, xc, he);
-    for (long p = p0; p < p1; ++p) an.set(p - p0, anchor(A, p, xc, y, he));
-    PT ar[kLanes] = {}, ai[kLanes] = {};
+    const long ng = (wv + kLanes - 1) / kLanes;
+    anchors(A, p0, p1, xc, y, he, an);
+    PT ar[kGroups][kLanes] = {}, ai[kGroups][kLanes] = {};
     for (long p = p0; p < p1; ++p) {
-      eval_lanes<K>(an.get(p - p0), uf, ud, A.pad, L);
-      PT tp[2 * Kernel<K>::taps][kLanes];
-      Taps<PT, K, ISA>::load(prof + 2 * p * A.lp, L.idx, tp);
+      const Anchor a = an.get(p - p0);
+      const PT* pp = prof + 2 * p * A.lp;
+      for (long g = 0; g < ng; ++g) {
+        eval_lanes<K>(a, uf[g], ud[g], A.pad, L);
+        PT tp[2 * Kernel<K>::taps][kLanes];
+        Taps<PT, K, ISA>::load(pp, L.idx, tp);
+        PT* __restrict gr = ar[g];
+        PT* __restrict gi = ai[g];
 #pragma omp simd
-      for (int i = 0; i < kLanes; ++i) {
-        PT vr = 0, vi = 0;
-        for (int k = 0; k < Kernel<K>::taps; ++k) {
-          vr += static_cast<PT>(L.w[k][i]) * tp[2 * k][i];
-          vi += static_cast<PT>(L.w[k][i]) * tp[2 * k + 1][i];
+        for (int i = 0; i < kLanes; ++i) {
+          PT vr = 0, vi = 0;
+          for (int k = 0; k < Kernel<K>::taps; ++k) {
+            vr += static_cast<PT>(L.w[k][i]) * tp[2 * k][i];
+            vi += static_cast<PT>(L.w[k][i]) * tp[2 * k + 1][i];
+          }
+          const PT c = L.c[i], s = L.s[i];
+          gr[i] += vr * c - vi * s;
+          gi[i] += vr * s + vi * c;
         }
-        const PT c = L.c[i], s = L.s[i];
-        ar[i] += vr * c - vi * s;
-        ai[i] += vr * s + vi * c;
       }
     }
     double* r = ore + row * A.nx + c0;
     double* m = oim + row * A.nx + c0;
     for (long i = 0; i < wv; ++i) {
-      r[i] += static_cast<double>(ar[i]);
-      m[i] += static_cast<double>(ai[i]);
+      r[i] += static_cast<double>(ar[i / kLanes][i % kLanes]);
+      m[i] += static_cast<double>(ai[i / kLanes][i % kLanes]);
     }
   }
 }
@@ -454,19 +491,21 @@ SARCLI_INLINE void bp_row(const Args& A, const PT* prof, long row, long p0, long
 // Adjoint: every pixel of the image scattered onto pulse p's profile.
 template <typename PT, int K>
 SARCLI_INLINE void rp_pulse(const Args& A, const PT* fre, const PT* fim, long p, PT* h) {
-  float uf[kLanes];
-  double ud[kLanes];
+  float uf[kGroups][kLanes];
+  double ud[kGroups][kLanes];
   Lanes<K> L;
   PT ur[kLanes], ui[kLanes];
   for (long row = 0; row < A.ny; ++row) {
     const double y = A.y[row];
     for (long c0 = 0; c0 < A.nx; c0 += A.width) {
       double xc, he;
-      const long wv = tile_lanes(A, c0, uf, ud, xc, he);
-      const Anchor an = anchor(A, p, xc, y, he);
-      eval_lanes<K>(an, uf, ud, A.pad, L);
-      const PT* fr = fre + row * A.nx + c0;
-      const PT* fi = fim + row * A.nx + c0;
+      const long wt = tile_lanes(A, c0, uf, ud, xc, he);
+      const Anchor an = A.bist ? anchor<true>(A, p, xc, y, he) : anchor<false>(A, p, xc, y, he);
+      for (long g = 0; g * kLanes < wt; ++g) {
+      const long wv = std::min<long>(kLanes, wt - g * kLanes);
+      eval_lanes<K>(an, uf[g], ud[g], A.pad, L);
+      const PT* fr = fre + row * A.nx + c0 + g * kLanes;
+      const PT* fi = fim + row * A.nx + c0 + g * kLanes;
       for (long i = 0; i < wv; ++i) {  // f · exp(-i kc Δr) (masked)
         const PT c = L.c[i], s = L.s[i];
         ur[i] = fr[i] * c + fi[i] * s;
@@ -479,6 +518,7 @@ SARCLI_INLINE void rp_pulse(const Args& A, const PT* fre, const PT* fim, long p,
           h[2 * (j + k)] += w * ur[i];
           h[2 * (j + k) + 1] += w * ui[i];
         }
+      }
       }
     }
   }
@@ -559,7 +599,8 @@ Args make_args(in<double, 1> x, in<double, 1> y, in<double, 2> geo, long lp, lon
   A.half_len = static_cast<double>(n_len / 2);
   A.bist = bist;
   if (geo.shape(0) != kGeoRows) throw nb::value_error("backprojection: geo must have 11 rows");
-  if (width < 1 || width > kLanes) throw nb::value_error("backprojection: tile width must be 1..16");
+  if (width < 1 || width > kLanes * kGroups)
+    throw nb::value_error("backprojection: tile width must be 1..64");
   if (lp != n_len + 2 * pad || pad < 3) throw nb::value_error("backprojection: bad profile padding");
   if (A.nx < 1 || A.ny < 1) throw nb::value_error("backprojection: empty grid");
   return A;
