@@ -282,3 +282,20 @@ def test_tiles_narrow_near_the_antenna():
     img = backproject(data, freq, a, r0, GRID, upsample=32)
     near = np.abs(ref) > 0.05 * np.abs(ref).max()
     assert rel_err(img[near], ref[near]) < 2e-5   # measured 1.9e-6
+
+
+def test_range_profiles_are_the_padded_inverse_fft():
+    """range_profiles (shared with ffbp) against numpy, with (M,), (1, M) and (P, M) weights."""
+    from sarcli.formers.backprojection import _PAD, range_profiles
+
+    rng = np.random.default_rng(2)
+    P, M, L = 37, 24, 96
+    d = rng.normal(size=(P, M)) + 1j * rng.normal(size=(P, M))
+    w = rng.uniform(0.5, 1.0, M)
+    buf = np.zeros((P, L), complex)
+    buf[:, (np.arange(M) - M // 2) % L] = d * w / 3.0
+    ref = np.fft.fftshift(np.fft.ifft(buf, axis=1) * L, axes=1)
+    ref = np.concatenate([ref[:, -_PAD:], ref, ref[:, :_PAD]], axis=1)
+    for wk in (w, w[None, :], np.broadcast_to(w, (P, M))):
+        re, im = range_profiles(d, wk, 3.0, L, 1)
+        assert np.max(np.abs(re + 1j * im - ref)) < 1e-12

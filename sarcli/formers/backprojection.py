@@ -148,6 +148,8 @@ def _profiles(data, weights, total_weight, n_len, dtype):
     in cache is several times faster per row than one call on the whole block.
     """
     b, m = data.shape
+    if weights is not None:
+        weights = np.broadcast_to(weights, (b, m))   # (M,) or (1, M) weights serve every pulse
     slots = (np.arange(m) - m // 2) % n_len
     idx = (np.arange(n_len + 2 * _PAD) - _PAD - n_len // 2) % n_len
     out = np.empty((b, n_len + 2 * _PAD), dtype=dtype)
