@@ -1,399 +1,102 @@
-"""Compiled (numba) kernels of backprojection and its adjoint, reprojection.
+"""Backprojection's compiled kernels (``src/native/backprojection.cpp``) and their planning.
 
-:func:`_bp_rows` accumulates, for each image row in parallel, the interpolated range profiles of a
-block of pulses times the phase ramp ``exp(i k_c Δr)``; :func:`_rp_pulses` is its exact adjoint
-(each pulse in parallel, spreading pixels back onto its profile). Phases are reduced modulo 2π in
-two parts (Cody-Waite) and evaluated by a short Taylor series, so the float32 kernels keep their
-accuracy over the ~1e3 rad phases of real collections. The drivers, the error model and the
-formula behind them are in :mod:`sarcli.formers.backprojection`.
+The kernels cut the image into tiles of up to 64 pixels along a row (groups of 16 lanes). Per tile and pulse they
+evaluate, in float64, the differential range at the tile's centre ``Δr_c`` and its derivatives
+along the row; inside the tile a pixel at offset ``u`` from the centre takes
+
+.. math::
+
+    \\Delta r(u) = \\Delta r_c + d_1 u + d_2 u^2, \\qquad
+    d_2 = \\frac{1 - c^2}{2R}, \\quad d_1 = c + \\tfrac34 h^2 d_3, \\quad
+    d_3 = -\\frac{c (1 - c^2)}{2R^2},
+
+(``R`` the range to the centre, ``c`` the direction cosine along the row, ``h`` the tile's half
+width; the ``3/4 h² d3`` term is the Chebyshev economisation of the cubic Taylor term), so the
+model leaves at most ``|d3| h³ / 4`` plus the quartic term. :func:`tile_width` picks the widest
+tile that keeps this below :data:`MODEL_TOLERANCE` in both carrier phase and profile bins. The
+profile position is float32 relative to an integer bin of the centre, the carrier phase float64
+reduced to [-π, π] and evaluated by a float32 minimax polynomial; the interpolation weights and
+the carrier are thus float32 (errors ~1e-7), the profiles and accumulation follow ``precision``.
 """
 
 from __future__ import annotations
 
-import math
-from decimal import Decimal, localcontext
-
 import numpy as np
-from numba import njit, prange, types
-from numba.extending import overload
 
-# ---------------------------------------------------------------------------------------------
-# compiled helpers
-# ---------------------------------------------------------------------------------------------
-def _sincos(ph):  # pragma: no cover - replaced by the overload inside compiled code
-    return math.cos(ph), math.sin(ph)
+from .._native import load
 
+__all__ = ["GEO_ROWS", "MODEL_TOLERANCE", "next_fast_len", "tile_width", "kernels"]
 
-# Minimax (Remez, weights h³ for sine and h² for cosine, in 50-digit arithmetic) coefficients of
-#     sin h = h (1 + u S(u)),   cos h = 1 + u C(u),   u = h² in [0, (π/2)²],
-# lowest order first. Largest error of the polynomial itself on |h| <= π/2:
-#     float64: sine 4.9e-19, cosine 4.2e-18 (Taylor needs two more terms each for ~1e-17);
-#     float32: sine 1.0e-8, cosine 5.3e-8 (below float32 rounding; Taylor to the same order: 4e-6).
-_SIN64 = (-0.16666666666666666, 0.008333333333333238, -0.0001984126984122125,
-          2.7557319212672704e-06, -2.5052106975152003e-08, 1.6058943303445617e-10,
-          -7.64305230855962e-13, 2.721531131585704e-15)
-_COS64 = (-0.49999999999999983, 0.04166666666666437, -0.0013888888888785652,
-          2.480158727914903e-05, -2.755731652522882e-07, 2.0876567741089065e-09,
-          -1.1463039371264495e-11, 4.610294182579396e-14)
-_SIN32 = (-0.16666661057244608, 0.008333083661225673, -0.00019809918539322803,
-          2.6050985599817745e-06)
-_COS32 = (-0.4999993229304565, 0.041663989454597754, -0.001385592718265202,
-          2.3194386451824987e-05)
+#: Rows of the per-pulse geometry table the kernels read: 2a_x, 2a_y, |a|², |a|, 2b_x, 2b_y, |b|²,
+#: |b| (transmit a, receive b), (|a| + |b|)/2 - r0, 1/bin and the carrier wavenumber kc.
+GEO_ROWS = 11
+#: Largest model error of a tile, in radians of carrier phase and in profile bins.
+MODEL_TOLERANCE = 1e-5
+_WIDTHS = (64, 48, 32, 16, 12, 8, 4, 2, 1)
+
+# names the ffbp kernels still import from here (numba helpers), until they are ported
+_LEGACY = {"_F0", "_F1", "_F2", "_F4", "_FH", "_F15", "_F25", "_U1", "_U2", "_U3", "_U4", "_U5",
+           "_FM", "_keys", "_lanczos", "_lanczos3", "_sincos", "_sincos_half", "_first_tap",
+           "_carrier_constants", "_SIN32", "_COS32", "_SIN64", "_COS64"}
 
 
-def _two_pi_split(dtype, hi_bits):
-    """2π = hi + mid + lo with ``hi`` short enough that ``k·hi`` is exact (Cody-Waite reduction)."""
-    with localcontext() as ctx:
-        ctx.prec = 60
-        two_pi = Decimal("6.28318530717958647692528676655900576839433879875021164194988918")
-        scale = 2 ** (hi_bits - 3)
-        hi = Decimal(round(two_pi * scale)) / scale
-        mid = dtype(float(two_pi - hi))
-        lo = dtype(float(two_pi - hi - Decimal(float(mid))))
-    return dtype(float(hi)), mid, lo
+def __getattr__(name):
+    if name in _LEGACY:
+        from . import _bp_numba_helpers
+
+        return getattr(_bp_numba_helpers, name)
+    raise AttributeError(name)
 
 
-def _carrier_constants(dtype):
-    """Constants of :func:`_sincos_half` in ``dtype``: ``(1/π, hi, mid, lo, S..., C...)``.
+def kernels():
+    """The compiled module ``sarcli._native._backprojection``."""
+    return load("backprojection")
 
-    ``hi + mid + lo`` is π (the halves of :func:`_two_pi_split`'s 2π, exactly); ``S`` and ``C``
-    are the minimax coefficients above (4 each in float32, 8 in float64).
+
+def next_fast_len(n: int) -> int:
+    """Smallest ``2^a 3^b 5^c 7^d 11^e >= n`` (the complex FFT sizes scipy.fft.next_fast_len gives)."""
+    n = max(int(n), 1)
+    best = 1 << (n - 1).bit_length()
+    p11 = 1
+    while p11 < best:
+        p7 = p11
+        while p7 < best:
+            p5 = p7
+            while p5 < best:
+                p3 = p5
+                while p3 < best:
+                    v = p3
+                    while v < n:
+                        v *= 2
+                    best = min(best, v)
+                    p3 *= 3
+                p5 *= 5
+            p7 *= 7
+        p11 *= 11
+    return best
+
+
+def min_range(pos, grid) -> float:
+    """Smallest distance from any antenna position in ``pos`` [P, 3] to the grid's rectangle (z = 0)."""
+    x0, x1 = grid.x[0] - grid.dx / 2, grid.x[-1] + grid.dx / 2
+    y0, y1 = grid.y[0] - grid.dy / 2, grid.y[-1] + grid.dy / 2
+    dx = np.clip(pos[:, 0], min(x0, x1), max(x0, x1)) - pos[:, 0]
+    dy = np.clip(pos[:, 1], min(y0, y1), max(y0, y1)) - pos[:, 1]
+    return float(np.sqrt(np.min(dx * dx + dy * dy + pos[:, 2] ** 2)))
+
+
+def tile_width(grid, r_min: float, kc_max: float, inv_bin_max: float) -> int:
+    """Widest tile (pixels along a row, at most 64) whose range model stays within tolerance.
+
+    Bounds the model error by ``|d3| h³/4 + |d4| h⁴`` with ``|d3| <= 0.19245 / R²`` and
+    ``|d4| <= 5 / (8 R³)`` at the smallest range ``R`` (``h`` the tile's half width) and asks
+    ``kc · error`` and ``error / bin`` below :data:`MODEL_TOLERANCE`.
     """
-    dt = np.dtype(dtype).type
-    hi, mid, lo = _two_pi_split(dt, 10 if dt is np.float32 else 26)
-    half = dt(0.5)
-    sin_c, cos_c = (_SIN32, _COS32) if dt is np.float32 else (_SIN64, _COS64)
-    return ((dt(1.0 / np.pi), hi * half, mid * half, lo * half)
-            + tuple(dt(v) for v in sin_c) + tuple(dt(v) for v in cos_c))
-
-
-def _sincos_half(hp, cst):  # pragma: no cover - replaced by the overload inside compiled code
-    return math.cos(2.0 * hp), math.sin(2.0 * hp)
-
-
-@overload(_sincos_half, inline="always")
-def _ov_sincos_half(hp, cst):
-    """(cos, sin) of ``2 hp`` by a vectorisable polynomial; ``cst`` from :func:`_carrier_constants`.
-
-    Cody-Waite reduction ``h = hp - k π`` (``k = rint(hp / π)``, π split in three so ``k·hi`` is
-    exact), minimax polynomials of sin and cos of ``h`` in [-π/2, π/2] (:data:`_SIN64`,
-    :data:`_COS64`), then the double-angle formulas. Taking the half phase saves the halving
-    (callers fold it into a per-pulse constant) and gives the same bits as halving ``2 hp``.
-    The constants come as a tuple so a kernel can pass them in at run time: the compiler then
-    keeps them in vector registers or on the stack as memory operands, where literal constants
-    are re-broadcast from the constant pool for every vector of the loop.
-    """
-    if not (isinstance(hp, types.Float) and isinstance(cst, types.UniTuple)):
-        return None
-    if cst.count == 12:
-        def poly(h2, c):
-            ps = c[4] + h2 * (c[5] + h2 * (c[6] + h2 * c[7]))
-            pc = c[8] + h2 * (c[9] + h2 * (c[10] + h2 * c[11]))
-            return ps, pc
-    elif cst.count == 20:
-        def poly(h2, c):
-            ps = c[4] + h2 * (c[5] + h2 * (c[6] + h2 * (c[7] + h2 * (c[8] + h2 * (c[9] + h2 * (
-                c[10] + h2 * c[11]))))))
-            pc = c[12] + h2 * (c[13] + h2 * (c[14] + h2 * (c[15] + h2 * (c[16] + h2 * (c[17] + h2 * (
-                c[18] + h2 * c[19]))))))
-            return ps, pc
-    else:
-        return None
-    poly = njit(inline="always")(poly)
-    dt = np.float32 if hp.bitwidth == 32 else np.float64
-    one, two = dt(1.0), dt(2.0)
-
-    def impl(hp, cst):
-        k = np.rint(hp * cst[0])
-        h = ((hp - k * cst[1]) - k * cst[2]) - k * cst[3]   # in [-π/2, π/2]
-        h2 = h * h
-        ps, pc = poly(h2, cst)
-        sh = h * (one + h2 * ps)
-        ch = one + h2 * pc
-        return ch * ch - sh * sh, two * sh * ch
-
-    return impl
-
-
-@overload(_sincos, inline="always")
-def _ov_sincos(ph):
-    """(cos, sin) by a vectorisable polynomial: :func:`_sincos_half` of ``ph / 2``.
-
-    Cody-Waite reduction ``r = ph - k 2π`` (``k = rint(ph / 2π)``, 2π split in three so ``k·hi``
-    is exact), minimax polynomials of sin and cos of the half angle ``h = r/2`` in [-π/2, π/2]
-    (:data:`_SIN64`, :data:`_COS64`), then the double-angle formulas. float32: error ~1e-6 rad
-    for |ph| < 1e5 (the float32 phase itself is rounded by up to 4e-3 rad there); float64: error
-    ~7e-16 (mostly the final roundings) plus the reduction's ~1e-15·|k|.
-    """
-    if not isinstance(ph, types.Float):
-        return None
-    dt = np.float32 if ph.bitwidth == 32 else np.float64
-    cst = _carrier_constants(dt)
-    half = dt(0.5)
-
-    def impl(ph):
-        return _sincos_half(ph * half, cst)
-
-    return impl
-
-
-# Constants of the interpolation kernels, float32 so they keep float32 arithmetic float32 (they
-# are exact binary fractions, so the float64 path loses nothing).
-_F0 = np.float32(0.0)
-_F1 = np.float32(1.0)
-_F2 = np.float32(2.0)
-_F4 = np.float32(4.0)
-_FH = np.float32(0.5)
-_F15 = np.float32(1.5)
-_F25 = np.float32(2.5)
-# Unsigned stencil offsets: an unsigned index skips numba's negative-index wrap-around test, which
-# otherwise costs a compare and a conditional move per tap and keeps the gathers scalar.
-_U1 = np.uint64(1)
-_U2 = np.uint64(2)
-_U3 = np.uint64(3)
-_U4 = np.uint64(4)
-_U5 = np.uint64(5)
-#: Floating-point licence of the kernels: fused multiply-adds only (no reassociation), so results
-#: differ from separate rounding by at most an ulp per operation and stay deterministic.
-_FM = {"contract"}
-
-
-@njit(inline="always")
-def _first_tap(pad, kind):
-    """Offset of the first stencil tap from the unpadded profile index, as ``uint64``."""
-    return np.uint64(pad - (0 if kind == 0 else (1 if kind == 1 else 2)))
-
-
-@njit(inline="always")
-def _pixel(xv, xxv, cy, tax, ap2, nap, offp, ib, kch, half_len, n_len, top, carrier,
-           bist, cyb, tbx, bp2, nbp):
-    """Per pixel and pulse: profile index, fraction, masked carrier ``m·exp(+i kc Δr)``, mask.
-
-    ``kch`` is ``kc / 2`` and ``carrier`` the constants of :func:`_sincos_half`.
-
-    Δr is the cancellation-free ``(|x|² - 2 a·x) / (|a - x| + |a|) + (|a| - r0)``; with separate
-    transmit (a) and receive (b) positions (``bist``) the two one-way terms are averaged,
-    ``((|a - x| - |a|) + (|b - x| - |b|)) / 2 + ((|a| + |b|)/2 - r0)``. The profile position is
-    ``Δr / bin + L/2``; ``m`` is 1 inside the unambiguous window, else 0 (the position is then
-    clamped so every access stays in bounds).
-    """
-    num = xxv - tax * xv + cy
-    dr = num / (math.sqrt(ap2 + num) + nap)
-    if bist:
-        numb = xxv - tbx * xv + cyb
-        dr = _FH * (dr + numb / (math.sqrt(bp2 + numb) + nbp))
-    dr = dr + offp
-    s = dr * ib + half_len
-    inside = (s >= _F0) & (s < n_len)
-    s = min(max(s, _F0), top)
-    fl = np.floor(s)
-    c, sn = _sincos_half(kch * dr, carrier)
-    m = _F1 if inside else _F0
-    return np.int32(fl), s - fl, m * c, m * sn, inside
-
-
-@njit(inline="always")
-def _keys(t):
-    """Keys cubic (a = -1/2) weights for offsets -1, 0, 1, 2 at fraction ``t``."""
-    d0 = t + _F1
-    d2 = _F1 - t
-    d3 = _F2 - t
-    w0 = ((_F25 - _FH * d0) * d0 - _F4) * d0 + _F2
-    w1 = (_F15 * t - _F25) * t * t + _F1
-    w2 = (_F15 * d2 - _F25) * d2 * d2 + _F1
-    w3 = ((_F25 - _FH * d3) * d3 - _F4) * d3 + _F2
-    return w0, w1, w2, w3
-
-
-@njit(inline="always")
-def _lanczos3(d):
-    """``sinc(d) sinc(d/3)`` for ``|d| < 3`` (0 beyond), float64."""
-    if abs(d) < 1e-12:
-        return 1.0
-    if abs(d) >= 3.0:
-        return 0.0
-    return 3.0 * math.sin(math.pi * d) * math.sin(math.pi * d / 3.0) / (math.pi * math.pi * d * d)
-
-
-@njit(inline="always")
-def _lanczos(t):
-    """Normalised Lanczos-3 weights for offsets -2..3 at fraction ``t`` (float64)."""
-    t = np.float64(t)
-    w0 = _lanczos3(t + 2.0)
-    w1 = _lanczos3(t + 1.0)
-    w2 = _lanczos3(t)
-    w3 = _lanczos3(t - 1.0)
-    w4 = _lanczos3(t - 2.0)
-    w5 = _lanczos3(t - 3.0)
-    tot = w0 + w1 + w2 + w3 + w4 + w5
-    return w0 / tot, w1 / tot, w2 / tot, w3 / tot, w4 / tot, w5 / tot
-
-
-@njit(parallel=True, cache=True, fastmath=_FM)
-def _bp_rows(pre, pim, x, xx, y, two_ax, two_ay, a2, na, off, inv_bin, kc,
-             two_bx, two_by, b2, nb, half_len, n_len, pad, kind, bist, carrier, out_re, out_im):
-    """Accumulate a block of pulses into every image row (rows in parallel).
-
-    Per row and pulse, a vectorisable pass computes positions and carriers, then a gather pass
-    interpolates the profile and accumulates.
-    """
-    ny = y.size
-    nx = x.size
-    n_pulses = pre.shape[0]
-    top = n_len - _F1
-    tap = _first_tap(pad, kind)
-    for row in prange(ny):
-        yv = y[row]
-        acc_re = out_re[row]
-        acc_im = out_im[row]
-        idx = np.empty(nx, np.int32)  # 32-bit: a vector conversion, twice the lanes per gather
-        frac = np.empty_like(x)
-        cr = np.empty_like(x)
-        ci = np.empty_like(x)
-        kw = np.empty((4, nx), dtype=x.dtype) if kind == 1 else np.empty((4, 0), dtype=x.dtype)
-        for p in range(n_pulses):
-            cy = yv * yv - two_ay[p] * yv
-            cyb = yv * yv - two_by[p] * yv
-            tax = two_ax[p]
-            ap2 = a2[p]
-            nap = na[p]
-            offp = off[p]
-            ib = inv_bin[p]
-            kch = kc[p] * _FH
-            tbx = two_bx[p]
-            bp2 = b2[p]
-            nbp = nb[p]
-            for ix in range(nx):
-                i, t, c, sn, _ = _pixel(x[ix], xx[ix], cy, tax, ap2, nap, offp, ib, kch,
-                                        half_len, n_len, top, carrier, bist, cyb, tbx, bp2, nbp)
-                idx[ix] = i
-                frac[ix] = t
-                cr[ix] = c
-                ci[ix] = sn
-            rp = pre[p]
-            ip = pim[p]
-            if kind == 0:
-                for ix in range(nx):
-                    i = np.uint64(idx[ix]) + tap
-                    t = frac[ix]
-                    r0 = rp[i]
-                    i0 = ip[i]
-                    vr = r0 + t * (rp[i + _U1] - r0)
-                    vi = i0 + t * (ip[i + _U1] - i0)
-                    acc_re[ix] += vr * cr[ix] - vi * ci[ix]
-                    acc_im[ix] += vr * ci[ix] + vi * cr[ix]
-            elif kind == 1:
-                k0 = kw[0]
-                k1 = kw[1]
-                k2 = kw[2]
-                k3 = kw[3]
-                for ix in range(nx):  # weights in a vectorisable pass of their own
-                    k0[ix], k1[ix], k2[ix], k3[ix] = _keys(frac[ix])
-                for ix in range(nx):
-                    i = np.uint64(idx[ix]) + tap
-                    w0 = k0[ix]
-                    w1 = k1[ix]
-                    w2 = k2[ix]
-                    w3 = k3[ix]
-                    vr = w0 * rp[i] + w1 * rp[i + _U1] + w2 * rp[i + _U2] + w3 * rp[i + _U3]
-                    vi = w0 * ip[i] + w1 * ip[i + _U1] + w2 * ip[i + _U2] + w3 * ip[i + _U3]
-                    acc_re[ix] += vr * cr[ix] - vi * ci[ix]
-                    acc_im[ix] += vr * ci[ix] + vi * cr[ix]
-            else:
-                for ix in range(nx):
-                    i = np.uint64(idx[ix]) + tap
-                    w0, w1, w2, w3, w4, w5 = _lanczos(frac[ix])
-                    vr = (w0 * rp[i] + w1 * rp[i + _U1] + w2 * rp[i + _U2] + w3 * rp[i + _U3]
-                          + w4 * rp[i + _U4] + w5 * rp[i + _U5])
-                    vi = (w0 * ip[i] + w1 * ip[i + _U1] + w2 * ip[i + _U2] + w3 * ip[i + _U3]
-                          + w4 * ip[i + _U4] + w5 * ip[i + _U5])
-                    acc_re[ix] += vr * cr[ix] - vi * ci[ix]
-                    acc_im[ix] += vr * ci[ix] + vi * cr[ix]
-
-
-@njit(parallel=True, cache=True, fastmath=_FM)
-def _rp_pulses(fre, fim, x, xx, y, two_ax, two_ay, a2, na, off, inv_bin, kc,
-               two_bx, two_by, b2, nb, half_len, n_len, pad, kind, bist, carrier, h_re, h_im):
-    """Transpose of :func:`_bp_rows`: scatter every pixel into each pulse's profile.
-
-    Pulses run in parallel (each owns its profile). Per pulse and row, the same vectorisable
-    pass as the forward kernel gives positions and masked carriers; the pixel values times the
-    conjugate carrier are then scattered with the same interpolation weights (pixels outside
-    the window carry a zero carrier, so they add nothing, exactly as they receive nothing).
-    """
-    ny = y.size
-    nx = x.size
-    n_pulses = h_re.shape[0]
-    top = n_len - _F1
-    tap = _first_tap(pad, kind)
-    for p in prange(n_pulses):
-        tax = two_ax[p]
-        ap2 = a2[p]
-        nap = na[p]
-        offp = off[p]
-        ib = inv_bin[p]
-        kch = kc[p] * _FH
-        tbx = two_bx[p]
-        bp2 = b2[p]
-        nbp = nb[p]
-        hr = h_re[p]
-        hi = h_im[p]
-        idx = np.empty(nx, np.int32)
-        frac = np.empty_like(x)
-        ur = np.empty_like(x)
-        ui = np.empty_like(x)
-        for row in range(ny):
-            yv = y[row]
-            cy = yv * yv - two_ay[p] * yv
-            cyb = yv * yv - two_by[p] * yv
-            fr = fre[row]
-            fi = fim[row]
-            for ix in range(nx):
-                i, t, c, sn, _ = _pixel(x[ix], xx[ix], cy, tax, ap2, nap, offp, ib, kch,
-                                        half_len, n_len, top, carrier, bist, cyb, tbx, bp2, nbp)
-                idx[ix] = i
-                frac[ix] = t
-                ur[ix] = fr[ix] * c + fi[ix] * sn   # f · exp(-i kc Δr) (masked)
-                ui[ix] = fi[ix] * c - fr[ix] * sn
-            if kind == 0:
-                for ix in range(nx):
-                    i = np.uint64(idx[ix]) + tap
-                    t = frac[ix]
-                    vr = ur[ix]
-                    vi = ui[ix]
-                    hr[i] += vr - t * vr
-                    hi[i] += vi - t * vi
-                    hr[i + _U1] += t * vr
-                    hi[i + _U1] += t * vi
-            elif kind == 1:
-                for ix in range(nx):
-                    i = np.uint64(idx[ix]) + tap
-                    vr = ur[ix]
-                    vi = ui[ix]
-                    w0, w1, w2, w3 = _keys(frac[ix])
-                    hr[i] += w0 * vr
-                    hi[i] += w0 * vi
-                    hr[i + _U1] += w1 * vr
-                    hi[i + _U1] += w1 * vi
-                    hr[i + _U2] += w2 * vr
-                    hi[i + _U2] += w2 * vi
-                    hr[i + _U3] += w3 * vr
-                    hi[i + _U3] += w3 * vi
-            else:
-                for ix in range(nx):
-                    i = np.uint64(idx[ix]) + tap
-                    vr = ur[ix]
-                    vi = ui[ix]
-                    w0, w1, w2, w3, w4, w5 = _lanczos(frac[ix])
-                    hr[i] += w0 * vr
-                    hi[i] += w0 * vi
-                    hr[i + _U1] += w1 * vr
-                    hi[i + _U1] += w1 * vi
-                    hr[i + _U2] += w2 * vr
-                    hi[i + _U2] += w2 * vi
-                    hr[i + _U3] += w3 * vr
-                    hi[i + _U3] += w3 * vi
-                    hr[i + _U4] += w4 * vr
-                    hi[i + _U4] += w4 * vi
-                    hr[i + _U5] += w5 * vr
-                    hi[i + _U5] += w5 * vi
+    scale = max(abs(kc_max), abs(inv_bin_max), 1e-30)
+    r = max(r_min, 1e-9)
+    for w in _WIDTHS:
+        h = 0.5 * (w - 1) * abs(grid.dx)
+        err = 0.19245 * h**3 / (4.0 * r * r) + 0.625 * h**4 / r**3
+        if err * scale <= MODEL_TOLERANCE:
+            return w
+    return 1

@@ -36,33 +36,38 @@ model ``A f = Σ_x f(x) exp(-i 4π α Δr(x) / c)`` and its adjoint are approxim
 knobs), so ``AᴴA ≈ W² · backproject ∘ reproject``; with weights, ``reproject`` also carries the
 factor ``w_pj / W``.
 
-Differential range is evaluated without cancellation (``geometry.differential_range``):
-``Δr = (|x|² - 2 a·x) / (|a - x| + |a|) + (|a| - r0)``, which keeps float32 accurate to a few
-micrometres at r0 = 100 km. With ``precision='float32'`` the profiles, pixel geometry, carrier
-and accumulation are float32 (measured at r0 = 100 km: image phase within 6e-4 rad and relative
-error 1.6e-4 of float64). The carrier's sine and cosine come from a short polynomial after an
-exact range reduction (error ~1e-15 rad in float64, ~1e-5 rad in float32), which lets the
-compiler vectorise the pixel loop.
+The frequencies enter through the least-squares line ``α_pj ≈ α_ref,p + (j - j_c) Δα_p``
+(:func:`frequency_line`); their deviations from it are the model's error floor (GOTCHA, whose
+frequencies are rounded to float32: 2.4e-4 of the exact matched filter).
 
-Defaults: Keys cubic interpolation with 8× oversampled profiles (measured 3e-4 relative error vs
-the exact matched filter and unit-point peaks within 1e-4 of 1). Linear interpolation needs
-``upsample=8`` for 1e-2 (6e-3) and 32 for peaks within 1e-3.
+The kernels (``src/native/backprojection.cpp``, :mod:`._bp_kernels`) take the differential range
+of each tile of up to 64 pixels along a row in float64 at the tile's centre, without
+cancellation (``Δr = (|x|² - 2 a·x) / (|a - x| + |a|) + (|a| - r0)``), and inside the tile a
+quadratic in the pixel's offset whose error :func:`._bp_kernels.tile_width` bounds. Profile
+positions and interpolation weights are float32, the carrier phase float64 reduced modulo 2π and
+its sine and cosine a float32 polynomial (error 4e-7). ``precision`` sets the profiles and the
+accumulation: ``'float64'`` keeps both in float64, so that :func:`reproject` is the adjoint to
+float64 rounding; ``'float32'`` stores and sums in float32 (1e-7 of float64; faster).
+
+Defaults: Keys cubic interpolation with 16× oversampled profiles (measured: 3.5e-5 relative
+error vs the exact matched filter on the test scene, 2.9e-4 at 8×; unit-point peaks within 1e-4
+of 1). Linear interpolation needs ``upsample=8`` for 1e-2 (6e-3) and 32 for peaks within 1e-3.
 """
 
 from __future__ import annotations
 
 import math
+import sys
 import warnings
 
-import numba
 import numpy as np
-import scipy.fft
 
+from .._native import threads
 from ..errors import AliasingWarning, SarcliInputError
 from ..core.geometry import C, bistatic_differential_range
 from ..core.grid import Grid
 from .._util.progress import progress
-from ._bp_kernels import _bp_rows, _carrier_constants, _rp_pulses
+from ._bp_kernels import GEO_ROWS, kernels, min_range, next_fast_len, tile_width
 from ._samples import is_lazy
 
 __all__ = ["backproject", "reproject", "profile_length", "INTERPOLATORS", "DEFAULT_UPSAMPLE",
@@ -70,9 +75,9 @@ __all__ = ["backproject", "reproject", "profile_length", "INTERPOLATORS", "DEFAU
 
 #: Interpolation kernels for the range profiles and their codes in the compiled kernels.
 INTERPOLATORS = {"linear": 0, "cubic": 1, "lanczos": 2}
-#: Default profile oversampling and interpolation: relative error 3e-4 vs the exact matched
+#: Default profile oversampling and interpolation: relative error 3.5e-5 vs the exact matched
 #: filter and unit-point peaks 1 ± 1e-4 (measured: see tests/test_backprojection.py).
-DEFAULT_UPSAMPLE = 8
+DEFAULT_UPSAMPLE = 16
 DEFAULT_INTERP = "cubic"
 #: Largest allowed deviation of a pulse's frequencies from equal spacing, as a fraction of Δα
 #: (float32 files such as GOTCHA round their frequencies by ~3e-4 Δα). A deviation δ costs at most
@@ -82,9 +87,11 @@ FREQUENCY_SPACING_TOLERANCE = 2e-3
 _PAD = 3
 _PRECISIONS = {"float64": np.float64, "float32": np.float32}
 #: Pulses range-compressed and backprojected together (bounds the profile memory).
-_BLOCK = 32
-#: pixel x pulse terms one compiled backprojection call may take (a fraction of a second)
-_WORK = 1 << 24
+_BLOCK = 128
+#: Pulses per FFT call (their buffer stays in cache).
+_FFT_ROWS = 16
+#: Profile bytes one pass over the image works through (about a core's L2 cache).
+_CACHE_BYTES = 640 * 1024
 
 
 # ---------------------------------------------------------------------------------------------
@@ -93,7 +100,7 @@ _WORK = 1 << 24
 def profile_length(n_frequencies: int, upsample: float) -> int:
     """Range-profile (IFFT) length ``L``: ``upsample·M`` rounded up to an even fast FFT size."""
     half = int(math.ceil(float(upsample) * int(n_frequencies) / 2.0))
-    return 2 * scipy.fft.next_fast_len(max(half, 1))
+    return 2 * next_fast_len(max(half, 1))
 
 
 def frequency_steps(f, who: str = "backprojection") -> np.ndarray:
@@ -118,6 +125,45 @@ def frequency_steps(f, who: str = "backprojection") -> np.ndarray:
     return dalpha
 
 
+def frequency_line(f, jc):
+    """Least-squares line ``α_j ≈ α_ref + (j - jc) Δα`` through each row of ``f`` [rows, M]: ``(α_ref, Δα)``.
+
+    The profiles assume equally spaced frequencies; a deviation ``δ_j`` of sample j costs the
+    phase ``4π δ_j Δr / c``. The least-squares line minimises the sum of the squared deviations
+    (the mean squared phase error over the band), where the line through the end samples is
+    set by their two deviations alone: on GOTCHA (frequencies rounded to float32) the image
+    error of the approximation falls from 3.0e-4 to 2.1e-4 of the exact matched filter.
+    """
+    m = f.shape[1]
+    j = np.arange(m) - (m - 1) / 2.0
+    mean = f.mean(axis=1)
+    slope = (f @ j) / (j @ j)
+    return mean + slope * (jc - (m - 1) / 2.0), slope
+
+
+def _profiles(data, weights, total_weight, n_len, dtype):
+    """Range profiles [B, n_len + 2·pad] of ``dtype`` (complex): :func:`range_profiles` unsplit.
+
+    The FFTs run :data:`_FFT_ROWS` pulses at a time: numpy's FFT of a few rows whose buffer stays
+    in cache is several times faster per row than one call on the whole block.
+    """
+    b, m = data.shape
+    if weights is not None:
+        weights = np.broadcast_to(weights, (b, m))   # (M,) or (1, M) weights serve every pulse
+    slots = (np.arange(m) - m // 2) % n_len
+    idx = (np.arange(n_len + 2 * _PAD) - _PAD - n_len // 2) % n_len
+    out = np.empty((b, n_len + 2 * _PAD), dtype=dtype)
+    buf = np.zeros((min(b, _FFT_ROWS), n_len), dtype=dtype)
+    for r in range(0, b, _FFT_ROWS):
+        rows = slice(r, min(b, r + _FFT_ROWS))
+        n = rows.stop - rows.start
+        wd = data[rows] if weights is None else data[rows] * weights[rows]
+        buf[:n].fill(0)
+        buf[:n, slots] = wd / total_weight
+        np.take(np.fft.ifft(buf[:n], axis=1, norm="forward"), idx, axis=1, out=out[rows])
+    return out
+
+
 def range_profiles(data, weights, total_weight, n_len, nthreads, dtype=np.complex128):
     """Range profiles of pulses ``data`` [B, M] for backprojection and ffbp: real and imaginary parts
     [B, n_len + 2·pad], C-contiguous.
@@ -127,13 +173,8 @@ def range_profiles(data, weights, total_weight, n_len, nthreads, dtype=np.comple
     range ``Δr = (q - L/2) c / (2 Δα L)``. Periodic copies of ``pad`` samples at both ends let a
     stencil run past either end; the shift and the padding are one gather, ``(j - pad - L//2) mod L``.
     """
-    m = data.shape[1]
-    buf = np.zeros((data.shape[0], n_len), dtype=dtype)
-    wd = data if weights is None else data * weights
-    buf[:, (np.arange(m) - m // 2) % n_len] = wd / total_weight
-    buf = scipy.fft.ifft(buf, axis=1, norm="forward", workers=nthreads, overwrite_x=True)
-    idx = (np.arange(n_len + 2 * _PAD) - _PAD - n_len // 2) % n_len
-    return np.take(buf.real, idx, axis=1), np.take(buf.imag, idx, axis=1)   # C-contiguous (a[:, idx] is not)
+    prof = _profiles(data, weights, total_weight, n_len, dtype)
+    return np.ascontiguousarray(prof.real), np.ascontiguousarray(prof.imag)
 
 
 class _Setup:
@@ -187,31 +228,29 @@ class _Setup:
         self.kind = INTERPOLATORS[interp]
         self.dtype = _PRECISIONS[precision]
         dt = self.dtype
-        alpha_ref = np.broadcast_to(f[:, 0] + self.jc * dalpha, (n_pulses,))
+        alpha_ref, dalpha = frequency_line(f, self.jc)
+        alpha_ref = np.broadcast_to(alpha_ref, (n_pulses,))
         dalpha = np.broadcast_to(dalpha, (n_pulses,))
         bin_m = C / (2.0 * dalpha * self.n_len)   # signed for decreasing frequencies
         na = np.linalg.norm(a, axis=1)
-        self.two_ax = (2.0 * a[:, 0]).astype(dt)
-        self.two_ay = (2.0 * a[:, 1]).astype(dt)
-        self.a2 = (na * na).astype(dt)
-        self.na = na.astype(dt)
         nb = np.linalg.norm(b, axis=1)
-        self.two_bx = (2.0 * b[:, 0]).astype(dt)
-        self.two_by = (2.0 * b[:, 1]).astype(dt)
-        self.b2 = (nb * nb).astype(dt)
-        self.nb = nb.astype(dt)
+        # per-pulse geometry in float64, the rows _bp_kernels.GEO_ROWS names
+        self.geo = np.empty((GEO_ROWS, n_pulses))
+        self.geo[0], self.geo[1], self.geo[2], self.geo[3] = 2.0 * a[:, 0], 2.0 * a[:, 1], na * na, na
+        self.geo[4], self.geo[5], self.geo[6], self.geo[7] = 2.0 * b[:, 0], 2.0 * b[:, 1], nb * nb, nb
         # (|a| + |b|)/2 - r0: exactly |a| - r0 when a = b
-        self.off = ((0.5 * (na + nb) if self.bistatic else na) - r0).astype(dt)
-        self.inv_bin = (1.0 / bin_m).astype(dt)
-        self.kc = (4.0 * np.pi * alpha_ref / C).astype(dt)
-        self.x = grid.x.astype(dt)
-        self.xx = (grid.x * grid.x).astype(dt)
-        self.y = grid.y.astype(dt)
+        self.geo[8] = (0.5 * (na + nb) if self.bistatic else na) - r0
+        self.geo[9] = 1.0 / bin_m
+        self.geo[10] = 4.0 * np.pi * alpha_ref / C
+        self.x = np.ascontiguousarray(grid.x, dtype=np.float64)
+        self.y = np.ascontiguousarray(grid.y, dtype=np.float64)
         self.shape = grid.shape
+        r_min = min(min_range(a, grid), min_range(b, grid))
+        self.width = tile_width(grid, r_min, float(np.max(np.abs(self.geo[10]))),
+                                float(np.max(np.abs(self.geo[9]))))
         self._check_window(a, b, r0, grid, np.abs(bin_m) * self.n_len / 2.0)
-        # the carrier's polynomial constants go in as an argument: run-time values stay in registers
-        self.scalars = (dt(self.n_len // 2), dt(self.n_len), _PAD, self.kind, self.bistatic,
-                        _carrier_constants(dt))
+        # pulses per pass over the image inside a kernel call: their profiles stay in cache
+        self.cache_block = max(4, _CACHE_BYTES // ((self.n_len + 2 * _PAD) * 2 * np.dtype(dt).itemsize))
 
     @staticmethod
     def _check_window(a, b, r0, grid, half_window):
@@ -231,11 +270,10 @@ class _Setup:
                 f"|Δr| < c/(4Δα) = {half_window[worst]:.4g} m (pulse {worst}); backprojection leaves "
                 f"pixels outside it out of those pulses", AliasingWarning, stacklevel=4)
 
-    def geometry_args(self, sl):
-        """Kernel arguments for the pulses in slice ``sl``."""
-        return (self.x, self.xx, self.y, self.two_ax[sl], self.two_ay[sl], self.a2[sl],
-                self.na[sl], self.off[sl], self.inv_bin[sl], self.kc[sl], self.two_bx[sl],
-                self.two_by[sl], self.b2[sl], self.nb[sl]) + self.scalars
+    def kernel_args(self, sl):
+        """Geometry and options of the kernels for the pulses in slice ``sl``."""
+        return (self.x, self.y, np.ascontiguousarray(self.geo[:, sl]), self.n_len, _PAD, self.kind,
+                self.bistatic, self.width)
 
     def blocks(self):
         """Slices of at most ``_BLOCK`` pulses: profiles live one block at a time."""
@@ -243,19 +281,25 @@ class _Setup:
 
 
 class _Threads:
-    """Temporarily set numba's thread count (restored on exit)."""
+    """Temporarily set the kernels' thread count (OpenMP; numba's too while ffbp still uses it)."""
 
     def __init__(self, nthreads):
-        self.n = None if nthreads is None else max(1, min(int(nthreads), numba.config.NUMBA_NUM_THREADS))
+        self.n = None if nthreads is None else max(1, int(nthreads))
 
     def __enter__(self):
-        self.old = numba.get_num_threads()
+        self.old = threads()
+        nb = sys.modules.get("numba")
+        self.old_numba = nb.get_num_threads() if nb is not None else None
         if self.n is not None:
-            numba.set_num_threads(self.n)
-        return numba.get_num_threads()
+            threads(self.n)
+            if nb is not None:
+                nb.set_num_threads(min(self.n, nb.config.NUMBA_NUM_THREADS))
+        return threads()
 
     def __exit__(self, *exc):
-        numba.set_num_threads(self.old)
+        threads(self.old)
+        if self.old_numba is not None:
+            sys.modules["numba"].set_num_threads(self.old_numba)
 
 
 def _check_data(data):
@@ -288,14 +332,15 @@ def backproject(data, freq_hz, antenna_position_m, range_to_center_m, grid, weig
         Image grid in the plane z = 0.
     weights : array_like, shape (M,) or (P, M), optional
         Window weights ``w_pj`` (default 1).
-    upsample : float, default 8
+    upsample : float, default 16
         Profile oversampling: the IFFT length is ``upsample·M`` rounded up to a fast size.
     interp : {'linear', 'cubic', 'lanczos'}, default 'cubic'
         Range-profile interpolation: linear, Keys cubic (a = -1/2) or normalised Lanczos-3.
     precision : {'float64', 'float32'}
-        Working precision of profiles, pixel geometry, carrier and accumulation.
+        Precision of the range profiles and the accumulation (geometry is float64 per tile,
+        interpolation weights and carrier float32 in both; module docstring).
     nthreads : int, optional
-        Threads for the kernel and the FFT (default: numba's current setting).
+        Threads of the kernel (default: ``sarcli._native.threads()``).
     receive_position_m : array_like, shape (P, 3), optional
         Separate receive positions q_p; then ``antenna_position_m`` holds the transmit positions
         t_p and ``Δr = (|t_p - x| + |q_p - x|)/2 - r0_p`` (moving platform or bistatic).
@@ -335,21 +380,19 @@ def backproject(data, freq_hz, antenna_position_m, range_to_center_m, grid, weig
     st = _Setup(d.shape, freq_hz, antenna_position_m, range_to_center_m, grid, weights,
                 upsample, interp, precision, receive_position_m)
     cdt = np.complex64 if st.dtype == np.float32 else np.complex128
-    out_re = np.zeros(st.shape, dtype=st.dtype)
-    out_im = np.zeros(st.shape, dtype=st.dtype)
-    with _Threads(nthreads) as nthr:
+    out_re = np.zeros(st.shape)
+    out_im = np.zeros(st.shape)
+    kern = kernels()
+    with _Threads(nthreads):
         blocks = st.blocks()
         for sl in progress(blocks, total=len(blocks), desc="backprojection", unit="pulse block"):
             # w d / W on FFT slots (j - j_c) mod L, unnormalised IFFT, fftshift: profile index
             # q holds Δr = (q - L/2) c / (2 Δα L); periodic copies pad both ends
-            pre, pim = range_profiles(d[sl], None if st.weights is None else st.weights[sl], st.total_weight,
-                                      st.n_len, nthr, cdt)
-            x, xx, y, *rest = st.geometry_args(sl)
-            # rows per compiled call: numba holds the interpreter, signals are seen between calls
-            step = max(1, _WORK // (st.shape[1] * (sl.stop - sl.start)))
-            for r in range(0, st.shape[0], step):
-                rs = slice(r, r + step)
-                _bp_rows(pre, pim, x, xx, y[rs], *rest, out_re[rs], out_im[rs])
+            prof = _profiles(d[sl], None if st.weights is None else st.weights[sl], st.total_weight,
+                             st.n_len, cdt)
+            # real and imaginary parts interleaved: [B, n_len + 2 pad, 2]
+            kern.bp_tiles(prof.view(st.dtype).reshape(prof.shape + (2,)), *st.kernel_args(sl),
+                          st.cache_block, out_re, out_im)
     img = np.empty(st.shape, dtype=np.complex128)
     img.real = out_re
     img.imag = out_im
@@ -393,20 +436,19 @@ def reproject(image, freq_hz, antenna_position_m, range_to_center_m, grid, weigh
     fim = np.ascontiguousarray(f.imag, dtype=st.dtype) if np.iscomplexobj(f) else np.zeros_like(fre)
     n_padded = st.n_len + 2 * _PAD
     out = np.empty((st.n_pulses, st.m), dtype=np.complex128)
-    with _Threads(nthreads) as nthr:
+    kern = kernels()
+    with _Threads(nthreads):
         for sl in st.blocks():
             nb = sl.stop - sl.start
-            h_re = np.zeros((nb, n_padded), dtype=st.dtype)
-            h_im = np.zeros((nb, n_padded), dtype=st.dtype)
-            _rp_pulses(fre, fim, *st.geometry_args(sl), h_re, h_im)
-            h = h_re.astype(np.complex128)
-            h.imag = h_im
+            hri = np.zeros((nb, n_padded, 2), dtype=st.dtype)
+            kern.rp_tiles(fre, fim, *st.kernel_args(sl), hri)
+            h = hri.astype(np.float64).view(np.complex128)[..., 0]
             # transpose of the periodic padding: fold the copies back onto their sources
             g = h[:, _PAD:_PAD + st.n_len].copy()
             g[:, st.n_len - _PAD:] += h[:, :_PAD]
             g[:, :_PAD] += h[:, _PAD + st.n_len:]
             # transpose of fftshift and of the unnormalised inverse FFT (= unnormalised forward FFT)
-            g = scipy.fft.fft(scipy.fft.ifftshift(g, axes=1), axis=1, norm="backward", workers=nthr)
+            g = np.fft.fft(np.fft.ifftshift(g, axes=1), axis=1, norm="backward")
             out[sl] = g[:, st.slots] / st.total_weight
     if st.weights is not None:
         out *= st.weights

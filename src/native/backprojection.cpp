@@ -1,0 +1,722 @@
+// Backprojection (sarcli.formers.backprojection) and its exact adjoint, reprojection.
+//
+// The image is cut into tiles of up to 64 pixels along a row. Per tile and pulse the differential
+// range at the tile's anchor (its centre) and its first two derivatives along the row come from
+// float64 geometry; inside the tile each pixel's range offset u from the anchor enters through
+//     Δr(u) = Δr_c + d1 u + d2 u²,
+// d2 = (1 - c²) / (2R) and d1 = c + (3/4) h² d3 (c the direction cosine along the row, d3 the
+// cubic Taylor coefficient -c (1 - c²) / (2R²), h the tile's half width: the Chebyshev
+// economisation of the cubic term, which leaves at most |d3| h³ / 4 of model error; Python picks
+// the tile width that keeps it far below the interpolation error). A tile's pixels run as groups
+// of 16 SIMD lanes, its accumulators stay in registers over a block of pulses whose profiles stay
+// in cache, and each lane reads its stencil as one contiguous vector (profiles interleave real
+// and imaginary parts) that is transposed in registers. The profile position is kept
+// relative to an integer bin of the anchor and evaluated in float32; the carrier phase
+// kc Δr(u) in float64, reduced to [-π, π] and evaluated by a float32 polynomial. The interpolation
+// weights and the carrier are therefore float32 in every precision; the profiles and the
+// accumulation are float32 or float64 (the template's PT). The forward and adjoint kernels share
+// one inline evaluation of these weights, so reprojection is the transpose of the same matrix.
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <cstdlib>
+#include <vector>
+
+#if defined(__x86_64__)
+#include <immintrin.h>
+#endif
+
+#include "sarcli_simd.hpp"
+
+namespace sarcli {
+namespace {
+
+constexpr int kLanes = 16;
+constexpr int kGroups = 4;  // lane groups a tile may hold (tiles of up to 64 pixels)
+constexpr double kTwoPi = 6.283185307179586;
+constexpr double kInvTwoPi = 0.15915494309189535;
+constexpr double kTwoPiLo = 2.4492935982947064e-16;  // 2π - kTwoPi
+// Minimax coefficients of sin h = h (1 + u S(u)), cos h = 1 + u C(u), u = h², |h| <= π/2
+// (sarcli.formers._bp_kernels._SIN32 / _COS32).
+constexpr float kS0 = -0.16666661057244608f, kS1 = 0.008333083661225673f,
+                kS2 = -0.00019809918539322803f, kS3 = 2.6050985599817745e-06f;
+constexpr float kC0 = -0.4999993229304565f, kC1 = 0.041663989454597754f,
+                kC2 = -0.001385592718265202f, kC3 = 2.3194386451824987e-05f;
+
+// Per-pulse geometry rows of the `geo` array [kGeoRows, B].
+enum Geo { G2AX, G2AY, GA2, GNA, G2BX, G2BY, GB2, GNB, GOFF, GIB, GKC, kGeoRows };
+
+// (cos, sin) of phase φ (float64, any size): reduction to r = φ - 2πk in float64, then the
+// half-angle polynomials in float32 and the double-angle formulas.
+SARCLI_INLINE void carrier(double ph, float& c, float& s) {
+  const double k = std::rint(ph * kInvTwoPi);
+  const float h = static_cast<float>(0.5 * ((ph - k * kTwoPi) - k * kTwoPiLo));
+  const float h2 = h * h;
+  const float ps = kS0 + h2 * (kS1 + h2 * (kS2 + h2 * kS3));
+  const float pc = kC0 + h2 * (kC1 + h2 * (kC2 + h2 * kC3));
+  const float sh = h * (1.0f + h2 * ps);
+  const float ch = 1.0f + h2 * pc;
+  c = ch * ch - sh * sh;
+  s = 2.0f * sh * ch;
+}
+
+// sin(π d / 3) for |d| <= 3 by the carrier polynomial (its argument stays within [-π, π]).
+SARCLI_INLINE float sin_third(float d) {
+  float c, s;
+  carrier(static_cast<double>(d) * (kTwoPi / 6.0), c, s);
+  return s;
+}
+
+// Normalised Lanczos-3 weights sinc(d) sinc(d/3) for offsets -2..3 at fraction t (d = t - k).
+SARCLI_INLINE void lanczos(float t, float* w) {
+  float c, s;
+  carrier(static_cast<double>(t) * (kTwoPi / 2.0), c, s);  // sin(π t)
+  const float spt = s;
+  float tot = 0.0f;
+  for (int k = 0; k < 6; ++k) {
+    const float d = t + static_cast<float>(2 - k);
+    const float sgn = (k & 1) ? -1.0f : 1.0f;  // sin(π (t + 2 - k)) = ±sin(π t)
+    const float num = 3.0f * sgn * spt * sin_third(d);
+    const float den = 9.869604401089358f * d * d;
+    const float v = std::fabs(d) < 1e-6f ? 1.0f : (std::fabs(d) >= 3.0f ? 0.0f : num / den);
+    w[k] = v;
+    tot += v;
+  }
+  const float inv = 1.0f / tot;
+  for (int k = 0; k < 6; ++k) w[k] *= inv;
+}
+
+template <int K>
+struct Kernel;
+template <>
+struct Kernel<0> {  // linear
+  static constexpr int taps = 2, first = 0;
+  static SARCLI_INLINE void weights(const float* t, float (*w)[kLanes]) {
+#pragma omp simd
+    for (int i = 0; i < kLanes; ++i) {
+      w[0][i] = 1.0f - t[i];
+      w[1][i] = t[i];
+    }
+  }
+};
+template <>
+struct Kernel<1> {  // Keys cubic
+  static constexpr int taps = 4, first = 1;
+  static SARCLI_INLINE void weights(const float* t, float (*w)[kLanes]) {
+#pragma omp simd
+    for (int i = 0; i < kLanes; ++i) {
+      const float ti = t[i], d0 = ti + 1.0f, d2 = 1.0f - ti, d3 = 2.0f - ti;
+      w[0][i] = ((2.5f - 0.5f * d0) * d0 - 4.0f) * d0 + 2.0f;
+      w[1][i] = (1.5f * ti - 2.5f) * ti * ti + 1.0f;
+      w[2][i] = (1.5f * d2 - 2.5f) * d2 * d2 + 1.0f;
+      w[3][i] = ((2.5f - 0.5f * d3) * d3 - 4.0f) * d3 + 2.0f;
+    }
+  }
+};
+template <>
+struct Kernel<2> {  // Lanczos-3
+  static constexpr int taps = 6, first = 2;
+  static SARCLI_INLINE void weights(const float* t, float (*w)[kLanes]) {
+    for (int i = 0; i < kLanes; ++i) {
+      float v[6];
+      lanczos(t[i], v);
+      for (int k = 0; k < 6; ++k) w[k][i] = v[k];
+    }
+  }
+};
+
+// Everything a kernel call shares.
+struct Args {
+  const double* x;  // [nx] pixel x
+  const double* y;  // [ny] pixel y
+  const double* geo;  // [kGeoRows, B]
+  long nx, ny, B, lp;  // lp: padded profile length n_len + 2 pad
+  long n_len, pad, width;  // width: tile width <= 16
+  double half_len;
+  bool bist;
+};
+
+// Tile anchor terms for one pulse (float64 geometry; see the file comment).
+struct Anchor {
+  int j0;
+  float f0, s1, s2, lo, hi, top;
+  double ph0, ph1, ph2;
+};
+
+// The same terms for a block of pulses, one array each (the pulse loop vectorises).
+struct Anchors {
+  std::vector<double> store;
+  int* j0;
+  float *f0, *s1, *s2, *lo, *hi, *top;
+  double *ph0, *ph1, *ph2;
+  explicit Anchors(size_t n) : store(10 * n) {
+    double* d = store.data();
+    ph0 = d; ph1 = d + n; ph2 = d + 2 * n;
+    j0 = reinterpret_cast<int*>(d + 3 * n);
+    float* f = reinterpret_cast<float*>(d + 4 * n);
+    f0 = f; s1 = f + n; s2 = f + 2 * n; lo = f + 3 * n; hi = f + 4 * n; top = f + 5 * n;
+  }
+  SARCLI_INLINE Anchor get(long i) const {
+    return Anchor{j0[i], f0[i], s1[i], s2[i], lo[i], hi[i], top[i], ph0[i], ph1[i], ph2[i]};
+  }
+};
+
+// One-way range terms at the anchor: Δr part, d1, d2 (3/4 h² d3 folded into d1).
+SARCLI_INLINE void one_way(double xc, double y, double two_ax, double two_ay, double a2, double na,
+                           double he, double& dr, double& d1, double& d2) {
+  const double num = xc * xc + y * y - two_ax * xc - two_ay * y;  // |x|² - 2 a·x
+  const double r = std::sqrt(a2 + num);
+  dr = num / (r + na);  // |a - x| - |a| without cancellation
+  const double c = (xc - 0.5 * two_ax) / r;
+  const double s2 = 1.0 - c * c;
+  d2 = s2 / (2.0 * r);
+  d1 = c - he * c * s2 / (2.0 * r * r);
+}
+
+template <bool BIST>
+SARCLI_INLINE Anchor anchor(const Args& A, long p, double xc, double y, double he) {
+  const double* g = A.geo;
+  const long B = A.B;
+  double dr, d1, d2;
+  one_way(xc, y, g[G2AX * B + p], g[G2AY * B + p], g[GA2 * B + p], g[GNA * B + p], he, dr, d1, d2);
+  if (BIST) {
+    double drb, d1b, d2b;
+    one_way(xc, y, g[G2BX * B + p], g[G2BY * B + p], g[GB2 * B + p], g[GNB * B + p], he, drb, d1b, d2b);
+    dr = 0.5 * (dr + drb);
+    d1 = 0.5 * (d1 + d1b);
+    d2 = 0.5 * (d2 + d2b);
+  }
+  dr += g[GOFF * B + p];
+  const double ib = g[GIB * B + p], kc = g[GKC * B + p];
+  const double n_len = static_cast<double>(A.n_len);
+  double sc = dr * ib + A.half_len;
+  sc = std::min(std::max(sc, -4.0e6), 4.0e6);  // anchors far outside the window stay exact in float
+  const double fj = std::floor(sc);
+  Anchor an;
+  an.j0 = static_cast<int>(fj);
+  an.f0 = static_cast<float>(sc - fj);
+  an.s1 = static_cast<float>(d1 * ib);
+  an.s2 = static_cast<float>(d2 * ib);
+  an.lo = static_cast<float>(-fj);
+  an.hi = static_cast<float>(n_len - fj);
+  an.top = static_cast<float>(n_len - 1.0 - fj);
+  const double ph = kc * dr;
+  const double k = std::rint(ph * kInvTwoPi);
+  an.ph0 = (ph - k * kTwoPi) - k * kTwoPiLo;
+  an.ph1 = kc * d1;
+  an.ph2 = kc * d2;
+  return an;
+}
+
+// anchor() for pulses [p0, p1) into `an` (a loop the compiler vectorises over pulses).
+SARCLI_INLINE void anchors(const Args& A, long p0, long p1, double xc, double y, double he,
+                           Anchors& an) {
+  int* __restrict j0 = an.j0;
+  float *__restrict f0 = an.f0, *__restrict s1 = an.s1, *__restrict s2 = an.s2;
+  float *__restrict lo = an.lo, *__restrict hi = an.hi, *__restrict top = an.top;
+  double *__restrict ph0 = an.ph0, *__restrict ph1 = an.ph1, *__restrict ph2 = an.ph2;
+#define SARCLI_ANCHOR_LOOP(BIST)                                                              \
+  for (long p = p0; p < p1; ++p) {                                                              \
+    const Anchor a = anchor<BIST>(A, p, xc, y, he);                                             \
+    const long i = p - p0;                                                                      \
+    j0[i] = a.j0; f0[i] = a.f0; s1[i] = a.s1; s2[i] = a.s2; lo[i] = a.lo; hi[i] = a.hi;         \
+    top[i] = a.top; ph0[i] = a.ph0; ph1[i] = a.ph1; ph2[i] = a.ph2;                             \
+  }
+  if (A.bist) {
+    SARCLI_ANCHOR_LOOP(true)
+  } else {
+    SARCLI_ANCHOR_LOOP(false)
+  }
+#undef SARCLI_ANCHOR_LOOP
+}
+
+// Per lane: first tap index (into the padded profile), interpolation weights, masked carrier.
+template <int K>
+struct Lanes {
+  int idx[kLanes];
+  float w[Kernel<K>::taps][kLanes];
+  float c[kLanes], s[kLanes];
+};
+
+template <int K>
+SARCLI_INLINE void eval_lanes(const Anchor& an, const float* uf, const double* ud, long pad,
+                              Lanes<K>& L) {
+  const int base = an.j0 + static_cast<int>(pad) - Kernel<K>::first;
+  float t[kLanes], m[kLanes];
+#pragma omp simd
+  for (int i = 0; i < kLanes; ++i) {
+    const float u = uf[i];
+    float sp = an.f0 + u * (an.s1 + u * an.s2);
+    m[i] = (sp >= an.lo && sp < an.hi) ? 1.0f : 0.0f;
+    sp = std::min(std::max(sp, an.lo), an.top);
+    const float fl = std::floor(sp);
+    t[i] = sp - fl;
+    L.idx[i] = base + static_cast<int>(fl);
+  }
+#pragma omp simd
+  for (int i = 0; i < kLanes; ++i) {
+    const double v = ud[i];
+    float c, s;
+    carrier(an.ph0 + v * (an.ph1 + v * an.ph2), c, s);
+    L.c[i] = m[i] * c;
+    L.s[i] = m[i] * s;
+  }
+  Kernel<K>::weights(t, L.w);
+}
+
+// The tile starting at column c0: its width, lane offsets from the anchor, and 3/4 h².
+// A tile holds up to kGroups groups of kLanes pixels that share one anchor.
+SARCLI_INLINE long tile_lanes(const Args& A, long c0, float (*uf)[kLanes], double (*ud)[kLanes],
+                              double& xc, double& he) {
+  const long wv = std::min<long>(A.width, A.nx - c0);
+  const double xa = A.x[c0], xb = A.x[c0 + wv - 1];
+  xc = 0.5 * (xa + xb);
+  const double h = 0.5 * std::fabs(xb - xa);
+  he = 0.75 * h * h;
+  for (long g = 0; g * kLanes < wv; ++g)
+    for (int i = 0; i < kLanes; ++i) {
+      const long c = g * kLanes + i;
+      ud[g][i] = c < wv ? A.x[c0 + c] - xc : 0.0;
+      uf[g][i] = static_cast<float>(ud[g][i]);
+    }
+  return wv;
+}
+
+#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__)) && !defined(SARCLI_NO_CLONES)
+#define SARCLI_BP_V4 __attribute__((target("arch=x86-64-v4")))
+#define SARCLI_BP_V3 __attribute__((target("arch=x86-64-v3")))
+#define SARCLI_BP_DISPATCH 1
+#else
+#define SARCLI_BP_V4
+#define SARCLI_BP_V3
+#define SARCLI_BP_DISPATCH 0
+#endif
+
+// The profile samples of every lane's stencil, transposed: t[2k][i] and t[2k + 1][i] are the real
+// and imaginary parts of tap k of lane i (profiles interleave real and imaginary parts). The
+// generic version reads them one by one; the AVX-512 and AVX2 versions below load each lane's
+// stencil as one contiguous vector and transpose in registers.
+template <typename PT, int K, int ISA>
+struct Taps {
+  static SARCLI_INLINE void load(const PT* pp, const int* idx, PT (*t)[kLanes]) {
+    for (int i = 0; i < kLanes; ++i) {
+      const PT* q = pp + 2 * idx[i];
+      for (int k = 0; k < 2 * Kernel<K>::taps; ++k) t[k][i] = q[k];
+    }
+  }
+};
+
+#if SARCLI_BP_DISPATCH
+#define SARCLI_V4_INLINE __attribute__((target("arch=x86-64-v4"), always_inline)) inline
+#define SARCLI_V3_INLINE __attribute__((target("arch=x86-64-v3"), always_inline)) inline
+// the loaders: inlined once bp_row is inlined into a worker of the same target
+#define SARCLI_V4_LOAD __attribute__((target("arch=x86-64-v4"))) inline
+#define SARCLI_V3_LOAD __attribute__((target("arch=x86-64-v3"))) inline
+
+// 8 x 8 transpose of floats within each 256-bit half of eight AVX-512 registers.
+SARCLI_V4_INLINE void transpose8_v4(__m512* r) {
+  __m512 t[8], u[8];
+  for (int i = 0; i < 4; ++i) {
+    t[2 * i] = _mm512_unpacklo_ps(r[2 * i], r[2 * i + 1]);
+    t[2 * i + 1] = _mm512_unpackhi_ps(r[2 * i], r[2 * i + 1]);
+  }
+  for (int h = 0; h < 2; ++h) {
+    u[4 * h + 0] = _mm512_shuffle_ps(t[4 * h + 0], t[4 * h + 2], 0x44);
+    u[4 * h + 1] = _mm512_shuffle_ps(t[4 * h + 0], t[4 * h + 2], 0xEE);
+    u[4 * h + 2] = _mm512_shuffle_ps(t[4 * h + 1], t[4 * h + 3], 0x44);
+    u[4 * h + 3] = _mm512_shuffle_ps(t[4 * h + 1], t[4 * h + 3], 0xEE);
+  }
+  // 128-bit blocks: u[k] = [A0 A1 | B0 B1], u[k + 4] = [C0 C1 | D0 D1] -> [A0 C0 | B0 D0], [A1 C1 | B1 D1]
+  const __m512i lo = _mm512_setr_epi32(0, 1, 2, 3, 16, 17, 18, 19, 8, 9, 10, 11, 24, 25, 26, 27);
+  const __m512i hi = _mm512_setr_epi32(4, 5, 6, 7, 20, 21, 22, 23, 12, 13, 14, 15, 28, 29, 30, 31);
+  for (int k = 0; k < 4; ++k) {
+    r[k] = _mm512_permutex2var_ps(u[k], lo, u[k + 4]);
+    r[k + 4] = _mm512_permutex2var_ps(u[k], hi, u[k + 4]);
+  }
+}
+
+// 8 x 8 transpose of floats in eight AVX2 registers.
+SARCLI_V3_INLINE void transpose8_v3(__m256* r) {
+  __m256 t[8], u[8];
+  for (int i = 0; i < 4; ++i) {
+    t[2 * i] = _mm256_unpacklo_ps(r[2 * i], r[2 * i + 1]);
+    t[2 * i + 1] = _mm256_unpackhi_ps(r[2 * i], r[2 * i + 1]);
+  }
+  for (int h = 0; h < 2; ++h) {
+    u[4 * h + 0] = _mm256_shuffle_ps(t[4 * h + 0], t[4 * h + 2], 0x44);
+    u[4 * h + 1] = _mm256_shuffle_ps(t[4 * h + 0], t[4 * h + 2], 0xEE);
+    u[4 * h + 2] = _mm256_shuffle_ps(t[4 * h + 1], t[4 * h + 3], 0x44);
+    u[4 * h + 3] = _mm256_shuffle_ps(t[4 * h + 1], t[4 * h + 3], 0xEE);
+  }
+  for (int k = 0; k < 4; ++k) {
+    r[k] = _mm256_permute2f128_ps(u[k], u[k + 4], 0x20);
+    r[k + 4] = _mm256_permute2f128_ps(u[k], u[k + 4], 0x31);
+  }
+}
+
+// float, 4 taps (8 floats a lane), AVX-512: lanes i and i + 8 share a register.
+template <>
+struct Taps<float, 1, 2> {
+  static SARCLI_V4_LOAD void load(const float* pp, const int* idx, float (*t)[kLanes]) {
+    __m512 r[8];
+    for (int i = 0; i < 8; ++i)
+      r[i] = _mm512_insertf32x8(_mm512_castps256_ps512(_mm256_loadu_ps(pp + 2 * idx[i])),
+                                _mm256_loadu_ps(pp + 2 * idx[i + 8]), 1);
+    transpose8_v4(r);
+    for (int k = 0; k < 8; ++k) _mm512_storeu_ps(t[k], r[k]);
+  }
+};
+
+// float, 2 taps (4 floats a lane), AVX-512: lanes i, i + 4, i + 8, i + 12 share a register.
+template <>
+struct Taps<float, 0, 2> {
+  static SARCLI_V4_LOAD void load(const float* pp, const int* idx, float (*t)[kLanes]) {
+    __m512 r[4];
+    for (int i = 0; i < 4; ++i) {
+      __m512 v = _mm512_castps128_ps512(_mm_loadu_ps(pp + 2 * idx[i]));
+      v = _mm512_insertf32x4(v, _mm_loadu_ps(pp + 2 * idx[i + 4]), 1);
+      v = _mm512_insertf32x4(v, _mm_loadu_ps(pp + 2 * idx[i + 8]), 2);
+      r[i] = _mm512_insertf32x4(v, _mm_loadu_ps(pp + 2 * idx[i + 12]), 3);
+    }
+    const __m512 t0 = _mm512_unpacklo_ps(r[0], r[1]), t1 = _mm512_unpackhi_ps(r[0], r[1]);
+    const __m512 t2 = _mm512_unpacklo_ps(r[2], r[3]), t3 = _mm512_unpackhi_ps(r[2], r[3]);
+    _mm512_storeu_ps(t[0], _mm512_shuffle_ps(t0, t2, 0x44));
+    _mm512_storeu_ps(t[1], _mm512_shuffle_ps(t0, t2, 0xEE));
+    _mm512_storeu_ps(t[2], _mm512_shuffle_ps(t1, t3, 0x44));
+    _mm512_storeu_ps(t[3], _mm512_shuffle_ps(t1, t3, 0xEE));
+  }
+};
+
+// double, 4 taps (8 doubles a lane), AVX-512: one register a lane, two 8 x 8 transposes.
+template <>
+struct Taps<double, 1, 2> {
+  static SARCLI_V4_LOAD void load(const double* pp, const int* idx, double (*t)[kLanes]) {
+    const __m512i lo = _mm512_setr_epi64(0, 1, 8, 9, 4, 5, 12, 13);
+    const __m512i hi = _mm512_setr_epi64(2, 3, 10, 11, 6, 7, 14, 15);
+    for (int g = 0; g < 2; ++g) {
+      __m512d r[8], a[8], b[8];
+      for (int i = 0; i < 8; ++i) r[i] = _mm512_loadu_pd(pp + 2 * idx[8 * g + i]);
+      for (int i = 0; i < 4; ++i) {
+        a[2 * i] = _mm512_unpacklo_pd(r[2 * i], r[2 * i + 1]);
+        a[2 * i + 1] = _mm512_unpackhi_pd(r[2 * i], r[2 * i + 1]);
+      }
+      for (int h = 0; h < 2; ++h)
+        for (int j = 0; j < 2; ++j) {
+          b[4 * h + j] = _mm512_permutex2var_pd(a[4 * h + j], lo, a[4 * h + j + 2]);
+          b[4 * h + j + 2] = _mm512_permutex2var_pd(a[4 * h + j], hi, a[4 * h + j + 2]);
+        }
+      for (int k = 0; k < 4; ++k) {
+        _mm512_storeu_pd(t[k] + 8 * g, _mm512_shuffle_f64x2(b[k], b[k + 4], 0x44));
+        _mm512_storeu_pd(t[k + 4] + 8 * g, _mm512_shuffle_f64x2(b[k], b[k + 4], 0xEE));
+      }
+    }
+  }
+};
+
+// double, 4 taps, AVX2: two registers a lane, 4 x 4 transposes of four lanes at a time.
+template <>
+struct Taps<double, 1, 1> {
+  static SARCLI_V3_LOAD void load(const double* pp, const int* idx, double (*t)[kLanes]) {
+    for (int g = 0; g < 4; ++g)
+      for (int h = 0; h < 2; ++h) {  // taps 0, 1 then 2, 3
+        __m256d r[4];
+        for (int i = 0; i < 4; ++i) r[i] = _mm256_loadu_pd(pp + 2 * idx[4 * g + i] + 4 * h);
+        const __m256d t0 = _mm256_unpacklo_pd(r[0], r[1]), t1 = _mm256_unpackhi_pd(r[0], r[1]);
+        const __m256d t2 = _mm256_unpacklo_pd(r[2], r[3]), t3 = _mm256_unpackhi_pd(r[2], r[3]);
+        _mm256_storeu_pd(t[4 * h + 0] + 4 * g, _mm256_permute2f128_pd(t0, t2, 0x20));
+        _mm256_storeu_pd(t[4 * h + 1] + 4 * g, _mm256_permute2f128_pd(t1, t3, 0x20));
+        _mm256_storeu_pd(t[4 * h + 2] + 4 * g, _mm256_permute2f128_pd(t0, t2, 0x31));
+        _mm256_storeu_pd(t[4 * h + 3] + 4 * g, _mm256_permute2f128_pd(t1, t3, 0x31));
+      }
+  }
+};
+
+// float, 4 taps, AVX2: two groups of eight lanes.
+template <>
+struct Taps<float, 1, 1> {
+  static SARCLI_V3_LOAD void load(const float* pp, const int* idx, float (*t)[kLanes]) {
+    for (int g = 0; g < 2; ++g) {
+      __m256 r[8];
+      for (int i = 0; i < 8; ++i) r[i] = _mm256_loadu_ps(pp + 2 * idx[8 * g + i]);
+      transpose8_v3(r);
+      for (int k = 0; k < 8; ++k) _mm256_storeu_ps(t[k] + 8 * g, r[k]);
+    }
+  }
+};
+
+// float, 2 taps, AVX2: lanes i and i + 4 of each group of eight share a register.
+template <>
+struct Taps<float, 0, 1> {
+  static SARCLI_V3_LOAD void load(const float* pp, const int* idx, float (*t)[kLanes]) {
+    for (int g = 0; g < 2; ++g) {
+      __m256 r[4];
+      for (int i = 0; i < 4; ++i)
+        r[i] = _mm256_insertf128_ps(_mm256_castps128_ps256(_mm_loadu_ps(pp + 2 * idx[8 * g + i])),
+                                    _mm_loadu_ps(pp + 2 * idx[8 * g + i + 4]), 1);
+      const __m256 t0 = _mm256_unpacklo_ps(r[0], r[1]), t1 = _mm256_unpackhi_ps(r[0], r[1]);
+      const __m256 t2 = _mm256_unpacklo_ps(r[2], r[3]), t3 = _mm256_unpackhi_ps(r[2], r[3]);
+      _mm256_storeu_ps(t[0] + 8 * g, _mm256_shuffle_ps(t0, t2, 0x44));
+      _mm256_storeu_ps(t[1] + 8 * g, _mm256_shuffle_ps(t0, t2, 0xEE));
+      _mm256_storeu_ps(t[2] + 8 * g, _mm256_shuffle_ps(t1, t3, 0x44));
+      _mm256_storeu_ps(t[3] + 8 * g, _mm256_shuffle_ps(t1, t3, 0xEE));
+    }
+  }
+};
+#endif
+
+// Forward: pulses [p0, p1) into image row `row` (accumulators in registers per tile).
+template <typename PT, int K, int ISA>
+SARCLI_INLINE void bp_row(const Args& A, const PT* prof, long row, long p0, long p1,
+                          Anchors& an, double* ore, double* oim) {
+  const double y = A.y[row];
+  float uf[kGroups][kLanes];
+  double ud[kGroups][kLanes];
+  Lanes<K> L;
+  for (long c0 = 0; c0 < A.nx; c0 += A.width) {
+    double xc, he;
+    const long wv = tile_lanes(A, c0, uf, ud, xc, he);
+    const long ng = (wv + kLanes - 1) / kLanes;
+    anchors(A, p0, p1, xc, y, he, an);
+    PT ar[kGroups][kLanes] = {}, ai[kGroups][kLanes] = {};
+    for (long p = p0; p < p1; ++p) {
+      const Anchor a = an.get(p - p0);
+      const PT* pp = prof + 2 * p * A.lp;
+      for (long g = 0; g < ng; ++g) {
+        eval_lanes<K>(a, uf[g], ud[g], A.pad, L);
+        PT tp[2 * Kernel<K>::taps][kLanes];
+        Taps<PT, K, ISA>::load(pp, L.idx, tp);
+        PT* __restrict gr = ar[g];
+        PT* __restrict gi = ai[g];
+#pragma omp simd
+        for (int i = 0; i < kLanes; ++i) {
+          PT vr = 0, vi = 0;
+          for (int k = 0; k < Kernel<K>::taps; ++k) {
+            vr += static_cast<PT>(L.w[k][i]) * tp[2 * k][i];
+            vi += static_cast<PT>(L.w[k][i]) * tp[2 * k + 1][i];
+          }
+          const PT c = L.c[i], s = L.s[i];
+          gr[i] += vr * c - vi * s;
+          gi[i] += vr * s + vi * c;
+        }
+      }
+    }
+    double* r = ore + row * A.nx + c0;
+    double* m = oim + row * A.nx + c0;
+    for (long i = 0; i < wv; ++i) {
+      r[i] += static_cast<double>(ar[i / kLanes][i % kLanes]);
+      m[i] += static_cast<double>(ai[i / kLanes][i % kLanes]);
+    }
+  }
+}
+
+// Adjoint: every pixel of the image scattered onto pulse p's profile.
+template <typename PT, int K>
+SARCLI_INLINE void rp_pulse(const Args& A, const PT* fre, const PT* fim, long p, PT* h) {
+  float uf[kGroups][kLanes];
+  double ud[kGroups][kLanes];
+  Lanes<K> L;
+  PT ur[kLanes], ui[kLanes];
+  for (long row = 0; row < A.ny; ++row) {
+    const double y = A.y[row];
+    for (long c0 = 0; c0 < A.nx; c0 += A.width) {
+      double xc, he;
+      const long wt = tile_lanes(A, c0, uf, ud, xc, he);
+      const Anchor an = A.bist ? anchor<true>(A, p, xc, y, he) : anchor<false>(A, p, xc, y, he);
+      for (long g = 0; g * kLanes < wt; ++g) {
+        const long wv = std::min<long>(kLanes, wt - g * kLanes);
+        eval_lanes<K>(an, uf[g], ud[g], A.pad, L);
+        const PT* fr = fre + row * A.nx + c0 + g * kLanes;
+        const PT* fi = fim + row * A.nx + c0 + g * kLanes;
+        for (long i = 0; i < wv; ++i) {  // f · exp(-i kc Δr) (masked)
+          const PT c = L.c[i], s = L.s[i];
+          ur[i] = fr[i] * c + fi[i] * s;
+          ui[i] = fi[i] * c - fr[i] * s;
+        }
+        for (long i = 0; i < wv; ++i) {
+          const int j = L.idx[i];
+          for (int k = 0; k < Kernel<K>::taps; ++k) {
+            const PT w = static_cast<PT>(L.w[k][i]);
+            h[2 * (j + k)] += w * ur[i];
+            h[2 * (j + k) + 1] += w * ui[i];
+          }
+        }
+      }
+    }
+  }
+}
+
+// The SIMD-dispatched workers, one per instance and instruction set, picked per call. Explicit
+// targets rather than SARCLI_CLONES: each copy uses the stencil loads of its own instruction set
+// (Taps<..., ISA>), and $SARCLI_BP_ISA can cap the level so that tests and benchmarks run the
+// AVX2 and baseline copies on an AVX-512 machine. (Hardware gathers, which the compiler emits
+// under Intel tuning, measured 2 to 3 times slower than these loads on AMD Zen 5.)
+#define SARCLI_BP_WORKER(PT, K, SUF, ATTR, ISA)                                                 \
+  ATTR void bp_row_##SUF(const Args& A, const PT* prof, long row, long p0, long p1, Anchors& an, \
+                         double* ore, double* oim) {                                            \
+    bp_row<PT, K, ISA>(A, prof, row, p0, p1, an, ore, oim);                                     \
+  }                                                                                             \
+  ATTR void rp_pulse_##SUF(const Args& A, const PT* fre, const PT* fim, long p, PT* h) {        \
+    rp_pulse<PT, K>(A, fre, fim, p, h);                                                         \
+  }
+#define SARCLI_BP_ISA(SUF, ATTR, ISA)              \
+  SARCLI_BP_WORKER(float, 0, f0_##SUF, ATTR, ISA)  \
+  SARCLI_BP_WORKER(float, 1, f1_##SUF, ATTR, ISA)  \
+  SARCLI_BP_WORKER(float, 2, f2_##SUF, ATTR, ISA)  \
+  SARCLI_BP_WORKER(double, 0, d0_##SUF, ATTR, ISA) \
+  SARCLI_BP_WORKER(double, 1, d1_##SUF, ATTR, ISA) \
+  SARCLI_BP_WORKER(double, 2, d2_##SUF, ATTR, ISA)
+SARCLI_BP_ISA(v4, SARCLI_BP_V4, 2)
+SARCLI_BP_ISA(v3, SARCLI_BP_V3, 1)
+SARCLI_BP_ISA(v1, , 0)
+#undef SARCLI_BP_ISA
+#undef SARCLI_BP_WORKER
+
+// 2: AVX-512, 1: AVX2 + FMA, 0: baseline x86-64 ($SARCLI_BP_ISA caps it, for tests and timing).
+int isa_level() {
+  int level = 0;
+#if SARCLI_BP_DISPATCH
+  __builtin_cpu_init();
+  if (__builtin_cpu_supports("x86-64-v4")) level = 2;
+  else if (__builtin_cpu_supports("x86-64-v3")) level = 1;
+#endif
+  if (const char* cap = std::getenv("SARCLI_BP_ISA")) level = std::min(level, std::atoi(cap));
+  return level;
+}
+
+template <typename PT>
+using RowFn = void (*)(const Args&, const PT*, long, long, long, Anchors&, double*, double*);
+template <typename PT>
+using PulseFn = void (*)(const Args&, const PT*, const PT*, long, PT*);
+
+#define SARCLI_PICK(NAME, P)                                                               \
+  (level == 2 ? (kind == 0 ? NAME##_##P##0_v4 : kind == 1 ? NAME##_##P##1_v4 : NAME##_##P##2_v4) \
+   : level == 1 ? (kind == 0 ? NAME##_##P##0_v3 : kind == 1 ? NAME##_##P##1_v3 : NAME##_##P##2_v3) \
+                : (kind == 0 ? NAME##_##P##0_v1 : kind == 1 ? NAME##_##P##1_v1 : NAME##_##P##2_v1))
+template <typename PT>
+RowFn<PT> row_fn(int kind);
+template <>
+RowFn<float> row_fn<float>(int kind) { const int level = isa_level(); return SARCLI_PICK(bp_row, f); }
+template <>
+RowFn<double> row_fn<double>(int kind) { const int level = isa_level(); return SARCLI_PICK(bp_row, d); }
+template <typename PT>
+PulseFn<PT> pulse_fn(int kind);
+template <>
+PulseFn<float> pulse_fn<float>(int kind) { const int level = isa_level(); return SARCLI_PICK(rp_pulse, f); }
+template <>
+PulseFn<double> pulse_fn<double>(int kind) { const int level = isa_level(); return SARCLI_PICK(rp_pulse, d); }
+#undef SARCLI_PICK
+
+Args make_args(in<double, 1> x, in<double, 1> y, in<double, 2> geo, long lp, long n_len, long pad,
+               long width, bool bist) {
+  Args A;
+  A.x = x.data();
+  A.y = y.data();
+  A.geo = geo.data();
+  A.nx = static_cast<long>(x.shape(0));
+  A.ny = static_cast<long>(y.shape(0));
+  A.B = static_cast<long>(geo.shape(1));
+  A.lp = lp;
+  A.n_len = n_len;
+  A.pad = pad;
+  A.width = width;
+  A.half_len = static_cast<double>(n_len / 2);
+  A.bist = bist;
+  if (geo.shape(0) != kGeoRows) throw nb::value_error("backprojection: geo must have 11 rows");
+  if (width < 1 || width > kLanes * kGroups)
+    throw nb::value_error("backprojection: tile width must be 1..64");
+  if (lp != n_len + 2 * pad || pad < 3) throw nb::value_error("backprojection: bad profile padding");
+  if (A.nx < 1 || A.ny < 1) throw nb::value_error("backprojection: empty grid");
+  return A;
+}
+
+template <typename PT>
+void bp_tiles(in<PT, 3> prof, in<double, 1> x, in<double, 1> y, in<double, 2> geo, long n_len,
+              long pad, int kind, bool bist, long width, long block, out<double, 2> ore,
+              out<double, 2> oim) {
+  Args A = make_args(x, y, geo, static_cast<long>(prof.shape(1)), n_len, pad, width, bist);
+  if (prof.shape(0) != static_cast<size_t>(A.B) || prof.shape(2) != 2 ||
+      ore.shape(0) != static_cast<size_t>(A.ny) || ore.shape(1) != static_cast<size_t>(A.nx) ||
+      oim.shape(0) != ore.shape(0) || oim.shape(1) != ore.shape(1) || kind < 0 || kind > 2)
+    throw nb::value_error("bp_tiles: inconsistent shapes or options");
+  const long nb_ = std::max<long>(1, block);
+  const PT* pr = prof.data();
+  double *o_r = ore.data(), *o_i = oim.data();
+  const RowFn<PT> fn = row_fn<PT>(kind);
+  nb::gil_scoped_release nogil;
+#pragma omp parallel
+  {
+    Anchors an(static_cast<size_t>(nb_));
+    // pulse blocks whose profiles stay in cache; every block gives each thread the same rows
+    for (long p0 = 0; p0 < A.B; p0 += nb_) {
+      const long p1 = std::min(A.B, p0 + nb_);
+#pragma omp for schedule(static) nowait
+      for (long row = 0; row < A.ny; ++row) fn(A, pr, row, p0, p1, an, o_r, o_i);
+    }
+  }
+}
+
+template <typename PT>
+void rp_tiles(in<PT, 2> fre, in<PT, 2> fim, in<double, 1> x, in<double, 1> y, in<double, 2> geo,
+              long n_len, long pad, int kind, bool bist, long width, out<PT, 3> h) {
+  Args A = make_args(x, y, geo, static_cast<long>(h.shape(1)), n_len, pad, width, bist);
+  if (h.shape(0) != static_cast<size_t>(A.B) || h.shape(2) != 2 ||
+      fre.shape(0) != static_cast<size_t>(A.ny) || fre.shape(1) != static_cast<size_t>(A.nx) ||
+      fim.shape(0) != fre.shape(0) || fim.shape(1) != fre.shape(1) || kind < 0 || kind > 2)
+    throw nb::value_error("rp_tiles: inconsistent shapes or options");
+  const PT *f_r = fre.data(), *f_i = fim.data();
+  PT* hp = h.data();
+  const PulseFn<PT> fn = pulse_fn<PT>(kind);
+  nb::gil_scoped_release nogil;
+#pragma omp parallel for schedule(static)
+  for (long p = 0; p < A.B; ++p) fn(A, f_r, f_i, p, hp + 2 * p * A.lp);
+}
+
+// The carrier and interpolation weights as the kernels evaluate them (for tests).
+void carrier_values(in<double, 1> ph, out<float, 1> c, out<float, 1> s) {
+  const size_t n = ph.shape(0);
+  if (c.shape(0) != n || s.shape(0) != n) throw nb::value_error("carrier_values: shapes");
+  for (size_t i = 0; i < n; ++i) carrier(ph.data()[i], c.data()[i], s.data()[i]);
+}
+
+void weight_values(in<float, 1> t, int kind, out<float, 2> w) {
+  const size_t n = t.shape(0);
+  const size_t taps = kind == 0 ? 2 : kind == 1 ? 4 : 6;
+  if (w.shape(0) != n || w.shape(1) != taps || kind < 0 || kind > 2)
+    throw nb::value_error("weight_values: shapes");
+  for (size_t i = 0; i < n; ++i) {
+    float* o = w.data() + i * taps;
+    float tl[kLanes] = {}, wl[6][kLanes];
+    tl[0] = t.data()[i];
+    if (kind == 0) Kernel<0>::weights(tl, wl);
+    else if (kind == 1) Kernel<1>::weights(tl, wl);
+    else Kernel<2>::weights(tl, wl);
+    for (size_t k = 0; k < taps; ++k) o[k] = wl[k][0];
+  }
+}
+
+}  // namespace
+}  // namespace sarcli
+
+NB_MODULE(_backprojection, m) {
+  using namespace nanobind::literals;
+  using namespace sarcli;
+  m.doc() = "sarcli's backprojection loops: tiled forward kernel and its exact adjoint.";
+  const char* bp_doc =
+      "out[row, col] += sum_p w(Δr) profile_p(Δr) exp(+i kc_p Δr) over pulses (tiles of `width` "
+      "pixels along rows, float64 anchors); geo rows: 2ax, 2ay, |a|², |a|, 2bx, 2by, |b|², |b|, "
+      "offset, 1/bin, kc.";
+  const char* rp_doc = "Adjoint of bp_tiles: h[p, :] += transposed interpolation of f exp(-i kc Δr).";
+  m.def("bp_tiles", &bp_tiles<float>, "profiles"_a, "x"_a, "y"_a, "geo"_a, "n_len"_a, "pad"_a,
+        "kind"_a, "bist"_a, "width"_a, "block"_a, "out_re"_a, "out_im"_a, bp_doc);
+  m.def("bp_tiles", &bp_tiles<double>, "profiles"_a, "x"_a, "y"_a, "geo"_a, "n_len"_a, "pad"_a,
+        "kind"_a, "bist"_a, "width"_a, "block"_a, "out_re"_a, "out_im"_a, bp_doc);
+  m.def("rp_tiles", &rp_tiles<float>, "fre"_a, "fim"_a, "x"_a, "y"_a, "geo"_a, "n_len"_a, "pad"_a,
+        "kind"_a, "bist"_a, "width"_a, "h"_a, rp_doc);
+  m.def("rp_tiles", &rp_tiles<double>, "fre"_a, "fim"_a, "x"_a, "y"_a, "geo"_a, "n_len"_a, "pad"_a,
+        "kind"_a, "bist"_a, "width"_a, "h"_a, rp_doc);
+  m.def("isa_level", &isa_level, "The kernels' instruction set here: 2 AVX-512, 1 AVX2, 0 baseline.");
+  m.def("carrier_values", &carrier_values, "phase"_a, "cos"_a, "sin"_a,
+        "(cos, sin) of float64 phases as the kernels evaluate them (float32).");
+  m.def("weight_values", &weight_values, "t"_a, "kind"_a, "w"_a,
+        "Interpolation weights at fractions t (kind 0 linear, 1 Keys cubic, 2 Lanczos-3).");
+}
