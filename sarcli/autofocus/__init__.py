@@ -81,5 +81,5 @@ def autofocus(ph, method: str = DEFAULT_METHOD, *, grid=None, **options):
     import logging
 
     decision = res.describe()
-    logging.getLogger("sarcli.autofocus").info(decision)
+    logging.getLogger("sarcli.autofocus").debug(decision)
     return apply_phase_correction(ph, res.phase_rad, method, decision), res

@@ -158,7 +158,7 @@ def split_grid(grid: Grid, axis: int = 1, gap: float = 0.0) -> tuple[Grid, ...]:
 
 
 class BlockImager:
-    """Images of ``d · exp(-iφ)`` from sub-aperture images of ``K`` consecutive pulses.
+    r"""Images of ``d · exp(-iφ)`` from sub-aperture images of ``K`` consecutive pulses.
 
     With the block images ``F_b = Σ_{p ∈ b} b_p`` and the block phase ``θ = Mφ`` (``M`` averages
     the pulses of each block) the image is ``f = Σ_b e^{-iθ_b} F_b``, exact when ``φ`` is constant

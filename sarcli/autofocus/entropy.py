@@ -13,7 +13,8 @@ backprojection and one reprojection, without any stack.)
 Coarse to fine. The correction is searched in nested subspaces, each level started where the
 previous one ended, by L-BFGS on ``c`` in ``φ = φ_prev + A c`` (gradient ``Aᵀ ∂H/∂φ``):
 
-1. ``smooth``: Legendre polynomials of degree 2 to ``K`` (``K = min(12, P/8)``) in the pulse index;
+1. ``smooth``: a scan over the quadratic phase (:data:`DEFOCUS_SCAN`), then Legendre polynomials
+   of degree 2 to ``K`` (``K = min(12, P/8)``) in the pulse index;
 2. knots every 16, then every 4 pulses (piecewise-linear interpolation between them);
 3. one phase per pulse (one per sub-aperture when ``K > 1``, which replaces the levels finer
    than ``K``).
@@ -22,7 +23,7 @@ Every basis is orthogonal to the constant and to the phase linear in look azimut
 no image magnitude but shift it in cross-range, so they are neither searched nor returned.
 
 The entropy is measured on the whole image grid, at full resolution up to
-:data:`MAX_ENTROPY_PIXELS` pixels (coarser beyond), widened by a guard band on small grids
+:data:`MAX_ENTROPY_PIXELS` pixels (a central window beyond), widened by a guard band on small grids
 (:func:`~sarcli.autofocus._common.guarded_grid`: on a window that just holds a point scene a phase
 error can lower the entropy by pushing sidelobes out of the window).
 
@@ -94,6 +95,19 @@ def level_basis(level, P: int, gauge: np.ndarray) -> np.ndarray | None:
     return A - gauge @ (gauge.T @ A)
 
 
+#: Quadratic phases tried before the smooth level (rad at the aperture ends): a large quadratic
+#: error puts the smooth level's L-BFGS in a local minimum, a scan over it does not.
+DEFOCUS_SCAN = np.arange(-12.0, 12.5, 1.0)
+
+
+def _defocus_search(imager, phi, quad) -> np.ndarray:
+    """``phi + a · quad`` for the ``a`` of :data:`DEFOCUS_SCAN` (``quad`` scaled to 1 at the ends)
+    of lowest entropy (``a = 0`` included)."""
+    q = quad / np.max(np.abs(quad))
+    h = [imager.entropy(phi + a * q) for a in DEFOCUS_SCAN]
+    return phi + DEFOCUS_SCAN[int(np.argmin(h))] * q
+
+
 def coarse_to_fine(imager: Imager, start, gauge, levels=LEVELS, max_iter: int = 30):
     """The minimum-entropy estimate after each level, started from ``start``.
 
@@ -109,6 +123,8 @@ def coarse_to_fine(imager: Imager, start, gauge, levels=LEVELS, max_iter: int = 
     out = []
     for level in levels:
         A = level_basis(level, P, gauge)
+        if level == "smooth" and A is not None:
+            phi = _defocus_search(imager, phi, A[:, 0])
         base = phi
 
         if A is None:
@@ -137,23 +153,9 @@ def _corr(a, b) -> float:
     return float(np.dot(a, b) / (na * nb)) if na > 0 and nb > 0 else 0.0
 
 
-#: Most pixels of the grid the entropy is estimated on (:func:`entropy_grid`).
-MAX_ENTROPY_PIXELS = 200 * 200
-
-
-def entropy_grid(grid: Grid, max_pixels: int = MAX_ENTROPY_PIXELS) -> Grid:
-    """``grid`` with its spacing multiplied by the least integer ``s`` that brings it to at most
-    ``max_pixels`` pixels, over the same extent.
-
-    The entropy is a sum over pixels, and every pixel of the sparser grid is a pixel of the
-    image: it measures the focus of the whole scene, every bright scatterer included, which a
-    central window of full-resolution pixels does not (on GOTCHA an estimate from a 32 m window
-    lowered that window's entropy by 1 % and the whole scene's by 0.1 %).
-    """
-    s = int(np.ceil(np.sqrt(grid.nx * grid.ny / max_pixels) - 1e-9))
-    if s <= 1:
-        return grid
-    return Grid(max(2, grid.nx // s), max(2, grid.ny // s), grid.dx * s, grid.dy * s, grid.cx, grid.cy)
+#: Most pixels of the grid the entropy is estimated on: larger grids are cut to a central window
+#: of full-resolution pixels (:func:`~sarcli.autofocus._common.estimation_grid`).
+MAX_ENTROPY_PIXELS = 400 * 400
 
 
 def _block_size(P: int, max_blocks: int) -> int:
@@ -169,7 +171,7 @@ def _crossvalidate(halves, paths):
     return gains, [_corr(a, b) for a, b in zip(*paths)]
 
 
-def min_entropy(ph, *, grid: Grid | None = None, start="zero", levels=LEVELS, max_iter: int = 20,
+def min_entropy(ph, *, grid: Grid | None = None, start="zero", levels=LEVELS, max_iter: int = 15,
                 max_blocks: int = 128, max_stack_mib: float = 128.0, validate: bool = True, guard: bool = True,
                 pga_options=None) -> AutofocusResult:
     """Minimum-entropy autofocus: coarse to fine to one phase per pulse, cross-validated.
@@ -179,7 +181,7 @@ def min_entropy(ph, *, grid: Grid | None = None, start="zero", levels=LEVELS, ma
     ph : PhaseHistory
     grid : Grid, optional
         The image grid (default the acquisition's); the entropy is measured on all of it, at
-        most :data:`MAX_ENTROPY_PIXELS` pixels (:func:`entropy_grid`), widened by a guard band
+        most :data:`MAX_ENTROPY_PIXELS` pixels (a central window beyond), widened by a guard band
         where that stays within :data:`~sarcli.autofocus._common.MAX_GUARDED_PIXELS`.
     start : 'zero', 'pga' or array_like
         Start of the search on the whole grid: no correction (default; the smooth level finds
@@ -207,7 +209,7 @@ def min_entropy(ph, *, grid: Grid | None = None, start="zero", levels=LEVELS, ma
         correlation between the halves per level, the level kept and why (``'decision'``).
     """
     acq = ph.acquisition
-    est = entropy_grid(grid or acq.grid, MAX_ENTROPY_PIXELS)
+    est = estimation_grid(grid or acq.grid, MAX_ENTROPY_PIXELS)
     P = ph.data.shape[0]
     gauge = _gauge(acq)
     g_est = guarded_grid(est, acq, max_pixels=max(est.nx * est.ny, MAX_GUARDED_PIXELS))
