@@ -15,7 +15,8 @@ For the four files on the default grid (400 × 400 at 0.25 m):
 
 Entropies are of backprojected images (:func:`sarcli.autofocus._common.form`) on the full grid.
 
-Usage: ``python bench/bench_autofocus.py [--seeds 0,1,2] [--files DIR]``
+Usage: ``python bench/bench_autofocus.py [--seeds 0,1,2] [--files DIR]`` (says it skipped, and exits 0,
+when the files are absent).
 """
 
 from __future__ import annotations
@@ -53,8 +54,9 @@ def main():
     ap.add_argument("--files", default=str(GOTCHA_DIR))
     a = ap.parse_args()
     files = sorted(Path(a.files).glob("data_3dsar_pass1_az00*_HH.mat"))
-    if len(files) < 4:
-        sys.exit(f"bench_autofocus: GOTCHA pass-1 HH files not found in {a.files}")
+    if len(files) < 4:  # nothing to measure without the data set; `make bench` goes on
+        print(f"bench_autofocus: skipped, GOTCHA pass-1 HH files not found in {a.files}")
+        return
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
         raw_h5 = tmp / "raw.h5"

@@ -75,8 +75,11 @@ class Imager:
             t, q, r0 = acq.range_geometry()
             self._args = (acq.frequencies_2d, t, r0, grid)
             self._kw = dict(ESTIMATION_BP, receive_position_m=q if acq.is_bistatic else None)
-            try:
-                self.image(np.zeros(self.data.shape[0]))
+            try:  # the backprojector's checks, on one pixel
+                from ..formers.backprojection import backproject
+
+                backproject(self.data, *self._args[:3], Grid(1, 1, grid.dx, grid.dy, grid.cx, grid.cy),
+                            **self._kw)
                 return
             except SarcliInputError:  # unequally spaced frequencies: the stack below
                 pass

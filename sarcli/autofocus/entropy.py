@@ -50,7 +50,7 @@ import numpy as np
 from ..core.grid import Grid
 from ._common import (MAX_GUARDED_PIXELS, AutofocusResult, AutofocusWarning, estimation_grid, guarded_grid,
                       sharpness)
-from ._imager import BlockImager, Imager, range_axis
+from ._imager import SPLIT_GAP, BlockImager, Imager, range_axis, split_grid
 
 __all__ = ["min_entropy", "coarse_to_fine", "level_basis", "LEVELS"]
 
@@ -172,7 +172,7 @@ def _crossvalidate(halves, paths):
 
 
 def min_entropy(ph, *, grid: Grid | None = None, start="zero", levels=LEVELS, max_iter: int = 15,
-                max_blocks: int = 128, max_stack_mib: float = 128.0, validate: bool = True, guard: bool = True,
+                pulse_iter: int = 4, max_blocks: int = 128, max_stack_mib: float = 128.0, validate: bool = True, guard: bool = True,
                 pga_options=None) -> AutofocusResult:
     """Minimum-entropy autofocus: coarse to fine to one phase per pulse, cross-validated.
 
@@ -190,8 +190,10 @@ def min_entropy(ph, *, grid: Grid | None = None, start="zero", levels=LEVELS, ma
     levels : sequence
         The levels of :func:`coarse_to_fine` (default :data:`LEVELS`); those finer than the
         sub-apertures are replaced by the sub-aperture level.
-    max_iter : int
-        L-BFGS iterations per level.
+    max_iter, pulse_iter : int
+        L-BFGS iterations per level on the sub-apertures, and at one phase per pulse beyond them
+        (on the exact backprojection pair, :class:`~sarcli.autofocus._imager.Imager`: two images
+        per evaluation, no stack; 0 skips that level).
     max_blocks, max_stack_mib : int, float
         Most sub-aperture images held, and most memory for them (MiB): the sub-apertures have
         ``K = max(⌈P / max_blocks⌉, ⌈P · image bytes / max_stack_mib⌉)`` pulses
@@ -259,8 +261,32 @@ def min_entropy(ph, *, grid: Grid | None = None, start="zero", levels=LEVELS, ma
         hist["decision"] = (f"level {names[best]}: its estimates from each half of the scene lower the "
                             f"entropy of the other half the most (held-out gains {gains[best][0]:.4f}, "
                             f"{gains[best][1]:.4f} nats; halves' estimates correlate {corrs[best]:.2f})")
+    judge = full  # the images the estimate is exact for
+    if kept and K > 1 and pulse_iter > 0 and any(lv != "smooth" and int(lv) < K for lv in levels) \
+            and best == len(path) - 1:
+        # one phase per pulse, beyond the sub-apertures: the exact backprojection pair on the
+        # whole grid (no stack), from the sub-aperture estimate; kept when each half's own
+        # per-pulse increment lowers the other half's entropy
+        exact = Imager(ph, full.grid)
+        fine = coarse_to_fine(exact, phi, gauge, (1,), pulse_iter)[-1]
+        sides = [Imager(ph, g) for g in split_grid(full.grid, axis, SPLIT_GAP)[:2]]
+        ends = [coarse_to_fine(im, p[best], gauge, (1,), pulse_iter)[-1] for im, p in zip(sides, paths)]
+        g1 = (sides[0].entropy(paths[1][best]) - sides[0].entropy(ends[1]),
+              sides[1].entropy(paths[0][best]) - sides[1].entropy(ends[0]))
+        c1 = _corr(ends[0] - paths[0][best], ends[1] - paths[1][best])
+        hist["heldout_gain"] = gains + [g1]
+        hist["halves_correlation"] = corrs + [c1]
+        hist["evaluations"] = evals = evals + exact.evaluations + sum(im.evaluations for im in sides)
+        hist["levels"] = names + ["1"]
+        if min(g1) > 0:
+            phi, judge, hist["level"] = fine, exact, "1"
+            hist["decision"] += (f"; then one phase per pulse: each half's per-pulse increment lowers the "
+                                 f"other half's entropy ({g1[0]:.4f}, {g1[1]:.4f} nats; correlation {c1:.2f})")
+        else:
+            hist["decision"] += ("; one phase per pulse not kept: a half's per-pulse increment did not lower "
+                                 "the other half's entropy")
     res = AutofocusResult(phi, "min-entropy", iterations=evals, history=hist)
-    (h0, m0), (h1, m1) = sharpness(full.image(zero)), sharpness(full.image(phi))
+    (h0, m0), (h1, m1) = sharpness(judge.image(zero)), sharpness(judge.image(phi))
     res.entropy_before, res.peak_to_mean_before = h0, m0
     res.entropy_after, res.peak_to_mean_after = h1, m1
     if guard and np.any(phi) and not (h1 < h0 and m1 >= m0):
