@@ -192,16 +192,27 @@ class BlockImager:
         if _parts is None:
             P = ph.data.shape[0]
             self.bounds = np.append(np.arange(0, P, block), P)
-            self.parts = [self._build(ph, g) for g in split_grid(grid, axis, SPLIT_GAP)]
+            self.parts = self._build(ph, grid, split_grid(grid, axis, SPLIT_GAP))
         else:
             self.bounds, self.parts = _bounds, _parts
         self._sizes = np.diff(self.bounds).astype(np.float64)
 
-    def _build(self, ph, grid):
+    def _build(self, ph, grid, pieces):
+        """The block images on ``grid``, each cut into the ``pieces`` of :func:`split_grid`
+        (low, high[, band]; in the image: low, band, high along ``axis``)."""
         acq = ph.acquisition
         nb = len(self.bounds) - 1
         d = np.asarray(ph.data)
-        out = np.empty((nb, grid.nx * grid.ny), dtype=np.complex64)
+        size = [g.nx if self.axis == 1 else g.ny for g in pieces]
+        edges = [(0, size[0]), (size[0] + (size[2] if len(size) > 2 else 0), None)]
+        if len(size) > 2:
+            edges.append((size[0], size[0] + size[2]))
+        parts = [np.empty((nb, g.nx * g.ny), dtype=np.complex64) for g in pieces]
+
+        def store(b, img):
+            for part, (lo, hi) in zip(parts, edges):
+                part[b] = (img[:, lo:hi] if self.axis == 1 else img[lo:hi]).ravel()
+
         if acq.model == "spherical" and d.shape[1] >= 2:
             from ..formers.backprojection import backproject
 
@@ -215,14 +226,14 @@ class BlockImager:
                         # backproject divides by its own pulse count: weigh each block by its share
                         img = backproject(d[s], f[s], t[s], r0[s], grid, **ESTIMATION_BP,
                                           receive_position_m=q[s] if acq.is_bistatic else None)
-                        out[b] = img.ravel() * ((s.stop - s.start) / d.shape[0])
-                return out
+                        store(b, img * ((s.stop - s.start) / d.shape[0]))
+                return parts
             except SarcliInputError:  # unequally spaced frequencies: single-pulse images below
                 pass
         pulses = pulse_images(ph, grid)
         for b in range(nb):
-            out[b] = pulses[self.bounds[b]:self.bounds[b + 1]].sum(axis=0)
-        return out
+            store(b, pulses[self.bounds[b]:self.bounds[b + 1]].sum(axis=0).reshape(grid.shape))
+        return parts
 
     def halves(self) -> tuple["BlockImager", "BlockImager"]:
         """The imagers of the two halves of :func:`split_grid` (this stack's own parts, no copy)."""
