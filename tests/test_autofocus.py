@@ -12,7 +12,8 @@ from sarcli.analysis.speckle import image_entropy, peak_to_mean
 from sarcli.autofocus import apply_phase_correction, autofocus, remove_linear_phase
 from sarcli.autofocus._common import synthetic_phase_error
 from sarcli.autofocus._common import AutofocusWarning, form
-from sarcli.autofocus.entropy import entropy_and_gradient, min_entropy
+from sarcli.autofocus.entropy import min_entropy
+from sarcli.autofocus._imager import BlockImager, Imager
 from sarcli.autofocus.pga import pga
 from sarcli.autofocus._common import pulse_images
 from sarcli.cli.main import cli
@@ -89,9 +90,25 @@ def test_min_entropy_beats_textbook_pga(case):
     clean, bad, err = case
     res = min_entropy(bad)
     mag, cplx, rms = scores(clean, bad, err, res.phase_rad)
-    # measured: 0.033 relative magnitude error (a textbook PGA leaves ~0.1), 0.056 rad rms
+    # measured: 0.030 relative magnitude error (a textbook PGA leaves ~0.1), 0.051 rad rms
     assert mag < 0.045 and rms < 0.08
     assert res.entropy_after < res.entropy_before
+    # one phase per pulse, kept because each half's estimate sharpens the other half
+    h = res.history
+    assert h["level"] == "1" and min(h["heldout_gain"][-1]) > 0 and h["halves_correlation"][-1] > 0.9
+
+
+def test_one_phase_per_pulse_beyond_the_sub_apertures(case):
+    """With sub-apertures of 4 pulses (as on large grids) the last level, one phase per pulse on
+    the exact backprojection pair, still removes the jitter, and is kept by cross-validation."""
+    clean, bad, err = case
+    res = min_entropy(bad, max_blocks=32)
+    h = res.history
+    assert h["block_pulses"] == 4 and h["levels"][-2:] == ["4", "1"]
+    assert h["level"] == "1" and min(h["heldout_gain"][-1]) > 0
+    mag, cplx, rms = scores(clean, bad, err, res.phase_rad)
+    # the 0.15 rad jitter is 0.13 rad within the blocks: well below that means it was found
+    assert mag < 0.05 and rms < 0.09
 
 
 def test_point_scene_nearly_exact():
@@ -100,7 +117,7 @@ def test_point_scene_nearly_exact():
     bad = corrupt(clean, err)
     res = min_entropy(bad)
     mag, cplx, rms = scores(clean, bad, err, res.phase_rad)
-    assert mag < 0.01 and rms < 0.02  # measured 0.005, 0.009 rad
+    assert mag < 0.01 and rms < 0.02  # measured 0.006, 0.010 rad
 
 
 def test_constant_and_linear_phase_are_unobservable():
@@ -115,17 +132,22 @@ def test_constant_and_linear_phase_are_unobservable():
     np.testing.assert_allclose(remove_linear_phase(lin, az), 0.0, atol=1e-9)
 
 
-def test_entropy_gradient_matches_finite_differences():
+@pytest.mark.parametrize("kind", ["backprojection", "blocks of 1", "blocks of 4"])
+def test_entropy_gradient_matches_finite_differences(kind):
+    """The per-pulse gradient from one backprojection and one reprojection (or from the
+    sub-aperture stack) is the derivative of the entropy the same imager computes."""
     ph = scene(seed=3, P=24, M=32)
-    stack = pulse_images(ph, Grid(24, 24, 0.5, 0.5)).astype(np.complex128)
-    rng = np.random.default_rng(0)
-    phi = rng.normal(0, 0.5, 24)
-    h, g = entropy_and_gradient(phi, stack)
+    grid = Grid(24, 24, 0.5, 0.5)
+    im = {"backprojection": lambda: Imager(ph, grid), "blocks of 1": lambda: BlockImager(ph, grid, 1),
+          "blocks of 4": lambda: BlockImager(ph, grid, 4)}[kind]()
+    phi = np.random.default_rng(0).normal(0, 0.5, 24)
+    h, g = im.entropy_and_gradient(phi)
+    assert h == pytest.approx(im.entropy(phi), rel=1e-12)
     for p in (0, 7, 23):
         e = np.zeros(24)
-        e[p] = 1e-5
-        fd = (entropy_and_gradient(phi + e, stack)[0] - entropy_and_gradient(phi - e, stack)[0]) / 2e-5
-        assert fd == pytest.approx(g[p], rel=1e-3, abs=1e-7)
+        e[p] = 1e-4
+        fd = (im.entropy(phi + e) - im.entropy(phi - e)) / 2e-4
+        assert fd == pytest.approx(g[p], rel=2e-2, abs=1e-6)
 
 
 def test_never_less_sharp_on_a_focused_image():
@@ -137,6 +159,41 @@ def test_never_less_sharp_on_a_focused_image():
         f0, f1 = form(clean, clean.acquisition.grid), form(out, clean.acquisition.grid)
         assert image_entropy(f1) <= image_entropy(f0) + 1e-12
         assert peak_to_mean(f1) >= peak_to_mean(f0) - 1e-9
+        assert out.attrs["autofocus_decision"].startswith(method)
+    # minimum entropy finds nothing common to the two halves of a focused scene: it is the
+    # cross-validation, not the sharpness guard, that refuses (measured held-out gains -0.01 to -0.08)
+    assert res.history["level"] is None and all(min(g) < 0 for g in res.history["heldout_gain"])
+    assert "no error common to the scene" in res.history["decision"]
+
+
+def curved_scene(n_points=3, seed=8, P=128, M=64):
+    """Points only, on a curved flight path (a circle arc with a climbing, weaving track)."""
+    rng = np.random.default_rng(seed)
+    f = 9.6e9 + np.arange(M) * 4e6
+    az = np.radians(np.linspace(-1.5, 1.5, P)) - 0.4
+    el = np.radians(30.0 + 2.0 * np.linspace(-1, 1, P) ** 2)
+    pos = geometry.antenna_positions_circle(az, el, 8e3)
+    pos = pos + np.column_stack([np.zeros(P), 40.0 * np.sin(np.linspace(0, 2 * np.pi, P)), np.zeros(P)])
+    pts = np.column_stack([rng.uniform(-10, 10, n_points), rng.uniform(-10, 10, n_points), np.zeros(n_points)])
+    amp = rng.uniform(0.2, 1, n_points) * np.exp(2j * np.pi * rng.random(n_points))
+    r0 = np.linalg.norm(pos, axis=1)
+    psi = geometry.signal_phase(f, az, el, pts, model="spherical", antenna_position_m=pos, range_to_center_m=r0)
+    acq = Acquisition(f, az, el, Grid(96, 96, 0.25, 0.25), antenna_position_m=pos, model="spherical")
+    return PhaseHistory(np.exp(-1j * psi) @ amp, acq)
+
+
+def test_sparse_scene_without_error_left_unchanged():
+    """Three points, no error: no method moves the image (torchbp's minimum entropy is reported
+    to defocus such scenes)."""
+    clean = curved_scene()
+    grid = clean.acquisition.grid
+    f0 = np.abs(form(clean, grid))
+    for method in ("min-entropy", "pga"):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", AutofocusWarning)
+            out, res = autofocus(clean, method)
+        f1 = np.abs(form(out, grid))
+        assert np.linalg.norm(f1 - f0) / np.linalg.norm(f0) <= 1e-3, (method, res.describe())
 
 
 def test_guard_refuses_a_worse_correction():
@@ -179,6 +236,21 @@ def test_cli_autofocus(tmp_path, case):
     res = CliRunner().invoke(cli, ["autofocus", str(tmp_path / "bad.h5"), "-o", str(tmp_path / "x.h5"),
                                    "--method", "sharpest"])
     assert res.exit_code == 2 and not (tmp_path / "x.h5").exists()
+
+
+def test_cli_autofocus_default_says_what_and_why(tmp_path, case):
+    import h5py
+
+    clean, bad, err = case
+    write_phase_history(tmp_path / "bad.h5", bad)
+    res = CliRunner().invoke(cli, ["-v", "autofocus", str(tmp_path / "bad.h5"), "-o", str(tmp_path / "ok.h5")])
+    assert res.exit_code == 0, res.output
+    assert "min-entropy" in res.output and "other half" in res.output  # the decision, with -v
+    with h5py.File(tmp_path / "ok.h5", "r") as f:
+        assert f["autofocus"].attrs["method"] == "min-entropy"
+        assert "held-out gains" in f.attrs["autofocus_decision"]
+        est = f["autofocus/phase_rad"][()]
+    assert scores(clean, bad, err, est)[0] < 0.045
 
 
 def _gotcha_one():

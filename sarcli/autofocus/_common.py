@@ -50,6 +50,17 @@ class AutofocusResult:
     history: dict = field(default_factory=dict)
     accepted: bool = True
 
+    def describe(self) -> str:
+        """One line: what was applied and why (the method's own decision when it records one)."""
+        rms = float(np.sqrt(np.mean(self.phase_rad ** 2)))
+        what = (f"{self.method}: {rms:.3g} rad rms applied" if self.accepted and np.any(self.phase_rad)
+                else f"{self.method}: no correction applied")
+        why = self.history.get("decision") or (
+            "it lowers the entropy and does not lower the peak-to-mean ratio" if self.accepted and np.any(self.phase_rad)
+            else "no estimate made the image sharper")
+        return (f"{what} ({why}); entropy {self.entropy_before:.4f} -> {self.entropy_after:.4f}, "
+                f"peak-to-mean {self.peak_to_mean_before:.4g} -> {self.peak_to_mean_after:.4g}")
+
     def summary(self) -> dict:
         return {"method": self.method, "iterations": self.iterations, "accepted": self.accepted,
                 "entropy_before": self.entropy_before, "entropy_after": self.entropy_after,
@@ -68,8 +79,10 @@ def remove_linear_phase(phase_rad, azimuth_rad) -> np.ndarray:
     return phi - A @ coef
 
 
-def apply_phase_correction(ph: PhaseHistory, phase_rad, method: str) -> PhaseHistory:
-    """``data · exp(-i phase_p)``, the estimate accumulated into ``attrs['autofocus_phase_rad']``."""
+def apply_phase_correction(ph: PhaseHistory, phase_rad, method: str, decision: str | None = None) -> PhaseHistory:
+    """``data · exp(-i phase_p)``, the estimate accumulated into ``attrs['autofocus_phase_rad']``
+    and, when given, what was decided and why into ``attrs['autofocus_decision']`` (joined with
+    `` | `` over repeated runs; written as a root attribute of the file)."""
     phi = np.asarray(phase_rad, dtype=np.float64)
     if phi.shape != (ph.data.shape[0],):
         raise SarcliInputError(f"autofocus phase has shape {phi.shape}, expected ({ph.data.shape[0]},)")
@@ -81,6 +94,9 @@ def apply_phase_correction(ph: PhaseHistory, phase_rad, method: str) -> PhaseHis
     prev_method = attrs.get("autofocus_method")
     attrs["autofocus_phase_rad"] = total
     attrs["autofocus_method"] = method if not prev_method else f"{prev_method}+{method}"
+    if decision:
+        prev_decision = attrs.get("autofocus_decision")
+        attrs["autofocus_decision"] = decision if not prev_decision else f"{prev_decision} | {decision}"
     return PhaseHistory(data=out, acquisition=ph.acquisition, truth=ph.truth, attrs=attrs)
 
 

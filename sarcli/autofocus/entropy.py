@@ -1,111 +1,299 @@
-"""Constrained minimum-entropy autofocus.
+"""Minimum-entropy autofocus, coarse to fine on sub-aperture images, with a cross-validated decision.
 
-With the stack of single-pulse images ``B[p, s]`` (:func:`pulse_images`) the image of the data
-corrected by ``φ`` is ``f(φ) = Σ_p exp(-i φ_p) B[p]``, its intensity ``I_s = |f_s|²`` and its
-entropy ``H = -Σ_s (I_s/E) ln(I_s/E)`` (``E = Σ I``). The gradient is exact and costs one product
-with the stack:
+The image of the data corrected by ``φ`` is ``f(φ) = Σ_p e^{-iφ_p} b_p`` (``b_p``: pulse ``p``
+backprojected) and its entropy ``H(φ) = -Σ_s q_s ln q_s`` (``q_s = |f_s|²/Σ|f|²``). On
+sub-apertures of ``K`` consecutive pulses with a phase ``θ_b`` each (the block mean of ``φ``),
+``f = Σ_b e^{-iθ_b} F_b`` and the exact gradient costs one product with the stack of the ``⌈P/K⌉``
+sub-aperture images (:class:`~sarcli.autofocus._imager.BlockImager`); ``K = 1`` on small cases (one
+phase per pulse), larger on large grids so that the stack stays within ``max_stack_mib``. The
+estimate returned is constant over each sub-aperture: the phase the images were exact for.
+(:class:`~sarcli.autofocus._imager.Imager` gives the same entropy and per-pulse gradient from one
+backprojection and one reprojection, without any stack.)
 
-.. math::
+Coarse to fine. The correction is searched in nested subspaces, each level started where the
+previous one ended, by L-BFGS on ``c`` in ``φ = φ_prev + A c`` (gradient ``Aᵀ ∂H/∂φ``):
 
-    \\frac{\\partial H}{\\partial φ_p} = -\\frac{2}{E} \\sum_s (\\ln p_s + H)\\,
-        \\operatorname{Im}\\big(\\overline{f_s}\\, e^{-iφ_p} B_{ps}\\big),
+1. ``smooth``: a scan over the quadratic phase (:data:`DEFOCUS_SCAN`), then Legendre polynomials
+   of degree 2 to ``K`` (``K = min(12, P/8)``) in the pulse index;
+2. knots every 16, then every 4 pulses (piecewise-linear interpolation between them);
+3. one phase per pulse (one per sub-aperture when ``K > 1``, which replaces the levels finer
+   than ``K``).
 
-and L-BFGS minimises ``H(φ) + λ Σ_p (1 - cos(φ_p - φ0_p))``.
+Every basis is orthogonal to the constant and to the phase linear in look azimuth: those change
+no image magnitude but shift it in cross-range, so they are neither searched nor returned.
 
-The constraints. Minimum entropy alone drifts: on a point scene imaged on a window just holding
-it, started from the true answer, it reached an entropy below the clean image's while moving
-0.6 rad rms from the truth, mostly by pushing sidelobe energy out of the window. Two constraints
-stop that: (1) the entropy is measured on the grid widened by a guard band
-(:func:`~sarcli.autofocus._common.guarded_grid`, 1.5 times, up to the alias-free size), which
-alone brings the same case to 0.01 rad; (2) the search starts from the PGA estimate ``φ0`` and a
-penalty keeps each pulse's phase near it (at zero instead when PGA did not sharpen the image), in a ``cos`` form blind to 2π wraps, with
-``λ = strength / P`` (``strength`` 1 by default; 0 is unconstrained). The constant and linear
-part of the result are removed (unobservable), and the result is kept only if it sharpens the
-image.
+The entropy is measured on the whole image grid, at full resolution up to
+:data:`MAX_ENTROPY_PIXELS` pixels (a central window beyond), widened by a guard band on small grids
+(:func:`~sarcli.autofocus._common.guarded_grid`: on a window that just holds a point scene a phase
+error can lower the entropy by pushing sidelobes out of the window).
+
+The decision: cross-validation on disjoint halves of the scene. The grid is split across range
+(near and far halves, each holding whole cross-range lines, with a band between them: a phase
+error moves energy only in cross-range) and the same coarse-to-fine search is run on each half
+alone, from zero. Each level's estimate from one half is applied to the *other* half: a real
+phase error is common to the whole scene and lowers the entropy of the half it was not estimated
+on, whereas what an estimate fits to one half's own clutter and noise is independent of the
+other half and, applied there, blurs it. The level kept is the one with the largest held-out
+entropy gain among those that lower the entropy of both halves (its estimate from the whole
+grid); none, no correction. No threshold is involved: a held-out gain above zero is evidence
+against noise-fitting whatever its size. Finally the estimate is applied only if it leaves the
+image no less sharp (entropy not up, peak-to-mean not down).
 """
 
+
 from __future__ import annotations
+
+import warnings
 
 import numpy as np
 
 from ..core.grid import Grid
-from ._common import (AutofocusResult, estimation_grid, form, guarded_grid, keep_if_sharper, pulse_images,
-                      remove_linear_phase, sharpness)
+from ._common import (MAX_GUARDED_PIXELS, AutofocusResult, AutofocusWarning, estimation_grid, guarded_grid,
+                      sharpness)
+from ._imager import SPLIT_GAP, BlockImager, Imager, range_axis, split_grid
 
-__all__ = ["min_entropy", "entropy_and_gradient"]
+__all__ = ["min_entropy", "coarse_to_fine", "level_basis", "LEVELS"]
 
-
-def entropy_and_gradient(phi, stack):
-    """Image entropy of ``Σ_p exp(-i φ_p) B[p]`` and its gradient with respect to ``φ``."""
-    e = np.exp(-1j * phi)
-    f = e.astype(stack.dtype) @ stack
-    inten = (f.real.astype(np.float64) ** 2 + f.imag.astype(np.float64) ** 2)
-    total = inten.sum()
-    p = inten / total
-    logp = np.log(np.where(p > 0, p, 1.0))
-    h = float(-np.sum(p * logp))
-    w = -(logp + h) / total
-    v = stack @ (w * np.conj(f)).astype(stack.dtype)
-    grad = 2.0 * np.imag(e * v)
-    return h, grad
+#: The levels of the search: a smooth polynomial subspace, knots every 16 and 4 pulses, every pulse.
+LEVELS = ("smooth", 16, 4, 1)
 
 
-def min_entropy(ph, *, grid: Grid | None = None, start=None, strength: float = 1.0,
-                max_iter: int = 200, tol: float = 1e-9, guard: bool = True, pga_options=None):
-    """Minimum-entropy autofocus constrained to the neighbourhood of a PGA start.
+def _gauge(acq) -> np.ndarray:
+    """Orthonormal basis ``Q`` (P × 2) of the unobservable constant and linear-in-azimuth phase."""
+    th = np.unwrap(np.asarray(acq.azimuth_rad, np.float64))
+    A = np.column_stack([np.ones_like(th), th - th.mean()])
+    if np.ptp(th) == 0:
+        A = A[:, :1]
+    q, _ = np.linalg.qr(A)
+    return q
+
+
+def level_basis(level, P: int, gauge: np.ndarray) -> np.ndarray | None:
+    """The basis ``A`` (P × K) of one level, orthogonal to ``gauge``; ``None`` for one phase per
+    pulse (then the gradient itself is projected, ``(I - QQᵀ) g``).
+
+    Parameters
+    ----------
+    level : 'smooth' or int
+        ``'smooth'``: Legendre polynomials ``L_2 … L_K`` of ``u ∈ [-1, 1]`` across the pulses,
+        ``K = min(12, max(2, P // 8))``; an int ``k``: hat functions on knots every ``k`` pulses
+        (and at the last pulse), i.e. a phase piecewise linear between the knots.
+    P : int
+    gauge : ndarray, shape (P, g)
+    """
+    if level == 1 or P < 4:
+        return None
+    if level == "smooth":
+        K = int(min(12, max(2, P // 8)))
+        A = np.polynomial.legendre.legvander(np.linspace(-1.0, 1.0, P), K)[:, 2:]
+    else:
+        knots = np.unique(np.append(np.arange(0, P, int(level)), P - 1))
+        if knots.size >= P:
+            return None
+        eye = np.eye(knots.size)
+        A = np.column_stack([np.interp(np.arange(P), knots, eye[i]) for i in range(knots.size)])
+    return A - gauge @ (gauge.T @ A)
+
+
+#: Quadratic phases tried before the smooth level (rad at the aperture ends): a large quadratic
+#: error puts the smooth level's L-BFGS in a local minimum, a scan over it does not.
+DEFOCUS_SCAN = np.arange(-12.0, 12.5, 1.0)
+
+
+def _defocus_search(imager, phi, quad) -> np.ndarray:
+    """``phi + a · quad`` for the ``a`` of :data:`DEFOCUS_SCAN` (``quad`` scaled to 1 at the ends)
+    of lowest entropy (``a = 0`` included)."""
+    q = quad / np.max(np.abs(quad))
+    h = [imager.entropy(phi + a * q) for a in DEFOCUS_SCAN]
+    return phi + DEFOCUS_SCAN[int(np.argmin(h))] * q
+
+
+def coarse_to_fine(imager: Imager, start, gauge, levels=LEVELS, max_iter: int = 30):
+    """The minimum-entropy estimate after each level, started from ``start``.
+
+    Returns
+    -------
+    list of ndarray
+        ``φ`` after each level of ``levels`` (each continues from the previous one).
+    """
+    from scipy.optimize import minimize
+
+    P = gauge.shape[0]
+    phi = np.asarray(start, np.float64).copy()
+    out = []
+    for level in levels:
+        A = level_basis(level, P, gauge)
+        if level == "smooth" and A is not None:
+            phi = _defocus_search(imager, phi, A[:, 0])
+        base = phi
+
+        if A is None:
+            def fun(c, base=base):
+                h, g = imager.entropy_and_gradient(base + c)
+                return h, g - gauge @ (gauge.T @ g)
+            n = P
+        else:
+            def fun(c, base=base, A=A):
+                h, g = imager.entropy_and_gradient(base + A @ c)
+                return h, A.T @ g
+            n = A.shape[1]
+        opt = minimize(fun, np.zeros(n), jac=True, method="L-BFGS-B",
+                       options={"maxiter": max_iter, "maxfun": 2 * max_iter, "ftol": 1e-12, "gtol": 1e-12})
+        step = opt.x if A is None else A @ opt.x
+        # the phase the imager's images are exact for (block means on sub-apertures), constant
+        # and linear part removed; L-BFGS-B returns its best point, never worse than the start
+        phi = imager.blockwise(base + step)
+        phi = phi - gauge @ (gauge.T @ phi)
+        out.append(phi.copy())
+    return out
+
+
+def _corr(a, b) -> float:
+    na, nb = np.linalg.norm(a), np.linalg.norm(b)
+    return float(np.dot(a, b) / (na * nb)) if na > 0 and nb > 0 else 0.0
+
+
+#: Most pixels of the grid the entropy is estimated on: larger grids are cut to a central window
+#: of full-resolution pixels (:func:`~sarcli.autofocus._common.estimation_grid`).
+MAX_ENTROPY_PIXELS = 400 * 400
+
+
+def _block_size(P: int, max_blocks: int) -> int:
+    return max(1, -(-P // max_blocks))
+
+
+def _crossvalidate(halves, paths):
+    """Per level, the held-out entropy gains (each half's estimate applied to the other half,
+    against no correction) and the correlation of the two halves' estimates."""
+    P = len(paths[0][0])
+    h0 = [im.entropy(np.zeros(P)) for im in halves]
+    gains = [(h0[0] - halves[0].entropy(b), h0[1] - halves[1].entropy(a)) for a, b in zip(*paths)]
+    return gains, [_corr(a, b) for a, b in zip(*paths)]
+
+
+def min_entropy(ph, *, grid: Grid | None = None, start="zero", levels=LEVELS, max_iter: int = 15,
+                pulse_iter: int = 4, max_blocks: int = 128, max_stack_mib: float = 128.0, validate: bool = True, guard: bool = True,
+                pga_options=None) -> AutofocusResult:
+    """Minimum-entropy autofocus: coarse to fine to one phase per pulse, cross-validated.
 
     Parameters
     ----------
     ph : PhaseHistory
     grid : Grid, optional
-        Estimation grid (default the acquisition's, cut to :func:`estimation_grid`).
-    start : array_like, optional
-        Starting estimate and centre of the constraint (default: :func:`sarcli.autofocus.pga.pga`'s
-        estimate if it lowers the entropy, else zero).
-    strength : float
-        Constraint weight (``λ = strength / P``); 0 is unconstrained (drifts, not recommended).
-    max_iter, tol : int, float
-        L-BFGS iteration cap and tolerance.
+        The image grid (default the acquisition's); the entropy is measured on all of it, at
+        most :data:`MAX_ENTROPY_PIXELS` pixels (a central window beyond), widened by a guard band
+        where that stays within :data:`~sarcli.autofocus._common.MAX_GUARDED_PIXELS`.
+    start : 'zero', 'pga' or array_like
+        Start of the search on the whole grid: no correction (default; the smooth level finds
+        what PGA would), PGA's estimate where it lowers the entropy, or a given estimate. The
+        halves always start from zero, so that their estimates are independent.
+    levels : sequence
+        The levels of :func:`coarse_to_fine` (default :data:`LEVELS`); those finer than the
+        sub-apertures are replaced by the sub-aperture level.
+    max_iter, pulse_iter : int
+        L-BFGS iterations per level on the sub-apertures, and at one phase per pulse beyond them
+        (on the exact backprojection pair, :class:`~sarcli.autofocus._imager.Imager`: two images
+        per evaluation, no stack; 0 skips that level).
+    max_blocks, max_stack_mib : int, float
+        Most sub-aperture images held, and most memory for them (MiB): the sub-apertures have
+        ``K = max(⌈P / max_blocks⌉, ⌈P · image bytes / max_stack_mib⌉)`` pulses
+        (:class:`~sarcli.autofocus._imager.BlockImager`), and the estimate is constant over each.
+    validate : bool
+        Keep only the levels that pass the cross-validation (module docstring); without it the
+        finest level is taken.
     guard : bool
-        Keep the estimate only when it sharpens the image.
+        Keep the estimate only when it leaves the image no less sharp.
 
     Returns
     -------
     AutofocusResult
-        ``history`` holds the entropy of the start and of the optimum.
+        ``history`` records the start, the entropies after each level, the held-out gains and the
+        correlation between the halves per level, the level kept and why (``'decision'``).
     """
-    from scipy.optimize import minimize
-
     acq = ph.acquisition
-    grid = estimation_grid(grid or acq.grid)
+    est = estimation_grid(grid or acq.grid, MAX_ENTROPY_PIXELS)
     P = ph.data.shape[0]
-    pga_res = None
-    if start is None:
+    gauge = _gauge(acq)
+    g_est = guarded_grid(est, acq, max_pixels=max(est.nx * est.ny, MAX_GUARDED_PIXELS))
+    image_mib = g_est.nx * g_est.ny * 8 / 2 ** 20
+    K = max(_block_size(P, max_blocks), int(np.ceil(P * image_mib / max_stack_mib)))
+    coarse = tuple(lv for lv in levels if lv == "smooth" or int(lv) > K)
+    if any(lv != "smooth" and int(lv) <= K for lv in levels):
+        coarse += (K,)
+    axis = range_axis(acq)
+    full = BlockImager(ph, g_est, K, axis)
+    halves = full.halves()
+    hist: dict = {"levels": [str(lv) for lv in coarse], "block_pulses": K,
+                  "estimation_grid": [est.ny, est.nx], "guarded_grid": [full.grid.ny, full.grid.nx]}
+    zero = np.zeros(P)
+    phi0, hist["start"] = zero, "zero"
+    if isinstance(start, str) and start == "pga":
         from .pga import pga
 
-        pga_res = pga(ph, grid=grid, guard=False, **(pga_options or {}))
-        start = pga_res.phase_rad
-        # anchor at PGA only where PGA sharpened the image (entropy down, peak-to-mean not down);
-        # otherwise at no correction
-        (h0, m0), (h1, m1) = sharpness(form(ph, grid)), sharpness(form(ph, grid, start))
-        if not (h1 < h0 and m1 >= m0):
-            start = np.zeros(P)
-    phi0 = np.asarray(start, np.float64)
-    stack = pulse_images(ph, guarded_grid(grid, acq))
-    lam = float(strength) / P
-
-    def fun(phi):
-        h, g = entropy_and_gradient(phi, stack)
-        d = phi - phi0
-        return h + lam * np.sum(1.0 - np.cos(d)), g + lam * np.sin(d)
-
-    h_start = fun(phi0)[0]
-    opt = minimize(fun, phi0, jac=True, method="L-BFGS-B", options={"maxiter": max_iter, "ftol": tol, "gtol": 1e-10})
-    phi = remove_linear_phase(opt.x, acq.azimuth_rad)
-    hist = {"objective_start": h_start, "objective_end": float(opt.fun), "lbfgs_iterations": int(opt.nit)}
-    if pga_res is not None:
-        hist["pga_iterations"] = pga_res.iterations
-    res = AutofocusResult(phi, "min-entropy", iterations=int(opt.nit), history=hist)
-    if guard:
-        res = keep_if_sharper(ph, grid, res, [phi0, phi] if pga_res is not None else [phi])
+        cand = pga(ph, grid=est, guard=False, **(pga_options or {})).phase_rad
+        cand = cand - gauge @ (gauge.T @ cand)
+        if full.entropy(cand) < full.entropy(zero):
+            phi0, hist["start"] = cand, "pga"
+        else:
+            hist["start"] = "zero (pga did not lower the entropy)"
+    elif not isinstance(start, str):
+        phi0 = np.asarray(start, np.float64)
+        phi0, hist["start"] = phi0 - gauge @ (gauge.T @ phi0), "given"
+    path = coarse_to_fine(full, phi0, gauge, coarse, max_iter)
+    paths = [coarse_to_fine(im, zero, gauge, coarse, max_iter) for im in halves]
+    gains, corrs = _crossvalidate(halves, paths)
+    evals = full.evaluations + sum(im.evaluations for im in halves)
+    names = [str(lv) for lv in coarse]
+    # cross-validated choice of the level: the largest total held-out gain, both halves gaining
+    score = [sum(g) if min(g) > 0 else -np.inf for g in gains]
+    best = int(np.argmax(score)) if validate else len(path) - 1
+    kept = validate is False or np.isfinite(score[best])
+    phi = path[best] if kept else zero
+    hist.update(entropy_start=full.entropy(phi0), entropy_levels=[full.entropy(p) for p in path],
+                heldout_gain=gains, halves_correlation=corrs, evaluations=evals,
+                level=names[best] if kept else None)
+    if not validate:
+        hist["decision"] = f"finest level {names[-1]} (not cross-validated)"
+    elif not kept:
+        hist["decision"] = ("no error common to the scene: at no level did the estimate from each half of "
+                            "the scene, applied to the other half, lower its entropy")
+    else:
+        hist["decision"] = (f"level {names[best]}: its estimates from each half of the scene lower the "
+                            f"entropy of the other half the most (held-out gains {gains[best][0]:.4f}, "
+                            f"{gains[best][1]:.4f} nats; halves' estimates correlate {corrs[best]:.2f})")
+    judge = full  # the images the estimate is exact for
+    if kept and K > 1 and pulse_iter > 0 and any(lv != "smooth" and int(lv) < K for lv in levels) \
+            and best == len(path) - 1:
+        # one phase per pulse, beyond the sub-apertures: the exact backprojection pair on the
+        # whole grid (no stack), from the sub-aperture estimate; kept when each half's own
+        # per-pulse increment lowers the other half's entropy
+        exact = Imager(ph, full.grid)
+        fine = coarse_to_fine(exact, phi, gauge, (1,), pulse_iter)[-1]
+        sides = [Imager(ph, g) for g in split_grid(full.grid, axis, SPLIT_GAP)[:2]]
+        ends = [coarse_to_fine(im, p[best], gauge, (1,), pulse_iter)[-1] for im, p in zip(sides, paths)]
+        g1 = (sides[0].entropy(paths[1][best]) - sides[0].entropy(ends[1]),
+              sides[1].entropy(paths[0][best]) - sides[1].entropy(ends[0]))
+        c1 = _corr(ends[0] - paths[0][best], ends[1] - paths[1][best])
+        hist["heldout_gain"] = gains + [g1]
+        hist["halves_correlation"] = corrs + [c1]
+        hist["evaluations"] = evals = evals + exact.evaluations + sum(im.evaluations for im in sides)
+        hist["levels"] = names + ["1"]
+        if min(g1) > 0:
+            phi, judge, hist["level"] = fine, exact, "1"
+            hist["decision"] += (f"; then one phase per pulse: each half's per-pulse increment lowers the "
+                                 f"other half's entropy ({g1[0]:.4f}, {g1[1]:.4f} nats; correlation {c1:.2f})")
+        else:
+            hist["decision"] += ("; one phase per pulse not kept: a half's per-pulse increment did not lower "
+                                 "the other half's entropy")
+    res = AutofocusResult(phi, "min-entropy", iterations=evals, history=hist)
+    (h0, m0), (h1, m1) = sharpness(judge.image(zero)), sharpness(judge.image(phi))
+    res.entropy_before, res.peak_to_mean_before = h0, m0
+    res.entropy_after, res.peak_to_mean_after = h1, m1
+    if guard and np.any(phi) and not (h1 < h0 and m1 >= m0):
+        # never less sharp, on the images the estimate was made on (exact for its block phases)
+        hist["decision"] += "; but it left the image less sharp (entropy or peak-to-mean): not applied"
+        res.phase_rad, res.accepted = zero, False
+        res.entropy_after, res.peak_to_mean_after = h0, m0
+        warnings.warn(f"autofocus (min-entropy) did not sharpen the image (entropy {h0:.4f}, peak-to-mean "
+                      f"{m0:.4g} before): no correction applied", AutofocusWarning, stacklevel=2)
     return res

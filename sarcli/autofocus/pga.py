@@ -37,7 +37,7 @@ from ..core.grid import Grid
 from ._common import (AutofocusResult, estimation_grid, form, keep_if_sharper, pulse_signals,
                       remove_linear_phase)
 
-__all__ = ["pga", "select_scatterers", "phase_gradient_estimate"]
+__all__ = ["pga", "select_scatterers", "phase_gradient_estimate", "principal_vector"]
 
 
 def select_scatterers(image, n: int, separation: int):
@@ -98,11 +98,33 @@ def phase_gradient_estimate(signals, window_db=-10.0, min_window=4, full=False, 
     if estimator == "eigen":
         # maximum likelihood (Jakowatz and Wahl 1993): the phase of the principal eigenvector of
         # Σ_k g_k g_kᴴ, i.e. the first left singular vector of [g_1 ... g_K]
-        u, _, _ = np.linalg.svd(g, full_matrices=False)
-        v = u[:, 0]
+        v = principal_vector(g)
         return np.unwrap(np.angle(v * np.conj(v[0]))), width
     grad = np.angle(np.sum(g[1:] * np.conj(g[:-1]), axis=1))
     return np.concatenate([[0.0], np.cumsum(grad)]), width
+
+
+def principal_vector(g, tol: float = 1e-12, max_iter: int = 1000) -> np.ndarray:
+    """The first left singular vector of ``g`` (P × K) by power iteration on ``g gᴴ``.
+
+    Two matrix-vector products per step instead of a full SVD (a LAPACK call whose threads
+    contend on a loaded machine); stops when ``1 - |⟨u_k, u_{k+1}⟩|`` is below ``tol``.
+    """
+    u = g @ np.conj(g[0])  # g gᴴ e_0: a start with a component along the principal vector
+    if not np.any(u):
+        u = np.ones(g.shape[0], dtype=g.dtype)
+    u = u / np.linalg.norm(u)
+    for _ in range(max_iter):
+        w = g @ (np.conj(g.T) @ u)
+        n = np.linalg.norm(w)
+        if n == 0:
+            break
+        w = w / n
+        done = 1.0 - abs(np.vdot(u, w)) < tol
+        u = w
+        if done:
+            break
+    return u
 
 
 def pga(ph, *, grid: Grid | None = None, n_scatterers: int | None = None, separation: int = 3,

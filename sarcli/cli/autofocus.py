@@ -4,15 +4,16 @@ from __future__ import annotations
 
 import click
 
-from .options import grid_options, handle_errors, parse_pair, prepare_outputs, wrote
+from .options import echo_info, grid_options, handle_errors, parse_pair, prepare_outputs, wrote
 
 
 @click.command("autofocus")
 @click.argument("input_path", metavar="PH.h5", type=click.Path(dir_okay=False))
 @click.option("-o", "--output", required=True, type=click.Path(dir_okay=False),
               help="Corrected phase-history file to write (.h5).")
-@click.option("--method", type=click.Choice(["pga", "min-entropy"]), default="pga", show_default=True,
-              help="Phase gradient autofocus, or minimum entropy started from it (constrained).")
+@click.option("--method", type=click.Choice(["pga", "min-entropy"]), default="min-entropy", show_default=True,
+              help="Minimum entropy, coarse to fine, cross-validated between halves of the scene; or "
+                   "phase gradient autofocus.")
 @grid_options
 @click.pass_context
 @handle_errors
@@ -22,8 +23,10 @@ def command(ctx, input_path, output, method, center, extent, pixel_size):
     The data are multiplied by exp(-i estimate) per pulse; the estimate is stored in
     /autofocus/phase_rad with the method. Constant and linear phase (a cross-range shift) are not
     observable and are left out of the estimate. The grid options choose the scene part the
-    estimate is made on (default the file's grid; large grids are cut to a central window). No
-    correction is applied when none makes the image sharper (entropy and peak-to-mean).
+    estimate is made on (default the file's grid). No correction is applied when none makes the
+    image sharper (entropy and peak-to-mean) or, for min-entropy, when the estimate from each half
+    of the scene does not sharpen the other half. What was decided and why is stored in the
+    file's attribute autofocus_decision and printed with -v.
     """
     import numpy as np
 
@@ -40,6 +43,8 @@ def command(ctx, input_path, output, method, center, extent, pixel_size):
                         extent=parse_pair(extent, "--extent"), pixel_size=pixel_size)
     out, res = autofocus(ph, method, grid=grid)
     write_phase_history(output, out)
+    if (ctx.find_root().obj or {}).get("verbose"):
+        echo_info(ctx, out.attrs["autofocus_decision"])
     rms = float(np.sqrt(np.mean(res.phase_rad ** 2)))
     wrote(output, f"{method}: {rms:.3g} rad rms removed, entropy {res.entropy_before:.4f} -> "
                   f"{res.entropy_after:.4f}, peak-to-mean {res.peak_to_mean_before:.4g} -> "

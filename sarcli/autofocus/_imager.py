@@ -1,0 +1,272 @@
+"""The image of phase-corrected data and the adjoint that gives the entropy's per-pulse gradient.
+
+For a per-pulse phase correction ``φ_p`` the image is linear in the corrected data,
+
+.. math::
+
+    f(φ) = B\\,(d \\odot e^{-iφ}) = \\sum_p e^{-iφ_p}\\, b_p, \\qquad b_p = B_p d_p ,
+
+with ``B`` the backprojection (``B_p`` its part for pulse ``p``). The entropy
+``H = -Σ_s q_s \\ln q_s`` (``q_s = |f_s|² / E``, ``E = Σ_s |f_s|²``) has the gradient
+
+.. math::
+
+    \\frac{∂H}{∂φ_p} = 2\\, \\operatorname{Im}\\Big(e^{-iφ_p} \\sum_s w_s \\overline{f_s}\\, b_{ps}\\Big)
+    = 2\\, \\operatorname{Im}\\Big(e^{-iφ_p} \\sum_j \\overline{R_{pj}}\\, d_{pj}\\Big),
+    \\qquad w_s = -\\frac{\\ln q_s + H}{E}, \\quad R = B^{H} (w \\odot f),
+
+because ``Σ_s g_s (B_p d_p)_s = ⟨B_p^H \\bar g, d_p⟩``. So one backprojection gives ``H`` and one
+reprojection (:func:`sarcli.formers.backprojection.reproject`, the exact adjoint) gives all
+``P`` partial derivatives: two images of memory, none per pulse. Collections the backprojector
+does not take (far-field model, unequally spaced frequencies) use the stack of single-pulse
+images instead (:func:`~sarcli.autofocus._common.pulse_images`; small cases only).
+"""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+
+from ..core.grid import Grid
+from ..errors import SarcliInputError, SarcliWarning
+from ._common import pulse_images
+
+__all__ = ["Imager", "BlockImager", "entropy_of", "split_grid", "range_axis"]
+
+#: Backprojection options of the estimator: the pair backproject/reproject is an exact adjoint
+#: for any of them, and the estimate only needs the image to a few per cent.
+ESTIMATION_BP = {"upsample": 4, "interp": "linear", "precision": "float32"}
+
+
+#: The band left between the two halves of a grid, as a fraction of its width (:func:`split_grid`).
+SPLIT_GAP = 0.125
+
+
+def entropy_of(image) -> tuple[float, np.ndarray, np.ndarray]:
+    """``H``, the normalised intensity ``q`` and the gradient weights ``w`` of an image."""
+    f = np.asarray(image)
+    inten = f.real.astype(np.float64) ** 2 + f.imag.astype(np.float64) ** 2
+    total = float(inten.sum())
+    if total <= 0.0:
+        return 0.0, inten, np.zeros_like(inten)
+    q = inten / total
+    logq = np.log(np.where(q > 0, q, 1.0))
+    h = float(-np.sum(q * logq))
+    return h, q, -(logq + h) / total
+
+
+class Imager:
+    """Images of ``d · exp(-iφ)`` on one grid, and the entropy with its per-pulse gradient.
+
+    Parameters
+    ----------
+    ph : PhaseHistory
+    grid : Grid
+    """
+
+    def __init__(self, ph, grid: Grid):
+        self.grid = grid
+        self.data = np.asarray(ph.data, dtype=np.complex128)
+        acq = ph.acquisition
+        self.stack = None
+        self.evaluations = 0
+        if acq.model == "spherical" and self.data.shape[1] >= 2:
+            t, q, r0 = acq.range_geometry()
+            self._args = (acq.frequencies_2d, t, r0, grid)
+            self._kw = dict(ESTIMATION_BP, receive_position_m=q if acq.is_bistatic else None)
+            try:  # the backprojector's checks, on one pixel
+                from ..formers.backprojection import backproject
+
+                backproject(self.data, *self._args[:3], Grid(1, 1, grid.dx, grid.dy, grid.cx, grid.cy),
+                            **self._kw)
+                return
+            except SarcliInputError:  # unequally spaced frequencies: the stack below
+                pass
+        self.stack = pulse_images(ph, grid)
+
+    def image(self, phi) -> np.ndarray:
+        """``f(φ)``, shape ``grid.shape``."""
+        e = np.exp(-1j * np.asarray(phi, np.float64))
+        if self.stack is not None:
+            return (e.astype(self.stack.dtype) @ self.stack).reshape(self.grid.shape)
+        from ..formers.backprojection import backproject
+
+        with warnings.catch_warnings():  # a guard band may reach the unambiguous window: harmless
+            warnings.simplefilter("ignore", SarcliWarning)
+            return backproject(self.data * e[:, None], *self._args, **self._kw)
+
+    def _contract(self, g) -> np.ndarray:
+        """``v_p = Σ_s g_s b_ps`` for an image-shaped ``g``."""
+        if self.stack is not None:
+            return self.stack @ g.ravel().astype(self.stack.dtype)
+        from ..formers.backprojection import reproject
+
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", SarcliWarning)
+            r = reproject(np.conj(g), *self._args, **self._kw)
+        return np.sum(np.conj(r) * self.data, axis=1)
+
+    def blockwise(self, phi) -> np.ndarray:
+        """``φ`` itself (this imager is exact for any per-pulse phase)."""
+        return np.asarray(phi, np.float64)
+
+    def entropy(self, phi) -> float:
+        """``H(f(φ))``."""
+        return entropy_of(self.image(phi))[0]
+
+    def entropy_and_gradient(self, phi) -> tuple[float, np.ndarray]:
+        """``H(φ)`` and ``∂H/∂φ_p`` (module docstring): one image and one adjoint."""
+        phi = np.asarray(phi, np.float64)
+        self.evaluations += 1
+        f = self.image(phi)
+        h, _, w = entropy_of(f)
+        v = self._contract(w * np.conj(f))
+        return h, 2.0 * np.imag(np.exp(-1j * phi) * v)
+
+
+def range_axis(acq) -> int:
+    """The image axis closer to the ground range direction: 1 (x, columns) or 0 (y, rows)."""
+    th = float(np.angle(np.mean(np.exp(1j * np.asarray(acq.azimuth_rad, np.float64)))))
+    return 1 if abs(np.cos(th)) >= abs(np.sin(th)) else 0
+
+
+def split_grid(grid: Grid, axis: int = 1, gap: float = 0.0) -> tuple[Grid, ...]:
+    """Two disjoint halves of ``grid`` along ``axis`` (1: near and far columns, 0: rows), and,
+    when ``gap > 0``, the band between them (``gap`` of the grid's width, at least 2 pixels).
+
+    Split across range, each half holds whole cross-range lines: a phase error moves energy only
+    in cross-range, so neither half can lower its entropy by pushing energy into the other. The
+    band keeps the halves out of each other's range sidelobes.
+
+    Returns
+    -------
+    (low, high) or (low, high, band) : Grids
+    """
+    n, d, c = (grid.nx, grid.dx, grid.cx) if axis == 1 else (grid.ny, grid.dy, grid.cy)
+    g = 0 if gap <= 0 else max(2, int(round(gap * n / 2)) * 2)
+    half = (n - g) // 2
+    if half < 2:
+        raise SarcliInputError(f"a grid {n} pixels across cannot be split in two halves")
+    first = c - (n // 2) * d  # coordinate of pixel 0
+
+    def part(start, size):
+        centre = first + (start + size // 2) * d
+        if axis == 1:
+            return Grid(size, grid.ny, grid.dx, grid.dy, centre, grid.cy)
+        return Grid(grid.nx, size, grid.dx, grid.dy, grid.cx, centre)
+
+    parts = (part(0, half), part(half + g, n - half - g))
+    return parts + ((part(half, g),) if g else ())
+
+
+class BlockImager:
+    r"""Images of ``d · exp(-iφ)`` from sub-aperture images of ``K`` consecutive pulses.
+
+    With the block images ``F_b = Σ_{p ∈ b} b_p`` and the block phase ``θ = Mφ`` (``M`` averages
+    the pulses of each block) the image is ``f = Σ_b e^{-iθ_b} F_b``, exact when ``φ`` is constant
+    within each block, and
+
+    .. math::
+
+        \frac{∂H}{∂φ_p} = \frac{1}{K_b}\, 2 \operatorname{Im}\Big(e^{-iθ_b}
+            \sum_s w_s \overline{f_s}\, F_{bs}\Big), \qquad p ∈ b .
+
+    Memory: ``⌈P/K⌉`` images. The stack is held as the two halves of :func:`split_grid` (each
+    ``blocks × pixels``, contiguous), so that :meth:`halves` costs nothing.
+
+    Parameters
+    ----------
+    ph : PhaseHistory
+    grid : Grid
+    block : int
+        Pulses per sub-aperture.
+    axis : int
+        The axis the halves split (:func:`split_grid`).
+    """
+
+    def __init__(self, ph, grid: Grid, block: int, axis: int = 1, *, _parts=None, _bounds=None):
+        self.grid = grid
+        self.axis = axis
+        self.evaluations = 0
+        if _parts is None:
+            P = ph.data.shape[0]
+            self.bounds = np.append(np.arange(0, P, block), P)
+            self.parts = self._build(ph, grid, split_grid(grid, axis, SPLIT_GAP))
+        else:
+            self.bounds, self.parts = _bounds, _parts
+        self._sizes = np.diff(self.bounds).astype(np.float64)
+
+    def _build(self, ph, grid, pieces):
+        """The block images on ``grid``, each cut into the ``pieces`` of :func:`split_grid`
+        (low, high[, band]; in the image: low, band, high along ``axis``)."""
+        acq = ph.acquisition
+        nb = len(self.bounds) - 1
+        d = np.asarray(ph.data)
+        size = [g.nx if self.axis == 1 else g.ny for g in pieces]
+        edges = [(0, size[0]), (size[0] + (size[2] if len(size) > 2 else 0), None)]
+        if len(size) > 2:
+            edges.append((size[0], size[0] + size[2]))
+        parts = [np.empty((nb, g.nx * g.ny), dtype=np.complex64) for g in pieces]
+
+        def store(b, img):
+            for part, (lo, hi) in zip(parts, edges):
+                part[b] = (img[:, lo:hi] if self.axis == 1 else img[lo:hi]).ravel()
+
+        if acq.model == "spherical" and d.shape[1] >= 2:
+            from ..formers.backprojection import backproject
+
+            t, q, r0 = acq.range_geometry()
+            f = acq.frequencies_2d
+            try:
+                with warnings.catch_warnings():
+                    warnings.simplefilter("ignore", SarcliWarning)
+                    for b in range(nb):
+                        s = slice(self.bounds[b], self.bounds[b + 1])
+                        # backproject divides by its own pulse count: weigh each block by its share
+                        img = backproject(d[s], f[s], t[s], r0[s], grid, **ESTIMATION_BP,
+                                          receive_position_m=q[s] if acq.is_bistatic else None)
+                        store(b, img * ((s.stop - s.start) / d.shape[0]))
+                return parts
+            except SarcliInputError:  # unequally spaced frequencies: single-pulse images below
+                pass
+        pulses = pulse_images(ph, grid)
+        for b in range(nb):
+            store(b, pulses[self.bounds[b]:self.bounds[b + 1]].sum(axis=0).reshape(grid.shape))
+        return parts
+
+    def halves(self) -> tuple["BlockImager", "BlockImager"]:
+        """The imagers of the two halves of :func:`split_grid` (this stack's own parts, no copy)."""
+        return tuple(BlockImager(None, g, 0, self.axis, _parts=[part], _bounds=self.bounds)
+                     for g, part in zip(split_grid(self.grid, self.axis, SPLIT_GAP)[:2], self.parts))
+
+    def _theta(self, phi):
+        return np.add.reduceat(np.asarray(phi, np.float64), self.bounds[:-1]) / self._sizes
+
+    def _image(self, e):
+        return np.concatenate([e.astype(np.complex64) @ part for part in self.parts])
+
+    def blockwise(self, phi) -> np.ndarray:
+        """``Mᵀθ``: ``φ`` replaced by its block means, the phase this imager's images are exact for."""
+        return np.repeat(self._theta(phi), np.diff(self.bounds))
+
+    def image(self, phi) -> np.ndarray:
+        """``f(φ)`` with ``φ`` averaged over each block (the halves' pixels one after the other)."""
+        return self._image(np.exp(-1j * self._theta(phi)))
+
+    def entropy(self, phi) -> float:
+        return entropy_of(self.image(phi))[0]
+
+    def entropy_and_gradient(self, phi) -> tuple[float, np.ndarray]:
+        """``H`` and its per-pulse gradient (class docstring)."""
+        self.evaluations += 1
+        e = np.exp(-1j * self._theta(phi))
+        f = self._image(e)
+        h, _, w = entropy_of(f)
+        g = (w * np.conj(f)).astype(np.complex64)
+        v, k = 0.0, 0
+        for part in self.parts:
+            n = part.shape[1]
+            v = v + part @ g[k:k + n]
+            k += n
+        return h, np.repeat(2.0 * np.imag(e * v) / self._sizes, np.diff(self.bounds))
