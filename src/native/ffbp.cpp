@@ -24,6 +24,8 @@ namespace sarcli {
 namespace {
 
 using i32 = std::int32_t;
+// a lambda compiled into the (cloned) function that calls it
+#define SARCLI_LAMBDA_INLINE __attribute__((always_inline))
 using i64 = std::int64_t;
 
 // interpolation kernels: 0 linear, 1 Keys cubic, 2 Lanczos-3, 3 6-tap polynomial weights
@@ -171,22 +173,81 @@ struct Scratch0 {
         w(6 * n), acc_re(n), acc_im(n) {}
 };
 
-// acc[k] += (cr + i ci)[k] Σ_b w[b][k] profile[k + off + b] for k in [k0, k1): a run of nodes
-// whose stencils start at consecutive bins (contiguous loads); float32 like the profiles.
-SARCLI_INLINE void tap6_run(const float* rp, const float* ip, const float* w, std::size_t ws, const float* cr,
-                            const float* ci, float* acc_re, float* acc_im, std::size_t k0, std::size_t k1,
-                            std::ptrdiff_t off) {
-  const float *r = rp + off, *m = ip + off;
-  const float *w0 = w, *w1 = w + ws, *w2 = w + 2 * ws, *w3 = w + 3 * ws, *w4 = w + 4 * ws, *w5 = w + 5 * ws;
+// The six weights of a 6-tap kernel at fraction index k: the polynomials of tab ([6][8], degree 7
+// in 2·frac − 1) evaluated in place (Poly), or read from w[tap * ws + k].
+template <bool Poly>
+SARCLI_INLINE void weights6(const float* frac, const float* tab, const float* w, std::size_t ws, std::size_t k,
+                            float& v0, float& v1, float& v2, float& v3, float& v4, float& v5) {
+  if constexpr (Poly) {
+    const float x = 2.0f * frac[k] - 1.0f;
+    v0 = poly7(tab, x);
+    v1 = poly7(tab + 8, x);
+    v2 = poly7(tab + 16, x);
+    v3 = poly7(tab + 24, x);
+    v4 = poly7(tab + 32, x);
+    v5 = poly7(tab + 40, x);
+  } else {
+    v0 = w[k];
+    v1 = w[ws + k];
+    v2 = w[2 * ws + k];
+    v3 = w[3 * ws + k];
+    v4 = w[4 * ws + k];
+    v5 = w[5 * ws + k];
+  }
+}
+
+// acc[k] += (cr + i ci)[k] Σ_b w_b[k] src[k + off + b] for k in [k0, k1): a run of points whose
+// stencils start at consecutive samples (contiguous loads), float32 throughout; the weights are
+// formed in the same pass (weights6).
+template <bool Poly>
+SARCLI_INLINE void tap6_run(const float* sre, const float* sim, std::ptrdiff_t off, const float* frac,
+                            const float* tab, const float* w, std::size_t ws, const float* cr, const float* ci,
+                            float* acc_re, float* acc_im, std::size_t k0, std::size_t k1) {
+  const float *r = sre + off, *m = sim + off;
 #pragma omp simd
   for (std::size_t k = k0; k < k1; ++k) {
-    const float vr = w0[k] * r[k] + w1[k] * r[k + 1] + w2[k] * r[k + 2] + w3[k] * r[k + 3] + w4[k] * r[k + 4] +
-                     w5[k] * r[k + 5];
-    const float vi = w0[k] * m[k] + w1[k] * m[k + 1] + w2[k] * m[k + 2] + w3[k] * m[k + 3] + w4[k] * m[k + 4] +
-                     w5[k] * m[k + 5];
+    float v0, v1, v2, v3, v4, v5;
+    weights6<Poly>(frac, tab, w, ws, k, v0, v1, v2, v3, v4, v5);
+    const float vr = v0 * r[k] + v1 * r[k + 1] + v2 * r[k + 2] + v3 * r[k + 3] + v4 * r[k + 4] + v5 * r[k + 5];
+    const float vi = v0 * m[k] + v1 * m[k + 1] + v2 * m[k + 2] + v3 * m[k + 3] + v4 * m[k + 4] + v5 * m[k + 5];
     acc_re[k] += vr * cr[k] - vi * ci[k];
     acc_im[k] += vr * ci[k] + vi * cr[k];
   }
+}
+
+// tap6_run for points whose stencils start anywhere (src + idx[k]): gathers.
+template <bool Poly>
+SARCLI_INLINE void tap6_gather(const float* sre, const float* sim, const i32* idx, const float* frac,
+                               const float* tab, const float* w, std::size_t ws, const float* cr, const float* ci,
+                               float* acc_re, float* acc_im, std::size_t n) {
+  for (std::size_t k = 0; k < n; ++k) {
+    float v0, v1, v2, v3, v4, v5;
+    weights6<Poly>(frac, tab, w, ws, k, v0, v1, v2, v3, v4, v5);
+    const float *r = sre + idx[k], *m = sim + idx[k];
+    const float vr = v0 * r[0] + v1 * r[1] + v2 * r[2] + v3 * r[3] + v4 * r[4] + v5 * r[5];
+    const float vi = v0 * m[0] + v1 * m[1] + v2 * m[2] + v3 * m[3] + v4 * m[4] + v5 * m[5];
+    acc_re[k] += vr * cr[k] - vi * ci[k];
+    acc_im[k] += vr * ci[k] + vi * cr[k];
+  }
+}
+
+// Runs of points k whose stencil start idx[k] − k is constant (idx increasing by one a point):
+// calls run(k0, k1, off) for each, and returns false without calling when there are more than
+// n/8 runs (the points are better served by gathers).
+template <typename Run>
+SARCLI_INLINE bool for_runs(const i32* idx, std::size_t k0, std::size_t k1, std::size_t max_runs, Run run) {
+  std::size_t n_runs = 1;
+  for (std::size_t k = k0 + 1; k < k1; ++k) n_runs += idx[k] - idx[k - 1] != 1;
+  if (n_runs > max_runs) return false;
+  std::size_t i = k0;
+  while (i < k1) {
+    const std::ptrdiff_t off = static_cast<std::ptrdiff_t>(idx[i]) - static_cast<std::ptrdiff_t>(i);
+    std::size_t e = i + 1;
+    while (e < k1 && static_cast<std::ptrdiff_t>(idx[e]) - static_cast<std::ptrdiff_t>(e) == off) ++e;
+    run(i, e, off);
+    i = e;
+  }
+  return true;
 }
 
 SARCLI_CLONES
@@ -245,6 +306,7 @@ void stage0_row(const Stage0& A, std::size_t s, std::size_t it, Scratch0& W) {
         dr[iq] = d + g8;
       }
     }
+    const double hk = 0.5 * kcp;   // the carrier's half phase per metre
     for (std::size_t iq = 0; iq < nq; ++iq) {
       const double d = dr[iq];
       double pos = d * ib + A.half_len;
@@ -253,44 +315,29 @@ void stage0_row(const Stage0& A, std::size_t s, std::size_t it, Scratch0& W) {
       const double fl = std::floor(pos);
       idx[iq] = static_cast<i32>(fl + A.off);
       frac[iq] = static_cast<float>(pos - fl);
-      double c, sn;
-      carrier::sincos(kcp * d, c, sn);
-      const double m = inside ? 1.0 : 0.0;
-      cr[iq] = static_cast<float>(m * c);
-      ci[iq] = static_cast<float>(m * sn);
+      float c, sn;
+      carrier::sincos_half_f32(hk * d, c, sn);
+      const float m = inside ? 1.0f : 0.0f;
+      cr[iq] = m * c;
+      ci[iq] = m * sn;
     }
-    row_weights<float>(A.kind, frac, nq, w, nq, A.tab);
     if (ntap == 6) {
       // where a node's stencil starts as many bins after the previous node's as it is nodes after
       // it (node spacing ≈ one bin: the default upsample = os_range), runs of nodes read
       // contiguous bins: vector loads instead of gathers
-      std::size_t n_runs = 1;
-      for (std::size_t iq = 1; iq < nq; ++iq) n_runs += idx[iq] - idx[iq - 1] != 1;
-      if (n_runs * 8 <= nq) {
-        std::size_t i0 = 0;
-        while (i0 < nq) {
-          const std::ptrdiff_t shift = static_cast<std::ptrdiff_t>(idx[i0]) - static_cast<std::ptrdiff_t>(i0);
-          std::size_t e = i0 + 1;
-          while (e < nq && static_cast<std::ptrdiff_t>(idx[e]) - static_cast<std::ptrdiff_t>(e) == shift) ++e;
-          tap6_run(rp, ip, w, nq, cr, ci, acc_re, acc_im, i0, e, shift);
-          i0 = e;
-        }
-        continue;
-      }
-      for (std::size_t iq = 0; iq < nq; ++iq) {   // gathers
-        const float* r = rp + idx[iq];
-        const float* m = ip + idx[iq];
-        float vr = 0.0f, vi = 0.0f;
-        // same association as tap6_run: ((((w0 r0 + w1 r1) + w2 r2) + ...)
-        vr = w[iq] * r[0] + w[nq + iq] * r[1] + w[2 * nq + iq] * r[2] + w[3 * nq + iq] * r[3] +
-             w[4 * nq + iq] * r[4] + w[5 * nq + iq] * r[5];
-        vi = w[iq] * m[0] + w[nq + iq] * m[1] + w[2 * nq + iq] * m[2] + w[3 * nq + iq] * m[3] +
-             w[4 * nq + iq] * m[4] + w[5 * nq + iq] * m[5];
-        acc_re[iq] += vr * cr[iq] - vi * ci[iq];
-        acc_im[iq] += vr * ci[iq] + vi * cr[iq];
+      const bool poly = A.kind == 3;
+      if (!poly) row_weights<float>(A.kind, frac, nq, w, nq, A.tab);
+      const bool runs = for_runs(idx, 0, nq, nq / 8, [&](std::size_t k0, std::size_t k1, std::ptrdiff_t off) SARCLI_LAMBDA_INLINE {
+        if (poly) tap6_run<true>(rp, ip, off, frac, A.tab, w, nq, cr, ci, acc_re, acc_im, k0, k1);
+        else tap6_run<false>(rp, ip, off, frac, A.tab, w, nq, cr, ci, acc_re, acc_im, k0, k1);
+      });
+      if (!runs) {
+        if (poly) tap6_gather<true>(rp, ip, idx, frac, A.tab, w, nq, cr, ci, acc_re, acc_im, nq);
+        else tap6_gather<false>(rp, ip, idx, frac, A.tab, w, nq, cr, ci, acc_re, acc_im, nq);
       }
       continue;
     }
+    row_weights<float>(A.kind, frac, nq, w, nq, A.tab);
     for (std::size_t iq = 0; iq < nq; ++iq) {   // 2 or 4 taps
       double vr = 0.0, vi = 0.0;
       for (int b = 0; b < ntap; ++b) {
@@ -347,27 +394,52 @@ struct Child {
   Frame f;
 };
 
+// Work arrays of one row of n points (children of up to ncmax - 6 range samples).
 struct RowScratch {
-  std::vector<double> xs, ys, qp, qs, ts, cr, ci, acc_re, acc_im, slope, ftc;
-  std::vector<i32> idx_q, idx_t, idx_c, flat;
-  std::vector<float> fq, ft, wq, wt, wtc, okc, gre, gim, ftc32;
+  std::vector<double> xs, ys, qp, qs, ts, slope, ftc;
+  std::vector<i32> idx_q, idx_t, idx_c;
+  std::vector<float> cr, ci, acc_re, acc_im, fq, ft, wq, wt, wtc, okc, gre, gim, ftc32;
   RowScratch(std::size_t n, std::size_t ncmax)
-      : xs(n), ys(n), qp(n), qs(n), ts(n), cr(n), ci(n), acc_re(n), acc_im(n), slope(n), ftc(ncmax), idx_q(n),
-        idx_t(n), idx_c(ncmax), flat(n), fq(n), ft(n), wq(6 * n), wt(6 * n), wtc(6 * ncmax), okc(ncmax),
-        gre(ncmax), gim(ncmax), ftc32(ncmax) {}
+      : xs(n), ys(n), qp(n), qs(n), ts(n), slope(n), ftc(ncmax), idx_q(n), idx_t(n), idx_c(ncmax), cr(n), ci(n),
+        acc_re(n), acc_im(n), fq(n), ft(n), wq(6 * n), wt(6 * n), wtc(6 * ncmax), okc(ncmax), gre(ncmax),
+        gim(ncmax), ftc32(ncmax) {}
 };
 
+// eight float32 lanes (GCC/Clang vector extension: one AVX register, two SSE registers)
+typedef float v8f __attribute__((vector_size(32)));
+
+SARCLI_INLINE v8f load8(const float* p) {
+  v8f v;
+  __builtin_memcpy(&v, p, sizeof v);
+  return v;
+}
+
+// The 6-tap weights of fraction t as lanes 0-5 of a vector (lanes 6, 7 zero): the degree-7
+// polynomials with coefficient vectors ck[k] (lane b: tab[b][k]).
+SARCLI_INLINE v8f weights8(const v8f* ck, float t) {
+  const float x = 2.0f * t - 1.0f;
+  v8f w = ck[7];
+  for (int k = 6; k >= 0; --k) w = w * x + ck[k];
+  return w;
+}
+
+SARCLI_INLINE float hsum8(v8f v) {
+  return ((v[0] + v[4]) + (v[1] + v[5])) + ((v[2] + v[6]) + (v[3] + v[7]));
+}
+
 // Add one sub-image, interpolated at the polar coordinates (qs, ts) of n points and re-modulated
-// by e^{i k_ref (q − qref)}, to acc: positions and carriers, weights, then a 2-D stencil gather.
+// by e^{i k_ref (q − qref)}, to acc: positions and carriers, weights, then the 2-D stencil. With
+// the 6-tap polynomial kernel, each of a point's six stencil rows is read as one 8-lane vector
+// (lanes 6, 7 weighted zero) and the range weights are one vector polynomial.
 SARCLI_INLINE void polar_row(const Child& C, double dq, double kref, const double* qs, const double* ts,
                              const double* qref, int kind, const float* tab_q, const float* tab_t, std::size_t n,
                              RowScratch& W) {
   const int ntap = kTaps[kind];
   const double lo = -(ntap / 2 - 1), nt = static_cast<double>(C.nt), nq = static_cast<double>(C.nq);
-  const double inv_dq = 1.0 / dq, inv_dt = 1.0 / C.f.du;
-  i32 *idx_q = W.idx_q.data(), *idx_t = W.idx_t.data(), *flat = W.flat.data();
+  const double inv_dq = 1.0 / dq, inv_dt = 1.0 / C.f.du, hk = 0.5 * kref;
+  i32 *idx_q = W.idx_q.data(), *idx_t = W.idx_t.data();
   float *fq = W.fq.data(), *ft = W.ft.data(), *wq = W.wq.data(), *wt = W.wt.data();
-  double *cr = W.cr.data(), *ci = W.ci.data(), *acc_re = W.acc_re.data(), *acc_im = W.acc_im.data();
+  float *cr = W.cr.data(), *ci = W.ci.data(), *acc_re = W.acc_re.data(), *acc_im = W.acc_im.data();
   for (std::size_t i = 0; i < n; ++i) {
     double tq, tt;
     bool okq, okt;
@@ -375,47 +447,53 @@ SARCLI_INLINE void polar_row(const Child& C, double dq, double kref, const doubl
     idx_t[i] = locate((ts[i] - C.f.u0) * inv_dt, lo, nt, ntap, tt, okt);
     fq[i] = static_cast<float>(tq);
     ft[i] = static_cast<float>(tt);
-    double c, s;
-    carrier::sincos(kref * (qs[i] - (qref ? qref[i] : 0.0)), c, s);
-    const double m = (okq && okt) ? 1.0 : 0.0;
+    float c, s;
+    carrier::sincos_half_f32(hk * (qs[i] - qref[i]), c, s);
+    const float m = (okq && okt) ? 1.0f : 0.0f;
     cr[i] = m * c;
     ci[i] = m * s;
   }
-  row_weights<float>(kind, fq, n, wq, n, tab_q);
   row_weights<float>(kind, ft, n, wt, n, tab_t);
-  const std::size_t cq = C.nq;
-  if (ntap == 6) {
-    for (std::size_t i = 0; i < n; ++i) flat[i] = idx_t[i] * static_cast<i32>(cq) + idx_q[i];
+  const std::size_t cq = C.nq, plane = C.nt * C.nq;
+  if (kind == 3) {
+    v8f ck[8];
+    for (int k = 0; k < 8; ++k)
+      for (int b = 0; b < 8; ++b) ck[k][b] = b < 6 ? tab_q[8 * b + k] : 0.0f;
     for (std::size_t i = 0; i < n; ++i) {
-      const float w0 = wq[i], w1 = wq[n + i], w2 = wq[2 * n + i], w3 = wq[3 * n + i], w4 = wq[4 * n + i],
-                  w5 = wq[5 * n + i];
-      const float* r = C.re + static_cast<std::size_t>(flat[i]);
-      const float* m = C.im + static_cast<std::size_t>(flat[i]);
-      float vr = 0.0f, vi = 0.0f;
-      for (int a = 0; a < 6; ++a) {
-        const float rr = w0 * r[0] + w1 * r[1] + w2 * r[2] + w3 * r[3] + w4 * r[4] + w5 * r[5];
-        const float ri = w0 * m[0] + w1 * m[1] + w2 * m[2] + w3 * m[3] + w4 * m[4] + w5 * m[5];
-        const float ta = wt[a * n + i];
-        vr += ta * rr;
-        vi += ta * ri;
-        r += cq;
-        m += cq;
+      const std::size_t base = static_cast<std::size_t>(idx_t[i]) * cq + static_cast<std::size_t>(idx_q[i]);
+      const v8f w8 = weights8(ck, fq[i]);
+      v8f sr = {}, si = {};
+      if (base + 5 * cq + 8 <= plane) {
+        for (int a = 0; a < 6; ++a) {
+          const float ta = wt[a * n + i];
+          sr += ta * load8(C.re + base + a * cq);
+          si += ta * load8(C.im + base + a * cq);
+        }
+      } else {   // the stencil ends the plane: read six lanes
+        for (int a = 0; a < 6; ++a) {
+          const float ta = wt[a * n + i];
+          for (int b = 0; b < 6; ++b) {
+            sr[b] += ta * C.re[base + a * cq + b];
+            si[b] += ta * C.im[base + a * cq + b];
+          }
+        }
       }
-      const double ur = vr, ui = vi;
-      acc_re[i] += ur * cr[i] - ui * ci[i];
-      acc_im[i] += ur * ci[i] + ui * cr[i];
+      const float vr = hsum8(sr * w8), vi = hsum8(si * w8);
+      acc_re[i] += vr * cr[i] - vi * ci[i];
+      acc_im[i] += vr * ci[i] + vi * cr[i];
     }
     return;
   }
+  row_weights<float>(kind, fq, n, wq, n, tab_q);
   for (std::size_t i = 0; i < n; ++i) {
-    double vr = 0.0, vi = 0.0;
+    float vr = 0.0f, vi = 0.0f;
     for (int a = 0; a < ntap; ++a) {
       const float* r = C.re + (idx_t[i] + a) * cq + idx_q[i];
       const float* m = C.im + (idx_t[i] + a) * cq + idx_q[i];
-      double rr = 0.0, ri = 0.0;
+      float rr = 0.0f, ri = 0.0f;
       for (int b = 0; b < ntap; ++b) {
-        rr += static_cast<double>(wq[b * n + i] * r[b]);
-        ri += static_cast<double>(wq[b * n + i] * m[b]);
+        rr += wq[b * n + i] * r[b];
+        ri += wq[b * n + i] * m[b];
       }
       vr += wt[a * n + i] * rr;
       vi += wt[a * n + i] * ri;
@@ -425,33 +503,55 @@ SARCLI_INLINE void polar_row(const Child& C, double dq, double kref, const doubl
   }
 }
 
+// g[jj] = okc[jj] Σ_a w_a[jj] F[st + a][jlo + jj] for the columns jj in [j0, j1) that share the
+// stencil rows st .. st+5 (contiguous loads); weights formed in the same pass (weights6).
+template <bool Poly>
+SARCLI_INLINE void col_run(const float* re, const float* im, std::size_t cq, std::size_t st, std::size_t jlo,
+                           const float* frac, const float* tab, const float* w, std::size_t ws, const float* okc,
+                           float* gre, float* gim, std::size_t j0, std::size_t j1) {
+  const float* r0 = re + st * cq + jlo;
+  const float* m0 = im + st * cq + jlo;
+  const float *r1 = r0 + cq, *r2 = r0 + 2 * cq, *r3 = r0 + 3 * cq, *r4 = r0 + 4 * cq, *r5 = r0 + 5 * cq;
+  const float *m1 = m0 + cq, *m2 = m0 + 2 * cq, *m3 = m0 + 3 * cq, *m4 = m0 + 4 * cq, *m5 = m0 + 5 * cq;
+#pragma omp simd
+  for (std::size_t jj = j0; jj < j1; ++jj) {
+    float v0, v1, v2, v3, v4, v5;
+    weights6<Poly>(frac, tab, w, ws, jj, v0, v1, v2, v3, v4, v5);
+    const float m = okc[jj];
+    gre[jj] = m * (v0 * r0[jj] + v1 * r1[jj] + v2 * r2[jj] + v3 * r3[jj] + v4 * r4[jj] + v5 * r5[jj]);
+    gim[jj] = m * (v0 * m0[jj] + v1 * m1[jj] + v2 * m2[jj] + v3 * m3[jj] + v4 * m4[jj] + v5 * m5[jj]);
+  }
+}
+
 // polar_row in two 1-D passes, for n >= 2 points whose child range qs increases strictly (a
 // parent's row of constant u seen from a child: the merges). Along the row the child coordinates
 // trace a smooth curve u = T(q). Pass 1 interpolates every child column j the row's stencils touch
 // in u, at T(q_j) (T linear between the row's points, extrapolated past its ends):
 // g_j = F(q_j, T(q_j)). Pass 2 interpolates g in q at each point: 2·ntap taps a point, not ntap².
+// Both passes walk runs of points that share a stencil row (pass 1) or a stencil shift (pass 2),
+// so their loads are contiguous; float32 like the stored sub-images.
 SARCLI_INLINE void separable_row(const Child& C, double dq, double kref, const double* qs, const double* ts,
                                  const double* qref, int kind, const float* tab_q, const float* tab_t, std::size_t n,
                                  RowScratch& W) {
   const int ntap = kTaps[kind];
   const double lo = -(ntap / 2 - 1), nt = static_cast<double>(C.nt), nq = static_cast<double>(C.nq);
-  const double inv_dq = 1.0 / dq, inv_dt = 1.0 / C.f.du;
+  const double inv_dq = 1.0 / dq, inv_dt = 1.0 / C.f.du, hk = 0.5 * kref;
   i32 *idx_q = W.idx_q.data(), *idx_c = W.idx_c.data();
   float *fq = W.fq.data(), *wq = W.wq.data(), *wt = W.wtc.data(), *okc = W.okc.data();
   float *gre = W.gre.data(), *gim = W.gim.data(), *ft32 = W.ftc32.data();
-  double *cr = W.cr.data(), *ci = W.ci.data(), *acc_re = W.acc_re.data(), *acc_im = W.acc_im.data();
+  float *cr = W.cr.data(), *ci = W.ci.data(), *acc_re = W.acc_re.data(), *acc_im = W.acc_im.data();
   double *slope = W.slope.data(), *ft = W.ftc.data();
   for (std::size_t i = 0; i < n; ++i) {   // positions, fractions, carriers
     double tq;
     bool okq;
     idx_q[i] = locate((qs[i] - C.f.q0) * inv_dq, lo, nq, ntap, tq, okq);
     fq[i] = static_cast<float>(tq);
-    double c, s;
-    carrier::sincos(kref * (qs[i] - qref[i]), c, s);
-    const double m = okq ? 1.0 : 0.0;
+    float c, s;
+    carrier::sincos_half_f32(hk * (qs[i] - qref[i]), c, s);
+    const float m = okq ? 1.0f : 0.0f;
     cr[i] = m * c;
     ci[i] = m * s;
-    okc[i] = static_cast<float>(m);
+    okc[i] = m;
   }
   // the points whose stencils lie inside form one interval [i0, i1] (qs increases)
   std::size_t i0 = 0;
@@ -476,75 +576,53 @@ SARCLI_INLINE void separable_row(const Child& C, double dq, double kref, const d
     ft32[jj] = static_cast<float>(tt);
     okc[jj] = okt ? 1.0f : 0.0f;
   }
-  row_weights<float>(kind, ft32, ncol, wt, ncol, tab_t);
   const std::size_t cq = C.nq;
+  const bool poly = kind == 3;
   if (ntap == 6) {   // runs of columns reading the same six child rows: contiguous loads
+    if (!poly) row_weights<float>(kind, ft32, ncol, wt, ncol, tab_t);
     std::size_t j0 = 0;
     while (j0 < ncol) {
       const i32 st = idx_c[j0];
       std::size_t j1 = j0 + 1;
       while (j1 < ncol && idx_c[j1] == st) ++j1;
-      const float* r0 = C.re + static_cast<std::size_t>(st) * cq + jlo;
-      const float* m0 = C.im + static_cast<std::size_t>(st) * cq + jlo;
-      const float *r1 = r0 + cq, *r2 = r0 + 2 * cq, *r3 = r0 + 3 * cq, *r4 = r0 + 4 * cq, *r5 = r0 + 5 * cq;
-      const float *m1 = m0 + cq, *m2 = m0 + 2 * cq, *m3 = m0 + 3 * cq, *m4 = m0 + 4 * cq, *m5 = m0 + 5 * cq;
-      const float *w0 = wt, *w1 = wt + ncol, *w2 = wt + 2 * ncol, *w3 = wt + 3 * ncol, *w4 = wt + 4 * ncol,
-                  *w5 = wt + 5 * ncol;
-#pragma omp simd
-      for (std::size_t jj = j0; jj < j1; ++jj) {
-        const float m = okc[jj];
-        gre[jj] = m * (w0[jj] * r0[jj] + w1[jj] * r1[jj] + w2[jj] * r2[jj] + w3[jj] * r3[jj] + w4[jj] * r4[jj] +
-                       w5[jj] * r5[jj]);
-        gim[jj] = m * (w0[jj] * m0[jj] + w1[jj] * m1[jj] + w2[jj] * m2[jj] + w3[jj] * m3[jj] + w4[jj] * m4[jj] +
-                       w5[jj] * m5[jj]);
-      }
+      if (poly) col_run<true>(C.re, C.im, cq, st, jlo, ft32, tab_t, wt, ncol, okc, gre, gim, j0, j1);
+      else col_run<false>(C.re, C.im, cq, st, jlo, ft32, tab_t, wt, ncol, okc, gre, gim, j0, j1);
       j0 = j1;
     }
-  } else {
-    for (std::size_t jj = 0; jj < ncol; ++jj) {
-      const std::size_t base = static_cast<std::size_t>(idx_c[jj]) * cq + jlo + jj;
-      double vr = 0.0, vi = 0.0;
-      for (int a = 0; a < ntap; ++a) {
-        vr += static_cast<double>(wt[a * ncol + jj] * C.re[base + a * cq]);
-        vi += static_cast<double>(wt[a * ncol + jj] * C.im[base + a * cq]);
-      }
-      gre[jj] = static_cast<float>(okc[jj] * vr);
-      gim[jj] = static_cast<float>(okc[jj] * vi);
-    }
+    // pass 2 over the points inside (the others have a zero carrier): runs of points whose
+    // stencil starts advance with them
+    if (!poly) row_weights<float>(kind, fq, n, wq, n, tab_q);
+    for (std::size_t i = i0; i <= i1; ++i) idx_q[i] -= jlo;
+    const bool runs = for_runs(idx_q, i0, i1 + 1, n, [&](std::size_t k0, std::size_t k1, std::ptrdiff_t off)
+                                                            SARCLI_LAMBDA_INLINE {
+      if (poly) tap6_run<true>(gre, gim, off, fq, tab_q, wq, n, cr, ci, acc_re, acc_im, k0, k1);
+      else tap6_run<false>(gre, gim, off, fq, tab_q, wq, n, cr, ci, acc_re, acc_im, k0, k1);
+    });
+    (void)runs;
+    return;
   }
-  // pass 2 over the points inside (the others have a zero carrier)
+  row_weights<float>(kind, ft32, ncol, wt, ncol, tab_t);
+  for (std::size_t jj = 0; jj < ncol; ++jj) {
+    const std::size_t base = static_cast<std::size_t>(idx_c[jj]) * cq + jlo + jj;
+    float vr = 0.0f, vi = 0.0f;
+    for (int a = 0; a < ntap; ++a) {
+      vr += wt[a * ncol + jj] * C.re[base + a * cq];
+      vi += wt[a * ncol + jj] * C.im[base + a * cq];
+    }
+    gre[jj] = okc[jj] * vr;
+    gim[jj] = okc[jj] * vi;
+  }
   row_weights<float>(kind, fq, n, wq, n, tab_q);
-  if (ntap == 6) {   // runs of points whose stencil starts advance with them: contiguous loads
-    std::size_t i = i0;
-    while (i <= i1) {
-      const std::ptrdiff_t off = static_cast<std::ptrdiff_t>(idx_q[i] - jlo) - static_cast<std::ptrdiff_t>(i);
-      std::size_t e = i + 1;
-      while (e <= i1 && static_cast<std::ptrdiff_t>(idx_q[e] - jlo) - static_cast<std::ptrdiff_t>(e) == off) ++e;
-      const float *gr = gre + off, *gi = gim + off;
-      const float *w0 = wq, *w1 = wq + n, *w2 = wq + 2 * n, *w3 = wq + 3 * n, *w4 = wq + 4 * n, *w5 = wq + 5 * n;
-#pragma omp simd
-      for (std::size_t kk = i; kk < e; ++kk) {
-        const double vr = w0[kk] * gr[kk] + w1[kk] * gr[kk + 1] + w2[kk] * gr[kk + 2] + w3[kk] * gr[kk + 3] +
-                          w4[kk] * gr[kk + 4] + w5[kk] * gr[kk + 5];
-        const double vi = w0[kk] * gi[kk] + w1[kk] * gi[kk + 1] + w2[kk] * gi[kk + 2] + w3[kk] * gi[kk + 3] +
-                          w4[kk] * gi[kk + 4] + w5[kk] * gi[kk + 5];
-        acc_re[kk] += vr * cr[kk] - vi * ci[kk];
-        acc_im[kk] += vr * ci[kk] + vi * cr[kk];
-      }
-      i = e;
+  for (std::size_t kk = i0; kk <= i1; ++kk) {
+    const float* gr = gre + (idx_q[kk] - jlo);
+    const float* gi = gim + (idx_q[kk] - jlo);
+    float vr = 0.0f, vi = 0.0f;
+    for (int b = 0; b < ntap; ++b) {
+      vr += wq[b * n + kk] * gr[b];
+      vi += wq[b * n + kk] * gi[b];
     }
-  } else {
-    for (std::size_t kk = i0; kk <= i1; ++kk) {
-      const float* gr = gre + (idx_q[kk] - jlo);
-      const float* gi = gim + (idx_q[kk] - jlo);
-      double vr = 0.0, vi = 0.0;
-      for (int b = 0; b < ntap; ++b) {
-        vr += static_cast<double>(wq[b * n + kk] * gr[b]);
-        vi += static_cast<double>(wq[b * n + kk] * gi[b]);
-      }
-      acc_re[kk] += vr * cr[kk] - vi * ci[kk];
-      acc_im[kk] += vr * ci[kk] + vi * cr[kk];
-    }
+    acc_re[kk] += vr * cr[kk] - vi * ci[kk];
+    acc_im[kk] += vr * ci[kk] + vi * cr[kk];
   }
 }
 
@@ -566,18 +644,19 @@ void merge_row(const Merge& A, std::size_t s, std::size_t it, RowScratch& W) {
   const Frame pf = frame_at(A.pframe, A.P, s);
   const double tau = pf.u0 + static_cast<double>(it) * pf.du;
   double *xs = W.xs.data(), *ys = W.ys.data(), *qp = W.qp.data(), *qs = W.qs.data(), *ts = W.ts.data();
+  float *acc_re = W.acc_re.data(), *acc_im = W.acc_im.data();
   for (std::size_t iq = 0; iq < nq; ++iq) {
     qp[iq] = pf.q0 + static_cast<double>(iq) * A.dq;
     node(qp[iq], tau, pf, xs[iq], ys[iq]);
-    W.acc_re[iq] = 0.0;
-    W.acc_im[iq] = 0.0;
+    acc_re[iq] = 0.0f;
+    acc_im[iq] = 0.0f;
   }
   for (i64 c = A.first[s]; c < A.first[s] + A.count[s]; ++c) {
     const Child ch{A.cre + c * A.cnt * A.cnq, A.cim + c * A.cnt * A.cnq, A.cnt, A.cnq,
                    frame_at(A.cframe, A.C, static_cast<std::size_t>(c))};
     for (std::size_t iq = 0; iq < nq; ++iq) coords(xs[iq], ys[iq], ch.f, qs[iq], ts[iq]);
     bool mono = nq >= 2;
-    for (std::size_t iq = 1; iq < nq && mono; ++iq) mono = qs[iq] > qs[iq - 1];
+    for (std::size_t iq = 1; iq < nq; ++iq) mono &= qs[iq] > qs[iq - 1];
     if (mono)
       separable_row(ch, A.dq, A.kref, qs, ts, qp, A.kind, A.tab_q, A.tab_t, nq, W);
     else
@@ -586,8 +665,8 @@ void merge_row(const Merge& A, std::size_t s, std::size_t it, RowScratch& W) {
   float* ore = A.out_re + (s * A.nt + it) * nq;
   float* oim = A.out_im + (s * A.nt + it) * nq;
   for (std::size_t iq = 0; iq < nq; ++iq) {
-    ore[iq] = static_cast<float>(W.acc_re[iq]);
-    oim[iq] = static_cast<float>(W.acc_im[iq]);
+    ore[iq] = acc_re[iq];
+    oim[iq] = acc_im[iq];
   }
 }
 
@@ -641,17 +720,25 @@ SARCLI_CLONES
 void final_row(const Final& A, std::size_t row, RowScratch& W) {
   const std::size_t nx = A.nx;
   const double yv = A.y[row];
-  double *qs = W.qs.data(), *ts = W.ts.data();
-  for (std::size_t ix = 0; ix < nx; ++ix) { W.acc_re[ix] = 0.0; W.acc_im[ix] = 0.0; }
+  double *qs = W.qs.data(), *ts = W.ts.data(), *zero = W.qp.data(), *sum_re = W.xs.data(), *sum_im = W.ys.data();
+  float *acc_re = W.acc_re.data(), *acc_im = W.acc_im.data();
+  for (std::size_t ix = 0; ix < nx; ++ix) { sum_re[ix] = 0.0; sum_im[ix] = 0.0; zero[ix] = 0.0; }
   for (std::size_t c = 0; c < A.C; ++c) {
     const Child ch{A.cre + c * A.cnt * A.cnq, A.cim + c * A.cnt * A.cnq, A.cnt, A.cnq, frame_at(A.cframe, A.C, c)};
-    for (std::size_t ix = 0; ix < nx; ++ix) coords(A.x[ix], yv, ch.f, qs[ix], ts[ix]);
-    polar_row(ch, A.dq, A.kref, qs, ts, nullptr, A.kind, A.tab_q, A.tab_t, nx, W);
+    for (std::size_t ix = 0; ix < nx; ++ix) {
+      coords(A.x[ix], yv, ch.f, qs[ix], ts[ix]);
+      acc_re[ix] = 0.0f;
+      acc_im[ix] = 0.0f;
+    }
+    polar_row(ch, A.dq, A.kref, qs, ts, zero, A.kind, A.tab_q, A.tab_t, nx, W);
+    // each sub-image's part summed in float64: the image does not depend on how the sub-images
+    // are grouped into calls
+    for (std::size_t ix = 0; ix < nx; ++ix) { sum_re[ix] += acc_re[ix]; sum_im[ix] += acc_im[ix]; }
   }
   double* o = A.img + 2 * row * nx;
-  for (std::size_t ix = 0; ix < nx; ++ix) {   // added: the image is formed from groups of sub-images in turn
-    o[2 * ix] += W.acc_re[ix];
-    o[2 * ix + 1] += W.acc_im[ix];
+  for (std::size_t ix = 0; ix < nx; ++ix) {
+    o[2 * ix] += sum_re[ix];
+    o[2 * ix + 1] += sum_im[ix];
   }
 }
 
@@ -702,7 +789,8 @@ void tone_weights(in<double, 2> k, in<double, 2> a, double b, double inv_h, in<d
   const bool per_pulse = k.shape(0) > 1;
   const std::size_t top = inv_psi.shape(0) - 2;
   nb::gil_scoped_release nogil;
-#pragma omp parallel for schedule(static)
+  // a block of pulses is a few microseconds of work: threads only where it is much more
+#pragma omp parallel for schedule(static) if (P * M * L > (std::size_t(1) << 22))
   for (long p = 0; p < static_cast<long>(P); ++p)
     tone_pulse(kp + (per_pulse ? p * M : 0), ap, L, P, p, b, inv_h, psi, top, o + p * M, M);
 }
