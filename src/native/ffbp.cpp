@@ -440,16 +440,22 @@ SARCLI_INLINE void polar_row(const Child& C, double dq, double kref, const doubl
   i32 *idx_q = W.idx_q.data(), *idx_t = W.idx_t.data();
   float *fq = W.fq.data(), *ft = W.ft.data(), *wq = W.wq.data(), *wt = W.wt.data();
   float *cr = W.cr.data(), *ci = W.ci.data(), *acc_re = W.acc_re.data(), *acc_im = W.acc_im.data();
-  for (std::size_t i = 0; i < n; ++i) {
-    double tq, tt;
-    bool okq, okt;
-    idx_q[i] = locate((qs[i] - C.f.q0) * inv_dq, lo, nq, ntap, tq, okq);
-    idx_t[i] = locate((ts[i] - C.f.u0) * inv_dt, lo, nt, ntap, tt, okt);
-    fq[i] = static_cast<float>(tq);
+  const double q0 = C.f.q0, u0 = C.f.u0;
+  for (std::size_t i = 0; i < n; ++i) {   // angular positions; cr holds whether they are inside
+    double tt;
+    bool okt;
+    idx_t[i] = locate((ts[i] - u0) * inv_dt, lo, nt, ntap, tt, okt);
     ft[i] = static_cast<float>(tt);
+    cr[i] = okt ? 1.0f : 0.0f;
+  }
+  for (std::size_t i = 0; i < n; ++i) {   // range positions and carriers
+    double tq;
+    bool okq;
+    idx_q[i] = locate((qs[i] - q0) * inv_dq, lo, nq, ntap, tq, okq);
+    fq[i] = static_cast<float>(tq);
     float c, s;
     carrier::sincos_half_f32(hk * (qs[i] - qref[i]), c, s);
-    const float m = (okq && okt) ? 1.0f : 0.0f;
+    const float m = okq ? cr[i] : 0.0f;
     cr[i] = m * c;
     ci[i] = m * s;
   }
@@ -646,18 +652,27 @@ void merge_row(const Merge& A, std::size_t s, std::size_t it, RowScratch& W) {
   double *xs = W.xs.data(), *ys = W.ys.data(), *qp = W.qp.data(), *qs = W.qs.data(), *ts = W.ts.data();
   float *acc_re = W.acc_re.data(), *acc_im = W.acc_im.data();
   for (std::size_t iq = 0; iq < nq; ++iq) {
-    qp[iq] = pf.q0 + static_cast<double>(iq) * A.dq;
-    node(qp[iq], tau, pf, xs[iq], ys[iq]);
+    const double q = pf.q0 + static_cast<double>(iq) * A.dq;
+    double x, y;
+    node(q, tau, pf, x, y);
+    qp[iq] = q;
+    xs[iq] = x;
+    ys[iq] = y;
     acc_re[iq] = 0.0f;
     acc_im[iq] = 0.0f;
   }
   for (i64 c = A.first[s]; c < A.first[s] + A.count[s]; ++c) {
     const Child ch{A.cre + c * A.cnt * A.cnq, A.cim + c * A.cnt * A.cnq, A.cnt, A.cnq,
                    frame_at(A.cframe, A.C, static_cast<std::size_t>(c))};
-    for (std::size_t iq = 0; iq < nq; ++iq) coords(xs[iq], ys[iq], ch.f, qs[iq], ts[iq]);
-    bool mono = nq >= 2;
-    for (std::size_t iq = 1; iq < nq; ++iq) mono &= qs[iq] > qs[iq - 1];
-    if (mono)
+    for (std::size_t iq = 0; iq < nq; ++iq) {
+      double q, u;
+      coords(xs[iq], ys[iq], ch.f, q, u);
+      qs[iq] = q;
+      ts[iq] = u;
+    }
+    std::size_t falls = 0;   // points whose child range does not increase
+    for (std::size_t iq = 1; iq < nq; ++iq) falls += qs[iq] <= qs[iq - 1];
+    if (nq >= 2 && falls == 0)
       separable_row(ch, A.dq, A.kref, qs, ts, qp, A.kind, A.tab_q, A.tab_t, nq, W);
     else
       polar_row(ch, A.dq, A.kref, qs, ts, qp, A.kind, A.tab_q, A.tab_t, nq, W);
