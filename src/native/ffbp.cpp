@@ -236,17 +236,19 @@ SARCLI_INLINE void tap6_gather(const float* sre, const float* sim, const i32* id
 // n/8 runs (the points are better served by gathers).
 template <typename Run>
 SARCLI_INLINE bool for_runs(const i32* idx, std::size_t k0, std::size_t k1, std::size_t max_runs, Run run) {
-  std::size_t n_runs = 1;
-  for (std::size_t k = k0 + 1; k < k1; ++k) n_runs += idx[k] - idx[k - 1] != 1;
-  if (n_runs > max_runs) return false;
-  std::size_t i = k0;
-  while (i < k1) {
-    const std::ptrdiff_t off = static_cast<std::ptrdiff_t>(idx[i]) - static_cast<std::ptrdiff_t>(i);
-    std::size_t e = i + 1;
-    while (e < k1 && static_cast<std::ptrdiff_t>(idx[e]) - static_cast<std::ptrdiff_t>(e) == off) ++e;
-    run(i, e, off);
-    i = e;
+  if (max_runs < k1 - k0) {
+    std::size_t n_runs = 1;
+    for (std::size_t k = k0 + 1; k < k1; ++k) n_runs += idx[k] - idx[k - 1] != 1;
+    if (n_runs > max_runs) return false;
   }
+  std::size_t i = k0;
+  for (std::size_t k = k0 + 1; k < k1; ++k) {   // breaks are rare: a well-predicted branch
+    if (idx[k] - idx[k - 1] != 1) {
+      run(i, k, static_cast<std::ptrdiff_t>(idx[i]) - static_cast<std::ptrdiff_t>(i));
+      i = k;
+    }
+  }
+  if (i < k1) run(i, k1, static_cast<std::ptrdiff_t>(idx[i]) - static_cast<std::ptrdiff_t>(i));
   return true;
 }
 
@@ -397,10 +399,10 @@ struct Child {
 // Work arrays of one row of n points (children of up to ncmax - 6 range samples).
 struct RowScratch {
   std::vector<double> xs, ys, qp, qs, ts, slope, ftc;
-  std::vector<i32> idx_q, idx_t, idx_c;
+  std::vector<i32> idx_q, idx_t, idx_c, seg;
   std::vector<float> cr, ci, acc_re, acc_im, fq, ft, wq, wt, wtc, okc, gre, gim, ftc32;
   RowScratch(std::size_t n, std::size_t ncmax)
-      : xs(n), ys(n), qp(n), qs(n), ts(n), slope(n), ftc(ncmax), idx_q(n), idx_t(n), idx_c(ncmax), cr(n), ci(n),
+      : xs(n), ys(n), qp(n), qs(n), ts(n), slope(n), ftc(ncmax), idx_q(n), idx_t(n), idx_c(ncmax), seg(ncmax), cr(n), ci(n),
         acc_re(n), acc_im(n), fq(n), ft(n), wq(6 * n), wt(6 * n), wtc(6 * ncmax), okc(ncmax), gre(ncmax),
         gim(ncmax), ftc32(ncmax) {}
 };
@@ -569,10 +571,19 @@ SARCLI_INLINE void separable_row(const Child& C, double dq, double kref, const d
   const std::size_t ncol = static_cast<std::size_t>(idx_q[i1] + ntap - jlo);
   // T at the columns: walk the row, then locate in u
   for (std::size_t i = 0; i + 1 < n; ++i) slope[i] = (ts[i + 1] - ts[i]) / (qs[i + 1] - qs[i]);
-  std::size_t k = 0;
+  // segment of each column: the last point k <= n - 2 with qs[k] <= q_j (0 if none), as the
+  // running maximum of each point's first column (no data-dependent branches)
+  const double qc0 = C.f.q0 + static_cast<double>(jlo) * dq, inv_col = 1.0 / dq;
+  i32* seg = W.seg.data();
+  for (std::size_t jj = 0; jj < ncol; ++jj) seg[jj] = 0;
+  for (std::size_t i = 1; i + 1 < n; ++i) {
+    const double c = std::ceil((qs[i] - qc0) * inv_col);   // first column at or past point i
+    if (c < static_cast<double>(ncol)) seg[static_cast<std::size_t>(std::max(c, 0.0))] = static_cast<i32>(i);
+  }
+  for (std::size_t jj = 1; jj < ncol; ++jj) seg[jj] = std::max(seg[jj], seg[jj - 1]);
   for (std::size_t jj = 0; jj < ncol; ++jj) {
+    const std::size_t k = static_cast<std::size_t>(seg[jj]);
     const double qj = C.f.q0 + static_cast<double>(jlo + static_cast<i32>(jj)) * dq;
-    while (k + 2 < n && qs[k + 1] <= qj) ++k;
     ft[jj] = ts[k] + (qj - qs[k]) * slope[k];
   }
   for (std::size_t jj = 0; jj < ncol; ++jj) {
