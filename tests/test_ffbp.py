@@ -204,7 +204,7 @@ def test_polar_kernels_deapodized_only_where_the_mismatch_allows():
 
 def test_tone_weights_match_the_mean_responses():
     """The compiled weights are ``Π_l 1/Ψ(k_j a[l, p] + b)`` (NumPy's table of Ψ), per pulse."""
-    from sarcli.formers._ffbp_stage0 import tone_weights
+    from sarcli.formers._ffbp_stage0 import _tone_weights
     from sarcli.formers.ffbp_model import deapodized_inverse
 
     rng = np.random.default_rng(2)
@@ -213,9 +213,26 @@ def test_tone_weights_match_the_mean_responses():
     b = -0.1
     h, inv = deapodized_inverse(1.5)
     out = np.full((5, FREQ.size), 2.0)
-    tone_weights(k, a, b, 1.0 / h, inv, out)
+    _tone_weights(k, a, b, 1.0 / h, inv, out)
     ref = 2.0 / np.prod(deapodized_response(1.5, k[None, 0, :] * a[:, :, None] + b), axis=0)
     np.testing.assert_allclose(out, ref, rtol=1e-6)
+
+
+def test_kernels_write_only_in_place():
+    """A kernel's output that would need a converted copy (not C-contiguous, or another dtype) is
+    refused rather than written to a copy and lost."""
+    from sarcli.formers._ffbp_kernels import native
+
+    k = np.ones((1, 4))
+    a = np.zeros((1, 3))
+    inv = np.ones(8)
+    with pytest.raises(TypeError):
+        native().tone_weights(k, a, 0.0, 1.0, inv, np.ones((4, 3)).T)
+    with pytest.raises(TypeError):
+        native().tone_weights(k, a, 0.0, 1.0, inv, np.ones((3, 4), np.float32))
+    out = np.ones((3, 4))
+    native().tone_weights(k, a, 0.0, 1.0, inv, out)
+    np.testing.assert_array_equal(out, 1.0)
 
 
 def test_profile_upsample_is_a_multiple_of_the_range_sampling():

@@ -2,7 +2,7 @@
 sub-aperture backprojected onto its polar grid (:func:`stage0`, compiled in ``src/native/ffbp.cpp``),
 with ranges from a short series about the sub-aperture centre where its truncation allows (the
 series' inputs and where it holds from :func:`_series_inputs`); and the deapodized kernels' mean
-responses at each pulse's tones, divided out of the data (:func:`tone_weights`).
+responses at each pulse's tones, divided out of the data (:func:`_tone_weights`).
 """
 
 from __future__ import annotations
@@ -119,7 +119,7 @@ def _pulse_geometry(t, q, r0):
     return np.ascontiguousarray(np.stack([t[:, 0], t[:, 1], nt * nt, nt, q[:, 0], q[:, 1], nq * nq, nq, off]))
 
 
-def tone_weights(k, a, b, inv_h, inv_psi, out):
+def _tone_weights(k, a, b, inv_h, inv_psi, out):
     """``out[p, j] *= Π_l 1/Ψ(k_j a[l, p] + b)``: a deapodized kernel's mean response at each
     pulse's tone on every level it passes (:func:`sarcli.formers._ffbp_grids.decide_deapodization`),
     divided out of the data in place.

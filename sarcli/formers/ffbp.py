@@ -378,7 +378,7 @@ def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weigh
         ``(1/W) Σ w d e_pj(x)`` to within the predicted error (unit point peaks ≈ 1).
     """
     from . import _ffbp_kernels as kern
-    from ._ffbp_stage0 import _pulse_geometry, _series_inputs, pulse_table, stage0, tone_weights
+    from ._ffbp_stage0 import _pulse_geometry, _series_inputs, _tone_weights, pulse_table, stage0
     from .backprojection import _PAD, _Threads, _check_data, frequency_steps, profile_length, range_profiles
 
     d = _check_data(data)   # a phase history left on disk stays there: stage 0 reads it by blocks
@@ -423,7 +423,7 @@ def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weigh
         _coefficients(k["interp"], k["os_range"])
     tab_t = deapodized_kernel(float(k["os_angle"])) if plan.angle_deapodized else \
         _coefficients(k["interp"], k["os_angle"])
-    # the polar grids' deapodized kernels: 1/Ψ at each pulse's tones on every level (tone_weights)
+    # the polar grids' deapodized kernels: 1/Ψ at each pulse's tones on every level (_tone_weights)
     tones = [(rates, off, deapodized_inverse(float(k[os]))) for on, rates, off, os in
              ((plan.range_deapodized, plan.range_rates, plan.range_offset, "os_range"),
               (plan.angle_deapodized, plan.angle_rates, 0.0, "os_angle")) if on]
@@ -450,7 +450,7 @@ def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weigh
                     if tones:   # per pulse: a [pulses, M] block of its own
                         wb = np.array(np.broadcast_to(wb, (p1 - p0, M)), order="C")
                     for rates, off, (h_t, inv_t) in tones:
-                        tone_weights(k_all if k_all.shape[0] == 1 else k_all[p0:p1], rates[:, p0:p1], off,
+                        _tone_weights(k_all if k_all.shape[0] == 1 else k_all[p0:p1], rates[:, p0:p1], off,
                                      1.0 / h_t, inv_t, wb)
                 pre, pim = range_profiles(d[p0:p1], wb, total, n_len, nthr, dtype=np.complex64)
                 stage0(pre, pim, lev.first[s0:s1] - p0, lev.count[s0:s1], np.ascontiguousarray(pulses[:, p0:p1]),
