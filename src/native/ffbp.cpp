@@ -126,7 +126,7 @@ SARCLI_INLINE void row_weights(int kind, const T* frac, std::size_t n, T* w, std
   } else if (kind == 0) {
     for (std::size_t i = 0; i < n; ++i) { w[i] = T(1) - frac[i]; w[stride + i] = frac[i]; }
   } else {
-    T v[6];
+    T v[6] = {};
     for (std::size_t i = 0; i < n; ++i) {
       if (kind == 1) keys(frac[i], v); else lanczos(frac[i], v);
       for (int j = 0; j < kTaps[kind]; ++j) w[j * stride + i] = v[j];
@@ -407,7 +407,9 @@ struct RowScratch {
         gim(ncmax), ftc32(ncmax) {}
 };
 
-// eight float32 lanes (GCC/Clang vector extension: one AVX register, two SSE registers)
+// eight float32 lanes (GCC/Clang vector extension: one AVX register, two SSE registers); the
+// helpers that pass them are always inlined, so no call crosses the baseline ABI
+#pragma GCC diagnostic ignored "-Wpsabi"
 typedef float v8f __attribute__((vector_size(32)));
 
 SARCLI_INLINE v8f load8(const float* p) {
@@ -464,7 +466,7 @@ SARCLI_INLINE void polar_row(const Child& C, double dq, double kref, const doubl
   row_weights<float>(kind, ft, n, wt, n, tab_t);
   const std::size_t cq = C.nq, plane = C.nt * C.nq;
   if (kind == 3) {
-    v8f ck[8];
+    v8f ck[8] = {};
     for (int k = 0; k < 8; ++k)
       for (int b = 0; b < 8; ++b) ck[k][b] = b < 6 ? tab_q[8 * b + k] : 0.0f;
     for (std::size_t i = 0; i < n; ++i) {
