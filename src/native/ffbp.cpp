@@ -166,10 +166,10 @@ struct Stage0 {
 
 struct Scratch0 {
   std::vector<double> xs, ys, ax, ay, az, ir2, rr, qq, dr;
-  std::vector<i32> idx;
+  std::vector<i32> idx, brk;
   std::vector<float> frac, cr, ci, w, acc_re, acc_im;
   explicit Scratch0(std::size_t n)
-      : xs(n), ys(n), ax(n), ay(n), az(n), ir2(n), rr(n), qq(n), dr(n), idx(n), frac(n), cr(n), ci(n),
+      : xs(n), ys(n), ax(n), ay(n), az(n), ir2(n), rr(n), qq(n), dr(n), idx(n), brk(n), frac(n), cr(n), ci(n),
         w(6 * n), acc_re(n), acc_im(n) {}
 };
 
@@ -233,22 +233,24 @@ SARCLI_INLINE void tap6_gather(const float* sre, const float* sim, const i32* id
 
 // Runs of points k whose stencil start idx[k] − k is constant (idx increasing by one a point):
 // calls run(k0, k1, off) for each, and returns false without calling when there are more than
-// n/8 runs (the points are better served by gathers).
+// max_runs (the points are better served by gathers). The run boundaries are listed first
+// without branches (brk: k1 − k0 entries of scratch), as they come every few points where the
+// points' spacing differs slightly from the samples'.
 template <typename Run>
-SARCLI_INLINE bool for_runs(const i32* idx, std::size_t k0, std::size_t k1, std::size_t max_runs, Run run) {
-  if (max_runs < k1 - k0) {
-    std::size_t n_runs = 1;
-    for (std::size_t k = k0 + 1; k < k1; ++k) n_runs += idx[k] - idx[k - 1] != 1;
-    if (n_runs > max_runs) return false;
+SARCLI_INLINE bool for_runs(const i32* idx, std::size_t k0, std::size_t k1, std::size_t max_runs, i32* brk,
+                            Run run) {
+  std::size_t nb = 0;
+  for (std::size_t k = k0 + 1; k < k1; ++k) {
+    brk[nb] = static_cast<i32>(k);
+    nb += static_cast<std::size_t>(idx[k] - idx[k - 1] != 1);
   }
+  if (nb + 1 > max_runs) return false;
   std::size_t i = k0;
-  for (std::size_t k = k0 + 1; k < k1; ++k) {   // breaks are rare: a well-predicted branch
-    if (idx[k] - idx[k - 1] != 1) {
-      run(i, k, static_cast<std::ptrdiff_t>(idx[i]) - static_cast<std::ptrdiff_t>(i));
-      i = k;
-    }
+  for (std::size_t b = 0; b <= nb; ++b) {
+    const std::size_t e = b < nb ? static_cast<std::size_t>(brk[b]) : k1;
+    if (e > i) run(i, e, static_cast<std::ptrdiff_t>(idx[i]) - static_cast<std::ptrdiff_t>(i));
+    i = e;
   }
-  if (i < k1) run(i, k1, static_cast<std::ptrdiff_t>(idx[i]) - static_cast<std::ptrdiff_t>(i));
   return true;
 }
 
@@ -329,7 +331,7 @@ void stage0_row(const Stage0& A, std::size_t s, std::size_t it, Scratch0& W) {
       // contiguous bins: vector loads instead of gathers
       const bool poly = A.kind == 3;
       if (!poly) row_weights<float>(A.kind, frac, nq, w, nq, A.tab);
-      const bool runs = for_runs(idx, 0, nq, nq / 8, [&](std::size_t k0, std::size_t k1, std::ptrdiff_t off) SARCLI_LAMBDA_INLINE {
+      const bool runs = for_runs(idx, 0, nq, nq / 8, W.brk.data(), [&](std::size_t k0, std::size_t k1, std::ptrdiff_t off) SARCLI_LAMBDA_INLINE {
         if (poly) tap6_run<true>(rp, ip, off, frac, A.tab, w, nq, cr, ci, acc_re, acc_im, k0, k1);
         else tap6_run<false>(rp, ip, off, frac, A.tab, w, nq, cr, ci, acc_re, acc_im, k0, k1);
       });
@@ -399,10 +401,10 @@ struct Child {
 // Work arrays of one row of n points (children of up to ncmax - 6 range samples).
 struct RowScratch {
   std::vector<double> xs, ys, qp, qs, ts, slope, ftc;
-  std::vector<i32> idx_q, idx_t, idx_c, seg;
+  std::vector<i32> idx_q, idx_t, idx_c, seg, brk;
   std::vector<float> cr, ci, acc_re, acc_im, fq, ft, wq, wt, wtc, okc, gre, gim, ftc32;
   RowScratch(std::size_t n, std::size_t ncmax)
-      : xs(n), ys(n), qp(n), qs(n), ts(n), slope(n), ftc(ncmax), idx_q(n), idx_t(n), idx_c(ncmax), seg(ncmax), cr(n), ci(n),
+      : xs(n), ys(n), qp(n), qs(n), ts(n), slope(n), ftc(ncmax), idx_q(n), idx_t(n), idx_c(ncmax), seg(ncmax), brk(n), cr(n), ci(n),
         acc_re(n), acc_im(n), fq(n), ft(n), wq(6 * n), wt(6 * n), wtc(6 * ncmax), okc(ncmax), gre(ncmax),
         gim(ncmax), ftc32(ncmax) {}
 };
@@ -599,11 +601,16 @@ SARCLI_INLINE void separable_row(const Child& C, double dq, double kref, const d
   const bool poly = kind == 3;
   if (ntap == 6) {   // runs of columns reading the same six child rows: contiguous loads
     if (!poly) row_weights<float>(kind, ft32, ncol, wt, ncol, tab_t);
+    i32* brk = W.seg.data();   // the columns where the stencil row changes, listed without branches
+    std::size_t nb = 0;
+    for (std::size_t jj = 1; jj < ncol; ++jj) {
+      brk[nb] = static_cast<i32>(jj);
+      nb += static_cast<std::size_t>(idx_c[jj] != idx_c[jj - 1]);
+    }
     std::size_t j0 = 0;
-    while (j0 < ncol) {
-      const i32 st = idx_c[j0];
-      std::size_t j1 = j0 + 1;
-      while (j1 < ncol && idx_c[j1] == st) ++j1;
+    for (std::size_t b = 0; b <= nb; ++b) {
+      const std::size_t j1 = b < nb ? static_cast<std::size_t>(brk[b]) : ncol;
+      const std::size_t st = static_cast<std::size_t>(idx_c[j0]);
       if (poly) col_run<true>(C.re, C.im, cq, st, jlo, ft32, tab_t, wt, ncol, okc, gre, gim, j0, j1);
       else col_run<false>(C.re, C.im, cq, st, jlo, ft32, tab_t, wt, ncol, okc, gre, gim, j0, j1);
       j0 = j1;
@@ -612,7 +619,7 @@ SARCLI_INLINE void separable_row(const Child& C, double dq, double kref, const d
     // stencil starts advance with them
     if (!poly) row_weights<float>(kind, fq, n, wq, n, tab_q);
     for (std::size_t i = i0; i <= i1; ++i) idx_q[i] -= jlo;
-    const bool runs = for_runs(idx_q, i0, i1 + 1, n, [&](std::size_t k0, std::size_t k1, std::ptrdiff_t off)
+    const bool runs = for_runs(idx_q, i0, i1 + 1, n, W.brk.data(), [&](std::size_t k0, std::size_t k1, std::ptrdiff_t off)
                                                             SARCLI_LAMBDA_INLINE {
       if (poly) tap6_run<true>(gre, gim, off, fq, tab_q, wq, n, cr, ci, acc_re, acc_im, k0, k1);
       else tap6_run<false>(gre, gim, off, fq, tab_q, wq, n, cr, ci, acc_re, acc_im, k0, k1);
