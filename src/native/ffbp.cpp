@@ -385,7 +385,9 @@ void stage0(in<float, 2> pre, in<float, 2> pim, in<i64, 1> first, in<i64, 1> cou
 #pragma omp parallel
   {
     Scratch0 W(nq);
-#pragma omp for schedule(static)
+// rows in turn to whichever thread is free: each row is written by one thread alone, so the image
+// does not depend on the schedule, and a thread the system holds back leaves its rows to the others
+#pragma omp for schedule(dynamic)
     for (long job = 0; job < jobs; ++job) stage0_row(A, job / nt, job % nt, W);
   }
 }
@@ -734,7 +736,7 @@ void merge(in<float, 3> cre, in<float, 3> cim, in<double, 2> cframe, in<double, 
 #pragma omp parallel
   {
     RowScratch W(nq, ncmax);
-#pragma omp for schedule(static)
+#pragma omp for schedule(dynamic)   // as in stage 0
     for (long job = 0; job < jobs; ++job) merge_row(A, job / nt, job % nt, W);
   }
 }
@@ -792,7 +794,7 @@ void final_stage(in<float, 3> cre, in<float, 3> cim, in<double, 2> cframe, in<do
 #pragma omp parallel
   {
     RowScratch W(nx, 6);
-#pragma omp for schedule(static)
+#pragma omp for schedule(dynamic)   // as in stage 0
     for (long row = 0; row < static_cast<long>(ny); ++row) final_row(A, row, W);
   }
 }
