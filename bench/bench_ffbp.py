@@ -129,8 +129,10 @@ def main(argv=None):
     ap.add_argument("--max-reference-cost", type=float, default=5e8)
     ap.add_argument("--calibrate", action="store_true", help="re-measure the planner's cost model first")
     args = ap.parse_args(argv)
-    print(f"machine: {os.cpu_count()} cores; load average {os.getloadavg()[0]:.1f} at start "
-          "(a shared, loaded machine: compare ratios, not seconds)")
+    from sarcli._native import simd_level, threads
+
+    print(f"machine: {os.cpu_count()} cores, kernels on {threads()} threads ({simd_level()}); load average "
+          f"{os.getloadavg()[0]:.1f} at start (a shared, loaded machine: compare ratios, not seconds)")
     if args.calibrate:
         from sarcli.formers.calibration import COST_MODEL_PATH
         from sarcli.formers.planner import calibrate

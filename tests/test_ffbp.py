@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from numba import njit
 from click.testing import CliRunner
 
 from sarcli.core import geometry
@@ -219,6 +218,23 @@ def test_tone_weights_match_the_mean_responses():
     np.testing.assert_allclose(out, ref, rtol=1e-6)
 
 
+def test_kernels_write_only_in_place():
+    """A kernel's output that would need a converted copy (not C-contiguous, or another dtype) is
+    refused rather than written to a copy and lost."""
+    from sarcli.formers._ffbp_kernels import native
+
+    k = np.ones((1, 4))
+    a = np.zeros((1, 3))
+    inv = np.ones(8)
+    with pytest.raises(TypeError):
+        native().tone_weights(k, a, 0.0, 1.0, inv, np.ones((4, 3)).T)
+    with pytest.raises(TypeError):
+        native().tone_weights(k, a, 0.0, 1.0, inv, np.ones((3, 4), np.float32))
+    out = np.ones((3, 4))
+    native().tone_weights(k, a, 0.0, 1.0, inv, out)
+    np.testing.assert_array_equal(out, 1.0)
+
+
 def test_profile_upsample_is_a_multiple_of_the_range_sampling():
     """Deapodized profiles at upsample r·os_range alias onto their own tones (r an integer); at
     upsample 2 over os_range 1.5 the aliases land elsewhere in the band and grow by the polar
@@ -248,15 +264,35 @@ def test_optimal_kernel_polynomials_match_minimax_weights(beta):
     """The degree-7 polynomials the kernels evaluate are the minimax weights to 5e-6 at any
     fraction (not only the fit points; 3e-6 at β = 1, whose kernel errs 1e-1), and the compiled
     evaluation equals NumPy's."""
-    from sarcli.formers._ffbp_kernels import _row_weights
+    from sarcli.formers._ffbp_kernels import row_weights
 
     t = np.random.default_rng(5).random(40)
     coef = optimal_kernel(beta)
     w = _poly_weights(coef, t)
     assert np.max(np.abs(w - optimal_weights(beta, t))) < 5e-6
-    out = np.empty((6, t.size))
-    njit(lambda f, o, c: _row_weights(3, f, o, c))(t, out, coef)
-    np.testing.assert_allclose(out.T, w, rtol=0, atol=1e-13)
+    np.testing.assert_allclose(row_weights(3, t, coef).T, w, rtol=0, atol=1e-13)
+    # the kernels' float32 evaluation: float32 rounding of the same polynomials
+    np.testing.assert_allclose(row_weights(3, t.astype(np.float32), coef).T, w, rtol=0, atol=2e-6)
+
+
+@pytest.mark.parametrize("kind", [0, 1, 2])
+def test_analytic_kernel_weights(kind):
+    """The compiled linear, Keys cubic (a = -1/2) and normalised Lanczos-3 weights, against their
+    formulas at each tap's distance from the point."""
+    from sarcli.formers._ffbp_kernels import row_weights
+
+    t = np.random.default_rng(6).random(30)
+    offs = {0: np.arange(0, 2), 1: np.arange(-1, 3), 2: np.arange(-2, 4)}[kind]
+    d = np.abs(t[None, :] - offs[:, None])
+    if kind == 0:
+        ref = 1.0 - d
+    elif kind == 1:
+        ref = np.where(d <= 1, (1.5 * d - 2.5) * d * d + 1, ((2.5 - 0.5 * d) * d - 4) * d + 2)
+    else:
+        ref = np.sinc(d) * np.sinc(d / 3)
+        ref /= ref.sum(axis=0)
+    np.testing.assert_allclose(row_weights(kind, t), ref, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(row_weights(kind, t.astype(np.float32)), ref, rtol=0, atol=1e-6)
 
 
 def test_ffbp_refuses_nadir_inside_the_grid():

@@ -1,19 +1,15 @@
 """Stage 0 of fast factorised backprojection (:mod:`sarcli.formers.ffbp`): the pulses of each base
-sub-aperture backprojected onto its polar grid, with ranges from a short series about the
-sub-aperture centre where its truncation allows (:func:`_stage0`; the series' inputs and where it
-holds from :func:`_series_inputs`). The polar-grid helpers it shares with the merges live in
-:mod:`sarcli.formers._ffbp_kernels`.
+sub-aperture backprojected onto its polar grid (:func:`stage0`, compiled in ``src/native/ffbp.cpp``),
+with ranges from a short series about the sub-aperture centre where its truncation allows (the
+series' inputs and where it holds from :func:`_series_inputs`); and the deapodized kernels' mean
+responses at each pulse's tones, divided out of the data (:func:`_tone_weights`).
 """
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
-from numba import njit, prange
 
-from ._bp_kernels import _FM, _U1, _U2, _U3, _U4, _U5, _sincos
-from ._ffbp_kernels import NTAPS, _node, _pulse_range, _row_weights, _taps_acc
+from ._ffbp_kernels import native, table
 
 #: Largest phase (radians) the truncated range series of stage 0 may cost (:func:`_series_inputs`).
 SERIES_PHASE = 1e-7
@@ -29,162 +25,61 @@ def _binomial_half(n):
     return tuple(out)
 
 
-#: The eight terms :func:`_series` sums, and ``|C_9|``, which bounds the tail it leaves.
+#: The eight terms stage 0 sums (``sqrt_series`` in ``src/native/ffbp.cpp``), and ``|C_9|``, which
+#: bounds the tail it leaves.
 SQRT_SERIES = _binomial_half(8)
 SQRT_TAIL = abs(_binomial_half(9)[8])
 
 
-@njit(inline="always")
-def _series(e, c):
-    """``√(1 + e) − 1`` by the series :data:`SQRT_SERIES` (``c``), eight terms by Horner."""
-    return e * (c[0] + e * (c[1] + e * (c[2] + e * (c[3] + e * (c[4] + e * (c[5] + e * (c[6] + e * c[7])))))))
-
-
-@njit(inline="always")
-def _gather_run(rp, ip, w, cr, ci, acc_re, acc_im, i0, e, off):
-    """The 6-tap profile gather of stage 0 for nodes ``i0 .. e-1`` whose stencils start at bin
-    ``node + off``: contiguous loads (the sum ``node + off`` modulo 2**64 is the non-negative bin)."""
-    uoff = np.uint64(off)
-    for k in range(np.uint64(i0), np.uint64(e)):
-        _tap6_acc(rp, ip, w, cr, ci, acc_re, acc_im, k, k + uoff)
-
-
-@njit(inline="always")
-def _tap6_acc(rp, ip, w, cr, ci, acc_re, acc_im, k, i):
-    """``acc[k] += (cr + i·ci)[k] · Σ_b w[b, k] · profile[i + b]``: one node's 6-tap profile read
-    (``i`` unsigned: no negative-index wrap-around tests)."""
-    vr = (w[0, k] * rp[i] + w[1, k] * rp[i + _U1] + w[2, k] * rp[i + _U2]
-          + w[3, k] * rp[i + _U3] + w[4, k] * rp[i + _U4] + w[5, k] * rp[i + _U5])
-    vi = (w[0, k] * ip[i] + w[1, k] * ip[i + _U1] + w[2, k] * ip[i + _U2]
-          + w[3, k] * ip[i + _U3] + w[4, k] * ip[i + _U4] + w[5, k] * ip[i + _U5])
-    acc_re[k] += vr * cr[k] - vi * ci[k]
-    acc_im[k] += vr * ci[k] + vi * cr[k]
-
-
-@njit(parallel=True, cache=True, fastmath=_FM)
-def _stage0(pre, pim, first, count, geo, dlt, series, bistatic, inv_bin, kc, half_len, n_len, pad, kind, tab,
-            cgeo, q0, dq, t0, dtau, kref, out_re, out_im):
+def stage0(pre, pim, first, count, pulses, series, frame, tab, kind, bistatic, half_len, n_len, pad, dq, kref,
+           out_re, out_im):
     """Backproject the pulses ``first[s] .. first[s]+count[s]-1`` onto sub-aperture s's polar grid.
 
-    ``cgeo`` rows: cx, cy, |c|, ρ0, e0x, e0y, cz. Profile interpolation as in backprojection, in
-    the same three passes (positions and carriers, weights, gather); the profiles, weights, gather
-    and sums are float32 (the sub-images are stored in float32), positions and carriers float64.
+    Profile interpolation as in backprojection; the profiles, weights, gather and sums are float32
+    (the sub-images are stored in float32), positions and carriers float64.
 
     Where ``series[s]`` is set, the range of a pulse at ``t = c + Δ`` to the node ``x`` comes from
     the node's own range ``R = |c − x| = |c| + q`` (exact on the polar grid) and a short series:
-    ``|t − x| = R √(1 + ε)``, ``ε = (2 (c − x)·Δ + |Δ|²) / R²`` (:func:`_series`; the caller sets
-    ``series[s]`` only where the truncated tail is below a micro-radian of phase). That trades the
-    square root and division of :func:`_pulse_range` for eight fused multiply-adds. ``dlt`` rows
-    per pulse: Δ and |Δ|² of the transmit position (0-3) and of the receive position (4-7), and
-    ``|c| − r0`` (8).
+    ``|t − x| = R √(1 + ε)``, ``ε = (2 (c − x)·Δ + |Δ|²) / R²`` (:data:`SQRT_SERIES`; the caller
+    sets ``series[s]`` only where the truncated tail is below :data:`SERIES_PHASE`). That trades
+    a square root and a division per node and pulse for eight fused multiply-adds.
+
+    Parameters
+    ----------
+    pre, pim : ndarray, shape (B, L + 2·pad), float32
+        Range profiles of the block's pulses (:func:`sarcli.formers.backprojection.range_profiles`).
+    first, count : array_like of int, shape (S,)
+        Each sub-aperture's pulses, indices into the block.
+    pulses : ndarray, shape (20, B)
+        :func:`pulse_table`.
+    series : ndarray of bool, shape (S,)
+    frame : ndarray, shape (10, S)
+        :func:`sarcli.formers._ffbp_kernels.frame` of the sub-apertures.
+    tab : ndarray, shape (6, 8)
+        The profiles' weight polynomials (kind 3).
+    kind : int
+    bistatic : bool
+    half_len, n_len : float
+        ``L // 2`` and ``L``, the profile length.
+    pad : int
+        Bins of padding on each side of the profiles.
+    dq, kref : float
+    out_re, out_im : ndarray, shape (S, nu, nq), float32
+        The sub-images (written).
     """
-    n_sub, nt, nq = out_re.shape
-    top = n_len - 1.0
-    ntap = NTAPS[kind]
-    lo = -(ntap // 2 - 1)
-    off = float(pad + lo)
-    for job in prange(n_sub * nt):
-        s = job // nt
-        it = job - s * nt
-        tau = t0[s] + it * dtau[s]
-        xs = np.empty(nq)
-        ys = np.empty(nq)
-        ax = np.empty(nq)
-        ay = np.empty(nq)
-        az = np.empty(nq)
-        ir2 = np.empty(nq)
-        rr = np.empty(nq)
-        qq = np.empty(nq)
-        dr = np.empty(nq)
-        idx = np.empty(nq, np.int32)
-        frac = np.empty(nq, np.float32)
-        cr = np.empty(nq, np.float32)
-        ci = np.empty(nq, np.float32)
-        w = np.empty((ntap, nq), np.float32)
-        acc_re = np.zeros(nq, np.float32)
-        acc_im = np.zeros(nq, np.float32)
-        qa = q0[s]
-        c0, c1, c2, c3, c4, c5, c6 = cgeo[0, s], cgeo[1, s], cgeo[2, s], cgeo[3, s], cgeo[4, s], cgeo[5, s], cgeo[6, s]
-        for iq in range(nq):   # the node, its range from the centre and the series' factors
-            q = qa + iq * dq
-            x, y = _node(q, tau, c2, c3, c4, c5)
-            r = c2 + q
-            i2 = 1.0 / (r * r)
-            xs[iq] = x
-            ys[iq] = y
-            ax[iq] = 2.0 * (c0 - x) * i2
-            ay[iq] = 2.0 * (c1 - y) * i2
-            az[iq] = 2.0 * c6 * i2
-            ir2[iq] = i2
-            rr[iq] = r
-            qq[iq] = q
-        use_series = series[s]
-        for p in range(first[s], first[s] + count[s]):
-            rp = pre[p]
-            ip = pim[p]
-            ib = inv_bin[p]
-            kcp = kc[p]
-            if use_series:
-                tx, ty, tz, t2, offp = dlt[0, p], dlt[1, p], dlt[2, p], dlt[3, p], dlt[8, p]
-                if bistatic:
-                    bx, by, bz, b2 = dlt[4, p], dlt[5, p], dlt[6, p], dlt[7, p]
-                    for iq in range(nq):
-                        et = ax[iq] * tx + ay[iq] * ty + az[iq] * tz + t2 * ir2[iq]
-                        eb = ax[iq] * bx + ay[iq] * by + az[iq] * bz + b2 * ir2[iq]
-                        dr[iq] = qq[iq] + 0.5 * rr[iq] * (_series(et, SQRT_SERIES) + _series(eb, SQRT_SERIES)) + offp
-                else:
-                    for iq in range(nq):
-                        e = ax[iq] * tx + ay[iq] * ty + az[iq] * tz + t2 * ir2[iq]
-                        dr[iq] = qq[iq] + rr[iq] * _series(e, SQRT_SERIES) + offp
-            else:
-                g = (geo[0, p], geo[1, p], geo[2, p], geo[3, p], geo[4, p], geo[5, p], geo[6, p], geo[7, p],
-                     geo[8, p])
-                for iq in range(nq):
-                    dr[iq] = _pulse_range(xs[iq], ys[iq], g, bistatic)
-            for iq in range(nq):
-                d = dr[iq]
-                pos = d * ib + half_len
-                inside = (pos >= 0.0) & (pos < n_len)
-                pos = min(max(pos, 0.0), top)
-                fl = math.floor(pos)
-                idx[iq] = np.int32(fl + off)   # a vector conversion to int32 (see _locate)
-                frac[iq] = np.float32(pos - fl)
-                c, sn = _sincos(kcp * d)
-                m = 1.0 if inside else 0.0
-                cr[iq] = np.float32(m * c)
-                ci[iq] = np.float32(m * sn)
-            _row_weights(kind, frac, w, tab)
-            if ntap == 6:
-                # where a node's profile stencil starts as many bins after the previous node's as
-                # it is nodes after it (node spacing ≈ one bin: the default upsample = os_range),
-                # runs of nodes read contiguous bins: vector loads instead of gathers
-                n_runs = 1
-                for iq in range(1, nq):
-                    n_runs += idx[iq] - idx[iq - 1] != 1
-                if n_runs * 8 <= nq:
-                    i0 = 0
-                    while i0 < nq:
-                        shift = idx[i0] - i0
-                        e = i0 + 1
-                        while e < nq and idx[e] - e == shift:
-                            e += 1
-                        _gather_run(rp, ip, w, cr, ci, acc_re, acc_im, i0, e, shift)
-                        i0 = e
-                    continue
-                for iq in range(nq):   # gathers
-                    _tap6_acc(rp, ip, w, cr, ci, acc_re, acc_im, iq, np.uint64(idx[iq]))
-                continue
-            _taps_acc(rp, ip, idx, 0, w, ntap, cr, ci, acc_re, acc_im)
-        for iq in range(nq):
-            c, sn = _sincos(-kref * (q0[s] + iq * dq))
-            ar = np.float64(acc_re[iq])
-            ai = np.float64(acc_im[iq])
-            out_re[s, it, iq] = ar * c - ai * sn
-            out_im[s, it, iq] = ar * sn + ai * c
+    native().stage0(pre, pim, np.ascontiguousarray(first, np.int64), np.ascontiguousarray(count, np.int64), pulses,
+                    np.ascontiguousarray(series, np.bool_), frame, table(tab), int(kind), bool(bistatic),
+                    float(half_len), float(n_len), int(pad), float(dq), float(kref), out_re, out_im)
+
+
+def pulse_table(geo, dlt, inv_bin, kc):
+    """Stage 0's per-pulse rows, float64 ``[20, B]``: :func:`_pulse_geometry` (exact ranges),
+    :func:`_series_inputs`' rows (the series), the inverse profile bin and the carrier wavenumber."""
+    return np.ascontiguousarray(np.vstack([geo, dlt, inv_bin[None, :], kc[None, :]]), dtype=np.float64)
 
 
 def _series_inputs(t, q, r0, lev, dq, kmax):
-    """Per-pulse rows of stage 0's range series (:func:`_stage0`: Δ = position − centre
+    """Per-pulse rows of stage 0's range series (:func:`stage0`: Δ = position − centre
     and |Δ|² for transmit and receive, ``|c| − r0``) and, per sub-aperture, whether the series'
     truncated tail stays below :data:`SERIES_PHASE` radians of phase at every node of its grid.
 
@@ -216,7 +111,7 @@ def _series_inputs(t, q, r0, lev, dq, kmax):
 
 
 def _pulse_geometry(t, q, r0):
-    """Rows tx, ty, |t|², |t|, qx, qy, |q|², |q|, offset of the per-pulse range (kernel ``_pulse_range``)."""
+    """Rows tx, ty, |t|², |t|, qx, qy, |q|², |q|, offset of the per-pulse range (stage 0's exact range)."""
     nt = np.sqrt(np.sum(t.astype(np.longdouble) ** 2, axis=1))
     nq = np.sqrt(np.sum(q.astype(np.longdouble) ** 2, axis=1))
     off = (0.5 * (nt + nq) - r0.astype(np.longdouble)).astype(np.float64)
@@ -224,22 +119,23 @@ def _pulse_geometry(t, q, r0):
     return np.ascontiguousarray(np.stack([t[:, 0], t[:, 1], nt * nt, nt, q[:, 0], q[:, 1], nq * nq, nq, off]))
 
 
-@njit(parallel=True, cache=True)
 def _tone_weights(k, a, b, inv_h, inv_psi, out):
     """``out[p, j] *= Π_l 1/Ψ(k_j a[l, p] + b)``: a deapodized kernel's mean response at each
     pulse's tone on every level it passes (:func:`sarcli.formers._ffbp_grids.decide_deapodization`),
-    divided out of the data. ``k``: wavenumbers [1 or P, M]; ``inv_psi``: 1/Ψ at ``ν = i/inv_h``
-    (:func:`sarcli.formers.ffbp_model.deapodized_inverse`; Ψ is even), linearly interpolated."""
-    n_p, m = out.shape
-    top = inv_psi.size - 2
-    per_pulse = 1 if k.shape[0] > 1 else 0
-    for p in prange(n_p):
-        kp = k[p * per_pulse]
-        for j in range(m):
-            acc = 1.0
-            for l in range(a.shape[0]):
-                x = abs(kp[j] * a[l, p] + b) * inv_h
-                i = min(int(x), top)
-                fr = x - i
-                acc *= inv_psi[i] + fr * (inv_psi[i + 1] - inv_psi[i])
-            out[p, j] *= acc
+    divided out of the data in place.
+
+    Parameters
+    ----------
+    k : ndarray, shape (1 or P, M)
+        Wavenumbers.
+    a : ndarray, shape (levels, P)
+    b : float
+    inv_h : float
+        Samples of ``inv_psi`` per cycle.
+    inv_psi : ndarray
+        ``1/Ψ`` at ``ν = i/inv_h`` (:func:`sarcli.formers.ffbp_model.deapodized_inverse`; Ψ is
+        even), linearly interpolated.
+    out : ndarray, shape (P, M), float64, C-contiguous
+    """
+    native().tone_weights(np.ascontiguousarray(k, np.float64), np.ascontiguousarray(a, np.float64), float(b),
+                          float(inv_h), np.ascontiguousarray(inv_psi, np.float64), out)

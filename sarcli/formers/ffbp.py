@@ -378,7 +378,7 @@ def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weigh
         ``(1/W) Σ w d e_pj(x)`` to within the predicted error (unit point peaks ≈ 1).
     """
     from . import _ffbp_kernels as kern
-    from ._ffbp_stage0 import _pulse_geometry, _series_inputs, _stage0, _tone_weights
+    from ._ffbp_stage0 import _pulse_geometry, _series_inputs, _tone_weights, pulse_table, stage0
     from .backprojection import _PAD, _Threads, _check_data, frequency_steps, profile_length, range_profiles
 
     d = _check_data(data)   # a phase history left on disk stays there: stage 0 reads it by blocks
@@ -413,13 +413,12 @@ def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weigh
     bin_m = C / (2.0 * dalpha * n_len)
     inv_bin = 1.0 / bin_m
     kc = 4.0 * np.pi * (np.broadcast_to(f[:, 0], (P,)) + jc * dalpha) / C
-    geo = _pulse_geometry(t, q, r0)
     lev = plan.levels[0]
     dlt, series = _series_inputs(t, q, r0, lev, plan.dq, 4.0 * np.pi * float(f.max()) / C)
+    pulses = pulse_table(_pulse_geometry(t, q, r0), dlt, inv_bin, kc)
     deapodize = plan.profiles_deapodized or plan.range_deapodized or plan.angle_deapodized
     tab_p = deapodized_kernel(float(k["upsample"])) if plan.profiles_deapodized else \
         _coefficients(k["interp"], k["upsample"])
-    tab_p = tab_p.astype(np.float32)   # stage 0 weighs in float32
     tab_q = deapodized_kernel(float(k["os_range"])) if plan.range_deapodized else \
         _coefficients(k["interp"], k["os_range"])
     tab_t = deapodized_kernel(float(k["os_angle"])) if plan.angle_deapodized else \
@@ -432,7 +431,7 @@ def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weigh
     levels = plan.levels
     deap = _deapodization(f, plan, n_len) if deapodize else None
     img = None   # made at the first final stage (when only the last level is alive); parts add in place
-    with _Threads(nthreads) as nthr:
+    with _Threads(nthreads) as nthr, kern.Threads(nthreads):
         # depth first: the last level's sub-images in groups, each group's whole subtree (stage 0,
         # merges) formed, added to the image and freed, so memory does not grow with the pulses
         for a0, b0 in _subtree_groups(plan):
@@ -449,16 +448,14 @@ def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weigh
                 if deapodize:   # the deapodized kernels' mean responses, divided out of the data
                     wb = deap if wb is None else wb * deap
                     if tones:   # per pulse: a [pulses, M] block of its own
-                        wb = np.array(np.broadcast_to(wb, (p1 - p0, M)))
+                        wb = np.array(np.broadcast_to(wb, (p1 - p0, M)), order="C")
                     for rates, off, (h_t, inv_t) in tones:
-                        _tone_weights(k_all if k_all.shape[0] == 1 else k_all[p0:p1],
-                                      np.ascontiguousarray(rates[:, p0:p1]), off, 1.0 / h_t, inv_t, wb)
+                        _tone_weights(k_all if k_all.shape[0] == 1 else k_all[p0:p1], rates[:, p0:p1], off,
+                                     1.0 / h_t, inv_t, wb)
                 pre, pim = range_profiles(d[p0:p1], wb, total, n_len, nthr, dtype=np.complex64)
-                _stage0(pre, pim, lev.first[s0:s1] - p0, lev.count[s0:s1], np.ascontiguousarray(geo[:, p0:p1]),
-                        np.ascontiguousarray(dlt[:, p0:p1]), series[s0:s1], bistatic, inv_bin[p0:p1], kc[p0:p1],
-                        float(n_len // 2), float(n_len), _PAD, kind, tab_p, np.ascontiguousarray(lev.geo[:, s0:s1]),
-                        lev.q0[s0:s1], plan.dq, lev.t0[s0:s1], lev.dtau[s0:s1], plan.kref,
-                        cur_re[s0 - lo:s1 - lo], cur_im[s0 - lo:s1 - lo])
+                stage0(pre, pim, lev.first[s0:s1] - p0, lev.count[s0:s1], np.ascontiguousarray(pulses[:, p0:p1]),
+                       series[s0:s1], kern.frame(lev, s0, s1), tab_p, kind, bistatic, n_len // 2, n_len, _PAD,
+                       plan.dq, plan.kref, cur_re[s0 - lo:s1 - lo], cur_im[s0 - lo:s1 - lo])
                 del pre, pim
             for l in range(1, len(levels)):
                 child, parent = levels[l - 1], levels[l]
@@ -466,18 +463,15 @@ def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weigh
                 pf, pc = parent.children
                 nxt_re = np.empty((u1 - u0, parent.nt, parent.nq), dtype=_STORE)
                 nxt_im = np.empty((u1 - u0, parent.nt, parent.nq), dtype=_STORE)
-                kern._merge(cur_re, cur_im, np.ascontiguousarray(child.geo[:, c0:c1]), child.q0[c0:c1], plan.dq,
-                            child.t0[c0:c1], child.dtau[c0:c1], np.ascontiguousarray(parent.geo[:, u0:u1]),
-                            parent.q0[u0:u1], parent.t0[u0:u1], parent.dtau[u0:u1], pf[u0:u1] - c0, pc[u0:u1],
-                            kind, tab_q, tab_t, plan.kref, nxt_re, nxt_im)
+                kern.merge(cur_re, cur_im, kern.frame(child, c0, c1), kern.frame(parent, u0, u1), pf[u0:u1] - c0,
+                           pc[u0:u1], kind, tab_q, tab_t, plan.dq, plan.kref, nxt_re, nxt_im)
                 cur_re, cur_im = nxt_re, nxt_im
                 del nxt_re, nxt_im
             last = levels[-1]
             if img is None:
                 img = np.zeros(grid.shape, dtype=np.complex128)
-            kern._final(cur_re, cur_im, np.ascontiguousarray(last.geo[:, a0:b0]), last.q0[a0:b0], plan.dq,
-                        last.t0[a0:b0], last.dtau[a0:b0], grid.x.astype(np.float64), grid.y.astype(np.float64),
-                        kind, tab_q, tab_t, plan.kref, img.real, img.imag)
+            kern.final(cur_re, cur_im, kern.frame(last, a0, b0), grid.x, grid.y, kind, tab_q, tab_t, plan.dq,
+                       plan.kref, img)
             del cur_re, cur_im
     return (img, plan) if return_plan else img
 

@@ -1,0 +1,872 @@
+// Fast factorised backprojection (sarcli.formers.ffbp): stage 0 (pulses onto each base
+// sub-aperture's polar grid), the merges (children's polar grids onto their parent's), the final
+// stage (the last polar grids onto the Cartesian image) and the deapodized tone weights.
+//
+// A sub-aperture's polar grid is described by a frame column (rows, kFrameRows): its centre c
+// (cx, cy, cz, |c|), the ground distance ρ0 of c's nadir from the scene origin, the unit vector
+// e0 from that nadir towards the origin, and the grid's origin and spacing (q0, u0, Δu; Δq is
+// shared by all grids). A ground point x has the coordinates q = |c − x| − |c| and
+// u = ((x − c)·e⊥)/|c − x| (e⊥ = ẑ × e0), both formed without cancellation. Sub-images are stored
+// demodulated, F(q, u) = I(x) e^{−i k_ref q}, as float32 real and imaginary planes [n, nu, nq].
+#include <algorithm>
+#include <complex>
+#include <cmath>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <omp.h>
+
+#include "sarcli_simd.hpp"
+#include "sincos_poly.hpp"
+
+namespace sarcli {
+namespace {
+
+using i32 = std::int32_t;
+// a lambda compiled into the (cloned) function that calls it
+#define SARCLI_LAMBDA_INLINE __attribute__((always_inline))
+using i64 = std::int64_t;
+
+// interpolation kernels: 0 linear, 1 Keys cubic, 2 Lanczos-3, 3 6-tap polynomial weights
+constexpr int kTaps[4] = {2, 4, 6, 6};
+enum FrameRow { kCx, kCy, kCn, kRho0, kE0x, kE0y, kCz, kQ0, kU0, kDu, kFrameRows };
+
+struct Frame {
+  double cx, cy, cn, rho0, e0x, e0y, cz, q0, u0, du;
+};
+
+SARCLI_INLINE Frame frame_at(const double* f, std::size_t n, std::size_t s) {
+  return {f[kCx * n + s],   f[kCy * n + s], f[kCn * n + s], f[kRho0 * n + s], f[kE0x * n + s],
+          f[kE0y * n + s],  f[kCz * n + s], f[kQ0 * n + s], f[kU0 * n + s],   f[kDu * n + s]};
+}
+
+// (q, u) of the ground point (x, y, 0) about the frame's centre.
+SARCLI_INLINE void coords(double x, double y, const Frame& g, double& q, double& u) {
+  const double num = x * x + y * y - 2.0 * (g.cx * x + g.cy * y);
+  q = num / (std::sqrt(g.cn * g.cn + num) + g.cn);
+  u = (g.e0x * y - g.e0y * x) / (g.cn + q);
+}
+
+// Ground point (x, y) of the polar node (q, u): the inverse of coords. With R = |c| + q the
+// point lies uR across the line from the nadir to the origin and a = √(ρ0² + g − (uR)²) along it
+// (g = q(2|c| + q)); its offset a − ρ0 = (g − (uR)²)/(a + ρ0) is formed without cancellation.
+SARCLI_INLINE void node(double q, double u, const Frame& f, double& x, double& y) {
+  const double g = q * (2.0 * f.cn + q);
+  const double across = u * (f.cn + q);
+  const double a2 = g - across * across;
+  const double along = a2 / (std::sqrt(f.rho0 * f.rho0 + a2) + f.rho0);
+  x = along * f.e0x - across * f.e0y;
+  y = along * f.e0y + across * f.e0x;
+}
+
+// |a − x| − |a| for a ground point, cancellation-free.
+SARCLI_INLINE double one_way(double x, double y, double ax, double ay, double a2, double na) {
+  const double num = x * x + y * y - 2.0 * (ax * x + ay * y);
+  return num / (std::sqrt(a2 + num) + na);
+}
+
+// Stencil start of fractional index f (clamped so every access stays in [0, n)), its fraction,
+// and whether the whole stencil lies inside. The start is formed in floating point and converted
+// once to int32 (a vector conversion on AVX2 too).
+SARCLI_INLINE i32 locate(double f, double lo, double n, double ntap, double& frac, bool& ok) {
+  const double fl = std::floor(f);
+  double s = fl + lo;
+  ok = (s >= 0.0) & (s + ntap <= n);
+  s = std::min(std::max(s, 0.0), n - ntap);
+  frac = f - fl;
+  return static_cast<i32>(s);
+}
+
+// ---- interpolation weights ---------------------------------------------------------------------
+
+template <typename T>
+SARCLI_INLINE T poly7(const T* c, T x) {
+  return ((((((c[7] * x + c[6]) * x + c[5]) * x + c[4]) * x + c[3]) * x + c[2]) * x + c[1]) * x + c[0];
+}
+
+// Keys cubic (a = −1/2) at offsets −1, 0, 1, 2.
+template <typename T>
+SARCLI_INLINE void keys(T t, T* w) {
+  const T d0 = t + T(1), d2 = T(1) - t, d3 = T(2) - t;
+  w[0] = ((T(2.5) - T(0.5) * d0) * d0 - T(4)) * d0 + T(2);
+  w[1] = (T(1.5) * t - T(2.5)) * t * t + T(1);
+  w[2] = (T(1.5) * d2 - T(2.5)) * d2 * d2 + T(1);
+  w[3] = ((T(2.5) - T(0.5) * d3) * d3 - T(4)) * d3 + T(2);
+}
+
+// sinc(d) sinc(d/3) for |d| < 3 (0 beyond), float64.
+SARCLI_INLINE double lanczos3(double d) {
+  constexpr double pi = 3.14159265358979323846;
+  if (std::abs(d) < 1e-12) return 1.0;
+  if (std::abs(d) >= 3.0) return 0.0;
+  return 3.0 * std::sin(pi * d) * std::sin(pi * d / 3.0) / (pi * pi * d * d);
+}
+
+// Normalised Lanczos-3 weights at offsets −2 .. 3 (float64, rounded to T).
+template <typename T>
+SARCLI_INLINE void lanczos(T t, T* w) {
+  const double x = t;
+  double v[6], tot = 0.0;
+  for (int j = 0; j < 6; ++j) { v[j] = lanczos3(x + 2.0 - j); tot += v[j]; }
+  for (int j = 0; j < 6; ++j) w[j] = static_cast<T>(v[j] / tot);
+}
+
+// w[tap * stride + i]: the weights of every fraction of a row. Kind 3: polynomials of degree 7
+// in 2·frac − 1 (tab[tap][8], sarcli.formers.ffbp_model.optimal_kernel), evaluated tap by tap so
+// the loop over the row vectorises (float32: sixteen lanes a vector on AVX-512).
+template <typename T>
+SARCLI_INLINE void row_weights(int kind, const T* frac, std::size_t n, T* w, std::size_t stride, const T* tab) {
+  if (kind == 3) {
+    for (int j = 0; j < 6; ++j) {
+      const T* c = tab + 8 * j;
+      T* wj = w + j * stride;
+      for (std::size_t i = 0; i < n; ++i) wj[i] = poly7(c, T(2) * frac[i] - T(1));
+    }
+  } else if (kind == 0) {
+    for (std::size_t i = 0; i < n; ++i) { w[i] = T(1) - frac[i]; w[stride + i] = frac[i]; }
+  } else {
+    T v[6] = {};
+    for (std::size_t i = 0; i < n; ++i) {
+      if (kind == 1) keys(frac[i], v); else lanczos(frac[i], v);
+      for (int j = 0; j < kTaps[kind]; ++j) w[j * stride + i] = v[j];
+    }
+  }
+}
+
+// ---- stage 0 -----------------------------------------------------------------------------------
+
+// √(1 + e) − 1 by eight terms of its binomial series (Horner), C_k = binom(1/2, k).
+SARCLI_INLINE double sqrt_series(double e) {
+  constexpr double c1 = 0.5, c2 = -0.125, c3 = 0.0625, c4 = -0.0390625, c5 = 0.02734375,
+                   c6 = -0.0205078125, c7 = 0.01611328125, c8 = -0.013092041015625;
+  return e * (c1 + e * (c2 + e * (c3 + e * (c4 + e * (c5 + e * (c6 + e * (c7 + e * c8)))))));
+}
+
+// Rows of the per-pulse table of stage 0: the exact range's inputs (tx, ty, |t|², |t|, qx, qy,
+// |q|², |q|, offset), the series' (Δt, |Δt|², Δq, |Δq|², |c| − r0), the inverse profile bin and
+// the carrier wavenumber.
+enum PulseRow { kGeo = 0, kDlt = 9, kInvBin = 18, kKc = 19, kPulseRows = 20 };
+
+struct Stage0 {
+  const float *pre, *pim;   // profiles [B, plen]
+  std::size_t plen;
+  const i64 *first, *count;
+  const double* pul;        // [kPulseRows, B]
+  std::size_t B;
+  const bool* series;
+  const double* frame;      // [kFrameRows, S]
+  std::size_t S, nt, nq;
+  const float* tab;
+  int kind;
+  bool bistatic;
+  double half_len, n_len, off, dq, kref;
+  float *out_re, *out_im;
+};
+
+struct Scratch0 {
+  std::vector<double> xs, ys, ax, ay, az, ir2, rr, qq, dr;
+  std::vector<i32> idx, brk;
+  std::vector<float> frac, cr, ci, w, acc_re, acc_im;
+  explicit Scratch0(std::size_t n)
+      : xs(n), ys(n), ax(n), ay(n), az(n), ir2(n), rr(n), qq(n), dr(n), idx(n), brk(n), frac(n), cr(n), ci(n),
+        w(6 * n), acc_re(n), acc_im(n) {}
+};
+
+// The six weights of a 6-tap kernel at fraction index k: the polynomials of tab ([6][8], degree 7
+// in 2·frac − 1) evaluated in place (Poly), or read from w[tap * ws + k].
+template <bool Poly>
+SARCLI_INLINE void weights6(const float* frac, const float* tab, const float* w, std::size_t ws, std::size_t k,
+                            float& v0, float& v1, float& v2, float& v3, float& v4, float& v5) {
+  if constexpr (Poly) {
+    const float x = 2.0f * frac[k] - 1.0f;
+    v0 = poly7(tab, x);
+    v1 = poly7(tab + 8, x);
+    v2 = poly7(tab + 16, x);
+    v3 = poly7(tab + 24, x);
+    v4 = poly7(tab + 32, x);
+    v5 = poly7(tab + 40, x);
+  } else {
+    v0 = w[k];
+    v1 = w[ws + k];
+    v2 = w[2 * ws + k];
+    v3 = w[3 * ws + k];
+    v4 = w[4 * ws + k];
+    v5 = w[5 * ws + k];
+  }
+}
+
+// acc[k] += (cr + i ci)[k] Σ_b w_b[k] src[k + off + b] for k in [k0, k1): a run of points whose
+// stencils start at consecutive samples (contiguous loads), float32 throughout; the weights are
+// formed in the same pass (weights6).
+template <bool Poly>
+SARCLI_INLINE void tap6_run(const float* sre, const float* sim, std::ptrdiff_t off, const float* frac,
+                            const float* tab, const float* w, std::size_t ws, const float* cr, const float* ci,
+                            float* acc_re, float* acc_im, std::size_t k0, std::size_t k1) {
+  const float *r = sre + off, *m = sim + off;
+#pragma omp simd
+  for (std::size_t k = k0; k < k1; ++k) {
+    float v0, v1, v2, v3, v4, v5;
+    weights6<Poly>(frac, tab, w, ws, k, v0, v1, v2, v3, v4, v5);
+    const float vr = v0 * r[k] + v1 * r[k + 1] + v2 * r[k + 2] + v3 * r[k + 3] + v4 * r[k + 4] + v5 * r[k + 5];
+    const float vi = v0 * m[k] + v1 * m[k + 1] + v2 * m[k + 2] + v3 * m[k + 3] + v4 * m[k + 4] + v5 * m[k + 5];
+    acc_re[k] += vr * cr[k] - vi * ci[k];
+    acc_im[k] += vr * ci[k] + vi * cr[k];
+  }
+}
+
+// tap6_run for points whose stencils start anywhere (src + idx[k]): gathers.
+template <bool Poly>
+SARCLI_INLINE void tap6_gather(const float* sre, const float* sim, const i32* idx, const float* frac,
+                               const float* tab, const float* w, std::size_t ws, const float* cr, const float* ci,
+                               float* acc_re, float* acc_im, std::size_t n) {
+  for (std::size_t k = 0; k < n; ++k) {
+    float v0, v1, v2, v3, v4, v5;
+    weights6<Poly>(frac, tab, w, ws, k, v0, v1, v2, v3, v4, v5);
+    const float *r = sre + idx[k], *m = sim + idx[k];
+    const float vr = v0 * r[0] + v1 * r[1] + v2 * r[2] + v3 * r[3] + v4 * r[4] + v5 * r[5];
+    const float vi = v0 * m[0] + v1 * m[1] + v2 * m[2] + v3 * m[3] + v4 * m[4] + v5 * m[5];
+    acc_re[k] += vr * cr[k] - vi * ci[k];
+    acc_im[k] += vr * ci[k] + vi * cr[k];
+  }
+}
+
+// Runs of points k whose stencil start idx[k] − k is constant (idx increasing by one a point):
+// calls run(k0, k1, off) for each, and returns false without calling when there are more than
+// max_runs (the points are better served by gathers). The run boundaries are listed first
+// without branches (brk: k1 − k0 entries of scratch), as they come every few points where the
+// points' spacing differs slightly from the samples'.
+template <typename Run>
+SARCLI_INLINE bool for_runs(const i32* idx, std::size_t k0, std::size_t k1, std::size_t max_runs, i32* brk,
+                            Run run) {
+  std::size_t nb = 0;
+  for (std::size_t k = k0 + 1; k < k1; ++k) {
+    brk[nb] = static_cast<i32>(k);
+    nb += static_cast<std::size_t>(idx[k] - idx[k - 1] != 1);
+  }
+  if (nb + 1 > max_runs) return false;
+  std::size_t i = k0;
+  for (std::size_t b = 0; b <= nb; ++b) {
+    const std::size_t e = b < nb ? static_cast<std::size_t>(brk[b]) : k1;
+    if (e > i) run(i, e, static_cast<std::ptrdiff_t>(idx[i]) - static_cast<std::ptrdiff_t>(i));
+    i = e;
+  }
+  return true;
+}
+
+SARCLI_CLONES
+void stage0_row(const Stage0& A, std::size_t s, std::size_t it, Scratch0& W) {
+  const std::size_t nq = A.nq;
+  const Frame F = frame_at(A.frame, A.S, s);
+  const double tau = F.u0 + static_cast<double>(it) * F.du;
+  const int ntap = kTaps[A.kind];
+  double *xs = W.xs.data(), *ys = W.ys.data(), *ax = W.ax.data(), *ay = W.ay.data(), *az = W.az.data();
+  double *ir2 = W.ir2.data(), *rr = W.rr.data(), *qq = W.qq.data(), *dr = W.dr.data();
+  i32* idx = W.idx.data();
+  float *frac = W.frac.data(), *cr = W.cr.data(), *ci = W.ci.data(), *w = W.w.data();
+  float *acc_re = W.acc_re.data(), *acc_im = W.acc_im.data();
+  for (std::size_t iq = 0; iq < nq; ++iq) {   // the node, its range from the centre, the series' factors
+    const double q = F.q0 + static_cast<double>(iq) * A.dq;
+    double x, y;
+    node(q, tau, F, x, y);
+    const double r = F.cn + q, i2 = 1.0 / (r * r);
+    xs[iq] = x; ys[iq] = y;
+    ax[iq] = 2.0 * (F.cx - x) * i2;
+    ay[iq] = 2.0 * (F.cy - y) * i2;
+    az[iq] = 2.0 * F.cz * i2;
+    ir2[iq] = i2; rr[iq] = r; qq[iq] = q;
+    acc_re[iq] = 0.0f; acc_im[iq] = 0.0f;
+  }
+  const std::size_t B = A.B;
+  const double top = A.n_len - 1.0;
+  const i64 p0 = A.first[s], p1 = A.first[s] + A.count[s];
+  for (i64 p = p0; p < p1; ++p) {
+    const float* rp = A.pre + p * A.plen;
+    const float* ip = A.pim + p * A.plen;
+    const double* g = A.pul + p;   // row r at g[r * B]
+    const double ib = g[kInvBin * B], kcp = g[kKc * B];
+    if (A.series[s]) {
+      const double tx = g[(kDlt + 0) * B], ty = g[(kDlt + 1) * B], tz = g[(kDlt + 2) * B], t2 = g[(kDlt + 3) * B];
+      const double offp = g[(kDlt + 8) * B];
+      if (A.bistatic) {
+        const double bx = g[(kDlt + 4) * B], by = g[(kDlt + 5) * B], bz = g[(kDlt + 6) * B], b2 = g[(kDlt + 7) * B];
+        for (std::size_t iq = 0; iq < nq; ++iq) {
+          const double et = ax[iq] * tx + ay[iq] * ty + az[iq] * tz + t2 * ir2[iq];
+          const double eb = ax[iq] * bx + ay[iq] * by + az[iq] * bz + b2 * ir2[iq];
+          dr[iq] = qq[iq] + 0.5 * rr[iq] * (sqrt_series(et) + sqrt_series(eb)) + offp;
+        }
+      } else {
+        for (std::size_t iq = 0; iq < nq; ++iq) {
+          const double e = ax[iq] * tx + ay[iq] * ty + az[iq] * tz + t2 * ir2[iq];
+          dr[iq] = qq[iq] + rr[iq] * sqrt_series(e) + offp;
+        }
+      }
+    } else {
+      const double g0 = g[0], g1 = g[B], g2 = g[2 * B], g3 = g[3 * B], g4 = g[4 * B], g5 = g[5 * B];
+      const double g6 = g[6 * B], g7 = g[7 * B], g8 = g[8 * B];
+      for (std::size_t iq = 0; iq < nq; ++iq) {
+        double d = one_way(xs[iq], ys[iq], g0, g1, g2, g3);
+        if (A.bistatic) d = 0.5 * (d + one_way(xs[iq], ys[iq], g4, g5, g6, g7));
+        dr[iq] = d + g8;
+      }
+    }
+    const double hk = 0.5 * kcp;   // the carrier's half phase per metre
+    for (std::size_t iq = 0; iq < nq; ++iq) {
+      const double d = dr[iq];
+      double pos = d * ib + A.half_len;
+      const bool inside = (pos >= 0.0) & (pos < A.n_len);
+      pos = std::min(std::max(pos, 0.0), top);
+      const double fl = std::floor(pos);
+      idx[iq] = static_cast<i32>(fl + A.off);
+      frac[iq] = static_cast<float>(pos - fl);
+      float c, sn;
+      carrier::sincos_half_f32(hk * d, c, sn);
+      const float m = inside ? 1.0f : 0.0f;
+      cr[iq] = m * c;
+      ci[iq] = m * sn;
+    }
+    if (ntap == 6) {
+      // where a node's stencil starts as many bins after the previous node's as it is nodes after
+      // it (node spacing ≈ one bin: the default upsample = os_range), runs of nodes read
+      // contiguous bins: vector loads instead of gathers
+      const bool poly = A.kind == 3;
+      if (!poly) row_weights<float>(A.kind, frac, nq, w, nq, A.tab);
+      const bool runs = for_runs(idx, 0, nq, nq / 8, W.brk.data(), [&](std::size_t k0, std::size_t k1, std::ptrdiff_t off) SARCLI_LAMBDA_INLINE {
+        if (poly) tap6_run<true>(rp, ip, off, frac, A.tab, w, nq, cr, ci, acc_re, acc_im, k0, k1);
+        else tap6_run<false>(rp, ip, off, frac, A.tab, w, nq, cr, ci, acc_re, acc_im, k0, k1);
+      });
+      if (!runs) {
+        if (poly) tap6_gather<true>(rp, ip, idx, frac, A.tab, w, nq, cr, ci, acc_re, acc_im, nq);
+        else tap6_gather<false>(rp, ip, idx, frac, A.tab, w, nq, cr, ci, acc_re, acc_im, nq);
+      }
+      continue;
+    }
+    row_weights<float>(A.kind, frac, nq, w, nq, A.tab);
+    for (std::size_t iq = 0; iq < nq; ++iq) {   // 2 or 4 taps
+      double vr = 0.0, vi = 0.0;
+      for (int b = 0; b < ntap; ++b) {
+        vr += static_cast<double>(w[b * nq + iq] * rp[idx[iq] + b]);
+        vi += static_cast<double>(w[b * nq + iq] * ip[idx[iq] + b]);
+      }
+      acc_re[iq] = static_cast<float>(acc_re[iq] + (vr * cr[iq] - vi * ci[iq]));
+      acc_im[iq] = static_cast<float>(acc_im[iq] + (vr * ci[iq] + vi * cr[iq]));
+    }
+  }
+  float* ore = A.out_re + (s * A.nt + it) * nq;
+  float* oim = A.out_im + (s * A.nt + it) * nq;
+  for (std::size_t iq = 0; iq < nq; ++iq) {   // demodulate: e^{−i k_ref q}
+    double c, sn;
+    carrier::sincos(-A.kref * (F.q0 + static_cast<double>(iq) * A.dq), c, sn);
+    const double ar = acc_re[iq], ai = acc_im[iq];
+    ore[iq] = static_cast<float>(ar * c - ai * sn);
+    oim[iq] = static_cast<float>(ar * sn + ai * c);
+  }
+}
+
+void stage0(in<float, 2> pre, in<float, 2> pim, in<i64, 1> first, in<i64, 1> count, in<double, 2> pulses,
+            in<bool, 1> series, in<double, 2> frame, in<float, 2> tab, int kind, bool bistatic, double half_len,
+            double n_len, int pad, double dq, double kref, out<float, 3> out_re, out<float, 3> out_im) {
+  const std::size_t S = out_re.shape(0), nt = out_re.shape(1), nq = out_re.shape(2), B = pre.shape(0);
+  if (kind < 0 || kind > 3) throw nb::value_error("stage0: unknown interpolation kind");
+  if (pim.shape(0) != B || pim.shape(1) != pre.shape(1) || pulses.shape(0) != kPulseRows || pulses.shape(1) != B ||
+      first.shape(0) != S || count.shape(0) != S || series.shape(0) != S || frame.shape(0) != kFrameRows ||
+      frame.shape(1) != S || tab.shape(0) != 6 || tab.shape(1) != 8 || out_im.shape(0) != S ||
+      out_im.shape(1) != nt || out_im.shape(2) != nq)
+    throw nb::value_error("stage0: inconsistent shapes");
+  for (std::size_t s = 0; s < S; ++s)
+    if (first.data()[s] < 0 || count.data()[s] < 0 || static_cast<std::size_t>(first.data()[s] + count.data()[s]) > B)
+      throw nb::value_error("stage0: sub-aperture pulses out of range");
+  const int ntap = kTaps[kind];
+  const Stage0 A{pre.data(), pim.data(), pre.shape(1), first.data(), count.data(), pulses.data(), B,
+                 series.data(), frame.data(), S, nt, nq, tab.data(), kind, bistatic, half_len, n_len,
+                 static_cast<double>(pad - (ntap / 2 - 1)), dq, kref, out_re.data(), out_im.data()};
+  nb::gil_scoped_release nogil;
+  const long jobs = static_cast<long>(S * nt);
+#pragma omp parallel
+  {
+    Scratch0 W(nq);
+// rows in turn to whichever thread is free: each row is written by one thread alone, so the image
+// does not depend on the schedule, and a thread the system holds back leaves its rows to the others
+#pragma omp for schedule(dynamic)
+    for (long job = 0; job < jobs; ++job) stage0_row(A, job / nt, job % nt, W);
+  }
+}
+
+// ---- merges and the final stage ----------------------------------------------------------------
+
+struct Child {
+  const float *re, *im;   // [nt, nq] planes of one sub-image
+  std::size_t nt, nq;
+  Frame f;
+};
+
+// Work arrays of one row of n points (children of up to ncmax - 6 range samples).
+struct RowScratch {
+  std::vector<double> xs, ys, qp, qs, ts, slope, ftc;
+  std::vector<i32> idx_q, idx_t, idx_c, seg, brk;
+  std::vector<float> cr, ci, acc_re, acc_im, fq, ft, wq, wt, wtc, okc, gre, gim, ftc32;
+  RowScratch(std::size_t n, std::size_t ncmax)
+      : xs(n), ys(n), qp(n), qs(n), ts(n), slope(n), ftc(ncmax), idx_q(n), idx_t(n), idx_c(ncmax), seg(ncmax), brk(n), cr(n), ci(n),
+        acc_re(n), acc_im(n), fq(n), ft(n), wq(6 * n), wt(6 * n), wtc(6 * ncmax), okc(ncmax), gre(ncmax),
+        gim(ncmax), ftc32(ncmax) {}
+};
+
+// eight float32 lanes (GCC/Clang vector extension: one AVX register, two SSE registers); the
+// helpers that pass them are always inlined, so no call crosses the baseline ABI
+#pragma GCC diagnostic ignored "-Wpsabi"
+typedef float v8f __attribute__((vector_size(32)));
+
+SARCLI_INLINE v8f load8(const float* p) {
+  v8f v;
+  __builtin_memcpy(&v, p, sizeof v);
+  return v;
+}
+
+// The 6-tap weights of fraction t as lanes 0-5 of a vector (lanes 6, 7 zero): the degree-7
+// polynomials with coefficient vectors ck[k] (lane b: tab[b][k]).
+SARCLI_INLINE v8f weights8(const v8f* ck, float t) {
+  const float x = 2.0f * t - 1.0f;
+  v8f w = ck[7];
+  for (int k = 6; k >= 0; --k) w = w * x + ck[k];
+  return w;
+}
+
+SARCLI_INLINE float hsum8(v8f v) {
+  return ((v[0] + v[4]) + (v[1] + v[5])) + ((v[2] + v[6]) + (v[3] + v[7]));
+}
+
+// Add one sub-image, interpolated at the polar coordinates (qs, ts) of n points and re-modulated
+// by e^{i k_ref (q − qref)}, to acc: positions and carriers, weights, then the 2-D stencil. With
+// the 6-tap polynomial kernel, each of a point's six stencil rows is read as one 8-lane vector
+// (lanes 6, 7 weighted zero) and the range weights are one vector polynomial.
+SARCLI_INLINE void polar_row(const Child& C, double dq, double kref, const double* qs, const double* ts,
+                             const double* qref, int kind, const float* tab_q, const float* tab_t, std::size_t n,
+                             RowScratch& W) {
+  const int ntap = kTaps[kind];
+  const double lo = -(ntap / 2 - 1), nt = static_cast<double>(C.nt), nq = static_cast<double>(C.nq);
+  const double inv_dq = 1.0 / dq, inv_dt = 1.0 / C.f.du, hk = 0.5 * kref;
+  i32 *idx_q = W.idx_q.data(), *idx_t = W.idx_t.data();
+  float *fq = W.fq.data(), *ft = W.ft.data(), *wq = W.wq.data(), *wt = W.wt.data();
+  float *cr = W.cr.data(), *ci = W.ci.data(), *acc_re = W.acc_re.data(), *acc_im = W.acc_im.data();
+  const double q0 = C.f.q0, u0 = C.f.u0;
+  for (std::size_t i = 0; i < n; ++i) {   // angular positions; cr holds whether they are inside
+    double tt;
+    bool okt;
+    idx_t[i] = locate((ts[i] - u0) * inv_dt, lo, nt, ntap, tt, okt);
+    ft[i] = static_cast<float>(tt);
+    cr[i] = okt ? 1.0f : 0.0f;
+  }
+  for (std::size_t i = 0; i < n; ++i) {   // range positions and carriers
+    double tq;
+    bool okq;
+    idx_q[i] = locate((qs[i] - q0) * inv_dq, lo, nq, ntap, tq, okq);
+    fq[i] = static_cast<float>(tq);
+    float c, s;
+    carrier::sincos_half_f32(hk * (qs[i] - qref[i]), c, s);
+    const float m = okq ? cr[i] : 0.0f;
+    cr[i] = m * c;
+    ci[i] = m * s;
+  }
+  row_weights<float>(kind, ft, n, wt, n, tab_t);
+  const std::size_t cq = C.nq, plane = C.nt * C.nq;
+  if (kind == 3) {
+    v8f ck[8] = {};
+    for (int k = 0; k < 8; ++k)
+      for (int b = 0; b < 8; ++b) ck[k][b] = b < 6 ? tab_q[8 * b + k] : 0.0f;
+    for (std::size_t i = 0; i < n; ++i) {
+      const std::size_t base = static_cast<std::size_t>(idx_t[i]) * cq + static_cast<std::size_t>(idx_q[i]);
+      const v8f w8 = weights8(ck, fq[i]);
+      v8f sr = {}, si = {};
+      if (base + 5 * cq + 8 <= plane) {
+        for (int a = 0; a < 6; ++a) {
+          const float ta = wt[a * n + i];
+          sr += ta * load8(C.re + base + a * cq);
+          si += ta * load8(C.im + base + a * cq);
+        }
+      } else {   // the stencil ends the plane: read six lanes
+        for (int a = 0; a < 6; ++a) {
+          const float ta = wt[a * n + i];
+          for (int b = 0; b < 6; ++b) {
+            sr[b] += ta * C.re[base + a * cq + b];
+            si[b] += ta * C.im[base + a * cq + b];
+          }
+        }
+      }
+      const float vr = hsum8(sr * w8), vi = hsum8(si * w8);
+      acc_re[i] += vr * cr[i] - vi * ci[i];
+      acc_im[i] += vr * ci[i] + vi * cr[i];
+    }
+    return;
+  }
+  row_weights<float>(kind, fq, n, wq, n, tab_q);
+  for (std::size_t i = 0; i < n; ++i) {
+    float vr = 0.0f, vi = 0.0f;
+    for (int a = 0; a < ntap; ++a) {
+      const float* r = C.re + (idx_t[i] + a) * cq + idx_q[i];
+      const float* m = C.im + (idx_t[i] + a) * cq + idx_q[i];
+      float rr = 0.0f, ri = 0.0f;
+      for (int b = 0; b < ntap; ++b) {
+        rr += wq[b * n + i] * r[b];
+        ri += wq[b * n + i] * m[b];
+      }
+      vr += wt[a * n + i] * rr;
+      vi += wt[a * n + i] * ri;
+    }
+    acc_re[i] += vr * cr[i] - vi * ci[i];
+    acc_im[i] += vr * ci[i] + vi * cr[i];
+  }
+}
+
+// g[jj] = okc[jj] Σ_a w_a[jj] F[st + a][jlo + jj] for the columns jj in [j0, j1) that share the
+// stencil rows st .. st+5 (contiguous loads); weights formed in the same pass (weights6).
+template <bool Poly>
+SARCLI_INLINE void col_run(const float* re, const float* im, std::size_t cq, std::size_t st, std::size_t jlo,
+                           const float* frac, const float* tab, const float* w, std::size_t ws, const float* okc,
+                           float* gre, float* gim, std::size_t j0, std::size_t j1) {
+  const float* r0 = re + st * cq + jlo;
+  const float* m0 = im + st * cq + jlo;
+  const float *r1 = r0 + cq, *r2 = r0 + 2 * cq, *r3 = r0 + 3 * cq, *r4 = r0 + 4 * cq, *r5 = r0 + 5 * cq;
+  const float *m1 = m0 + cq, *m2 = m0 + 2 * cq, *m3 = m0 + 3 * cq, *m4 = m0 + 4 * cq, *m5 = m0 + 5 * cq;
+#pragma omp simd
+  for (std::size_t jj = j0; jj < j1; ++jj) {
+    float v0, v1, v2, v3, v4, v5;
+    weights6<Poly>(frac, tab, w, ws, jj, v0, v1, v2, v3, v4, v5);
+    const float m = okc[jj];
+    gre[jj] = m * (v0 * r0[jj] + v1 * r1[jj] + v2 * r2[jj] + v3 * r3[jj] + v4 * r4[jj] + v5 * r5[jj]);
+    gim[jj] = m * (v0 * m0[jj] + v1 * m1[jj] + v2 * m2[jj] + v3 * m3[jj] + v4 * m4[jj] + v5 * m5[jj]);
+  }
+}
+
+// polar_row in two 1-D passes, for n >= 2 points whose child range qs increases strictly (a
+// parent's row of constant u seen from a child: the merges). Along the row the child coordinates
+// trace a smooth curve u = T(q). Pass 1 interpolates every child column j the row's stencils touch
+// in u, at T(q_j) (T linear between the row's points, extrapolated past its ends):
+// g_j = F(q_j, T(q_j)). Pass 2 interpolates g in q at each point: 2·ntap taps a point, not ntap².
+// Both passes walk runs of points that share a stencil row (pass 1) or a stencil shift (pass 2),
+// so their loads are contiguous; float32 like the stored sub-images.
+SARCLI_INLINE void separable_row(const Child& C, double dq, double kref, const double* qs, const double* ts,
+                                 const double* qref, int kind, const float* tab_q, const float* tab_t, std::size_t n,
+                                 RowScratch& W) {
+  const int ntap = kTaps[kind];
+  const double lo = -(ntap / 2 - 1), nt = static_cast<double>(C.nt), nq = static_cast<double>(C.nq);
+  const double inv_dq = 1.0 / dq, inv_dt = 1.0 / C.f.du, hk = 0.5 * kref;
+  i32 *idx_q = W.idx_q.data(), *idx_c = W.idx_c.data();
+  float *fq = W.fq.data(), *wq = W.wq.data(), *wt = W.wtc.data(), *okc = W.okc.data();
+  float *gre = W.gre.data(), *gim = W.gim.data(), *ft32 = W.ftc32.data();
+  float *cr = W.cr.data(), *ci = W.ci.data(), *acc_re = W.acc_re.data(), *acc_im = W.acc_im.data();
+  double *slope = W.slope.data(), *ft = W.ftc.data();
+  for (std::size_t i = 0; i < n; ++i) {   // positions, fractions, carriers
+    double tq;
+    bool okq;
+    idx_q[i] = locate((qs[i] - C.f.q0) * inv_dq, lo, nq, ntap, tq, okq);
+    fq[i] = static_cast<float>(tq);
+    float c, s;
+    carrier::sincos_half_f32(hk * (qs[i] - qref[i]), c, s);
+    const float m = okq ? 1.0f : 0.0f;
+    cr[i] = m * c;
+    ci[i] = m * s;
+    okc[i] = m;
+  }
+  // the points whose stencils lie inside form one interval [i0, i1] (qs increases)
+  std::size_t i0 = 0;
+  while (i0 < n && okc[i0] == 0.0f) ++i0;
+  if (i0 == n) return;
+  std::size_t i1 = n - 1;
+  while (okc[i1] == 0.0f) --i1;
+  const i32 jlo = idx_q[i0];
+  const std::size_t ncol = static_cast<std::size_t>(idx_q[i1] + ntap - jlo);
+  // T at the columns: walk the row, then locate in u
+  for (std::size_t i = 0; i + 1 < n; ++i) slope[i] = (ts[i + 1] - ts[i]) / (qs[i + 1] - qs[i]);
+  // segment of each column: the last point k <= n - 2 with qs[k] <= q_j (0 if none), as the
+  // running maximum of each point's first column (no data-dependent branches)
+  const double qc0 = C.f.q0 + static_cast<double>(jlo) * dq, inv_col = 1.0 / dq;
+  i32* seg = W.seg.data();
+  for (std::size_t jj = 0; jj < ncol; ++jj) seg[jj] = 0;
+  for (std::size_t i = 1; i + 1 < n; ++i) {
+    const double c = std::ceil((qs[i] - qc0) * inv_col);   // first column at or past point i
+    if (c < static_cast<double>(ncol)) seg[static_cast<std::size_t>(std::max(c, 0.0))] = static_cast<i32>(i);
+  }
+  for (std::size_t jj = 1; jj < ncol; ++jj) seg[jj] = std::max(seg[jj], seg[jj - 1]);
+  for (std::size_t jj = 0; jj < ncol; ++jj) {
+    const std::size_t k = static_cast<std::size_t>(seg[jj]);
+    const double qj = C.f.q0 + static_cast<double>(jlo + static_cast<i32>(jj)) * dq;
+    ft[jj] = ts[k] + (qj - qs[k]) * slope[k];
+  }
+  for (std::size_t jj = 0; jj < ncol; ++jj) {
+    double tt;
+    bool okt;
+    idx_c[jj] = locate((ft[jj] - C.f.u0) * inv_dt, lo, nt, ntap, tt, okt);
+    ft32[jj] = static_cast<float>(tt);
+    okc[jj] = okt ? 1.0f : 0.0f;
+  }
+  const std::size_t cq = C.nq;
+  const bool poly = kind == 3;
+  if (ntap == 6) {   // runs of columns reading the same six child rows: contiguous loads
+    if (!poly) row_weights<float>(kind, ft32, ncol, wt, ncol, tab_t);
+    i32* brk = W.seg.data();   // the columns where the stencil row changes, listed without branches
+    std::size_t nb = 0;
+    for (std::size_t jj = 1; jj < ncol; ++jj) {
+      brk[nb] = static_cast<i32>(jj);
+      nb += static_cast<std::size_t>(idx_c[jj] != idx_c[jj - 1]);
+    }
+    std::size_t j0 = 0;
+    for (std::size_t b = 0; b <= nb; ++b) {
+      const std::size_t j1 = b < nb ? static_cast<std::size_t>(brk[b]) : ncol;
+      const std::size_t st = static_cast<std::size_t>(idx_c[j0]);
+      if (poly) col_run<true>(C.re, C.im, cq, st, jlo, ft32, tab_t, wt, ncol, okc, gre, gim, j0, j1);
+      else col_run<false>(C.re, C.im, cq, st, jlo, ft32, tab_t, wt, ncol, okc, gre, gim, j0, j1);
+      j0 = j1;
+    }
+    // pass 2 over the points inside (the others have a zero carrier): runs of points whose
+    // stencil starts advance with them
+    if (!poly) row_weights<float>(kind, fq, n, wq, n, tab_q);
+    for (std::size_t i = i0; i <= i1; ++i) idx_q[i] -= jlo;
+    const bool runs = for_runs(idx_q, i0, i1 + 1, n, W.brk.data(), [&](std::size_t k0, std::size_t k1, std::ptrdiff_t off)
+                                                            SARCLI_LAMBDA_INLINE {
+      if (poly) tap6_run<true>(gre, gim, off, fq, tab_q, wq, n, cr, ci, acc_re, acc_im, k0, k1);
+      else tap6_run<false>(gre, gim, off, fq, tab_q, wq, n, cr, ci, acc_re, acc_im, k0, k1);
+    });
+    (void)runs;
+    return;
+  }
+  row_weights<float>(kind, ft32, ncol, wt, ncol, tab_t);
+  for (std::size_t jj = 0; jj < ncol; ++jj) {
+    const std::size_t base = static_cast<std::size_t>(idx_c[jj]) * cq + jlo + jj;
+    float vr = 0.0f, vi = 0.0f;
+    for (int a = 0; a < ntap; ++a) {
+      vr += wt[a * ncol + jj] * C.re[base + a * cq];
+      vi += wt[a * ncol + jj] * C.im[base + a * cq];
+    }
+    gre[jj] = okc[jj] * vr;
+    gim[jj] = okc[jj] * vi;
+  }
+  row_weights<float>(kind, fq, n, wq, n, tab_q);
+  for (std::size_t kk = i0; kk <= i1; ++kk) {
+    const float* gr = gre + (idx_q[kk] - jlo);
+    const float* gi = gim + (idx_q[kk] - jlo);
+    float vr = 0.0f, vi = 0.0f;
+    for (int b = 0; b < ntap; ++b) {
+      vr += wq[b * n + kk] * gr[b];
+      vi += wq[b * n + kk] * gi[b];
+    }
+    acc_re[kk] += vr * cr[kk] - vi * ci[kk];
+    acc_im[kk] += vr * ci[kk] + vi * cr[kk];
+  }
+}
+
+struct Merge {
+  const float *cre, *cim;   // children [C, cnt, cnq]
+  std::size_t C, cnt, cnq;
+  const double *cframe, *pframe;
+  std::size_t P, nt, nq;
+  const i64 *first, *count;
+  int kind;
+  const float *tab_q, *tab_t;
+  double dq, kref;
+  float *out_re, *out_im;
+};
+
+SARCLI_CLONES
+void merge_row(const Merge& A, std::size_t s, std::size_t it, RowScratch& W) {
+  const std::size_t nq = A.nq;
+  const Frame pf = frame_at(A.pframe, A.P, s);
+  const double tau = pf.u0 + static_cast<double>(it) * pf.du;
+  double *xs = W.xs.data(), *ys = W.ys.data(), *qp = W.qp.data(), *qs = W.qs.data(), *ts = W.ts.data();
+  float *acc_re = W.acc_re.data(), *acc_im = W.acc_im.data();
+  for (std::size_t iq = 0; iq < nq; ++iq) {
+    const double q = pf.q0 + static_cast<double>(iq) * A.dq;
+    double x, y;
+    node(q, tau, pf, x, y);
+    qp[iq] = q;
+    xs[iq] = x;
+    ys[iq] = y;
+    acc_re[iq] = 0.0f;
+    acc_im[iq] = 0.0f;
+  }
+  for (i64 c = A.first[s]; c < A.first[s] + A.count[s]; ++c) {
+    const Child ch{A.cre + c * A.cnt * A.cnq, A.cim + c * A.cnt * A.cnq, A.cnt, A.cnq,
+                   frame_at(A.cframe, A.C, static_cast<std::size_t>(c))};
+    for (std::size_t iq = 0; iq < nq; ++iq) {
+      double q, u;
+      coords(xs[iq], ys[iq], ch.f, q, u);
+      qs[iq] = q;
+      ts[iq] = u;
+    }
+    std::size_t falls = 0;   // points whose child range does not increase
+    for (std::size_t iq = 1; iq < nq; ++iq) falls += qs[iq] <= qs[iq - 1];
+    if (nq >= 2 && falls == 0)
+      separable_row(ch, A.dq, A.kref, qs, ts, qp, A.kind, A.tab_q, A.tab_t, nq, W);
+    else
+      polar_row(ch, A.dq, A.kref, qs, ts, qp, A.kind, A.tab_q, A.tab_t, nq, W);
+  }
+  float* ore = A.out_re + (s * A.nt + it) * nq;
+  float* oim = A.out_im + (s * A.nt + it) * nq;
+  for (std::size_t iq = 0; iq < nq; ++iq) {
+    ore[iq] = acc_re[iq];
+    oim[iq] = acc_im[iq];
+  }
+}
+
+void check_tabs(in<float, 2>& tab_q, in<float, 2>& tab_t, int kind, const char* who) {
+  if (kind < 0 || kind > 3) throw nb::value_error((std::string(who) + ": unknown interpolation kind").c_str());
+  if (tab_q.shape(0) != 6 || tab_q.shape(1) != 8 || tab_t.shape(0) != 6 || tab_t.shape(1) != 8)
+    throw nb::value_error((std::string(who) + ": kernel tables must be [6, 8]").c_str());
+}
+
+void merge(in<float, 3> cre, in<float, 3> cim, in<double, 2> cframe, in<double, 2> pframe, in<i64, 1> first,
+           in<i64, 1> count, in<float, 2> tab_q, in<float, 2> tab_t, int kind, double dq, double kref,
+           out<float, 3> out_re, out<float, 3> out_im) {
+  const std::size_t C = cre.shape(0), P = out_re.shape(0), nt = out_re.shape(1), nq = out_re.shape(2);
+  check_tabs(tab_q, tab_t, kind, "merge");
+  if (cim.shape(0) != C || cim.shape(1) != cre.shape(1) || cim.shape(2) != cre.shape(2) ||
+      cframe.shape(0) != kFrameRows || cframe.shape(1) != C || pframe.shape(0) != kFrameRows ||
+      pframe.shape(1) != P || first.shape(0) != P || count.shape(0) != P || out_im.shape(0) != P ||
+      out_im.shape(1) != nt || out_im.shape(2) != nq)
+    throw nb::value_error("merge: inconsistent shapes");
+  for (std::size_t s = 0; s < P; ++s)
+    if (first.data()[s] < 0 || count.data()[s] < 0 || static_cast<std::size_t>(first.data()[s] + count.data()[s]) > C)
+      throw nb::value_error("merge: children out of range");
+  if (cre.shape(1) < 6 || cre.shape(2) < 6) throw nb::value_error("merge: child grids need at least 6 x 6 nodes");
+  const Merge A{cre.data(), cim.data(), C, cre.shape(1), cre.shape(2), cframe.data(), pframe.data(), P, nt, nq,
+                first.data(), count.data(), kind, tab_q.data(), tab_t.data(), dq, kref, out_re.data(),
+                out_im.data()};
+  const std::size_t ncmax = std::max(cre.shape(2), nq) + 6;
+  nb::gil_scoped_release nogil;
+  const long jobs = static_cast<long>(P * nt);
+#pragma omp parallel
+  {
+    RowScratch W(nq, ncmax);
+#pragma omp for schedule(dynamic)   // as in stage 0
+    for (long job = 0; job < jobs; ++job) merge_row(A, job / nt, job % nt, W);
+  }
+}
+
+struct Final {
+  const float *cre, *cim;
+  std::size_t C, cnt, cnq;
+  const double* cframe;
+  const double *x, *y;
+  std::size_t nx;
+  int kind;
+  const float *tab_q, *tab_t;
+  double dq, kref;
+  double* img;   // complex128 [ny, nx] as interleaved pairs
+};
+
+SARCLI_CLONES
+void final_row(const Final& A, std::size_t row, RowScratch& W) {
+  const std::size_t nx = A.nx;
+  const double yv = A.y[row];
+  double *qs = W.qs.data(), *ts = W.ts.data(), *zero = W.qp.data(), *sum_re = W.xs.data(), *sum_im = W.ys.data();
+  float *acc_re = W.acc_re.data(), *acc_im = W.acc_im.data();
+  for (std::size_t ix = 0; ix < nx; ++ix) { sum_re[ix] = 0.0; sum_im[ix] = 0.0; zero[ix] = 0.0; }
+  for (std::size_t c = 0; c < A.C; ++c) {
+    const Child ch{A.cre + c * A.cnt * A.cnq, A.cim + c * A.cnt * A.cnq, A.cnt, A.cnq, frame_at(A.cframe, A.C, c)};
+    for (std::size_t ix = 0; ix < nx; ++ix) {
+      coords(A.x[ix], yv, ch.f, qs[ix], ts[ix]);
+      acc_re[ix] = 0.0f;
+      acc_im[ix] = 0.0f;
+    }
+    polar_row(ch, A.dq, A.kref, qs, ts, zero, A.kind, A.tab_q, A.tab_t, nx, W);
+    // each sub-image's part summed in float64: the image does not depend on how the sub-images
+    // are grouped into calls
+    for (std::size_t ix = 0; ix < nx; ++ix) { sum_re[ix] += acc_re[ix]; sum_im[ix] += acc_im[ix]; }
+  }
+  double* o = A.img + 2 * row * nx;
+  for (std::size_t ix = 0; ix < nx; ++ix) {
+    o[2 * ix] += sum_re[ix];
+    o[2 * ix + 1] += sum_im[ix];
+  }
+}
+
+void final_stage(in<float, 3> cre, in<float, 3> cim, in<double, 2> cframe, in<double, 1> x, in<double, 1> y,
+                 in<float, 2> tab_q, in<float, 2> tab_t, int kind, double dq, double kref,
+                 out<std::complex<double>, 2> img) {
+  const std::size_t C = cre.shape(0), ny = y.shape(0), nx = x.shape(0);
+  check_tabs(tab_q, tab_t, kind, "final_stage");
+  if (cim.shape(0) != C || cim.shape(1) != cre.shape(1) || cim.shape(2) != cre.shape(2) ||
+      cframe.shape(0) != kFrameRows || cframe.shape(1) != C || img.shape(0) != ny || img.shape(1) != nx)
+    throw nb::value_error("final_stage: inconsistent shapes");
+  if (cre.shape(1) < 6 || cre.shape(2) < 6) throw nb::value_error("final_stage: grids need at least 6 x 6 nodes");
+  const Final A{cre.data(), cim.data(), C, cre.shape(1), cre.shape(2), cframe.data(), x.data(), y.data(), nx,
+                kind, tab_q.data(), tab_t.data(), dq, kref, reinterpret_cast<double*>(img.data())};
+  nb::gil_scoped_release nogil;
+#pragma omp parallel
+  {
+    RowScratch W(nx, 6);
+#pragma omp for schedule(dynamic)   // as in stage 0
+    for (long row = 0; row < static_cast<long>(ny); ++row) final_row(A, row, W);
+  }
+}
+
+// ---- deapodization at each pulse's tones -------------------------------------------------------
+
+SARCLI_CLONES
+void tone_pulse(const double* k, const double* a, std::size_t L, std::size_t P, std::size_t p, double b,
+                double inv_h, const double* inv_psi, std::size_t top, double* o, std::size_t M) {
+  for (std::size_t j = 0; j < M; ++j) {
+    double acc = 1.0;
+    for (std::size_t l = 0; l < L; ++l) {
+      const double x = std::abs(k[j] * a[l * P + p] + b) * inv_h;
+      const std::size_t i = std::min(static_cast<std::size_t>(x), top);
+      const double fr = x - static_cast<double>(i);
+      acc *= inv_psi[i] + fr * (inv_psi[i + 1] - inv_psi[i]);
+    }
+    o[j] *= acc;
+  }
+}
+
+void tone_weights(in<double, 2> k, in<double, 2> a, double b, double inv_h, in<double, 1> inv_psi,
+                  out<double, 2> w) {
+  const std::size_t P = w.shape(0), M = w.shape(1), L = a.shape(0);
+  if ((k.shape(0) != 1 && k.shape(0) != P) || k.shape(1) != M || a.shape(1) != P || inv_psi.shape(0) < 2)
+    throw nb::value_error("tone_weights: inconsistent shapes");
+  const double *kp = k.data(), *ap = a.data(), *psi = inv_psi.data();
+  double* o = w.data();
+  const bool per_pulse = k.shape(0) > 1;
+  const std::size_t top = inv_psi.shape(0) - 2;
+  nb::gil_scoped_release nogil;
+  // a block of pulses is a few microseconds of work: threads only where it is much more
+#pragma omp parallel for schedule(static) if (P * M * L > (std::size_t(1) << 22))
+  for (long p = 0; p < static_cast<long>(P); ++p)
+    tone_pulse(kp + (per_pulse ? p * M : 0), ap, L, P, p, b, inv_h, psi, top, o + p * M, M);
+}
+
+template <typename T>
+void weights_of(int kind, in<T, 1> frac, in<T, 2> tab, out<T, 2> w) {
+  if (kind < 0 || kind > 3) throw nb::value_error("row_weights: unknown interpolation kind");
+  const std::size_t n = frac.shape(0);
+  if (w.shape(0) != static_cast<std::size_t>(kTaps[kind]) || w.shape(1) != n || tab.shape(0) != 6 ||
+      tab.shape(1) != 8)
+    throw nb::value_error("row_weights: out must be [taps, n] and tab [6, 8]");
+  row_weights<T>(kind, frac.data(), n, w.data(), n, tab.data());
+}
+
+}  // namespace
+}  // namespace sarcli
+
+NB_MODULE(_ffbp, m) {
+  using namespace nanobind::literals;
+  namespace s = sarcli;
+  namespace nb = nanobind;
+  m.doc() = "Fast factorised backprojection kernels (sarcli.formers.ffbp): stage 0, merges, final stage, "
+            "tone weights.";
+  m.attr("FRAME_ROWS") = static_cast<int>(s::kFrameRows);
+  m.attr("PULSE_ROWS") = static_cast<int>(s::kPulseRows);
+  // outputs are written in place: never an implicit (converted) copy
+  m.def("stage0", &s::stage0, "pre"_a, "pim"_a, "first"_a, "count"_a, "pulses"_a, "series"_a, "frame"_a, "tab"_a,
+        "kind"_a, "bistatic"_a, "half_len"_a, "n_len"_a, "pad"_a, "dq"_a, "kref"_a, nb::arg("out_re").noconvert(), nb::arg("out_im").noconvert(),
+        "Backproject each sub-aperture's pulses (first[s] .. +count[s]) onto its polar grid (out[s]).");
+  m.def("merge", &s::merge, "cre"_a, "cim"_a, "cframe"_a, "pframe"_a, "first"_a, "count"_a, "tab_q"_a, "tab_t"_a,
+        "kind"_a, "dq"_a, "kref"_a, nb::arg("out_re").noconvert(), nb::arg("out_im").noconvert(),
+        "Parent sub-image s = sum of children first[s] .. +count[s] interpolated at its nodes.");
+  m.def("final_stage", &s::final_stage, "cre"_a, "cim"_a, "cframe"_a, "x"_a, "y"_a, "tab_q"_a, "tab_t"_a,
+        "kind"_a, "dq"_a, "kref"_a, nb::arg("img").noconvert(),
+        "Add the sub-images, interpolated at every pixel and re-modulated, to img [ny, nx].");
+  m.def("tone_weights", &s::tone_weights, "k"_a, "a"_a, "b"_a, "inv_h"_a, "inv_psi"_a, nb::arg("w").noconvert(),
+        "w[p, j] *= prod_l inv_psi(|k_j a[l, p] + b| inv_h), linearly interpolated.");
+  m.def("row_weights", &s::weights_of<double>, "kind"_a, "frac"_a, "tab"_a, nb::arg("w").noconvert(),
+        "Interpolation weights w[tap, i] of fractions frac (float64).");
+  m.def("row_weights", &s::weights_of<float>, "kind"_a, "frac"_a, "tab"_a, nb::arg("w").noconvert(),
+        "Interpolation weights w[tap, i] of fractions frac (float32, as the kernels use).");
+}
