@@ -12,7 +12,14 @@ call) and pick their SIMD width when loaded (AVX-512, AVX2 + FMA or baseline x86
 
 from __future__ import annotations
 
-__all__ = ["load", "threads", "simd_level"]
+import os
+
+__all__ = ["load", "threads", "using_threads", "simd_level"]
+
+# Threads waiting at a barrier sleep rather than spin: on a machine shared with other work a
+# spinning thread burns the time slice its sibling needs to reach the barrier. Read by OpenMP
+# when the first kernel module loads; a user's own setting wins.
+os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
 
 
 def load(family: str):
@@ -42,6 +49,21 @@ def threads(n: int | None = None) -> int:
     if n is not None:
         rt.set_num_threads(int(n))
     return rt.get_max_threads()
+
+
+class using_threads:
+    """``with using_threads(n) as used:`` the kernels' thread count set to ``n`` for the block (from
+    the calling thread) and restored after it; ``None`` leaves it. ``used``: the count in force."""
+
+    def __init__(self, n: int | None):
+        self.n = None if n is None else max(1, int(n))
+
+    def __enter__(self) -> int:
+        self.old = threads()
+        return threads(self.n)
+
+    def __exit__(self, *exc):
+        threads(self.old)
 
 
 def simd_level() -> str:

@@ -34,18 +34,6 @@ GEO_ROWS = 11
 MODEL_TOLERANCE = 1e-5
 _WIDTHS = (64, 48, 32, 16, 12, 8, 4, 2, 1)
 
-# names the ffbp kernels still import from here (numba helpers), until they are ported
-_LEGACY = {"_F0", "_F1", "_F2", "_F4", "_FH", "_F15", "_F25", "_U1", "_U2", "_U3", "_U4", "_U5",
-           "_FM", "_keys", "_lanczos", "_lanczos3", "_sincos", "_sincos_half", "_first_tap",
-           "_carrier_constants", "_SIN32", "_COS32", "_SIN64", "_COS64"}
-
-
-def __getattr__(name):
-    if name in _LEGACY:
-        from . import _bp_numba_helpers
-
-        return getattr(_bp_numba_helpers, name)
-    raise AttributeError(name)
 
 
 def kernels():

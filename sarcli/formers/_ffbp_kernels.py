@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._native import load, threads
+from .._native import load
 
 #: Interpolation kernels (codes 0-2 shared with backprojection: linear, Keys cubic, Lanczos-3;
 #: 3: a 6-tap kernel whose weights are polynomials in the fraction) and their number of taps.
@@ -33,21 +33,6 @@ NTAPS = (2, 4, 6, 6)
 def native():
     """The compiled module ``sarcli._native._ffbp``."""
     return load("ffbp")
-
-
-class Threads:
-    """The kernels' thread count (OpenMP, per calling thread) set to ``n`` for a ``with`` block
-    and restored after it; ``None`` leaves it as it is."""
-
-    def __init__(self, n):
-        self.n = None if n is None else max(1, int(n))
-
-    def __enter__(self):
-        self.old = threads()
-        return threads(self.n)
-
-    def __exit__(self, *exc):
-        threads(self.old)
 
 
 def frame(level, a=0, b=None):

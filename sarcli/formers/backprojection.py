@@ -57,12 +57,11 @@ of 1). Linear interpolation needs ``upsample=8`` for 1e-2 (6e-3) and 32 for peak
 from __future__ import annotations
 
 import math
-import sys
 import warnings
 
 import numpy as np
 
-from .._native import threads
+from .._native import using_threads
 from ..errors import AliasingWarning, SarcliInputError
 from ..core.geometry import C, bistatic_differential_range
 from ..core.grid import Grid
@@ -280,28 +279,6 @@ class _Setup:
         return [slice(b, min(b + _BLOCK, self.n_pulses)) for b in range(0, self.n_pulses, _BLOCK)]
 
 
-class _Threads:
-    """Temporarily set the kernels' thread count (OpenMP; numba's too while ffbp still uses it)."""
-
-    def __init__(self, nthreads):
-        self.n = None if nthreads is None else max(1, int(nthreads))
-
-    def __enter__(self):
-        self.old = threads()
-        nb = sys.modules.get("numba")
-        self.old_numba = nb.get_num_threads() if nb is not None else None
-        if self.n is not None:
-            threads(self.n)
-            if nb is not None:
-                nb.set_num_threads(min(self.n, nb.config.NUMBA_NUM_THREADS))
-        return threads()
-
-    def __exit__(self, *exc):
-        threads(self.old)
-        if self.old_numba is not None:
-            sys.modules["numba"].set_num_threads(self.old_numba)
-
-
 def _check_data(data):
     # a phase history left on disk (sarcli.io.pulses.PulseArray) stays there: blocks are read below
     d = data if is_lazy(data) else np.asarray(data)
@@ -383,7 +360,7 @@ def backproject(data, freq_hz, antenna_position_m, range_to_center_m, grid, weig
     out_re = np.zeros(st.shape)
     out_im = np.zeros(st.shape)
     kern = kernels()
-    with _Threads(nthreads):
+    with using_threads(nthreads):
         blocks = st.blocks()
         for sl in progress(blocks, total=len(blocks), desc="backprojection", unit="pulse block"):
             # w d / W on FFT slots (j - j_c) mod L, unnormalised IFFT, fftshift: profile index
@@ -437,7 +414,7 @@ def reproject(image, freq_hz, antenna_position_m, range_to_center_m, grid, weigh
     n_padded = st.n_len + 2 * _PAD
     out = np.empty((st.n_pulses, st.m), dtype=np.complex128)
     kern = kernels()
-    with _Threads(nthreads):
+    with using_threads(nthreads):
         for sl in st.blocks():
             nb = sl.stop - sl.start
             hri = np.zeros((nb, n_padded, 2), dtype=st.dtype)

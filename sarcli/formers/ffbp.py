@@ -379,7 +379,8 @@ def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weigh
     """
     from . import _ffbp_kernels as kern
     from ._ffbp_stage0 import _pulse_geometry, _series_inputs, _tone_weights, pulse_table, stage0
-    from .backprojection import _PAD, _Threads, _check_data, frequency_steps, profile_length, range_profiles
+    from .._native import using_threads
+    from .backprojection import _PAD, _check_data, frequency_steps, profile_length, range_profiles
 
     d = _check_data(data)   # a phase history left on disk stays there: stage 0 reads it by blocks
     P, M = d.shape
@@ -431,7 +432,7 @@ def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weigh
     levels = plan.levels
     deap = _deapodization(f, plan, n_len) if deapodize else None
     img = None   # made at the first final stage (when only the last level is alive); parts add in place
-    with _Threads(nthreads) as nthr, kern.Threads(nthreads):
+    with using_threads(nthreads) as nthr:
         # depth first: the last level's sub-images in groups, each group's whole subtree (stage 0,
         # merges) formed, added to the image and freed, so memory does not grow with the pulses
         for a0, b0 in _subtree_groups(plan):
