@@ -819,7 +819,7 @@ def test_lazy_cphd_memory_does_not_grow_with_pulses(tmp_path):
 
     from .conftest import small_config
 
-    M, P0 = 256, 1024
+    M, P0 = 256, 4096
     grid = Grid.square(4.0, 64)
     files = {}
     for P in (P0, 4 * P0):  # same pulse spacing: the aperture grows with the pulse count
@@ -827,7 +827,7 @@ def test_lazy_cphd_memory_does_not_grow_with_pulses(tmp_path):
                            azimuths={"center_deg": 50.0, "extent_deg": 3.0 * P / P0, "count": P})
         files[P] = write_cphd(sarcli.simulate(sarcli.parse_acquisition(cfg), seed=3, snr_db=None),
                               tmp_path / f"p{P}.cphd")
-    sarcli.form_image(read_cphd(files[P0], lazy=True), "backprojection", grid=grid)  # compile, plan
+    sarcli.form_image(read_cphd(files[P0], lazy=True), "backprojection", grid=grid)  # plan, warm the caches
     peaks = {}
     for P, path in files.items():
         gc.collect()
