@@ -198,3 +198,18 @@ def test_sar_plan_measures_an_uncalibrated_machine_once(tmp_path, monkeypatch, s
         assert c["predicted_command_s"] >= c["predicted_s"] + 0.25
     CliRunner().invoke(cli, ["plan", str(src), "--calibrate", "--json"])
     assert calls == [1, 1]
+
+
+def test_calibrate_measures_every_constant(tmp_path):
+    """The real measurement, written where asked, read back as this machine's model."""
+    import json
+
+    from sarcli.formers.planner import calibrate
+
+    path = tmp_path / "model.json"
+    c = calibrate(path, repeat=1)
+    doc = json.loads(path.read_text())
+    assert doc["seconds_per_op"] == c and doc["machine"]["cpus"] >= 1
+    for key in ("bp", "direct", "ffbp_stage0", "nufft_spread", "subimage_point", "startup", "planning",
+                "read_per_byte", "write_per_byte"):
+        assert c[key] > 0, key
