@@ -87,11 +87,15 @@ class _Level:
         return 8.0 * self.n * self.nt * self.nq
 
 
-def _frame(pos, first, count, grid, kmax, os_angle, margin, band_scale=1.0):
-    """Polar frames of the sub-apertures ``first/count``: centres, bounds of the grid grown by
-    ``margin`` in their coordinates, spacing in u and ground metres per unit u (the largest R).
-    ``band_scale`` widens the band in u the spacing is made for (:func:`band_excess`)."""
-    first, count = np.asarray(first), np.asarray(count)
+def _frame_geometry(pos, first, count, grid, margin):
+    """What :func:`_frame` finds that does not depend on the sampling (centres, bounds in the polar
+    coordinates, the band's geometric factors), kept for the sub-apertures and grid of recent plans:
+    a sweep of oversamplings (the planner's) takes it once per base."""
+    key = (_digest(pos), _digest(first), _digest(count), grid.x[0], grid.x[-1], grid.nx, grid.y[0], grid.y[-1],
+           grid.ny, float(margin))
+    hit = _FRAMES.get(key)
+    if hit is not None:
+        return hit
     run = pos[first[0]:first[-1] + count[-1]]   # the sub-apertures are consecutive runs of pulses
     starts = first - first[0]
     centres = np.add.reduceat(run, starts, axis=0) / count[:, None]
@@ -110,6 +114,25 @@ def _frame(pos, first, count, grid, kmax, os_angle, margin, band_scale=1.0):
     d = np.maximum.reduceat(np.hypot(*(run[:, :2] - centres[sub, :2]).T), starts)
     tilt = np.max(np.abs(tau) * (g[2][:, None] + q) / den, axis=1)
     tmin, tmax = tau.min(axis=1), tau.max(axis=1)
+    hit = {"g": g, "qmin": qmin, "qmax": qmax, "tmin": tmin, "tmax": tmax, "d": d, "tilt": tilt}
+    for v in hit.values():
+        v.setflags(write=False)   # shared by the plans that hit the cache
+    if len(_FRAMES) >= 256:
+        _FRAMES.pop(next(iter(_FRAMES)))
+    _FRAMES[key] = hit
+    return hit
+
+
+_FRAMES: dict = {}
+
+
+def _frame(pos, first, count, grid, kmax, os_angle, margin, band_scale=1.0):
+    """Polar frames of the sub-apertures ``first/count``: centres, bounds of the grid grown by
+    ``margin`` in their coordinates, spacing in u and ground metres per unit u (the largest R).
+    ``band_scale`` widens the band in u the spacing is made for (:func:`band_excess`)."""
+    first, count = np.asarray(first), np.asarray(count)
+    geo = _frame_geometry(pos, first, count, grid, margin)
+    g, qmin, qmax, tmin, tmax, d, tilt = (geo[k] for k in ("g", "qmin", "qmax", "tmin", "tmax", "d", "tilt"))
     span = np.maximum(tmax - tmin, 1e-300)
     band = kmax * d * np.sqrt(1.0 + tilt * tilt) * float(band_scale)
     dtau = np.where(band > 0, np.pi / np.maximum(band, 1e-300) / os_angle, span)

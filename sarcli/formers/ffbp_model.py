@@ -130,7 +130,10 @@ def kernel_tables(betas=TABLE_BETAS) -> np.ndarray:
 
 def _poly_weights(coef, t):
     x = 2.0 * np.asarray(t, dtype=np.float64) - 1.0
-    return np.polynomial.polynomial.polyval(x, coef.T).T
+    w = np.broadcast_to(coef[:, -1], x.shape + coef.shape[:1]).copy()     # Horner, [t, tap]
+    for k in range(coef.shape[1] - 2, -1, -1):
+        w = w * x[..., None] + coef[:, k]
+    return w
 
 
 def _kernel_weights(kind: int, t: np.ndarray, design_beta: float = 2.0):

@@ -78,7 +78,8 @@ def _tile_errors(t, q, r0, freq, grid: Grid, tiles, eps, n_side=5, max_pulses=64
     q = None if q is None else np.asarray(q, float)
     r0 = np.asarray(r0, float)
     P = t.shape[0]
-    pi = np.unique(np.linspace(0, P - 1, min(P, max_pulses)).round().astype(int))
+    pi = np.linspace(0, P - 1, min(P, max_pulses)).round().astype(int)      # increasing: drop repeats
+    pi = pi[np.concatenate([[True], np.diff(pi) > 0])]
     fr = np.asarray(freq, float)
     fr = fr if fr.ndim == 1 else fr[0]
     gx, gy = grid.x, grid.y
