@@ -52,7 +52,7 @@ from sarcli.analysis.benchmark import reference_grid  # noqa: E402
 from sarcli.core import geometry  # noqa: E402
 from sarcli.core.geometry import C  # noqa: E402
 from sarcli.core.grid import Grid  # noqa: E402
-from sarcli.formers.backprojection import backproject, frequency_line  # noqa: E402
+from sarcli.formers.backprojection import DEFAULT_PRECISION, backproject, frequency_line  # noqa: E402
 from sarcli.formers.direct import direct_spherical  # noqa: E402
 from sarcli.formers.formation import image_error  # noqa: E402
 
@@ -189,7 +189,7 @@ def run_case(case, args, tmp, exe):
     out = []
     backproject(data[:2], np.atleast_2d(freq)[:2] if np.ndim(freq) == 2 else freq, a[:2], r0[:2],
                 Grid(16, 16, grid.dx, grid.dy))  # load the kernels
-    default = lambda: backproject(data, freq, a, r0, grid)  # noqa: E731
+    default = lambda: backproject(data, freq, a, r0, grid, precision=DEFAULT_PRECISION)  # noqa: E731
     fs_runs, ours_runs = [], []
     img = None
     for _ in range(args.repeat):  # A B A B, two calls each
@@ -198,7 +198,7 @@ def run_case(case, args, tmp, exe):
             fs_runs.append(res)
         img, t, c = timed(default, 2)
         ours_runs.append((t, c))
-    out.append(("sarcli default (float64, cubic, upsample %g)" % _default_upsample(), min(r[0] for r in ours_runs),
+    out.append(("sarcli default (%s, cubic, upsample %g)" % (DEFAULT_PRECISION, _default_upsample()), min(r[0] for r in ours_runs),
                 min(r[1] for r in ours_runs), image_error(img[pick], ref)))
     if fs_runs:
         fimg, _, _, info = fs_runs[-1]
@@ -209,7 +209,7 @@ def run_case(case, args, tmp, exe):
     else:
         note = f"FastSAR skipped: no {FASTSAR_PY} (create it: python3 -m venv /work/venv-fastsar && " \
                "/work/venv-fastsar/bin/pip install fastsar)"
-    for label, kw in [("sarcli float32 cubic", dict(precision="float32")),
+    for label, kw in [("sarcli float64 cubic", dict(precision="float64")),
                       ("sarcli float32 linear upsample 4", dict(precision="float32", interp="linear", upsample=4))]:
         im, t, c = timed(lambda: backproject(data, freq, a, r0, grid, **kw), args.repeat)
         out.append((label, t, c, image_error(im[pick], ref)))
@@ -220,7 +220,7 @@ def run_case(case, args, tmp, exe):
     # 512, CPU seconds (a loaded machine stretches wall time, not CPU time), alternating
     n = min(512, grid.nx)
     small = Grid(n, n, grid.dx, grid.dy, grid.x[grid.nx // 2], grid.y[grid.ny // 2])
-    variants = [("default", {}), ("float32 linear u=4", dict(precision="float32", interp="linear", upsample=4))]
+    variants = [("default", {"precision": DEFAULT_PRECISION}), ("float32 linear u=4", dict(precision="float32", interp="linear", upsample=4))]
     rates = {label: 0.0 for label, _ in variants}
     anchor = 0.0 if exe else float("nan")
     for _ in range(args.repeat):

@@ -35,8 +35,8 @@ _METHOD_KNOBS = ("eps", "kernel", "oversample", "width", "upsample", "interp", "
               help="Range-profile upsampling (default: backprojection 8; ffbp os-range with optimal (at least 1.5), else 4).")
 @click.option("--interp", type=click.Choice(["linear", "cubic", "lanczos", "optimal"]), default=None,
               help="Backprojection / ffbp interpolator (default cubic / optimal; 'optimal' is ffbp only).")
-@click.option("--precision", type=click.Choice(["float64", "float32"]), default="float64", show_default=True,
-              help="Backprojection arithmetic.")
+@click.option("--precision", type=click.Choice(["float64", "float32"]), default=None,
+              help="Backprojection's profiles and sums (default float32; the ranges are float64 per tile of pixels either way).")
 @click.option("--base", type=click.IntRange(min=1), default=None, help="ffbp: pulses per base sub-aperture (default 16). With no ffbp knob given, ffbp takes auto's ffbp pick at --tolerance.")
 @click.option("--merge", type=click.IntRange(min=2), default=None, help="ffbp: sub-apertures merged per stage (default 4).")
 @click.option("--os-range", type=click.FloatRange(min=1), default=None, help="ffbp: polar-grid range oversampling (default 1.5 where its kernel can be deapodized, else 2).")

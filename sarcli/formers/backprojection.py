@@ -69,7 +69,7 @@ from .._util.progress import progress
 from ._bp_kernels import GEO_ROWS, kernels, min_range, next_fast_len, tile_width
 from ._samples import is_lazy
 
-__all__ = ["backproject", "reproject", "profile_length", "INTERPOLATORS", "DEFAULT_UPSAMPLE",
+__all__ = ["backproject", "reproject", "profile_length", "INTERPOLATORS", "DEFAULT_UPSAMPLE", "DEFAULT_PRECISION",
            "DEFAULT_INTERP", "FREQUENCY_SPACING_TOLERANCE"]
 
 #: Interpolation kernels for the range profiles and their codes in the compiled kernels.
@@ -78,6 +78,12 @@ INTERPOLATORS = {"linear": 0, "cubic": 1, "lanczos": 2}
 #: filter and unit-point peaks 1 ± 1e-4 (measured: see tests/test_backprojection.py).
 DEFAULT_UPSAMPLE = 16
 DEFAULT_INTERP = "cubic"
+#: Precision of an image formed by backprojection (``form_image``, ``sar form-image``): the tiles'
+#: ranges are float64 either way, so float32 profiles and sums err no more than float64 at the
+#: interpolation's own error (measured: GOTCHA 800² 3.20e-4 both, a 740 km orbit 9.3e-5 both) and
+#: run 1.3-1.6x faster. :func:`backproject` and :func:`reproject` themselves, the linear map and
+#: its exact adjoint, default to float64.
+DEFAULT_PRECISION = "float32"
 #: Largest allowed deviation of a pulse's frequencies from equal spacing, as a fraction of Δα
 #: (float32 files such as GOTCHA round their frequencies by ~3e-4 Δα). A deviation δ costs at most
 #: π δ/Δα rad of phase inside the unambiguous window.

@@ -113,7 +113,7 @@ def regrid(ph: PhaseHistory, *, grid: Grid | None = None, window="none", taylor_
 def form_image(ph, method: str = "auto", *, grid: Grid | None = None, center=None, extent=None,
                pixel_size=None, window: str = "none", taylor_nbar: int = 4, taylor_sll_db: float = -35.0,
                eps: float = 1e-9, kernel: str = "kaiser", oversample: float = 2.0, width: int = 6,
-               upsample: float | None = None, interp: str | None = None, precision: str = "float64",
+               upsample: float | None = None, interp: str | None = None, precision: str | None = None,
                nthreads: int | None = None, base: int | None = None, merge: int | None = None,
                os_range: float | None = None, os_angle: float | None = None, tile: int | None = None,
                tolerance: float | None = None) -> Image:
@@ -142,7 +142,8 @@ def form_image(ph, method: str = "auto", *, grid: Grid | None = None, center=Non
         PFA gridding kernel ('kaiser' or 'linear'), field-of-view oversampling and kernel width.
     upsample, interp, precision, nthreads :
         Backprojection range-profile upsampling, interpolator ('linear', 'cubic', 'lanczos'),
-        arithmetic ('float64' or 'float32'), threads.
+        precision of its profiles and sums ('float32', the default
+        :data:`~sarcli.formers.backprojection.DEFAULT_PRECISION`, or 'float64'), threads.
     base, merge, os_range, os_angle :
         Fast factorised backprojection (``ffbp``, :mod:`sarcli.formers.ffbp`): pulses per base
         sub-aperture, sub-apertures merged per stage, polar-grid oversampling in range and angle;
@@ -194,11 +195,16 @@ def form_image(ph, method: str = "auto", *, grid: Grid | None = None, center=Non
                                   "predicted_error": pick.predicted_error, "predicted_s": pick.seconds}
         img.parameters["predicted_error"] = pick.predicted_error
         return img
+    if method == "backprojection" and precision is None:
+        from .backprojection import DEFAULT_PRECISION
+
+        precision = DEFAULT_PRECISION
     # memory (refused beyond the limit) and, for direct, time (a warning) before anything is allocated
     from .cost import check_form_image
 
     check_form_image(ph, method, grid, oversample=oversample, upsample=upsample,
-                     eps=eps if method == "nufft" else None, width=width, precision=precision, nthreads=nthreads)
+                     eps=eps if method == "nufft" else None, width=width, precision=precision or "float64",
+                     nthreads=nthreads)
     w = _weights(ph, window, taylor_nbar, taylor_sll_db)
     params.update({"window": window, "grid": grid.as_dict(), "data_model": ph.model})
     if window == "taylor":
