@@ -260,7 +260,7 @@ def calibrate(path=None, *, repeat: int = 3) -> dict:
     """
     from ..core import geometry
     from . import ffbp as fb
-    from .backprojection import backproject, profile_length
+    from .backprojection import DEFAULT_PRECISION, backproject, profile_length
     from .direct import direct_spherical
     from .nufft import nufft_farfield
     from .subimage import subimage_nufft
@@ -280,7 +280,7 @@ def calibrate(path=None, *, repeat: int = 3) -> dict:
     c = {"threads": thr}
     L = profile_length(M, 8)
     c["bp_fft"] = DEFAULT_COSTS["bp_fft"]
-    c["bp"] = best(lambda: backproject(d, freq, a, r0, grid)) * thr / (P * N * N)
+    c["bp"] = best(lambda: backproject(d, freq, a, r0, grid, precision=DEFAULT_PRECISION)) * thr / (P * N * N)
     small = Grid(32, 32, 0.5, 0.5)
     c["direct"] = best(lambda: direct_spherical(d, freq, a, r0, small)) * thr / (P * M * 32 * 32)
     # ffbp: settings whose shares of stage 0 (per pulse-node tap and per node), interpolation taps
