@@ -111,6 +111,10 @@ class Imager:
         """``φ`` itself (this imager is exact for any per-pulse phase)."""
         return np.asarray(phi, np.float64)
 
+    def coarsened(self, pulses: int) -> "Imager":
+        """This imager (it has no sub-apertures to merge)."""
+        return self
+
     def entropy(self, phi) -> float:
         """``H(f(φ))``."""
         return entropy_of(self.image(phi))[0]
@@ -185,10 +189,11 @@ class BlockImager:
         The axis the halves split (:func:`split_grid`).
     """
 
-    def __init__(self, ph, grid: Grid, block: int, axis: int = 1, *, _parts=None, _bounds=None):
+    def __init__(self, ph, grid: Grid, block: int, axis: int = 1, *, _parts=None, _bounds=None,
+                 _counter=None):
         self.grid = grid
         self.axis = axis
-        self.evaluations = 0
+        self._evaluations, self._counter = 0, _counter
         if _parts is None:
             P = ph.data.shape[0]
             self.bounds = np.append(np.arange(0, P, block), P)
@@ -235,10 +240,40 @@ class BlockImager:
             store(b, pulses[self.bounds[b]:self.bounds[b + 1]].sum(axis=0).reshape(grid.shape))
         return parts
 
+    def coarsened(self, pulses: int) -> "BlockImager":
+        """An imager of sub-apertures of about ``pulses`` pulses: ``m ≥ 1`` consecutive blocks of
+        this stack summed (``m`` the most whose blocks stay within ``pulses``; this imager when
+        ``m = 1``). Exact for a phase constant over each merged block, and ``m`` times cheaper per
+        evaluation: the levels searching a phase smooth over ``pulses`` pulses need no finer
+        blocks. Evaluations are counted on this imager.
+        """
+        K = int(self._sizes.max())
+        m = max(1, int(pulses) // max(K, 1))
+        if m == 1 or len(self.bounds) - 1 <= 2 * m:
+            return self
+        cache = self.__dict__.setdefault("_coarse", {})
+        if m not in cache:
+            starts = np.arange(0, len(self.bounds) - 1, m)
+            parts = [np.add.reduceat(part, starts, axis=0) for part in self.parts]
+            cache[m] = BlockImager(None, self.grid, 0, self.axis, _parts=parts,
+                                   _bounds=np.append(self.bounds[starts], self.bounds[-1]), _counter=self)
+        return cache[m]
+
     def halves(self) -> tuple["BlockImager", "BlockImager"]:
         """The imagers of the two halves of :func:`split_grid` (this stack's own parts, no copy)."""
         return tuple(BlockImager(None, g, 0, self.axis, _parts=[part], _bounds=self.bounds)
                      for g, part in zip(split_grid(self.grid, self.axis, SPLIT_GAP)[:2], self.parts))
+
+    @property
+    def evaluations(self) -> int:
+        """Entropy-and-gradient evaluations (those of its :meth:`coarsened` imagers included)."""
+        return self._counter.evaluations if self._counter is not None else self._evaluations
+
+    def _count(self):
+        if self._counter is not None:
+            self._counter._count()
+        else:
+            self._evaluations += 1
 
     def _theta(self, phi):
         return np.add.reduceat(np.asarray(phi, np.float64), self.bounds[:-1]) / self._sizes
@@ -259,7 +294,7 @@ class BlockImager:
 
     def entropy_and_gradient(self, phi) -> tuple[float, np.ndarray]:
         """``H`` and its per-pulse gradient (class docstring)."""
-        self.evaluations += 1
+        self._count()
         e = np.exp(-1j * self._theta(phi))
         f = self._image(e)
         h, _, w = entropy_of(f)

@@ -68,6 +68,16 @@ def _gauge(acq) -> np.ndarray:
     return q
 
 
+def _degree(P: int) -> int:
+    return int(min(12, max(2, P // 8)))
+
+
+def _spacing(level, P: int) -> int:
+    """Pulses over which a level's phase is nearly constant: the knot spacing, or for the smooth
+    level half the mean distance between the zeros of its highest-degree polynomial (``P / 2K``)."""
+    return max(1, P // (2 * _degree(P))) if level == "smooth" else int(level)
+
+
 def level_basis(level, P: int, gauge: np.ndarray) -> np.ndarray | None:
     """The basis ``A`` (P × K) of one level, orthogonal to ``gauge``; ``None`` for one phase per
     pulse (then the gradient itself is projected, ``(I - QQᵀ) g``).
@@ -84,7 +94,7 @@ def level_basis(level, P: int, gauge: np.ndarray) -> np.ndarray | None:
     if level == 1 or P < 4:
         return None
     if level == "smooth":
-        K = int(min(12, max(2, P // 8)))
+        K = _degree(P)
         A = np.polynomial.legendre.legvander(np.linspace(-1.0, 1.0, P), K)[:, 2:]
     else:
         knots = np.unique(np.append(np.arange(0, P, int(level)), P - 1))
@@ -123,18 +133,20 @@ def coarse_to_fine(imager: Imager, start, gauge, levels=LEVELS, max_iter: int = 
     out = []
     for level in levels:
         A = level_basis(level, P, gauge)
+        # a phase smooth over `spacing` pulses needs no finer sub-apertures than that
+        im = imager.coarsened(_spacing(level, P))
         if level == "smooth" and A is not None:
-            phi = _defocus_search(imager, phi, A[:, 0])
+            phi = _defocus_search(im, phi, A[:, 0])
         base = phi
 
         if A is None:
-            def fun(c, base=base):
-                h, g = imager.entropy_and_gradient(base + c)
+            def fun(c, base=base, im=im):
+                h, g = im.entropy_and_gradient(base + c)
                 return h, g - gauge @ (gauge.T @ g)
             n = P
         else:
-            def fun(c, base=base, A=A):
-                h, g = imager.entropy_and_gradient(base + A @ c)
+            def fun(c, base=base, A=A, im=im):
+                h, g = im.entropy_and_gradient(base + A @ c)
                 return h, A.T @ g
             n = A.shape[1]
         opt = minimize(fun, np.zeros(n), jac=True, method="L-BFGS-B",
@@ -172,7 +184,8 @@ def _crossvalidate(halves, paths):
 
 
 def min_entropy(ph, *, grid: Grid | None = None, start="zero", levels=LEVELS, max_iter: int = 15,
-                pulse_iter: int = 4, max_blocks: int = 128, max_stack_mib: float = 128.0, validate: bool = True, guard: bool = True,
+                pulse_iter: int = 3, full_pulse_iter: int = 0, max_blocks: int = 128, max_stack_mib: float = 128.0,
+                validate: bool = True, guard: bool = True,
                 pga_options=None) -> AutofocusResult:
     """Minimum-entropy autofocus: coarse to fine to one phase per pulse, cross-validated.
 
@@ -192,8 +205,11 @@ def min_entropy(ph, *, grid: Grid | None = None, start="zero", levels=LEVELS, ma
         sub-apertures are replaced by the sub-aperture level.
     max_iter, pulse_iter : int
         L-BFGS iterations per level on the sub-apertures, and at one phase per pulse beyond them
-        (on the exact backprojection pair, :class:`~sarcli.autofocus._imager.Imager`: two images
-        per evaluation, no stack; 0 skips that level).
+        (on each half, on the exact backprojection pair, :class:`~sarcli.autofocus._imager.Imager`:
+        two images per evaluation, no stack; 0 skips that level).
+    full_pulse_iter : int
+        L-BFGS iterations at one phase per pulse on the whole grid, from its sub-aperture estimate
+        plus the mean of the halves' per-pulse increments (0: that start is the estimate).
     max_blocks, max_stack_mib : int, float
         Most sub-aperture images held, and most memory for them (MiB): the sub-apertures have
         ``K = max(⌈P / max_blocks⌉, ⌈P · image bytes / max_stack_mib⌉)`` pulses
@@ -207,8 +223,9 @@ def min_entropy(ph, *, grid: Grid | None = None, start="zero", levels=LEVELS, ma
     Returns
     -------
     AutofocusResult
-        ``history`` records the start, the entropies after each level, the held-out gains and the
-        correlation between the halves per level, the level kept and why (``'decision'``).
+        ``history`` records the start, the whole grid's entropy at the mean of the halves'
+        estimates per level, the held-out gains and the correlation between the halves per level,
+        the level kept and why (``'decision'``).
     """
     acq = ph.acquisition
     est = estimation_grid(grid or acq.grid, MAX_ENTROPY_PIXELS)
@@ -239,19 +256,24 @@ def min_entropy(ph, *, grid: Grid | None = None, start="zero", levels=LEVELS, ma
     elif not isinstance(start, str):
         phi0 = np.asarray(start, np.float64)
         phi0, hist["start"] = phi0 - gauge @ (gauge.T @ phi0), "given"
-    path = coarse_to_fine(full, phi0, gauge, coarse, max_iter)
     paths = [coarse_to_fine(im, zero, gauge, coarse, max_iter) for im in halves]
     gains, corrs = _crossvalidate(halves, paths)
-    evals = full.evaluations + sum(im.evaluations for im in halves)
     names = [str(lv) for lv in coarse]
     # cross-validated choice of the level: the largest total held-out gain, both halves gaining
     score = [sum(g) if min(g) > 0 else -np.inf for g in gains]
-    best = int(np.argmax(score)) if validate else len(path) - 1
+    best = int(np.argmax(score)) if validate else len(coarse) - 1
     kept = validate is False or np.isfinite(score[best])
-    phi = path[best] if kept else zero
-    hist.update(entropy_start=full.entropy(phi0), entropy_levels=[full.entropy(p) for p in path],
-                heldout_gain=gains, halves_correlation=corrs, evaluations=evals,
-                level=names[best] if kept else None)
+    phi = zero
+    if kept and np.any(phi0):
+        phi = coarse_to_fine(full, phi0, gauge, coarse[:best + 1], max_iter)[-1]
+    elif kept:
+        # the whole grid searches the level kept only, from the mean of the halves' estimates
+        # at that level (the coarser levels have brought each half there already)
+        phi = coarse_to_fine(full, 0.5 * (paths[0][best] + paths[1][best]), gauge, coarse[best:best + 1],
+                             max_iter)[-1]
+    hist.update(entropy_start=full.entropy(phi0),
+                entropy_levels=[full.entropy(0.5 * (a + b)) for a, b in zip(*paths)],
+                heldout_gain=gains, halves_correlation=corrs, level=names[best] if kept else None)
     if not validate:
         hist["decision"] = f"finest level {names[-1]} (not cross-validated)"
     elif not kept:
@@ -261,30 +283,36 @@ def min_entropy(ph, *, grid: Grid | None = None, start="zero", levels=LEVELS, ma
         hist["decision"] = (f"level {names[best]}: its estimates from each half of the scene lower the "
                             f"entropy of the other half the most (held-out gains {gains[best][0]:.4f}, "
                             f"{gains[best][1]:.4f} nats; halves' estimates correlate {corrs[best]:.2f})")
-    judge = full  # the images the estimate is exact for
+    judge, fine_imagers = full, []  # the images the estimate is exact for
     if kept and K > 1 and pulse_iter > 0 and any(lv != "smooth" and int(lv) < K for lv in levels) \
-            and best == len(path) - 1:
-        # one phase per pulse, beyond the sub-apertures: the exact backprojection pair on the
-        # whole grid (no stack), from the sub-aperture estimate; kept when each half's own
-        # per-pulse increment lowers the other half's entropy
-        exact = Imager(ph, full.grid)
-        fine = coarse_to_fine(exact, phi, gauge, (1,), pulse_iter)[-1]
+            and best == len(coarse) - 1:
+        # one phase per pulse, beyond the sub-apertures, on the exact backprojection pair (no
+        # stack): each half refines its own sub-aperture estimate, and the level is kept when
+        # each half's per-pulse increment lowers the other half's entropy
         sides = [Imager(ph, g) for g in split_grid(full.grid, axis, SPLIT_GAP)[:2]]
         ends = [coarse_to_fine(im, p[best], gauge, (1,), pulse_iter)[-1] for im, p in zip(sides, paths)]
         g1 = (sides[0].entropy(paths[1][best]) - sides[0].entropy(ends[1]),
               sides[1].entropy(paths[0][best]) - sides[1].entropy(ends[0]))
-        c1 = _corr(ends[0] - paths[0][best], ends[1] - paths[1][best])
+        steps = [e - p[best] for e, p in zip(ends, paths)]
+        c1 = _corr(*steps)
+        fine_imagers += sides
         hist["heldout_gain"] = gains + [g1]
         hist["halves_correlation"] = corrs + [c1]
-        hist["evaluations"] = evals = evals + exact.evaluations + sum(im.evaluations for im in sides)
         hist["levels"] = names + ["1"]
         if min(g1) > 0:
-            phi, judge, hist["level"] = fine, exact, "1"
+            # the whole grid: from its sub-aperture estimate plus the mean of the halves'
+            # per-pulse increments, a few more iterations on all of it
+            exact = Imager(ph, full.grid)
+            fine_imagers.append(exact)
+            start1 = phi + 0.5 * (steps[0] + steps[1])
+            phi, judge, hist["level"] = (coarse_to_fine(exact, start1, gauge, (1,), full_pulse_iter)[-1]
+                                         if full_pulse_iter > 0 else start1 - gauge @ (gauge.T @ start1)), exact, "1"
             hist["decision"] += (f"; then one phase per pulse: each half's per-pulse increment lowers the "
                                  f"other half's entropy ({g1[0]:.4f}, {g1[1]:.4f} nats; correlation {c1:.2f})")
         else:
             hist["decision"] += ("; one phase per pulse not kept: a half's per-pulse increment did not lower "
                                  "the other half's entropy")
+    hist["evaluations"] = evals = full.evaluations + sum(im.evaluations for im in [*halves, *fine_imagers])
     res = AutofocusResult(phi, "min-entropy", iterations=evals, history=hist)
     (h0, m0), (h1, m1) = sharpness(judge.image(zero)), sharpness(judge.image(phi))
     res.entropy_before, res.peak_to_mean_before = h0, m0
