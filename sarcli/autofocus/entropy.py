@@ -118,16 +118,45 @@ def _defocus_search(imager, phi, quad) -> np.ndarray:
     return phi + DEFOCUS_SCAN[int(np.argmin(h))] * q
 
 
-def coarse_to_fine(imager: Imager, start, gauge, levels=LEVELS, max_iter: int = 30):
-    """The minimum-entropy estimate after each level, started from ``start``.
+class _Spent(Exception):
+    """The evaluations allowed to one level are spent."""
+
+
+def _minimize(fun, n: int, max_iter: int, max_fun: int | None) -> np.ndarray:
+    """L-BFGS (scipy's L-BFGS-B) on ``fun`` (value and gradient) from zero, at most ``max_iter``
+    iterations and ``max_fun`` evaluations (default ``2 max_iter``; line searches included, which
+    scipy's own ``maxfun`` checks only between iterations); the best point evaluated."""
+    from scipy.optimize import minimize
+
+    max_fun = 2 * max_iter if max_fun is None else max_fun
+    best = [np.inf, np.zeros(n), 0]
+
+    def counted(c):
+        if best[2] >= max_fun:
+            raise _Spent
+        best[2] += 1
+        h, g = fun(c)
+        if h < best[0]:
+            best[:2] = h, np.array(c, np.float64)
+        return h, g
+
+    try:
+        minimize(counted, np.zeros(n), jac=True, method="L-BFGS-B",
+                 options={"maxiter": max_iter, "maxfun": max_fun, "ftol": 1e-12, "gtol": 1e-12})
+    except _Spent:
+        pass
+    return best[1]
+
+
+def coarse_to_fine(imager: Imager, start, gauge, levels=LEVELS, max_iter: int = 30, max_fun: int | None = None):
+    """The minimum-entropy estimate after each level, started from ``start``: at most ``max_iter``
+    L-BFGS iterations and ``max_fun`` evaluations (default ``2 max_iter``) per level.
 
     Returns
     -------
     list of ndarray
         ``φ`` after each level of ``levels`` (each continues from the previous one).
     """
-    from scipy.optimize import minimize
-
     P = gauge.shape[0]
     phi = np.asarray(start, np.float64).copy()
     out = []
@@ -149,11 +178,10 @@ def coarse_to_fine(imager: Imager, start, gauge, levels=LEVELS, max_iter: int = 
                 h, g = im.entropy_and_gradient(base + A @ c)
                 return h, A.T @ g
             n = A.shape[1]
-        opt = minimize(fun, np.zeros(n), jac=True, method="L-BFGS-B",
-                       options={"maxiter": max_iter, "maxfun": 2 * max_iter, "ftol": 1e-12, "gtol": 1e-12})
-        step = opt.x if A is None else A @ opt.x
+        x = _minimize(fun, n, max_iter, max_fun)
+        step = x if A is None else A @ x
         # the phase the imager's images are exact for (block means on sub-apertures), constant
-        # and linear part removed; L-BFGS-B returns its best point, never worse than the start
+        # and linear part removed
         phi = imager.blockwise(base + step)
         phi = phi - gauge @ (gauge.T @ phi)
         out.append(phi.copy())
@@ -270,7 +298,7 @@ def min_entropy(ph, *, grid: Grid | None = None, start="zero", levels=LEVELS, ma
         # the whole grid searches the level kept only, from the mean of the halves' estimates
         # at that level (the coarser levels have brought each half there already)
         phi = coarse_to_fine(full, 0.5 * (paths[0][best] + paths[1][best]), gauge, coarse[best:best + 1],
-                             max_iter)[-1]
+                             max_iter, max_fun=max_iter)[-1]
     hist.update(entropy_start=full.entropy(phi0),
                 entropy_levels=[full.entropy(0.5 * (a + b)) for a, b in zip(*paths)],
                 heldout_gain=gains, halves_correlation=corrs, level=names[best] if kept else None)
@@ -291,8 +319,10 @@ def min_entropy(ph, *, grid: Grid | None = None, start="zero", levels=LEVELS, ma
         # each half's per-pulse increment lowers the other half's entropy
         sides = [Imager(ph, g) for g in split_grid(full.grid, axis, SPLIT_GAP)[:2]]
         ends = [coarse_to_fine(im, p[best], gauge, (1,), pulse_iter)[-1] for im, p in zip(sides, paths)]
-        g1 = (sides[0].entropy(paths[1][best]) - sides[0].entropy(ends[1]),
-              sides[1].entropy(paths[0][best]) - sides[1].entropy(ends[0]))
+        # the other half's sub-aperture estimate is constant over the blocks: the half's stack
+        # gives its image exactly (the same sum of the same backprojections), no new image needed
+        g1 = (halves[0].entropy(paths[1][best]) - sides[0].entropy(ends[1]),
+              halves[1].entropy(paths[0][best]) - sides[1].entropy(ends[0]))
         steps = [e - p[best] for e, p in zip(ends, paths)]
         c1 = _corr(*steps)
         fine_imagers += sides
@@ -314,7 +344,8 @@ def min_entropy(ph, *, grid: Grid | None = None, start="zero", levels=LEVELS, ma
                                  "the other half's entropy")
     hist["evaluations"] = evals = full.evaluations + sum(im.evaluations for im in [*halves, *fine_imagers])
     res = AutofocusResult(phi, "min-entropy", iterations=evals, history=hist)
-    (h0, m0), (h1, m1) = sharpness(judge.image(zero)), sharpness(judge.image(phi))
+    # the uncorrected image from the stack (exact for a zero phase; sharpness ignores pixel order)
+    (h0, m0), (h1, m1) = sharpness(full.image(zero)), sharpness(judge.image(phi))
     res.entropy_before, res.peak_to_mean_before = h0, m0
     res.entropy_after, res.peak_to_mean_after = h1, m1
     if guard and np.any(phi) and not (h1 < h0 and m1 >= m0):
