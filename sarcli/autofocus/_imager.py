@@ -32,7 +32,7 @@ from ..core.grid import Grid
 from ..errors import SarcliInputError, SarcliWarning
 from ._common import pulse_images
 
-__all__ = ["Imager", "BlockImager", "entropy_of", "split_grid", "range_axis"]
+__all__ = ["Imager", "BlockImager", "entropy_of", "split_grid", "range_axis", "single_threaded_blas"]
 
 #: Backprojection options of the estimator: the pair backproject/reproject is an exact adjoint
 #: for any of them, and the estimate only needs the image to a few per cent.
@@ -41,6 +41,52 @@ ESTIMATION_BP = {"upsample": 4, "interp": "linear", "precision": "float32"}
 
 #: The band left between the two halves of a grid, as a fraction of its width (:func:`split_grid`).
 SPLIT_GAP = 0.125
+
+
+def _openblas():
+    """The OpenBLAS library numpy runs on (Linux), or ``None``: for its thread count."""
+    import ctypes
+
+    try:
+        with open("/proc/self/maps") as maps:
+            paths = sorted({ln.split()[-1] for ln in maps if "openblas" in ln.lower() and ".so" in ln})
+    except OSError:
+        return None
+    for path in paths:
+        try:
+            lib = ctypes.CDLL(path)
+        except OSError:
+            continue
+        for prefix in ("scipy_openblas_", "openblas_"):
+            for suffix in ("64_", ""):
+                get = getattr(lib, f"{prefix}get_num_threads{suffix}", None)
+                put = getattr(lib, f"{prefix}set_num_threads{suffix}", None)
+                if get is not None and put is not None:
+                    return get, put
+    return None
+
+
+class single_threaded_blas:
+    """Context: numpy's matrix products on one thread (where numpy runs on OpenBLAS; else nothing).
+
+    The sub-aperture products are memory-bound and short: a second thread saves little wall time,
+    and on cores shared with other jobs its waits between the products cost much CPU time
+    (``docs/autofocus.md``). Restores the thread count on exit.
+    """
+
+    def __enter__(self):
+        import numpy  # noqa: F401 (loads OpenBLAS)
+
+        self._lib = _openblas()
+        if self._lib is not None:
+            self._n = self._lib[0]()
+            self._lib[1](1)
+        return self
+
+    def __exit__(self, *exc):
+        if self._lib is not None:
+            self._lib[1](self._n)
+        return False
 
 
 def entropy_of(image) -> tuple[float, np.ndarray, np.ndarray]:

@@ -50,7 +50,7 @@ import numpy as np
 from ..core.grid import Grid
 from ._common import (MAX_GUARDED_PIXELS, AutofocusResult, AutofocusWarning, estimation_grid, guarded_grid,
                       sharpness)
-from ._imager import SPLIT_GAP, BlockImager, Imager, range_axis, split_grid
+from ._imager import SPLIT_GAP, BlockImager, Imager, range_axis, single_threaded_blas, split_grid
 
 __all__ = ["min_entropy", "coarse_to_fine", "level_basis", "LEVELS"]
 
@@ -255,6 +255,13 @@ def min_entropy(ph, *, grid: Grid | None = None, start="zero", levels=LEVELS, ma
         estimates per level, the held-out gains and the correlation between the halves per level,
         the level kept and why (``'decision'``).
     """
+    with single_threaded_blas():  # the sub-aperture products (class docstring)
+        return _min_entropy(ph, grid, start, levels, max_iter, pulse_iter, full_pulse_iter, max_blocks,
+                            max_stack_mib, validate, guard, pga_options)
+
+
+def _min_entropy(ph, grid, start, levels, max_iter, pulse_iter, full_pulse_iter, max_blocks, max_stack_mib,
+                 validate, guard, pga_options):
     acq = ph.acquisition
     est = estimation_grid(grid or acq.grid, MAX_ENTROPY_PIXELS)
     P = ph.data.shape[0]
@@ -354,5 +361,5 @@ def min_entropy(ph, *, grid: Grid | None = None, start="zero", levels=LEVELS, ma
         res.phase_rad, res.accepted = zero, False
         res.entropy_after, res.peak_to_mean_after = h0, m0
         warnings.warn(f"autofocus (min-entropy) did not sharpen the image (entropy {h0:.4f}, peak-to-mean "
-                      f"{m0:.4g} before): no correction applied", AutofocusWarning, stacklevel=2)
+                      f"{m0:.4g} before): no correction applied", AutofocusWarning, stacklevel=3)
     return res
