@@ -19,6 +19,10 @@ previous one ended, by L-BFGS on ``c`` in ``φ = φ_prev + A c`` (gradient ``A�
 3. one phase per pulse (one per sub-aperture when ``K > 1``, which replaces the levels finer
    than ``K``).
 
+A level whose phase is nearly constant over several sub-apertures runs on the stack with them
+summed (:meth:`~sarcli.autofocus._imager.BlockImager.coarsened`). Each level gets at most
+``max_iter`` L-BFGS iterations and ``2 max_iter`` evaluations, line searches included.
+
 Every basis is orthogonal to the constant and to the phase linear in look azimuth: those change
 no image magnitude but shift it in cross-range, so they are neither searched nor returned.
 
@@ -34,9 +38,12 @@ alone, from zero. Each level's estimate from one half is applied to the *other* 
 phase error is common to the whole scene and lowers the entropy of the half it was not estimated
 on, whereas what an estimate fits to one half's own clutter and noise is independent of the
 other half and, applied there, blurs it. The level kept is the one with the largest held-out
-entropy gain among those that lower the entropy of both halves (its estimate from the whole
-grid); none, no correction. No threshold is involved: a held-out gain above zero is evidence
-against noise-fitting whatever its size. Finally the estimate is applied only if it leaves the
+entropy gain among those that lower the entropy of both halves; none, no correction. The whole
+grid is then searched at that level only, from the mean of the halves' estimates there. No
+threshold is involved: a held-out gain above zero is evidence against noise-fitting whatever its
+size. One phase per pulse beyond the sub-apertures is searched on each half (exact backprojection
+pair) and kept when each half's increment lowers the other half's entropy; the whole grid's
+estimate is then its sub-aperture estimate plus the mean of the halves' increments. Finally the estimate is applied only if it leaves the
 image no less sharp (entropy not up, peak-to-mean not down).
 """
 
