@@ -24,6 +24,7 @@ images instead (:func:`~sarcli.autofocus._common.pulse_images`; small cases only
 
 from __future__ import annotations
 
+import threading
 import warnings
 
 import numpy as np
@@ -71,21 +72,33 @@ class single_threaded_blas:
 
     The sub-aperture products are memory-bound and short: a second thread saves little wall time,
     and on cores shared with other jobs its waits between the products cost much CPU time
-    (``docs/autofocus.md``). Restores the thread count on exit.
+    (``docs/autofocus.md``). The thread count is process-wide: nested and concurrent uses are
+    counted, and the last one out restores it.
     """
 
-    def __enter__(self):
-        import numpy  # noqa: F401 (loads OpenBLAS)
+    _lock = threading.Lock()
+    _users = 0
+    _saved = None
 
-        self._lib = _openblas()
-        if self._lib is not None:
-            self._n = self._lib[0]()
-            self._lib[1](1)
+    def __enter__(self):
+        cls = type(self)
+        with cls._lock:
+            lib = _openblas()
+            if lib is not None:
+                if cls._users == 0:
+                    cls._saved = lib[0]()
+                    lib[1](1)
+                cls._users += 1
+            self._lib = lib
         return self
 
     def __exit__(self, *exc):
-        if self._lib is not None:
-            self._lib[1](self._n)
+        cls = type(self)
+        with cls._lock:
+            if self._lib is not None:
+                cls._users -= 1
+                if cls._users == 0:
+                    self._lib[1](cls._saved)
         return False
 
 
