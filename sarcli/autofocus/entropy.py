@@ -43,8 +43,9 @@ grid is then searched at that level only, from the mean of the halves' estimates
 threshold is involved: a held-out gain above zero is evidence against noise-fitting whatever its
 size. One phase per pulse beyond the sub-apertures is searched on each half (exact backprojection
 pair) and kept when each half's increment lowers the other half's entropy; the whole grid's
-estimate is then its sub-aperture estimate plus the mean of the halves' increments. Finally the estimate is applied only if it leaves the
-image no less sharp (entropy not up, peak-to-mean not down).
+estimate is then its sub-aperture estimate plus the mean of the halves' increments. Finally the
+estimate is applied only if it leaves the image no less sharp (entropy not up, peak-to-mean not
+down).
 """
 
 
@@ -155,7 +156,8 @@ def _minimize(fun, n: int, max_iter: int, max_fun: int | None) -> np.ndarray:
     return best[1]
 
 
-def coarse_to_fine(imager: Imager, start, gauge, levels=LEVELS, max_iter: int = 30, max_fun: int | None = None):
+def coarse_to_fine(imager: Imager, start, gauge, levels=LEVELS, max_iter: int = 30,
+                   max_fun: int | None = None):
     """The minimum-entropy estimate after each level, started from ``start``: at most ``max_iter``
     L-BFGS iterations and ``max_fun`` evaluations (default ``2 max_iter``) per level.
 
@@ -219,8 +221,8 @@ def _crossvalidate(halves, paths):
 
 
 def min_entropy(ph, *, grid: Grid | None = None, start="zero", levels=LEVELS, max_iter: int = 15,
-                pulse_iter: int = 3, full_pulse_iter: int = 0, max_blocks: int = 128, max_stack_mib: float = 128.0,
-                validate: bool = True, guard: bool = True,
+                pulse_iter: int = 3, full_pulse_iter: int = 0, max_blocks: int = 128,
+                max_stack_mib: float = 128.0, validate: bool = True, guard: bool = True,
                 pga_options=None) -> AutofocusResult:
     """Minimum-entropy autofocus: coarse to fine to one phase per pulse, cross-validated.
 
@@ -349,8 +351,10 @@ def _min_entropy(ph, grid, start, levels, max_iter, pulse_iter, full_pulse_iter,
             exact = Imager(ph, full.grid)
             fine_imagers.append(exact)
             start1 = phi + 0.5 * (steps[0] + steps[1])
-            phi, judge, hist["level"] = (coarse_to_fine(exact, start1, gauge, (1,), full_pulse_iter)[-1]
-                                         if full_pulse_iter > 0 else start1 - gauge @ (gauge.T @ start1)), exact, "1"
+            start1 = start1 - gauge @ (gauge.T @ start1)
+            if full_pulse_iter > 0:
+                start1 = coarse_to_fine(exact, start1, gauge, (1,), full_pulse_iter)[-1]
+            phi, judge, hist["level"] = start1, exact, "1"
             hist["decision"] += (f"; then one phase per pulse: each half's per-pulse increment lowers the "
                                  f"other half's entropy ({g1[0]:.4f}, {g1[1]:.4f} nats; correlation {c1:.2f})")
         else:
