@@ -132,14 +132,15 @@ def test_constant_and_linear_phase_are_unobservable():
     np.testing.assert_allclose(remove_linear_phase(lin, az), 0.0, atol=1e-9)
 
 
-@pytest.mark.parametrize("kind", ["backprojection", "blocks of 1", "blocks of 4"])
+@pytest.mark.parametrize("kind", ["backprojection", "blocks of 1", "blocks of 4", "blocks of 2 merged by 2"])
 def test_entropy_gradient_matches_finite_differences(kind):
     """The per-pulse gradient from one backprojection and one reprojection (or from the
     sub-aperture stack) is the derivative of the entropy the same imager computes."""
     ph = scene(seed=3, P=24, M=32)
     grid = Grid(24, 24, 0.5, 0.5)
     im = {"backprojection": lambda: Imager(ph, grid), "blocks of 1": lambda: BlockImager(ph, grid, 1),
-          "blocks of 4": lambda: BlockImager(ph, grid, 4)}[kind]()
+          "blocks of 4": lambda: BlockImager(ph, grid, 4),
+          "blocks of 2 merged by 2": lambda: BlockImager(ph, grid, 2).coarsened(5)}[kind]()
     phi = np.random.default_rng(0).normal(0, 0.5, 24)
     h, g = im.entropy_and_gradient(phi)
     assert h == pytest.approx(im.entropy(phi), rel=1e-12)
@@ -148,6 +149,33 @@ def test_entropy_gradient_matches_finite_differences(kind):
         e[p] = 1e-4
         fd = (im.entropy(phi + e) - im.entropy(phi - e)) / 2e-4
         assert fd == pytest.approx(g[p], rel=2e-2, abs=1e-6)
+
+
+def test_merged_sub_apertures_are_the_coarser_stack():
+    """Summing consecutive block images gives the images of the coarser blocks: same entropy for
+    any phase (both average it over the same 6 pulses), evaluations counted on the base imager."""
+    ph = scene(seed=3, P=24, M=32)
+    grid = Grid(24, 24, 0.5, 0.5)
+    base = BlockImager(ph, grid, 2)
+    merged, direct = base.coarsened(7), BlockImager(ph, grid, 6)
+    assert merged is not base and len(merged.bounds) == 5 and base.coarsened(3) is base
+    phi = np.random.default_rng(1).normal(0, 1.0, 24)
+    assert merged.entropy(phi) == pytest.approx(direct.entropy(phi), rel=1e-5)
+    assert merged.entropy(phi) != pytest.approx(base.entropy(phi), rel=1e-5)
+    merged.entropy_and_gradient(phi)
+    assert base.evaluations == 1 and merged.evaluations == 1
+
+
+def test_single_threaded_blas_restores_the_thread_count():
+    from sarcli.autofocus._imager import _openblas, single_threaded_blas
+
+    lib = _openblas()
+    if lib is None:
+        pytest.skip("numpy does not run on OpenBLAS here")
+    before = lib[0]()
+    with single_threaded_blas():
+        assert lib[0]() == 1
+    assert lib[0]() == before
 
 
 def test_never_less_sharp_on_a_focused_image():

@@ -24,6 +24,7 @@ images instead (:func:`~sarcli.autofocus._common.pulse_images`; small cases only
 
 from __future__ import annotations
 
+import threading
 import warnings
 
 import numpy as np
@@ -32,7 +33,7 @@ from ..core.grid import Grid
 from ..errors import SarcliInputError, SarcliWarning
 from ._common import pulse_images
 
-__all__ = ["Imager", "BlockImager", "entropy_of", "split_grid", "range_axis"]
+__all__ = ["Imager", "BlockImager", "entropy_of", "split_grid", "range_axis", "single_threaded_blas"]
 
 #: Backprojection options of the estimator: the pair backproject/reproject is an exact adjoint
 #: for any of them, and the estimate only needs the image to a few per cent.
@@ -41,6 +42,64 @@ ESTIMATION_BP = {"upsample": 4, "interp": "linear", "precision": "float32"}
 
 #: The band left between the two halves of a grid, as a fraction of its width (:func:`split_grid`).
 SPLIT_GAP = 0.125
+
+
+def _openblas():
+    """The OpenBLAS library numpy runs on (Linux), or ``None``: for its thread count."""
+    import ctypes
+
+    try:
+        with open("/proc/self/maps") as maps:
+            paths = sorted({ln.split()[-1] for ln in maps if "openblas" in ln.lower() and ".so" in ln})
+    except OSError:
+        return None
+    for path in paths:
+        try:
+            lib = ctypes.CDLL(path)
+        except OSError:
+            continue
+        for prefix in ("scipy_openblas_", "openblas_"):
+            for suffix in ("64_", ""):
+                get = getattr(lib, f"{prefix}get_num_threads{suffix}", None)
+                put = getattr(lib, f"{prefix}set_num_threads{suffix}", None)
+                if get is not None and put is not None:
+                    return get, put
+    return None
+
+
+class single_threaded_blas:
+    """Context: numpy's matrix products on one thread (where numpy runs on OpenBLAS; else nothing).
+
+    The sub-aperture products are memory-bound and short: a second thread saves little wall time,
+    and on cores shared with other jobs its waits between the products cost much CPU time
+    (``docs/autofocus.md``). The thread count is process-wide: nested and concurrent uses are
+    counted, and the last one out restores it.
+    """
+
+    _lock = threading.Lock()
+    _users = 0
+    _saved = None
+
+    def __enter__(self):
+        cls = type(self)
+        with cls._lock:
+            lib = _openblas()
+            if lib is not None:
+                if cls._users == 0:
+                    cls._saved = lib[0]()
+                    lib[1](1)
+                cls._users += 1
+            self._lib = lib
+        return self
+
+    def __exit__(self, *exc):
+        cls = type(self)
+        with cls._lock:
+            if self._lib is not None:
+                cls._users -= 1
+                if cls._users == 0:
+                    self._lib[1](cls._saved)
+        return False
 
 
 def entropy_of(image) -> tuple[float, np.ndarray, np.ndarray]:
@@ -110,6 +169,10 @@ class Imager:
     def blockwise(self, phi) -> np.ndarray:
         """``φ`` itself (this imager is exact for any per-pulse phase)."""
         return np.asarray(phi, np.float64)
+
+    def coarsened(self, pulses: int) -> "Imager":
+        """This imager (it has no sub-apertures to merge)."""
+        return self
 
     def entropy(self, phi) -> float:
         """``H(f(φ))``."""
@@ -185,10 +248,11 @@ class BlockImager:
         The axis the halves split (:func:`split_grid`).
     """
 
-    def __init__(self, ph, grid: Grid, block: int, axis: int = 1, *, _parts=None, _bounds=None):
+    def __init__(self, ph, grid: Grid, block: int, axis: int = 1, *, _parts=None, _bounds=None,
+                 _counter=None):
         self.grid = grid
         self.axis = axis
-        self.evaluations = 0
+        self._evaluations, self._counter = 0, _counter
         if _parts is None:
             P = ph.data.shape[0]
             self.bounds = np.append(np.arange(0, P, block), P)
@@ -235,10 +299,40 @@ class BlockImager:
             store(b, pulses[self.bounds[b]:self.bounds[b + 1]].sum(axis=0).reshape(grid.shape))
         return parts
 
+    def coarsened(self, pulses: int) -> "BlockImager":
+        """An imager of sub-apertures of about ``pulses`` pulses: ``m ≥ 1`` consecutive blocks of
+        this stack summed (``m`` the most whose blocks stay within ``pulses``; this imager when
+        ``m = 1``). Exact for a phase constant over each merged block, and ``m`` times cheaper per
+        evaluation: the levels searching a phase smooth over ``pulses`` pulses need no finer
+        blocks. Evaluations are counted on this imager.
+        """
+        K = int(self._sizes.max())
+        m = max(1, int(pulses) // max(K, 1))
+        if m == 1 or len(self.bounds) - 1 <= 2 * m:
+            return self
+        cache = self.__dict__.setdefault("_coarse", {})
+        if m not in cache:
+            starts = np.arange(0, len(self.bounds) - 1, m)
+            parts = [np.add.reduceat(part, starts, axis=0) for part in self.parts]
+            cache[m] = BlockImager(None, self.grid, 0, self.axis, _parts=parts,
+                                   _bounds=np.append(self.bounds[starts], self.bounds[-1]), _counter=self)
+        return cache[m]
+
     def halves(self) -> tuple["BlockImager", "BlockImager"]:
         """The imagers of the two halves of :func:`split_grid` (this stack's own parts, no copy)."""
         return tuple(BlockImager(None, g, 0, self.axis, _parts=[part], _bounds=self.bounds)
                      for g, part in zip(split_grid(self.grid, self.axis, SPLIT_GAP)[:2], self.parts))
+
+    @property
+    def evaluations(self) -> int:
+        """Entropy-and-gradient evaluations (those of its :meth:`coarsened` imagers included)."""
+        return self._counter.evaluations if self._counter is not None else self._evaluations
+
+    def _count(self):
+        if self._counter is not None:
+            self._counter._count()
+        else:
+            self._evaluations += 1
 
     def _theta(self, phi):
         return np.add.reduceat(np.asarray(phi, np.float64), self.bounds[:-1]) / self._sizes
@@ -259,7 +353,7 @@ class BlockImager:
 
     def entropy_and_gradient(self, phi) -> tuple[float, np.ndarray]:
         """``H`` and its per-pulse gradient (class docstring)."""
-        self.evaluations += 1
+        self._count()
         e = np.exp(-1j * self._theta(phi))
         f = self._image(e)
         h, _, w = entropy_of(f)

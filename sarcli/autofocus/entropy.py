@@ -19,6 +19,10 @@ previous one ended, by L-BFGS on ``c`` in ``φ = φ_prev + A c`` (gradient ``A�
 3. one phase per pulse (one per sub-aperture when ``K > 1``, which replaces the levels finer
    than ``K``).
 
+A level whose phase is nearly constant over several sub-apertures runs on the stack with them
+summed (:meth:`~sarcli.autofocus._imager.BlockImager.coarsened`). Each level gets at most
+``max_iter`` L-BFGS iterations and ``2 max_iter`` evaluations, line searches included.
+
 Every basis is orthogonal to the constant and to the phase linear in look azimuth: those change
 no image magnitude but shift it in cross-range, so they are neither searched nor returned.
 
@@ -34,10 +38,14 @@ alone, from zero. Each level's estimate from one half is applied to the *other* 
 phase error is common to the whole scene and lowers the entropy of the half it was not estimated
 on, whereas what an estimate fits to one half's own clutter and noise is independent of the
 other half and, applied there, blurs it. The level kept is the one with the largest held-out
-entropy gain among those that lower the entropy of both halves (its estimate from the whole
-grid); none, no correction. No threshold is involved: a held-out gain above zero is evidence
-against noise-fitting whatever its size. Finally the estimate is applied only if it leaves the
-image no less sharp (entropy not up, peak-to-mean not down).
+entropy gain among those that lower the entropy of both halves; none, no correction. The whole
+grid is then searched at that level only, from the mean of the halves' estimates there. No
+threshold is involved: a held-out gain above zero is evidence against noise-fitting whatever its
+size. One phase per pulse beyond the sub-apertures is searched on each half (exact backprojection
+pair) and kept when each half's increment lowers the other half's entropy; the whole grid's
+estimate is then its sub-aperture estimate plus the mean of the halves' increments. Finally the
+estimate is applied only if it leaves the image no less sharp (entropy not up, peak-to-mean not
+down).
 """
 
 
@@ -50,7 +58,7 @@ import numpy as np
 from ..core.grid import Grid
 from ._common import (MAX_GUARDED_PIXELS, AutofocusResult, AutofocusWarning, estimation_grid, guarded_grid,
                       sharpness)
-from ._imager import SPLIT_GAP, BlockImager, Imager, range_axis, split_grid
+from ._imager import SPLIT_GAP, BlockImager, Imager, range_axis, single_threaded_blas, split_grid
 
 __all__ = ["min_entropy", "coarse_to_fine", "level_basis", "LEVELS"]
 
@@ -66,6 +74,16 @@ def _gauge(acq) -> np.ndarray:
         A = A[:, :1]
     q, _ = np.linalg.qr(A)
     return q
+
+
+def _degree(P: int) -> int:
+    return int(min(12, max(2, P // 8)))
+
+
+def _spacing(level, P: int) -> int:
+    """Pulses over which a level's phase is nearly constant: the knot spacing, or for the smooth
+    level half the mean distance between the zeros of its highest-degree polynomial (``P / 2K``)."""
+    return max(1, P // (2 * _degree(P))) if level == "smooth" else int(level)
 
 
 def level_basis(level, P: int, gauge: np.ndarray) -> np.ndarray | None:
@@ -84,7 +102,7 @@ def level_basis(level, P: int, gauge: np.ndarray) -> np.ndarray | None:
     if level == 1 or P < 4:
         return None
     if level == "smooth":
-        K = int(min(12, max(2, P // 8)))
+        K = _degree(P)
         A = np.polynomial.legendre.legvander(np.linspace(-1.0, 1.0, P), K)[:, 2:]
     else:
         knots = np.unique(np.append(np.arange(0, P, int(level)), P - 1))
@@ -108,40 +126,71 @@ def _defocus_search(imager, phi, quad) -> np.ndarray:
     return phi + DEFOCUS_SCAN[int(np.argmin(h))] * q
 
 
-def coarse_to_fine(imager: Imager, start, gauge, levels=LEVELS, max_iter: int = 30):
-    """The minimum-entropy estimate after each level, started from ``start``.
+class _Spent(Exception):
+    """The evaluations allowed to one level are spent."""
+
+
+def _minimize(fun, n: int, max_iter: int, max_fun: int | None) -> np.ndarray:
+    """L-BFGS (scipy's L-BFGS-B) on ``fun`` (value and gradient) from zero, at most ``max_iter``
+    iterations and ``max_fun`` evaluations (default ``2 max_iter``; line searches included, which
+    scipy's own ``maxfun`` checks only between iterations); the best point evaluated."""
+    from scipy.optimize import minimize
+
+    max_fun = 2 * max_iter if max_fun is None else max_fun
+    best = [np.inf, np.zeros(n), 0]
+
+    def counted(c):
+        if best[2] >= max_fun:
+            raise _Spent
+        best[2] += 1
+        h, g = fun(c)
+        if h < best[0]:
+            best[:2] = h, np.array(c, np.float64)
+        return h, g
+
+    try:
+        minimize(counted, np.zeros(n), jac=True, method="L-BFGS-B",
+                 options={"maxiter": max_iter, "maxfun": max_fun, "ftol": 1e-12, "gtol": 1e-12})
+    except _Spent:
+        pass
+    return best[1]
+
+
+def coarse_to_fine(imager: Imager, start, gauge, levels=LEVELS, max_iter: int = 30,
+                   max_fun: int | None = None):
+    """The minimum-entropy estimate after each level, started from ``start``: at most ``max_iter``
+    L-BFGS iterations and ``max_fun`` evaluations (default ``2 max_iter``) per level.
 
     Returns
     -------
     list of ndarray
         ``φ`` after each level of ``levels`` (each continues from the previous one).
     """
-    from scipy.optimize import minimize
-
     P = gauge.shape[0]
     phi = np.asarray(start, np.float64).copy()
     out = []
     for level in levels:
         A = level_basis(level, P, gauge)
+        # a phase smooth over `spacing` pulses needs no finer sub-apertures than that
+        im = imager.coarsened(_spacing(level, P))
         if level == "smooth" and A is not None:
-            phi = _defocus_search(imager, phi, A[:, 0])
+            phi = _defocus_search(im, phi, A[:, 0])
         base = phi
 
         if A is None:
-            def fun(c, base=base):
-                h, g = imager.entropy_and_gradient(base + c)
+            def fun(c, base=base, im=im):
+                h, g = im.entropy_and_gradient(base + c)
                 return h, g - gauge @ (gauge.T @ g)
             n = P
         else:
-            def fun(c, base=base, A=A):
-                h, g = imager.entropy_and_gradient(base + A @ c)
+            def fun(c, base=base, A=A, im=im):
+                h, g = im.entropy_and_gradient(base + A @ c)
                 return h, A.T @ g
             n = A.shape[1]
-        opt = minimize(fun, np.zeros(n), jac=True, method="L-BFGS-B",
-                       options={"maxiter": max_iter, "maxfun": 2 * max_iter, "ftol": 1e-12, "gtol": 1e-12})
-        step = opt.x if A is None else A @ opt.x
+        x = _minimize(fun, n, max_iter, max_fun)
+        step = x if A is None else A @ x
         # the phase the imager's images are exact for (block means on sub-apertures), constant
-        # and linear part removed; L-BFGS-B returns its best point, never worse than the start
+        # and linear part removed
         phi = imager.blockwise(base + step)
         phi = phi - gauge @ (gauge.T @ phi)
         out.append(phi.copy())
@@ -172,7 +221,8 @@ def _crossvalidate(halves, paths):
 
 
 def min_entropy(ph, *, grid: Grid | None = None, start="zero", levels=LEVELS, max_iter: int = 15,
-                pulse_iter: int = 4, max_blocks: int = 128, max_stack_mib: float = 128.0, validate: bool = True, guard: bool = True,
+                pulse_iter: int = 3, full_pulse_iter: int = 0, max_blocks: int = 128,
+                max_stack_mib: float = 128.0, validate: bool = True, guard: bool = True,
                 pga_options=None) -> AutofocusResult:
     """Minimum-entropy autofocus: coarse to fine to one phase per pulse, cross-validated.
 
@@ -192,8 +242,11 @@ def min_entropy(ph, *, grid: Grid | None = None, start="zero", levels=LEVELS, ma
         sub-apertures are replaced by the sub-aperture level.
     max_iter, pulse_iter : int
         L-BFGS iterations per level on the sub-apertures, and at one phase per pulse beyond them
-        (on the exact backprojection pair, :class:`~sarcli.autofocus._imager.Imager`: two images
-        per evaluation, no stack; 0 skips that level).
+        (on each half, on the exact backprojection pair, :class:`~sarcli.autofocus._imager.Imager`:
+        two images per evaluation, no stack; 0 skips that level).
+    full_pulse_iter : int
+        L-BFGS iterations at one phase per pulse on the whole grid, from its sub-aperture estimate
+        plus the mean of the halves' per-pulse increments (0: that start is the estimate).
     max_blocks, max_stack_mib : int, float
         Most sub-aperture images held, and most memory for them (MiB): the sub-apertures have
         ``K = max(⌈P / max_blocks⌉, ⌈P · image bytes / max_stack_mib⌉)`` pulses
@@ -207,9 +260,17 @@ def min_entropy(ph, *, grid: Grid | None = None, start="zero", levels=LEVELS, ma
     Returns
     -------
     AutofocusResult
-        ``history`` records the start, the entropies after each level, the held-out gains and the
-        correlation between the halves per level, the level kept and why (``'decision'``).
+        ``history`` records the start, the whole grid's entropy at the mean of the halves'
+        estimates per level, the held-out gains and the correlation between the halves per level,
+        the level kept and why (``'decision'``).
     """
+    with single_threaded_blas():  # the sub-aperture products (class docstring)
+        return _min_entropy(ph, grid, start, levels, max_iter, pulse_iter, full_pulse_iter, max_blocks,
+                            max_stack_mib, validate, guard, pga_options)
+
+
+def _min_entropy(ph, grid, start, levels, max_iter, pulse_iter, full_pulse_iter, max_blocks, max_stack_mib,
+                 validate, guard, pga_options):
     acq = ph.acquisition
     est = estimation_grid(grid or acq.grid, MAX_ENTROPY_PIXELS)
     P = ph.data.shape[0]
@@ -239,19 +300,24 @@ def min_entropy(ph, *, grid: Grid | None = None, start="zero", levels=LEVELS, ma
     elif not isinstance(start, str):
         phi0 = np.asarray(start, np.float64)
         phi0, hist["start"] = phi0 - gauge @ (gauge.T @ phi0), "given"
-    path = coarse_to_fine(full, phi0, gauge, coarse, max_iter)
     paths = [coarse_to_fine(im, zero, gauge, coarse, max_iter) for im in halves]
     gains, corrs = _crossvalidate(halves, paths)
-    evals = full.evaluations + sum(im.evaluations for im in halves)
     names = [str(lv) for lv in coarse]
     # cross-validated choice of the level: the largest total held-out gain, both halves gaining
     score = [sum(g) if min(g) > 0 else -np.inf for g in gains]
-    best = int(np.argmax(score)) if validate else len(path) - 1
+    best = int(np.argmax(score)) if validate else len(coarse) - 1
     kept = validate is False or np.isfinite(score[best])
-    phi = path[best] if kept else zero
-    hist.update(entropy_start=full.entropy(phi0), entropy_levels=[full.entropy(p) for p in path],
-                heldout_gain=gains, halves_correlation=corrs, evaluations=evals,
-                level=names[best] if kept else None)
+    phi = zero
+    if kept and np.any(phi0):
+        phi = coarse_to_fine(full, phi0, gauge, coarse[:best + 1], max_iter)[-1]
+    elif kept:
+        # the whole grid searches the level kept only, from the mean of the halves' estimates
+        # at that level (the coarser levels have brought each half there already)
+        phi = coarse_to_fine(full, 0.5 * (paths[0][best] + paths[1][best]), gauge, coarse[best:best + 1],
+                             max_iter, max_fun=max_iter)[-1]
+    hist.update(entropy_start=full.entropy(phi0),
+                entropy_levels=[full.entropy(0.5 * (a + b)) for a, b in zip(*paths)],
+                heldout_gain=gains, halves_correlation=corrs, level=names[best] if kept else None)
     if not validate:
         hist["decision"] = f"finest level {names[-1]} (not cross-validated)"
     elif not kept:
@@ -261,32 +327,43 @@ def min_entropy(ph, *, grid: Grid | None = None, start="zero", levels=LEVELS, ma
         hist["decision"] = (f"level {names[best]}: its estimates from each half of the scene lower the "
                             f"entropy of the other half the most (held-out gains {gains[best][0]:.4f}, "
                             f"{gains[best][1]:.4f} nats; halves' estimates correlate {corrs[best]:.2f})")
-    judge = full  # the images the estimate is exact for
+    judge, fine_imagers = full, []  # the images the estimate is exact for
     if kept and K > 1 and pulse_iter > 0 and any(lv != "smooth" and int(lv) < K for lv in levels) \
-            and best == len(path) - 1:
-        # one phase per pulse, beyond the sub-apertures: the exact backprojection pair on the
-        # whole grid (no stack), from the sub-aperture estimate; kept when each half's own
-        # per-pulse increment lowers the other half's entropy
-        exact = Imager(ph, full.grid)
-        fine = coarse_to_fine(exact, phi, gauge, (1,), pulse_iter)[-1]
+            and best == len(coarse) - 1:
+        # one phase per pulse, beyond the sub-apertures, on the exact backprojection pair (no
+        # stack): each half refines its own sub-aperture estimate, and the level is kept when
+        # each half's per-pulse increment lowers the other half's entropy
         sides = [Imager(ph, g) for g in split_grid(full.grid, axis, SPLIT_GAP)[:2]]
         ends = [coarse_to_fine(im, p[best], gauge, (1,), pulse_iter)[-1] for im, p in zip(sides, paths)]
-        g1 = (sides[0].entropy(paths[1][best]) - sides[0].entropy(ends[1]),
-              sides[1].entropy(paths[0][best]) - sides[1].entropy(ends[0]))
-        c1 = _corr(ends[0] - paths[0][best], ends[1] - paths[1][best])
+        # the other half's sub-aperture estimate is constant over the blocks: the half's stack
+        # gives its image exactly (the same sum of the same backprojections), no new image needed
+        g1 = (halves[0].entropy(paths[1][best]) - sides[0].entropy(ends[1]),
+              halves[1].entropy(paths[0][best]) - sides[1].entropy(ends[0]))
+        steps = [e - p[best] for e, p in zip(ends, paths)]
+        c1 = _corr(*steps)
+        fine_imagers += sides
         hist["heldout_gain"] = gains + [g1]
         hist["halves_correlation"] = corrs + [c1]
-        hist["evaluations"] = evals = evals + exact.evaluations + sum(im.evaluations for im in sides)
         hist["levels"] = names + ["1"]
         if min(g1) > 0:
-            phi, judge, hist["level"] = fine, exact, "1"
+            # the whole grid: from its sub-aperture estimate plus the mean of the halves'
+            # per-pulse increments, a few more iterations on all of it
+            exact = Imager(ph, full.grid)
+            fine_imagers.append(exact)
+            start1 = phi + 0.5 * (steps[0] + steps[1])
+            start1 = start1 - gauge @ (gauge.T @ start1)
+            if full_pulse_iter > 0:
+                start1 = coarse_to_fine(exact, start1, gauge, (1,), full_pulse_iter)[-1]
+            phi, judge, hist["level"] = start1, exact, "1"
             hist["decision"] += (f"; then one phase per pulse: each half's per-pulse increment lowers the "
                                  f"other half's entropy ({g1[0]:.4f}, {g1[1]:.4f} nats; correlation {c1:.2f})")
         else:
             hist["decision"] += ("; one phase per pulse not kept: a half's per-pulse increment did not lower "
                                  "the other half's entropy")
+    hist["evaluations"] = evals = full.evaluations + sum(im.evaluations for im in [*halves, *fine_imagers])
     res = AutofocusResult(phi, "min-entropy", iterations=evals, history=hist)
-    (h0, m0), (h1, m1) = sharpness(judge.image(zero)), sharpness(judge.image(phi))
+    # the uncorrected image from the stack (exact for a zero phase; sharpness ignores pixel order)
+    (h0, m0), (h1, m1) = sharpness(full.image(zero)), sharpness(judge.image(phi))
     res.entropy_before, res.peak_to_mean_before = h0, m0
     res.entropy_after, res.peak_to_mean_after = h1, m1
     if guard and np.any(phi) and not (h1 < h0 and m1 >= m0):
@@ -295,5 +372,5 @@ def min_entropy(ph, *, grid: Grid | None = None, start="zero", levels=LEVELS, ma
         res.phase_rad, res.accepted = zero, False
         res.entropy_after, res.peak_to_mean_after = h0, m0
         warnings.warn(f"autofocus (min-entropy) did not sharpen the image (entropy {h0:.4f}, peak-to-mean "
-                      f"{m0:.4g} before): no correction applied", AutofocusWarning, stacklevel=2)
+                      f"{m0:.4g} before): no correction applied", AutofocusWarning, stacklevel=3)
     return res
