@@ -44,61 +44,36 @@ ESTIMATION_BP = {"upsample": 4, "interp": "linear", "precision": "float32"}
 SPLIT_GAP = 0.125
 
 
-def _openblas():
-    """The OpenBLAS library numpy runs on (Linux), or ``None``: for its thread count."""
-    import ctypes
-
-    try:
-        with open("/proc/self/maps") as maps:
-            paths = sorted({ln.split()[-1] for ln in maps if "openblas" in ln.lower() and ".so" in ln})
-    except OSError:
-        return None
-    for path in paths:
-        try:
-            lib = ctypes.CDLL(path)
-        except OSError:
-            continue
-        for prefix in ("scipy_openblas_", "openblas_"):
-            for suffix in ("64_", ""):
-                get = getattr(lib, f"{prefix}get_num_threads{suffix}", None)
-                put = getattr(lib, f"{prefix}set_num_threads{suffix}", None)
-                if get is not None and put is not None:
-                    return get, put
-    return None
-
-
 class single_threaded_blas:
-    """Context: numpy's matrix products on one thread (where numpy runs on OpenBLAS; else nothing).
+    """Context: numpy's matrix products on one thread (threadpoolctl's limit on the BLAS pools).
 
     The sub-aperture products are memory-bound and short: a second thread saves little wall time,
     and on cores shared with other jobs its waits between the products cost much CPU time
-    (``docs/autofocus.md``). The thread count is process-wide: nested and concurrent uses are
-    counted, and the last one out restores it.
+    (``docs/autofocus.md``). The limit is process-wide: nested and concurrent uses are counted,
+    and the last one out restores it.
     """
 
     _lock = threading.Lock()
     _users = 0
-    _saved = None
+    _limit = None
 
     def __enter__(self):
         cls = type(self)
         with cls._lock:
-            lib = _openblas()
-            if lib is not None:
-                if cls._users == 0:
-                    cls._saved = lib[0]()
-                    lib[1](1)
-                cls._users += 1
-            self._lib = lib
+            if cls._users == 0:
+                from threadpoolctl import threadpool_limits
+
+                cls._limit = threadpool_limits(limits=1, user_api="blas")
+            cls._users += 1
         return self
 
     def __exit__(self, *exc):
         cls = type(self)
         with cls._lock:
-            if self._lib is not None:
-                cls._users -= 1
-                if cls._users == 0:
-                    self._lib[1](cls._saved)
+            cls._users -= 1
+            if cls._users == 0:
+                cls._limit.restore_original_limits()
+                cls._limit = None
         return False
 
 
