@@ -54,9 +54,14 @@ with h5py.File(sys.argv[2], "w") as f:
 GOTCHA_DIR = Path(os.environ.get("SARCLI_GOTCHA_DIR") or REPO.parent / "shared" / "data" / "gotcha")
 
 
+#: The children run as a user's commands do: bytecode caches written and read (a shell that sets
+#: PYTHONDONTWRITEBYTECODE would have every sarcli module compiled from source at every command).
+ENV = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
+
+
 def _time(cmd) -> float:
     t0 = time.perf_counter()
-    subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=ENV)
     return time.perf_counter() - t0
 
 
@@ -109,7 +114,7 @@ print(time.perf_counter() - t)
 def planning_row(ph, runs):
     """Auto's planning in fresh processes: the minimum over ``runs`` (seconds)."""
     ts = [float(subprocess.run([sys.executable, "-c", PLAN, str(ph)], check=True, capture_output=True,
-                               text=True).stdout.split()[-1]) for _ in range(runs)]
+                               text=True, env=ENV).stdout.split()[-1]) for _ in range(runs)]
     return min(ts)
 
 
@@ -119,7 +124,7 @@ def gotcha_rows(tmp, runs):
         print(f"(no GOTCHA files in {GOTCHA_DIR}: set SARCLI_GOTCHA_DIR; GOTCHA rows skipped)")
         return []
     ph, out = Path(tmp) / "gotcha.h5", Path(tmp) / "gotcha-img.h5"
-    subprocess.run([SAR, "-q", "import", "gotcha", *map(str, files), "-o", str(ph)], check=True)
+    subprocess.run([SAR, "-q", "import", "gotcha", *map(str, files), "-o", str(ph)], check=True, env=ENV)
     base = [sys.executable, "-c", "import numpy, h5py"]
     rows = []
     for method in ("auto", "backprojection"):
