@@ -4,8 +4,9 @@ The command line checks every size-driving knob here before anything is allocate
 (:func:`check_form_image`, :func:`check_regularize`); beyond the memory limit
 (:func:`sarcli._util.resources.memory_limit`, ``sar --max-memory``) the run is refused with the
 estimate and the limit. The estimates are upper-bound models of each former's working arrays
-(bytes), not measurements; the throughputs of :data:`DIRECT_RATE` were measured on a shared,
-loaded 2-core machine and only set the time warning of the exact ``direct`` former.
+(bytes), not measurements; the time warning of the exact ``direct`` former takes the spherical
+sum's rate from the planner's cost model of this machine and the far field's from
+:data:`DIRECT_RATE`.
 """
 
 from __future__ import annotations
@@ -30,9 +31,9 @@ OVERSAMPLE_RANGE = (1.25, 16.0)
 WIDTH_RANGE = (2, 16)
 #: NUFFT requested accuracy (FINUFFT's reachable range in float64)
 EPS_RANGE = (1e-15, 1e-1)
-#: sample x pixel terms per second of ``direct`` per core: far field (BLAS products), spherical
-#: (compiled sin/cos), measured on a loaded 2-core AMD EPYC
-DIRECT_RATE = {"farfield": 8e8, "spherical": 1.1e7}
+#: sample x pixel terms per second of ``direct`` per core, far field (BLAS products), measured on
+#: a loaded 2-core AMD EPYC; the spherical sum's rate is the planner's calibrated constant
+DIRECT_RATE = {"farfield": 8e8}
 #: estimated ``direct`` run time (s) beyond which a faster method is suggested first
 DIRECT_WARN_S = 30.0
 _C16 = 16
@@ -95,9 +96,15 @@ def form_image_bytes(method, n_pulses, n_freq, grid, *, model="farfield", acq=No
 
 
 def direct_seconds(n_pulses, n_freq, n_pixels, model="farfield", nthreads=None) -> float:
-    """Estimated run time (s) of the exact ``direct`` former."""
+    """Estimated run time (s) of the exact ``direct`` former: spherical from the planner's cost
+    model of this machine (:mod:`sarcli.formers.calibration`), far field from :data:`DIRECT_RATE`."""
     cores = nthreads or os.cpu_count() or 1
-    return float(n_pulses) * n_freq * n_pixels / (DIRECT_RATE.get(model, DIRECT_RATE["spherical"]) * cores)
+    terms = float(n_pulses) * n_freq * n_pixels
+    if model == "farfield":
+        return terms / (DIRECT_RATE["farfield"] * cores)
+    from .calibration import load_cost_model
+
+    return terms * load_cost_model()["direct"] / cores      # seconds per term on one core
 
 
 def check_form_image(src, method, grid, *, oversample=2.0, upsample=None, eps=None, width=None,

@@ -395,8 +395,9 @@ def signal_cases(ws: Workspace) -> list[Fault]:
 
 
 def _batch_interrupt(ws) -> Fault:
-    plan = ws.yaml("s6.yaml", f"jobs:\n  - {{input: {ws.big_ph}, method: direct, output: a.h5}}\n"
-                              f"  - {{input: {ws.big_ph}, method: direct, output: b.h5}}\n")
+    # 800² pixels each, so the jobs still run when the signal comes (the compiled sum takes seconds)
+    plan = ws.yaml("s6.yaml", f"jobs:\n  - {{input: {ws.big_ph}, method: direct, output: a.h5, grid: {{pixel_size: 0.05}}}}\n"
+                              f"  - {{input: {ws.big_ph}, method: direct, output: b.h5, grid: {{pixel_size: 0.05}}}}\n")
     outdir = ws.path("s6")
     outdir.mkdir(exist_ok=True)
     f = _interrupt("S6", "SIGINT while a local dask cluster runs two direct jobs", ws,
@@ -519,6 +520,7 @@ def resource_cases(ws: Workspace) -> list[Fault]:
 def _direct_warning(ws) -> Fault:
     """The exact former on a big grid warns first with its estimated time and a faster method."""
     from sarcli._util.resources import set_memory_limit
+    from sarcli.core.grid import resolve_grid
     from sarcli.errors import SarcliWarning
     from sarcli.formers.cost import check_form_image
     from sarcli.io.hdf5 import read_phase_history
@@ -528,11 +530,11 @@ def _direct_warning(ws) -> Fault:
     ph = read_phase_history(ws.big_ph)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        check_form_image(ph, "direct", ph.acquisition.grid, nthreads=2)
+        check_form_image(ph, "direct", resolve_grid(ph.acquisition.grid, pixel_size=0.02), nthreads=2)
     msgs = [str(w.message) for w in caught if issubclass(w.category, SarcliWarning)]
     ok = bool(msgs) and "estimated" in msgs[0] and "backprojection" in msgs[0]
-    return Fault("R8", "direct on 400² pixels from 128 x 256 spherical samples",
-                 "sar form-image big.h5 --method direct", "a warning before computing: estimated time and a faster "
+    return Fault("R8", "direct on 2000² pixels from 128 x 256 spherical samples",
+                 "sar form-image big.h5 --method direct --pixel-size 0.02", "a warning before computing: estimated time and a faster "
                  "method with its accuracy", _clean(msgs[0]) if msgs else "no warning", ok)
 
 
