@@ -117,10 +117,7 @@ def _frame_geometry(pos, first, count, grid, margin):
     hit = {"g": g, "qmin": qmin, "qmax": qmax, "tmin": tmin, "tmax": tmax, "d": d, "tilt": tilt}
     for v in hit.values():
         v.setflags(write=False)   # shared by the plans that hit the cache
-    if len(_FRAMES) >= 256:
-        _FRAMES.pop(next(iter(_FRAMES)))
-    _FRAMES[key] = hit
-    return hit
+    return _keep(_FRAMES, key, hit, 256)
 
 
 _FRAMES: dict = {}
@@ -226,15 +223,21 @@ def tone_rates(t, r, frames, parents, grid, margin):
         bx, by = _check_points(grid, margin)
         hit = [pulse_rates(t, r, fr, bx, by, None if parents[l] is None else frames[l + 1]["geo"][:, parents[l]])
                for l, fr in enumerate(frames)]
-        if len(_RATES) >= 32:
-            _RATES.pop(next(iter(_RATES)))
-        _RATES[key] = hit
+        _keep(_RATES, key, hit, 32)
     return hit
 
 
 #: :func:`tone_rates` of recent plans: they depend on the sub-apertures and the grid, not on the
 #: oversampling, so a sweep of oversamplings (the planner's) takes them once per base.
 _RATES: dict = {}
+
+
+def _keep(cache: dict, key, value, limit: int):
+    """Put ``value`` in ``cache`` under ``key``, dropping the oldest entry beyond ``limit``."""
+    if len(cache) >= limit:
+        cache.pop(next(iter(cache)))
+    cache[key] = value
+    return value
 
 
 def _digest(a) -> bytes:
