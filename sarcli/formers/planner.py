@@ -278,7 +278,6 @@ def calibrate(path=None, *, repeat: int = 3) -> dict:
     grid = Grid(N, N, 0.25, 0.25)
     thr = 2
     c = {"threads": thr}
-    L = profile_length(M, 8)
     c["bp_fft"] = DEFAULT_COSTS["bp_fft"]
     c["bp"] = best(lambda: backproject(d, freq, a, r0, grid, precision=DEFAULT_PRECISION)) * thr / (P * N * N)
     small = Grid(32, 32, 0.5, 0.5)
