@@ -126,6 +126,8 @@ def check_form_image(src, method, grid, *, oversample=2.0, upsample=None, eps=No
     p, m = data.shape
     acq = src.acquisition
     model = getattr(src, "model", None) or acq.model
+    if upsample is None and method == "backprojection":
+        from .backprojection import DEFAULT_UPSAMPLE as upsample
     est = form_image_bytes(method, p, m, grid, model=model, acq=acq, oversample=oversample,
                            upsample=8.0 if upsample is None else upsample, precision=precision,
                            streamed=is_lazy(data))
