@@ -17,10 +17,10 @@ from pathlib import Path
 import numpy as np
 
 from sarcli.analysis.benchmark import pareto_front
+from sarcli.formers import backprojection as bp
 
 #: When the runs below were last made (update with them).
-MEASURED = ("2026-11-30 (three-points-farfield, shepp-logan: AVX2 VM) and 2026-12-01 (three-points, "
-            "near-field-circle, gotcha, after ffbp's sixth-session kernels: the same VM kind with AVX-512)")
+MEASURED = "2026-12-02 (every dataset; the VM kind with AVX-512, so the kernels ran their AVX-512 copies)"
 COMMANDS = {
     "three-points": "sar bench configs/three-points.yaml -o docs/bench/three-points --repeat 3",
     "three-points-farfield": "sar bench configs/three-points.yaml -o docs/bench/three-points-farfield "
@@ -65,7 +65,8 @@ def section(name: str, folder: Path) -> list[str]:
     out += ["", "Defaults of each method (no window):", "",
             "| method | knobs | error vs direct | seconds |", "|---|---|---|---|"]
     defaults = {"nufft": {"eps": 1e-9}, "pfa": {"kernel": "kaiser", "oversample": 2.0, "width": 6},
-                "backprojection": {"upsample": 8, "interp": "cubic", "precision": "float64"},
+                "backprojection": {"upsample": float(bp.DEFAULT_UPSAMPLE), "interp": bp.DEFAULT_INTERP,
+                                   "precision": bp.DEFAULT_PRECISION},
                 "ffbp": {"os_range": 1.5, "os_angle": 1.5, "base": 16}, "subimage": {"tolerance": 1e-2}}
     for m, want in defaults.items():
         for r in rows:
@@ -95,9 +96,9 @@ def main(bench_dir="docs/bench", out="docs/error_vs_time.md"):
              "(error ~1e-10 at its default eps) and PFA with the Kaiser-Bessel kernel follows (1e-6 .. 1e-7);",
              "on spherical data (three-points at r0 = 10 km, the near-field circle at 1 km, GOTCHA) the",
              "far-field formers are limited by the model error (their error does not fall with their knobs),",
-             "backprojection's cubic interpolator at upsample 8 buys ~3e-4, ffbp's polar-grid oversampling",
-             "trades error for time smoothly (its default os 1.5: 2e-4 .. 5e-4; os 2: 2e-5 .. 6e-5; os 3:",
-             "~5e-6; GOTCHA stops at the 1.5e-4 its float32 frequencies cost) at a tenth to a third of",
+             "backprojection at its defaults (cubic, upsample 16) buys 3e-5 .. 1.2e-4, ffbp's polar-grid oversampling",
+             "trades error for time smoothly (os 1.5: 1.3e-4 .. 4.6e-4; os 2: 1.4e-5 .. 2.7e-5; os 3:",
+             "~4e-6; GOTCHA stops at the 1.5e-4 its float32 frequencies cost) at a seventh to a half of",
              "backprojection's time already on these small images, more as they grow (docs/ffbp.md), and the sub-image NUFFT pays for",
              "its tiles on near-field geometry. The exact matched filter is the reference and costs",
              "100-1000x more. `sar form-image` picks among these by default (`--method auto`).", ""]
