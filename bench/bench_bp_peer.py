@@ -11,7 +11,7 @@ measure of the work) are the best of the calls. Every image is compared with sar
 (:func:`sarcli.analysis.benchmark.reference_grid`). FastSAR's image is the unnormalised, unwindowed
 sum over pulses and frequencies, ``[nx, ny]`` on the grid ``x_i = (i - nx/2) dx`` about a centre;
 the script transposes it, passes the same frequency line sarcli's backprojection uses (least
-squares, :func:`sarcli.formers.backprojection.frequency_line`) and the same reference ranges, and
+squares, :func:`sarcli.core.sampling.frequency_line`) and the same reference ranges, and
 before measuring its error divides out one complex factor, the least-squares fit of FastSAR's
 sub-grid to the reference (normalisation ``P M`` and any global phase convention; measured: the
 fit is ``1/(P M)`` to ~1e-6 with zero phase, so the conventions agree).
@@ -52,7 +52,8 @@ from sarcli.analysis.benchmark import reference_grid  # noqa: E402
 from sarcli.core import geometry  # noqa: E402
 from sarcli.core.geometry import C  # noqa: E402
 from sarcli.core.grid import Grid  # noqa: E402
-from sarcli.formers.backprojection import DEFAULT_PRECISION, backproject, frequency_line  # noqa: E402
+from sarcli.core.sampling import frequency_line  # noqa: E402
+from sarcli.formers.backprojection import DEFAULT_PRECISION, backproject  # noqa: E402
 from sarcli.formers.direct import direct_spherical  # noqa: E402
 from sarcli.formers.formation import image_error  # noqa: E402
 

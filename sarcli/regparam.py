@@ -49,6 +49,10 @@ from typing import Callable
 
 import numpy as np
 
+from .core import sampling
+from .core.geometry import C
+from .errors import SarcliInputError
+
 __all__ = ["LAM_PATH", "SELECT_PATH", "GCV_GAMMA", "STOP_AFTER", "DISCREPANCY_TAU", "DISCREPANCY_KAPPA",
            "FLOOR_MARGIN", "UNFITTABLE_RATIO", "LamChoice", "PathChoice", "estimate_noise_power",
            "noise_power", "discrepancy_lambda", "select_lambda", "gcv_score", "sure_score", "mc_dof",
@@ -86,8 +90,7 @@ def estimate_noise_power(data, frequency_hz, scene_radius_m: float, *, margin_bi
     ----------
     data : ndarray (P, M) complex
     frequency_hz : ndarray (M,) or (P, M)
-        Must be uniformly spaced along each pulse (to 1 % of the step: recorded frequencies are
-        often quantised).
+        Must be equally spaced along each pulse (:func:`sarcli.core.sampling.equally_spaced`).
     scene_radius_m : float
         Largest |differential range| of any scatterer (e.g. the distance from the data's
         reference point to the farthest grid corner).
@@ -103,13 +106,13 @@ def estimate_noise_power(data, frequency_hz, scene_radius_m: float, *, margin_bi
     d = np.asarray(data)
     if d.ndim != 2 or d.shape[1] < 8:
         return None
-    f = np.broadcast_to(np.asarray(frequency_hz, np.float64), d.shape)
-    df = np.diff(f, axis=1)
-    step = np.median(np.abs(df))
-    if not step > 0 or np.max(np.abs(np.abs(df) - step)) > 1e-2 * step:
+    try:
+        _, dalpha = sampling.equally_spaced(frequency_hz, "the noise estimate")
+    except SarcliInputError:
         return None
+    step = float(np.median(np.abs(dalpha)))
     m = d.shape[1]
-    r_bin = 299_792_458.0 / (2.0 * step * m)  # range per bin (m); the window is m bins
+    r_bin = C / (2.0 * step * m)  # range per bin (m); the window is m bins
     guard = int(np.ceil(scene_radius_m / r_bin)) + _BH_MAINLOBE_BINS + int(margin_bins)
     idx = np.abs(np.fft.fftfreq(m) * m)  # |bin| from the reference range, both signs
     noise_bins = idx > guard

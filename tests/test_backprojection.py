@@ -13,8 +13,7 @@ import pytest
 from sarcli.core import geometry
 from sarcli.errors import AliasingWarning, SarcliInputError
 from sarcli.formers._bp_kernels import kernels, next_fast_len, tile_width
-from sarcli.formers.backprojection import (DEFAULT_INTERP, DEFAULT_UPSAMPLE, backproject,
-                                           frequency_line, profile_length, reproject)
+from sarcli.formers.backprojection import DEFAULT_INTERP, DEFAULT_UPSAMPLE, backproject, profile_length, reproject
 from sarcli.core.grid import Grid
 
 GRID = Grid.square(10.0, 80)  # 20 m x 20 m, 0.25 m pixels
@@ -232,17 +231,6 @@ def test_next_fast_len_matches_scipy():
     scipy_fft = pytest.importorskip("scipy.fft")
     for n in list(range(1, 300)) + [3391, 4097, 6785, 8193, 12289]:
         assert next_fast_len(n) == scipy_fft.next_fast_len(n), n
-
-
-def test_frequency_line_is_least_squares():
-    f = 9.3e9 + 1.5e6 * np.arange(424.0)
-    ref, step = frequency_line(f[None, :], 212)
-    assert abs(ref[0] - f[212]) < 1e-3 and abs(step[0] - 1.5e6) < 1e-6
-    rounded = f.astype(np.float32).astype(np.float64)[None, :]   # as in GOTCHA files
-    ref, step = frequency_line(rounded, 212)
-    line = ref[0] + (np.arange(424) - 212) * step[0]
-    coef = np.polyfit(np.arange(424), rounded[0], 1)
-    assert np.max(np.abs(line - np.polyval(coef, np.arange(424)))) < 1e-2
 
 
 @pytest.mark.parametrize("level", ["0", "1"])

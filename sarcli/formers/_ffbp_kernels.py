@@ -24,10 +24,10 @@ from __future__ import annotations
 import numpy as np
 
 from .._native import load
+from ..core import sampling
 
-#: Interpolation kernels (codes 0-2 shared with backprojection: linear, Keys cubic, Lanczos-3;
-#: 3: a 6-tap kernel whose weights are polynomials in the fraction) and their number of taps.
-NTAPS = (2, 4, 6, 6)
+#: Taps of each interpolator, by its code (:data:`sarcli.core.sampling.INTERPOLATORS`).
+NTAPS = tuple(i.taps for i in sorted(sampling.INTERPOLATORS.values(), key=lambda i: i.code))
 
 
 def native():

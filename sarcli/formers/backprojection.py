@@ -37,7 +37,7 @@ knobs), so ``AᴴA ≈ W² · backproject ∘ reproject``; with weights, ``repro
 factor ``w_pj / W``.
 
 The frequencies enter through the least-squares line ``α_pj ≈ α_ref,p + (j - j_c) Δα_p``
-(:func:`frequency_line`); their deviations from it are the model's error floor (GOTCHA, whose
+(:func:`sarcli.core.sampling.frequency_line`); their deviations from it are the model's error floor (GOTCHA, whose
 frequencies are rounded to float32: 2.4e-4 of the exact matched filter).
 
 The kernels (``src/native/backprojection.cpp``, :mod:`._bp_kernels`) take the differential range
@@ -65,15 +65,16 @@ from .._native import using_threads
 from ..errors import AliasingWarning, SarcliInputError
 from ..core.geometry import C, bistatic_differential_range
 from ..core.grid import Grid
+from ..core.sampling import INTERPOLATORS as _ALL_INTERPOLATORS, PROFILE_INTERPOLATORS, equally_spaced, frequency_line
 from .._util.progress import progress
 from ._bp_kernels import GEO_ROWS, kernels, min_range, next_fast_len, tile_width
 from ._samples import is_lazy
 
 __all__ = ["backproject", "reproject", "profile_length", "INTERPOLATORS", "DEFAULT_UPSAMPLE", "DEFAULT_PRECISION",
-           "DEFAULT_INTERP", "FREQUENCY_SPACING_TOLERANCE"]
+           "DEFAULT_INTERP"]
 
 #: Interpolation kernels for the range profiles and their codes in the compiled kernels.
-INTERPOLATORS = {"linear": 0, "cubic": 1, "lanczos": 2}
+INTERPOLATORS = {name: _ALL_INTERPOLATORS[name].code for name in PROFILE_INTERPOLATORS}
 #: Default profile oversampling and interpolation: relative error 3.5e-5 vs the exact matched
 #: filter and unit-point peaks 1 ± 1e-4 (measured: see tests/test_backprojection.py).
 DEFAULT_UPSAMPLE = 16
@@ -84,10 +85,6 @@ DEFAULT_INTERP = "cubic"
 #: run 1.3-1.6x faster. :func:`backproject` and :func:`reproject` themselves, the linear map and
 #: its exact adjoint, default to float64.
 DEFAULT_PRECISION = "float32"
-#: Largest allowed deviation of a pulse's frequencies from equal spacing, as a fraction of Δα
-#: (float32 files such as GOTCHA round their frequencies by ~3e-4 Δα). A deviation δ costs at most
-#: π δ/Δα rad of phase inside the unambiguous window.
-FREQUENCY_SPACING_TOLERANCE = 2e-3
 #: Profile padding on each side (periodic copies), enough for the 6-tap Lanczos-3 stencil.
 _PAD = 3
 _PRECISIONS = {"float64": np.float64, "float32": np.float32}
@@ -106,44 +103,6 @@ def profile_length(n_frequencies: int, upsample: float) -> int:
     """Range-profile (IFFT) length ``L``: ``upsample·M`` rounded up to an even fast FFT size."""
     half = int(math.ceil(float(upsample) * int(n_frequencies) / 2.0))
     return 2 * next_fast_len(max(half, 1))
-
-
-def frequency_steps(f, who: str = "backprojection") -> np.ndarray:
-    """Frequency step ``Δα`` of each row of ``f`` [rows, M] (one row when all pulses share their
-    frequencies), after checking that every row is equally spaced to within
-    :data:`FREQUENCY_SPACING_TOLERANCE` of its step (else a one-line error naming ``who``).
-    Works through the rows in blocks, so a [P, M] table costs no [P, M] temporaries."""
-    m = f.shape[1]
-    dalpha = (f[:, -1] - f[:, 0]) / (m - 1)
-    if not np.all(dalpha != 0):
-        raise SarcliInputError(f"{who} needs equally spaced frequencies in every pulse (a pulse has one "
-                               "frequency repeated); use method 'direct'")
-    rel, ramp = 0.0, np.arange(m)
-    for r in range(0, f.shape[0], 256):
-        blk = slice(r, r + 256)
-        dev = np.abs(f[blk] - (f[blk, :1] + ramp * dalpha[blk, None])) / np.abs(dalpha[blk, None])
-        rel = max(rel, float(np.max(dev)))
-    if not rel <= FREQUENCY_SPACING_TOLERANCE:
-        raise SarcliInputError(
-            f"{who} needs equally spaced frequencies in every pulse (largest deviation "
-            f"{rel:.3g} of the spacing, tolerance {FREQUENCY_SPACING_TOLERANCE:g}); use method 'direct'")
-    return dalpha
-
-
-def frequency_line(f, jc):
-    """Least-squares line ``α_j ≈ α_ref + (j - jc) Δα`` through each row of ``f`` [rows, M]: ``(α_ref, Δα)``.
-
-    The profiles assume equally spaced frequencies; a deviation ``δ_j`` of sample j costs the
-    phase ``4π δ_j Δr / c``. The least-squares line minimises the sum of the squared deviations
-    (the mean squared phase error over the band), where the line through the end samples is
-    set by their two deviations alone: on GOTCHA (frequencies rounded to float32) the image
-    error of the approximation falls from 3.0e-4 to 2.1e-4 of the exact matched filter.
-    """
-    m = f.shape[1]
-    j = np.arange(m) - (m - 1) / 2.0
-    mean = f.mean(axis=1)
-    slope = (f @ j) / (j @ j)
-    return mean + slope * (jc - (m - 1) / 2.0), slope
 
 
 def _profiles(data, weights, total_weight, n_len, dtype):
@@ -214,7 +173,7 @@ class _Setup:
         if b.shape != a.shape:
             raise SarcliInputError(f"receive positions {b.shape} do not match the transmit positions {a.shape}")
         self.bistatic = not np.array_equal(a, b)
-        dalpha = frequency_steps(f, "backprojection")
+        equally_spaced(f, "backprojection")
         if weights is None:
             w = None
             self.total_weight = float(n_pulses * m)

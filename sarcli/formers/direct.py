@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..core import geometry
+from ..core import geometry, sampling
 from .._util.progress import progress
 from ._samples import WeightedSamples, _check_kspace, weighted_samples
 
@@ -117,7 +117,7 @@ def direct_spherical(data, freq_hz, antenna_position_m, range_to_center_m, grid,
     freq = np.asarray(freq_hz, dtype=np.float64)
     if freq.shape not in ((n_f,), (n_p, n_f)):
         raise ValueError(f"frequencies of shape {freq.shape} do not match the data {wd.shape}")
-    k4 = np.ascontiguousarray(np.broadcast_to(4.0 * np.pi * freq / geometry.C, (n_p, n_f)))
+    k4 = np.ascontiguousarray(np.broadcast_to(sampling.range_wavenumbers(freq), (n_p, n_f)))
     pts = grid.points().reshape(-1, 3)
     n_pix = pts.shape[0]
     if chunk is None:

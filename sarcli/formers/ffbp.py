@@ -58,6 +58,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..core.geometry import C
+from ..core.sampling import equally_spaced, range_wavenumbers
 from ..core.grid import Grid
 from ..errors import SarcliInputError
 from .ffbp_model import INTERPOLATORS, NTAPS as _NTAPS, frequency_error, interp_error, optimal_kernel, predict_error
@@ -380,7 +381,7 @@ def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weigh
     from . import _ffbp_kernels as kern
     from ._ffbp_stage0 import _pulse_geometry, _series_inputs, _tone_weights, pulse_table, stage0
     from .._native import using_threads
-    from .backprojection import _PAD, _check_data, frequency_steps, profile_length, range_profiles
+    from .backprojection import _PAD, _check_data, profile_length, range_profiles
 
     d = _check_data(data)   # a phase history left on disk stays there: stage 0 reads it by blocks
     P, M = d.shape
@@ -396,7 +397,8 @@ def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weigh
     f = f[None, :] if f.ndim == 1 else f
     if f.shape not in ((1, M), (P, M)):
         raise SarcliInputError(f"frequencies have shape {np.shape(freq_hz)}, expected ({M},) or ({P}, {M})")
-    dalpha = np.broadcast_to(frequency_steps(f, "ffbp"), (P,))
+    alpha_ref, dalpha = equally_spaced(f, "ffbp")
+    alpha_ref, dalpha = np.broadcast_to(alpha_ref, (P,)), np.broadcast_to(dalpha, (P,))
     if weights is None:
         w, total = None, float(P * M)
     else:
@@ -410,10 +412,9 @@ def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weigh
     k = plan.knobs
     kind = INTERPOLATORS[k["interp"]]
     n_len = profile_length(M, k["upsample"])
-    jc = M // 2
     bin_m = C / (2.0 * dalpha * n_len)
     inv_bin = 1.0 / bin_m
-    kc = 4.0 * np.pi * (np.broadcast_to(f[:, 0], (P,)) + jc * dalpha) / C
+    kc = range_wavenumbers(alpha_ref)
     lev = plan.levels[0]
     dlt, series = _series_inputs(t, q, r0, lev, plan.dq, 4.0 * np.pi * float(f.max()) / C)
     pulses = pulse_table(_pulse_geometry(t, q, r0), dlt, inv_bin, kc)
@@ -428,7 +429,7 @@ def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weigh
     tones = [(rates, off, deapodized_inverse(float(k[os]))) for on, rates, off, os in
              ((plan.range_deapodized, plan.range_rates, plan.range_offset, "os_range"),
               (plan.angle_deapodized, plan.angle_rates, 0.0, "os_angle")) if on]
-    k_all = 4.0 * np.pi * f / C
+    k_all = range_wavenumbers(f)
     levels = plan.levels
     deap = _deapodization(f, plan, n_len) if deapodize else None
     img = None   # made at the first final stage (when only the last level is alive); parts add in place

@@ -12,6 +12,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ..core import sampling
+
 __all__ = ["INTERPOLATORS", "NTAPS", "optimal_kernel", "optimal_weights", "interp_error", "predict_error",
            "coefficients", "deapodized_kernel", "deapodized_response", "deapodized_error", "deapodized_slope",
            "deapodized_inverse", "deapodized_edge_error", "profile_alias_error", "default_upsample"]
@@ -19,8 +21,8 @@ __all__ = ["INTERPOLATORS", "NTAPS", "optimal_kernel", "optimal_weights", "inter
 #: Interpolators (codes 0-2 shared with backprojection's kernels) and their taps. ``optimal``: the
 #: 6-tap kernel with the least mean-square error over the band of a signal oversampled as much as
 #: the grid it reads (designed per grid by least squares, its weights polynomials in the fraction).
-INTERPOLATORS = {"linear": 0, "cubic": 1, "lanczos": 2, "optimal": 3}
-NTAPS = {0: 2, 1: 4, 2: 6, 3: 6}
+INTERPOLATORS = {name: i.code for name, i in sampling.INTERPOLATORS.items()}
+NTAPS = {i.code: i.taps for i in sampling.INTERPOLATORS.values()}
 #: Degree of the polynomials that give the ``optimal`` kernel's weights as functions of the fraction.
 #: Degree 7 matches the least-squares weights to 1e-6 at β = 1 and 4e-8 at β = 2, far below the
 #: kernel's own error; eight fused multiply-adds per tap vectorise, where a table look-up would not.
@@ -409,21 +411,14 @@ def predict_error(levels, *, interp="cubic", os_range=2.0, os_angle=2.0, upsampl
 def frequency_error(freq_hz, antenna_position_m, grid) -> float:
     """Relative error from treating the frequencies as equally spaced (range profiles by FFT).
 
-    Backprojection and ffbp place frequency ``j`` at ``α_1 + j Δα``; a deviation ``δ_pj`` (GOTCHA's
-    float32 frequencies are off by ~3e-4 Δα) turns into the phase ``4π δ Δr / c`` at differential
-    range ``Δr``. RMS over samples and pixels: ``4π rms(δ) rms(Δr) / c`` with
+    Backprojection and ffbp place frequency ``j`` on the least-squares line
+    (:func:`sarcli.core.sampling.frequency_line`); a deviation ``δ_pj`` from it (GOTCHA's float32
+    frequencies are off by ~3e-4 Δα) turns into the phase ``4π δ Δr / c`` at differential range
+    ``Δr``. RMS over samples and pixels: ``4π rms(δ) rms(Δr) / c`` with
     ``rms(Δr) = max(W, H) cos φ / √12`` for a W × H grid seen at elevation φ.
     """
-    f = np.atleast_2d(np.asarray(freq_hz, dtype=np.float64))
-    m = f.shape[1]
-    if m < 2:
-        return 0.0
-    step = (f[:, -1] - f[:, 0]) / (m - 1)
-    ramp, sq = np.arange(m), 0.0
-    for r in range(0, f.shape[0], 256):   # blocks of pulses: no [P, M] temporaries
-        dev = f[r:r + 256] - (f[r:r + 256, :1] + ramp * step[r:r + 256, None])
-        sq += float(np.sum(dev * dev))
+    _, rms_hz = sampling.spacing_deviation(freq_hz)
     a = np.asarray(antenna_position_m, dtype=np.float64)
     cos_el = float(np.mean(np.hypot(a[:, 0], a[:, 1]) / np.linalg.norm(a, axis=1)))
     rms_dr = max(grid.nx * grid.dx, grid.ny * grid.dy) * cos_el / np.sqrt(12.0)
-    return float(4 * np.pi * np.sqrt(sq / f.size) * rms_dr / 299_792_458.0)
+    return float(sampling.range_wavenumbers(rms_hz) * rms_dr)

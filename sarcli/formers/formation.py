@@ -82,12 +82,17 @@ def _warn_defocus(ph: PhaseHistory, grid: Grid, method: str):
 
 
 def _positions(ph: PhaseHistory, grid: Grid):
+    """``(transmit, receive or None, r0)`` for the range-model formers: the acquisition's own
+    (:meth:`Acquisition.range_geometry`; receive None when monostatic) for spherical data, a
+    monostatic circle at a virtual range of :data:`VIRTUAL_RANGE_PER_M` × the grid's half-diagonal
+    for far-field data."""
     acq = ph.acquisition
     if ph.model == "spherical":
-        return acq.antenna_position_m, acq.range_to_center_m
+        t, q, r0 = acq.range_geometry()
+        return t, (q if acq.is_bistatic else None), r0
     r_v = VIRTUAL_RANGE_PER_M * max(grid.half_diagonal, 1e-3)
     pos = geometry.antenna_positions_circle(acq.azimuth_rad, acq.elevation_rad, r_v)
-    return pos, np.full(acq.n_pulses, r_v)
+    return pos, None, np.full(acq.n_pulses, r_v)
 
 
 def regrid(ph: PhaseHistory, *, grid: Grid | None = None, window="none", taylor_nbar=4, taylor_sll_db=-35.0,
@@ -214,9 +219,8 @@ def form_image(ph, method: str = "auto", *, grid: Grid | None = None, center=Non
         from .direct import direct_farfield, direct_spherical
 
         if ph.model == "spherical":
-            t, q, r0 = acq.range_geometry()
-            img = direct_spherical(ph.data, acq.frequency_hz, t, r0, grid, w,
-                                   receive_position_m=q if acq.is_bistatic else None)
+            t, q, r0 = _positions(ph, grid)
+            img = direct_spherical(ph.data, acq.frequency_hz, t, r0, grid, w, receive_position_m=q)
         else:
             kx, ky = acq.kspace()
             img = direct_farfield(ph.data, kx, ky, grid, w)
@@ -237,10 +241,9 @@ def form_image(ph, method: str = "auto", *, grid: Grid | None = None, center=Non
     elif method == "subimage" and ph.model == "spherical":
         from .subimage import subimage_nufft
 
-        rcv = acq.receive_position_m if getattr(acq, "is_bistatic", False) else None
-        pos = acq.transmit_position_m if rcv is not None else acq.antenna_position_m
+        pos, rcv, r0 = _positions(ph, grid)
         tol = 1e-2 if tolerance is None else float(tolerance)
-        img, info = subimage_nufft(ph.data, acq.frequency_hz, pos, acq.range_to_center_m, grid, w, tile=tile,
+        img, info = subimage_nufft(ph.data, acq.frequency_hz, pos, r0, grid, w, tile=tile,
                                    tolerance=tol, eps=None if eps == 1e-9 else eps, nthreads=nthreads,
                                    receive_position_m=rcv, return_info=True)
         params.update(info)
@@ -263,10 +266,7 @@ def form_image(ph, method: str = "auto", *, grid: Grid | None = None, center=Non
                 base, merge, os_range, os_angle = (picked[k] for k in ("base", "merge", "os_range", "os_angle"))
                 upsample, interp = picked["upsample"], picked["interp"]
                 params["knobs_for_tolerance"] = tol
-        pos, r0 = _positions(ph, grid)
-        rcv = acq.receive_position_m if ph.model == "spherical" and getattr(acq, "is_bistatic", False) else None
-        if rcv is not None:
-            pos = acq.transmit_position_m
+        pos, rcv, r0 = _positions(ph, grid)
         img, extra = ffbp_image(ph.data, acq.frequency_hz, pos, r0, grid, w, receive_position_m=rcv,
                                 upsample=upsample, interp=interp, nthreads=nthreads, base=base, merge=merge,
                                 os_range=os_range, os_angle=os_angle)
@@ -276,10 +276,7 @@ def form_image(ph, method: str = "auto", *, grid: Grid | None = None, center=Non
     else:
         from . import backprojection as bp
 
-        pos, r0 = _positions(ph, grid)
-        rcv = acq.receive_position_m if ph.model == "spherical" and acq.is_bistatic else None
-        if rcv is not None:
-            pos = acq.transmit_position_m
+        pos, rcv, r0 = _positions(ph, grid)
         up = bp.DEFAULT_UPSAMPLE if upsample is None else upsample
         it = bp.DEFAULT_INTERP if interp is None else interp
         img = bp.backproject(ph.data, acq.frequency_hz, pos, r0, grid, w, upsample=up, interp=it,

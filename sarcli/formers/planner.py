@@ -29,13 +29,13 @@ from pathlib import Path
 
 import numpy as np
 
+from ..core import sampling
 from ..core.grid import Grid
 from ..errors import SarcliInputError
 from .calibration import DEFAULT_COSTS, STARTUP_IMPORTS, load_cost_model, save_cost_model
 
 __all__ = ["Candidate", "candidates", "recommend", "ffbp_knobs", "command_seconds", "load_cost_model", "calibrate"]
 
-_BP_TAPS = {"linear": 2, "cubic": 4, "lanczos": 6}
 _NUFFT = ("nufft", "subimage")
 #: A candidate "meets" TOL when its predicted error is at most TOL / SAFETY: the error models are
 #: within 3x of measured, mostly above it, but measured ran up to 1.4x above prediction (ffbp,
@@ -116,8 +116,8 @@ def candidates(ph, grid: Grid, tolerance: float, *, costs=None, nthreads=None, p
                 out.append(Candidate("nufft", {"eps": eps}, eps, _nufft_seconds(c, P * M, grid.ny, grid.nx, eps, thr),
                                  16 * (P * M * 3 + 5 * npix)))
     else:
-        rcv = acq.receive_position_m if getattr(acq, "is_bistatic", False) else None
-        pos = acq.transmit_position_m if rcv is not None else acq.antenna_position_m
+        pos, rcv, _ = acq.range_geometry()
+        rcv = rcv if acq.is_bistatic else None
         f = acq.frequency_hz
         # backprojection: the profile interpolation (and unequal frequency spacing) is its error
         e_freq = frequency_error(f, pos, grid)
@@ -126,7 +126,7 @@ def candidates(ph, grid: Grid, tolerance: float, *, costs=None, nthreads=None, p
                 e = interp_error(interp, float(up)) + e_freq
                 if e <= target or up == 32:
                     L = profile_length(M, up)
-                    t = (c["bp"] * P * npix * _BP_TAPS[interp] / 4 + c["bp_fft"] * P * L * math.log2(L)) / thr
+                    t = (c["bp"] * P * npix * sampling.INTERPOLATORS[interp].taps / 4 + c["bp_fft"] * P * L * math.log2(L)) / thr
                     out.append(Candidate("backprojection", {"upsample": up, "interp": interp}, e, t,
                                          16 * (P * M + 32 * L + 2 * npix)))
                     break

@@ -29,7 +29,7 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
-from ..core import geometry
+from ..core import geometry, sampling
 from ..core.grid import Grid
 from ..errors import SarcliInputError
 
@@ -111,8 +111,8 @@ def _tile_errors(t, q, r0, freq, grid: Grid, tiles, eps, n_side=5, max_pulses=64
     look = unit(tt) if qq is None else 0.5 * (unit(tt) + unit(qq))
     d = pts[:, :, :2] - xc[:, None, :2]                          # the points lie in the plane z = 0
     rem = exact + look[:, :, None, 0] * d[None, :, :, 0] + look[:, :, None, 1] * d[None, :, :, 1]
-    k = 4 * np.pi * fr[[0, fr.size // 2, -1]] / geometry.C
-    kc = 4 * np.pi * fr[fr.size // 2] / geometry.C
+    k = sampling.range_wavenumbers(fr[[0, fr.size // 2, -1]])
+    kc = sampling.range_wavenumbers(fr[fr.size // 2])
     rho = k[None, :, None, None] * rem[:, None] - kc * rem[pi.size // 2][None, None]       # [p, j, T, S]
     per_tile = 2.0 * np.sqrt(np.mean(np.sin(0.5 * rho) ** 2, axis=(0, 1, 3)))              # rms |e^{iρ} − 1|
     owner = np.asarray(owner)
@@ -197,7 +197,7 @@ def subimage_nufft(data, freq_hz, antenna_position_m, range_to_center_m, grid: G
     if t.shape != (P, 3) or r0.shape != (P,):
         raise SarcliInputError(f"antenna positions {t.shape} / ranges {r0.shape} do not match {P} pulses")
     f = np.broadcast_to(np.asarray(freq_hz, float), (P, M))
-    k = 4 * np.pi * f / geometry.C
+    k = sampling.range_wavenumbers(f)
     if tile is None:
         tile, pred = choose_tile(t, q, r0, f, grid, tolerance, eps=eps)
         if tile is None:

@@ -11,8 +11,8 @@ Mapping (``docs/formats.md`` has the table):
   reading keeps them (CONVENTIONS.md two-way model, ``r0_p = (|t_p - SRP| + |q_p - SRP|)/2``);
   ``SRPPos`` = the scene
   centre, ``SC0``/``SCSS`` = first frequency and spacing (``FX1``/``FX2`` the band edges), so the
-  frequencies of every pulse must be equally spaced (to 1 % of a step, see
-  ``_uniform_frequencies``). A phase history whose ``r0_p`` differs from ``|a_p|``
+  frequencies of every pulse must be equally spaced
+  (:func:`sarcli.core.sampling.equally_spaced`). A phase history whose ``r0_p`` differs from ``|a_p|``
   (motion-compensated data) has the phase ``exp(+i (4π α/c)(|a_p| - r0_p))`` folded into
   the signal so that the file is referenced to the SRP, as CPHD requires.
 * Signal format ``CF8`` (complex64; CPHD has no complex128 format, so complex128 data is rounded).
@@ -39,7 +39,7 @@ import lxml.builder
 import lxml.etree
 import numpy as np
 
-from ..core import geometry
+from ..core import geometry, sampling
 from .._util.atomic import atomic_path
 from .._version import __version__
 from ..core.acquisition import Acquisition
@@ -50,7 +50,7 @@ from ._cphd_parts import read_signal_blocks as _read_signal_blocks
 from .georef import ReferencePoint, ecf_to_enu, enu_basis, enu_to_ecf, reference_point
 from ..core.types import PhaseHistory
 
-__all__ = ["read_cphd", "write_cphd", "pulse_times", "UNIFORM_TOLERANCE", "NOMINAL_SPEED_M_S", "CPHD_NS"]
+__all__ = ["read_cphd", "write_cphd", "pulse_times", "NOMINAL_SPEED_M_S", "CPHD_NS"]
 
 CPHD_NS = "http://api.nsgreg.nga.mil/schema/cphd/1.1.0"
 #: Platform speed (m/s) used to invent pulse times for files that carry none.
@@ -59,8 +59,6 @@ NOMINAL_SPEED_M_S = 100.0
 PLACEHOLDER_START = "2000-01-01T00:00:00.000000Z"
 CHANNEL_ID = "1"
 _FX_OSR = 1.2
-#: largest deviation (in steps) of a frequency from the per-pulse line SC0 + j SCSS
-UNIFORM_TOLERANCE = 0.01
 
 # PVP layout: name, words (8-byte), format
 _PVP_LAYOUT = [
@@ -76,29 +74,13 @@ _PVP_LAYOUT = [
 # writing
 # --------------------------------------------------------------------------------------------
 def _uniform_frequencies(freq_pm: np.ndarray):
-    """First frequency and spacing per pulse (least-squares line); SarcliInputError unless uniform.
-
-    "Equally spaced" means within ``UNIFORM_TOLERANCE`` of a step of the fitted line, which bounds
-    the phase error of replacing the frequencies by ``SC0 + j SCSS`` to
-    ``π × UNIFORM_TOLERANCE`` (0.03 rad) anywhere inside the alias-free range radius
-    ``c / (4 Δα)`` (float32-rounded frequencies, as in the GOTCHA files, pass easily).
-    """
+    """First frequency ``SC0`` and spacing ``SCSS`` per pulse: the least-squares line of
+    :func:`sarcli.core.sampling.equally_spaced` (SarcliInputError unless equally spaced and
+    increasing), which bounds the phase error of replacing the frequencies by ``SC0 + n SCSS``."""
     f = np.asarray(freq_pm, dtype=np.float64)
-    M = f.shape[1]
-    if M < 2:
-        raise SarcliInputError("CPHD export needs at least two frequencies per pulse")
-    j = np.arange(M, dtype=np.float64) - (M - 1) / 2
-    mean = f.mean(axis=1)
-    scss = (f - mean[:, None]) @ j / (j @ j)
-    sc0 = mean - scss * (M - 1) / 2
-    fit = sc0[:, None] + scss[:, None] * np.arange(M)[None, :]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        dev = float(np.max(np.abs(f - fit) / np.abs(scss)[:, None]))
-    if not np.all(scss > 0) or not dev <= UNIFORM_TOLERANCE:
-        raise SarcliInputError(
-            "CPHD stores equally spaced, increasing frequencies per pulse (SC0 + n SCSS); this phase "
-            f"history's frequencies deviate from that by {dev:.3g} of a step (tolerance {UNIFORM_TOLERANCE})")
-    return sc0, scss
+    ref, scss = sampling.equally_spaced(f, "CPHD export", remedy="CPHD stores SC0 + n SCSS per pulse",
+                                        increasing=True)
+    return ref - scss * (f.shape[-1] // 2), scss
 
 
 def pulse_times(pos: np.ndarray):
@@ -289,7 +271,7 @@ def write_cphd(ph: PhaseHistory, path) -> Path:
     if np.max(np.abs(half_path - r0)) > 0:
         # fold exp(+i 4πα/c (R - r0)) into the signal (R half the two-way path to the scene
         # centre): the file is referenced to the SRP
-        corr = np.exp(1j * (4 * np.pi / geometry.C) * acq.frequencies_2d * (half_path - r0)[:, None])
+        corr = np.exp(1j * sampling.range_wavenumbers(acq.frequencies_2d) * (half_path - r0)[:, None])
         data = data * corr
     t, vel = pulse_times(pos)
     pvp = np.zeros(P, dtype=_pvp_dtype())
