@@ -1,5 +1,6 @@
-"""The house rules, checked: no import cycles (lazy imports count), modules of a few hundred lines,
-a model layer (``sarcli.core``) that imports no I/O library, and every figure in ``sarcli.viz``."""
+"""The house rules, checked: the packages' layering (no upward import, lazy imports count), no
+import cycles, modules of a few hundred lines, a model layer (``sarcli.core``) that imports no I/O
+library, and every figure in ``sarcli.viz``."""
 
 from __future__ import annotations
 
@@ -106,6 +107,62 @@ def test_no_import_cycles():
 def test_module_size(name):
     n = len(MODULES[name].read_text().splitlines())
     assert n <= MAX_LINES, f"{name} has {n} lines (house limit {MAX_LINES}): split it"
+
+
+#: The layers, bottom up: a module may import its own package and any package of a lower rank;
+#: packages of one rank are peers and import neither each other nor anything above.
+RANKS = {
+    "errors": 0, "_version": 0,
+    "_native": 1, "_util": 1,  # compiled kernels' loader; atomic files, progress, guards
+    "core": 2,                 # the model: geometry, sampling, acquisition, grid, windows, data types
+    "io": 3,                   # every file format
+    "simulation": 4,
+    "formers": 5,
+    "linops": 6,
+    "solvers": 7,
+    "analysis": 8,             # measurements of images: IRW/PSLR, PSF, quality, speckle
+    "regparam": 9,
+    "regularize": 10, "autofocus": 10,
+    "viz": 11,                 # every figure
+    "batch": 12,
+    "cli": 13,
+    "": 14,                    # the package's lazy front door, sarcli/__init__.py
+}
+#: Upward imports not yet removed, as (importer, imported) module pairs.
+PENDING = {("sarcli.io.png", "sarcli.viz"), ("sarcli.analysis.benchmark", "sarcli.regularize"),
+           ("sarcli.analysis.benchmark", "sarcli.formers.formation"), ("sarcli.viz", "sarcli.analysis.benchmark")}
+
+
+def _layer(module: str) -> str:
+    parts = module.split(".")
+    return parts[1] if len(parts) > 1 else ""
+
+
+def _upward(graph):
+    """(importer, imported) pairs that import a peer package or one of a higher rank."""
+    bad = []
+    for name, deps in graph.items():
+        mine = _layer(name)
+        for d in deps:
+            theirs = _layer(d)
+            if theirs != mine and RANKS[theirs] >= RANKS[mine]:
+                bad.append((name, d))
+    return sorted(bad)
+
+
+def test_every_package_has_a_rank():
+    assert {_layer(m) for m in MODULES} <= set(RANKS), "add the new package to RANKS"
+
+
+def test_the_layer_checker_finds_an_upward_import():
+    assert _upward({"sarcli.io.x": {"sarcli.core.grid"}, "sarcli.core.grid": {"sarcli.io.x"},
+                    "sarcli.regularize.a": {"sarcli.autofocus.b"}}) == [
+        ("sarcli.core.grid", "sarcli.io.x"), ("sarcli.regularize.a", "sarcli.autofocus.b")]
+
+
+def test_no_upward_imports():
+    bad = [e for e in _upward(GRAPH) if e not in PENDING]
+    assert not bad, f"upward or sideways imports (see RANKS): {bad}"
 
 
 def test_core_depends_on_nothing_above_it():

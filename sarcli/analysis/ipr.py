@@ -24,7 +24,7 @@ import math
 import numpy as np
 from scipy import ndimage
 
-from ..core.windows import IRW_FACTOR_UNIFORM, window_1d
+from ..core.windows import IRW_FACTOR_UNIFORM, irw_factor, window_1d
 from ..errors import SarcliInputError
 
 __all__ = ["profile_metrics", "measure_ipr", "center_azimuth", "window_textbook", "ISLR_DEFINITION"]
@@ -327,7 +327,7 @@ def measure_ipr(image, x_m, y_m, at=None, *, range_direction_rad=0.0, resolution
 def window_textbook(kind="none", *, nbar=4, sll_db=-35.0, n=2048, pad=64):
     """Continuous-limit 1-D figures of a window: ``(IRW / ρ, PSLR dB, ISLR dB)``.
 
-    The window (:func:`sarcli.core.windows.window_1d`, ``n`` samples) is transformed with ``pad``-fold
+    The IRW factor is :func:`sarcli.core.windows.irw_factor`'s. The window (:func:`sarcli.core.windows.window_1d`, ``n`` samples) is transformed with ``pad``-fold
     zero padding; widths are in bins (1 bin = the resolution ρ of an unweighted aperture of the
     same length). ISLR counts every sidelobe (infinite extent). Uniform gives 0.886, -13.26 dB,
     -9.68 dB; Hamming 1.30, -42.7 dB; Hann 1.44, -31.5 dB (Harris, Proc. IEEE 66, 1978, Table 1).
@@ -342,4 +342,4 @@ def window_textbook(kind="none", *, nbar=4, sll_db=-35.0, n=2048, pad=64):
     spec = np.abs(np.fft.fftshift(np.fft.fft(w, n * pad)))
     s = (np.arange(spec.size) - spec.size // 2) / pad  # in bins
     met = profile_metrics(s, spec)
-    return float(met["irw_m"]), float(met["pslr_db"]), float(met["islr_db"])
+    return irw_factor(kind, nbar=nbar, sll_db=sll_db, n=n, pad=pad), float(met["pslr_db"]), float(met["islr_db"])

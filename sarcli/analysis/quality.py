@@ -254,7 +254,7 @@ def load_reference(path):
 
     if Path(path).suffix.lower() in (".yaml", ".yml"):
         from ..io.config import load_acquisition
-        from ..simulation.scenes import point_targets
+        from ..io.scene_spec import point_targets
 
         acq = load_acquisition(path)
         pos, amp = point_targets(acq.scene)

@@ -34,7 +34,7 @@ from .._util.yamlsafe import load_yaml, short_repr
 
 __all__ = ["load_acquisition", "parse_acquisition", "derive_grid", "SCHEMA"]
 
-#: Valid keys of each section (the schema); nested scene keys are checked in :mod:`sarcli.simulation.scenes`.
+#: Valid keys of each section (the schema); nested scene keys are checked in :mod:`sarcli.io.scene_spec`.
 SCHEMA = {
     "": {"name", "model", "frequencies", "elevation_deg", "azimuths", "geometry", "image", "noise",
          "scene", "location", "seed", "description"},
@@ -216,7 +216,7 @@ def _points_half_width(scene, freq, az, el, pos, model) -> float:
     """Half-width of the centred square holding every point target's focus (its layover included,
     :func:`sarcli.core.geometry.image_plane_position`) with :data:`POINT_MARGIN_CELLS` range cells
     along the range direction and as many cross-range cells across it (0 without points)."""
-    from ..simulation.scenes import point_targets
+    from .scene_spec import point_targets
 
     pts, _ = point_targets(scene)
     if len(pts) == 0:
@@ -248,7 +248,7 @@ def parse_acquisition(cfg, *, source=None, text=None) -> Acquisition:
     text : str, optional
         The YAML text, kept for provenance.
     """
-    from ..simulation import scenes
+    from . import scene_spec
 
     ctx = _Ctx(source)
     if cfg is None:
@@ -273,7 +273,7 @@ def parse_acquisition(cfg, *, source=None, text=None) -> Acquisition:
     if cfg.get("scene") is not None:
         _check_keys(ctx, "scene", cfg["scene"])
         base = Path(source).parent if source else Path(".")
-        scene = scenes.validate_scene(cfg["scene"], ctx=ctx, base_dir=base)
+        scene = scene_spec.validate_scene(cfg["scene"], ctx=ctx, base_dir=base)
     extra = {"geometry_path": path}
     if cfg.get("location") is not None:
         _check_keys(ctx, "location", cfg["location"])
@@ -292,9 +292,9 @@ def parse_acquisition(cfg, *, source=None, text=None) -> Acquisition:
     over = _number(ctx, "image.oversampling", img.get("oversampling", 2.0), lo=0.5, hi=64)
     scene_half = scene_radius = None
     if scene:
-        scene_half = max(scenes.scene_half_width(scene, points=False),
+        scene_half = max(scene_spec.scene_half_width(scene, points=False),
                          _points_half_width(scene, freq, az, el_arr, pos, model)) or None
-        scene_radius = scenes.scene_half_width(scene, radius=True)
+        scene_radius = scene_spec.scene_half_width(scene, radius=True)
     if "half_width_m" in img or "pixels" in img:
         if not ("half_width_m" in img and "pixels" in img):
             missing = "pixels" if "half_width_m" in img else "half_width_m"

@@ -133,10 +133,9 @@ def _ipr_factor(parameters: dict) -> tuple[str, float]:
 
     The window is the one :func:`sarcli.formers.formation.form_image` records (``window``,
     ``taylor_nbar``, ``taylor_sll_db``); its IRW factor comes from
-    :func:`sarcli.analysis.ipr.window_textbook` (uniform: ``IRW_FACTOR_UNIFORM`` = 0.8859).
+    :func:`sarcli.core.windows.irw_factor` (uniform: ``IRW_FACTOR_UNIFORM`` = 0.8859).
     """
-    from ..analysis.ipr import window_textbook
-    from ..core.windows import IRW_FACTOR_UNIFORM, TAYLOR_NBAR, TAYLOR_SLL_DB, WINDOW_KINDS
+    from ..core.windows import IRW_FACTOR_UNIFORM, TAYLOR_NBAR, TAYLOR_SLL_DB, WINDOW_KINDS, irw_factor
 
     par = parameters or {}
     kind = par.get("window") or "none"
@@ -144,8 +143,8 @@ def _ipr_factor(parameters: dict) -> tuple[str, float]:
         return "UNIFORM", IRW_FACTOR_UNIFORM
     if kind not in WINDOW_KINDS:
         return str(kind).upper(), IRW_FACTOR_UNIFORM
-    factor, _, _ = window_textbook(kind, nbar=int(par.get("taylor_nbar", TAYLOR_NBAR)),
-                                   sll_db=float(par.get("taylor_sll_db", TAYLOR_SLL_DB)))
+    factor = irw_factor(kind, nbar=int(par.get("taylor_nbar", TAYLOR_NBAR)),
+                        sll_db=float(par.get("taylor_sll_db", TAYLOR_SLL_DB)))
     return str(kind).upper(), float(factor)
 
 

@@ -19,7 +19,8 @@ from ..core.acquisition import Acquisition
 from ..errors import SarcliInputError
 from ..core.types import PhaseHistory, Truth
 from .._util.progress import progress
-from .scenes import point_targets, synthesize_extended
+from ..io.scene_spec import point_targets
+from .scenes import synthesize_extended
 
 __all__ = ["simulate", "point_phase_history", "add_noise"]
 
