@@ -129,10 +129,10 @@ def test_real_backprojection_matches_exact_matched_filter():
     ref = direct_spherical(*args)
     img = backproject(*args)
     err = np.linalg.norm(img - ref) / np.linalg.norm(ref)
-    assert err < 1e-2  # measured 1.9e-4 (cubic, upsample 8)
+    assert err < 3e-4  # measured 3.6e-5 (cubic, upsample 16)
     assert np.abs(ref).max() / np.abs(ref).mean() > 30  # a focused bright scatterer (measured 114)
     err32 = np.linalg.norm(backproject(*args, precision="float32") - ref) / np.linalg.norm(ref)
-    assert err32 < 1e-2  # measured 3.0e-4
+    assert err32 < 3e-4  # measured 3.6e-5
 
 
 @needs_real
