@@ -91,7 +91,7 @@ def window_1d(n: int, kind: str = "none", *, nbar: int = TAYLOR_NBAR, sll_db: fl
         nbar, sll_db = check_taylor(nbar, sll_db)
     if n == 1 or kind == "none":
         return np.ones(n)
-    from scipy.signal import windows as _sw  # 0.5 s to import: only when a window is asked for
+    from scipy.signal import windows as _sw  # slow to import: only when a window is asked for
 
     if kind == "hann":
         w = _sw.hann(n, sym=True)

@@ -82,7 +82,7 @@ DEFAULT_INTERP = "cubic"
 #: Precision of an image formed by backprojection (``form_image``, ``sar form-image``): the tiles'
 #: ranges are float64 either way, so float32 profiles and sums err no more than float64 at the
 #: interpolation's own error (measured: GOTCHA 800² 3.20e-4 both, a 740 km orbit 9.3e-5 both) and
-#: run 1.3-1.6x faster. :func:`backproject` and :func:`reproject` themselves, the linear map and
+#: run faster (docs/performance.md). :func:`backproject` and :func:`reproject` themselves, the linear map and
 #: its exact adjoint, default to float64.
 DEFAULT_PRECISION = "float32"
 #: Profile padding on each side (periodic copies), enough for the 6-tap Lanczos-3 stencil.

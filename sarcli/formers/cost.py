@@ -31,8 +31,9 @@ OVERSAMPLE_RANGE = (1.25, 16.0)
 WIDTH_RANGE = (2, 16)
 #: NUFFT requested accuracy (FINUFFT's reachable range in float64)
 EPS_RANGE = (1e-15, 1e-1)
-#: sample x pixel terms per second of ``direct`` per core, far field (BLAS products), measured on
-#: a loaded 2-core AMD EPYC; the spherical sum's rate is the planner's calibrated constant
+#: sample x pixel terms per second of ``direct`` per core, far field (BLAS products): a
+#: conservative rate, used only to warn before a long run; the spherical sum's rate is the
+#: planner's calibrated constant
 DIRECT_RATE = {"farfield": 8e8}
 #: estimated ``direct`` run time (s) beyond which a faster method is suggested first
 DIRECT_WARN_S = 30.0

@@ -210,7 +210,7 @@ def subimage_nufft(data, freq_hz, antenna_position_m, range_to_center_m, grid: G
     pred = predict_tile_error(t, q, r0, f, grid, tile, eps=eps)
     out = np.empty(grid.shape, dtype=np.complex128)
     # one single-threaded NUFFT per tile, tiles on a thread pool: FINUFFT's own threads on a tiny
-    # output grid spend their time synchronising (measured 10x slower than one thread at 16² pixels)
+    # output grid spend their time synchronising (slower than one thread at 16² pixels)
     opts = {"nthreads": 1, "spread_sort": 0}
     pc = P // 2
     kc = float(k[pc, M // 2])

@@ -40,7 +40,7 @@ class ToeplitzGram(Linop):
     eps : float
         FINUFFT tolerance of the kernel.
     fft_dtype : numpy dtype, optional
-        Precision of the FFTs: complex128, or complex64 (≈ 2.5× faster at 2N = 2048, relative
+        Precision of the FFTs: complex128, or complex64 (faster, relative
         error ~1e-7, enough for an operator requested at ``eps ≥ 1e-6``). Default: complex64 when
         ``eps ≥ 1e-6``, else complex128. Outputs are complex128 either way.
     """
