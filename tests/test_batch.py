@@ -1,4 +1,4 @@
-"""sar batch on dask: plan validation, serial equivalence, tiles, sub-apertures, resume (issue 8).
+"""sar batch on dask: plan validation, serial equivalence, tiles, sub-apertures, resume.
 
 One LocalCluster (2 worker processes, loopback) serves the whole module; the phase histories are
 small (64 frequencies x 32 pulses, 64 x 64 pixels) so the module runs in well under a minute.

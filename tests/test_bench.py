@@ -37,7 +37,7 @@ def test_pareto_front_by_hand():
     assert bm.pareto_front(err, sec).tolist() == [0, 1, 3]
 
 
-def test_sweep_covers_the_issue_knobs():
+def test_sweep_covers_every_accuracy_knob():
     s = bm.sweep()
     eps = sorted(k["eps"] for m, k in s if m == "nufft" and "eps" in k)
     assert eps[0] == pytest.approx(1e-12) and eps[-1] == pytest.approx(1e-2) and len(eps) == 11

@@ -177,7 +177,7 @@ def test_config_error_is_value_error():
         sarcli.parse_acquisition(copy.deepcopy({"frequencies": {}, "azimuths": {}}), source="x.yaml")
 
 
-# -- the strict YAML loader, the overwrite guard, the memory check, reserved outputs (issue 14) --
+# -- the strict YAML loader, the overwrite guard, the memory check, reserved outputs --
 
 @pytest.mark.parametrize("text,match", [
     ("a: 1\nb: 2\na: 3\n", r"line 3: duplicate key 'a' \(lines 1 and 3\)"),

@@ -457,7 +457,7 @@ def test_enu_frame_at_any_site(site):
                                             ("antimeridian", False), ("60N", True)])
 def test_cphd_fixture_exact_two_way_geometry(tmp_path, site, bistatic):
     """Spaceborne geometry (1700 km, Tx and Rcv ~80 m apart): direct and backprojection match an
-    independent matched filter; the midpoint approximation the reader used to make does not."""
+    independent matched filter; the midpoint antenna with the mean range does not."""
     from sarcli.formers.formation import form_image
 
     fx = make_cphd_fixture(tmp_path / "f.cphd", site=site, bistatic=bistatic)
@@ -474,7 +474,7 @@ def test_cphd_fixture_exact_two_way_geometry(tmp_path, site, bistatic):
     bp = form_image(ph, method="backprojection").image
     assert _rel(direct, ref) <= 2e-5
     assert _rel(bp, ref) <= 2e-3
-    # what the midpoint antenna with the mean range (the old reader) gives: a phase error
+    # what the midpoint antenna with the mean range gives: a phase error
     mid = PhaseHistory(ph.data, acq.with_(transmit_position_m=None, receive_position_m=None))
     assert _rel(form_image(mid, method="direct").image, ref) > 0.1
     # and through our own HDF5 contract and CPHD writer, the geometry survives

@@ -1,4 +1,4 @@
-"""The stability suite (issue 6): every case of ``configs/extreme/`` and the bad-input table.
+"""The stability suite: every case of ``configs/extreme/`` and the bad-input table.
 
 The measurements live in :mod:`tests.stability.extreme` (``python -m tests.stability.report``
 writes them into ``docs/stability.md``); each test runs one case and asserts every criterion it

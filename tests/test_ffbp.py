@@ -100,7 +100,7 @@ def test_ffbp_wide_bistatic_geometry_samples_its_grids_finer(offset):
     """A 600 m baseline, and a fixed receiver 3 km from the transmitters' path: the polar grids
     are centred on the mean of transmit and receive positions, so the pulses' tones reach past
     the grids' nominal bands (range 14×, angle 4× for the fixed receiver). The plan samples the
-    grids finer to hold them (they imaged at 1.7e-2 and 1.28 relative error before)."""
+    grids finer to hold them (at the nominal sampling they image at 1.7e-2 and 1.28 relative error)."""
     a, r0 = circle()
     rcv = a + np.array(offset) if offset is not None else np.broadcast_to([0.0, 3000.0, 800.0], a.shape).copy()
     r0b = 0.5 * (np.linalg.norm(a, axis=1) + np.linalg.norm(rcv, axis=1))

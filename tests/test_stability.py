@@ -1,4 +1,4 @@
-"""Nothing lost, nothing hung (issue 14): hostile input, interruption and resource exhaustion.
+"""Nothing lost, nothing hung: hostile input, interruption and resource exhaustion.
 
 Runs every case of :mod:`tests.stability.faults` once (real ``sar`` processes where signals, file
 size limits or concurrent writers are involved) and asserts each family; checks that

@@ -1,4 +1,4 @@
-"""Hostile input, interruption and resource exhaustion (issue 14): one function per case.
+"""Hostile input, interruption and resource exhaustion: one function per case.
 
 Each case builds what it needs in a scratch folder, runs ``sar`` (click's CliRunner, or a real
 process where signals, file-size limits or two concurrent writers are involved) and returns a
@@ -549,8 +549,8 @@ def _library_upsample(ws) -> Fault:
         observed, ok = f"SarcliInputError: {exc}", True
     return Fault("R9", "library: upsample = 1e9 (sarcli.formers.cost.check_knobs)", "check_knobs(upsample=1e9)",
                  "SarcliInputError naming the range", _clean(observed), ok,
-                 "form_image itself does not call check_knobs yet (formation.py belongs to issue 12); "
-                 "backprojection checks upsample >= 1 only, the CLI refuses by range and by memory")
+                 "form_image checks the same ranges first (check_form_image), the CLI refuses by range "
+                 "and by memory")
 
 
 # ---------------------------------------------------------------------------------------------
