@@ -88,10 +88,11 @@ DEFAULT_PRECISION = "float32"
 #: Profile padding on each side (periodic copies), enough for the 6-tap Lanczos-3 stencil.
 _PAD = 3
 _PRECISIONS = {"float64": np.float64, "float32": np.float32}
-#: Pulses range-compressed and backprojected together (bounds the profile memory).
+#: Most pulses range-compressed and backprojected together (bounds the profile memory).
 _BLOCK = 128
-#: Pulses per FFT call (their buffer stays in cache).
+#: Pulses per FFT call, at most, and the bytes their buffer may take (it stays in cache).
 _FFT_ROWS = 16
+_FFT_BYTES = 1 << 20
 #: Profile bytes one pass over the image works through (about a core's L2 cache).
 _CACHE_BYTES = 640 * 1024
 
@@ -108,18 +109,20 @@ def profile_length(n_frequencies: int, upsample: float) -> int:
 def _profiles(data, weights, total_weight, n_len, dtype):
     """Range profiles [B, n_len + 2·pad] of ``dtype`` (complex): :func:`range_profiles` unsplit.
 
-    The FFTs run :data:`_FFT_ROWS` pulses at a time: numpy's FFT of a few rows whose buffer stays
-    in cache is several times faster per row than one call on the whole block.
+    The FFTs run up to :data:`_FFT_ROWS` pulses at a time, in a buffer of at most :data:`_FFT_BYTES`:
+    numpy's FFT of a few rows whose buffer stays in cache is several times faster per row than one
+    call on the whole block.
     """
     b, m = data.shape
+    fft_rows = max(1, min(_FFT_ROWS, _FFT_BYTES // (n_len * np.dtype(dtype).itemsize)))
     if weights is not None:
         weights = np.broadcast_to(weights, (b, m))   # (M,) or (1, M) weights serve every pulse
     slots = (np.arange(m) - m // 2) % n_len
     idx = (np.arange(n_len + 2 * _PAD) - _PAD - n_len // 2) % n_len
     out = np.empty((b, n_len + 2 * _PAD), dtype=dtype)
-    buf = np.zeros((min(b, _FFT_ROWS), n_len), dtype=dtype)
-    for r in range(0, b, _FFT_ROWS):
-        rows = slice(r, min(b, r + _FFT_ROWS))
+    buf = np.zeros((min(b, fft_rows), n_len), dtype=dtype)
+    for r in range(0, b, fft_rows):
+        rows = slice(r, min(b, r + fft_rows))
         n = rows.stop - rows.start
         wd = data[rows] if weights is None else data[rows] * weights[rows]
         buf[:n].fill(0)
@@ -214,7 +217,13 @@ class _Setup:
                                 float(np.max(np.abs(self.geo[9]))))
         self._check_window(a, b, r0, grid, np.abs(bin_m) * self.n_len / 2.0)
         # pulses per pass over the image inside a kernel call: their profiles stay in cache
-        self.cache_block = max(4, _CACHE_BYTES // ((self.n_len + 2 * _PAD) * 2 * np.dtype(dt).itemsize))
+        row_bytes = (self.n_len + 2 * _PAD) * 2 * np.dtype(dt).itemsize
+        self.cache_block = max(4, _CACHE_BYTES // row_bytes)
+        # pulses whose profiles live at once: at most _BLOCK, and no more bytes than the phase
+        # history and the image hold (complex128), so few long pulses onto a small image stay
+        # within a few times the data and the image
+        budget = 16 * (n_pulses * m + grid.nx * grid.ny)
+        self.block = int(min(_BLOCK, max(4, budget // row_bytes)))
 
     @staticmethod
     def _check_window(a, b, r0, grid, half_window):
@@ -240,8 +249,8 @@ class _Setup:
                 self.bistatic, self.width)
 
     def blocks(self):
-        """Slices of at most ``_BLOCK`` pulses: profiles live one block at a time."""
-        return [slice(b, min(b + _BLOCK, self.n_pulses)) for b in range(0, self.n_pulses, _BLOCK)]
+        """Slices of at most ``self.block`` pulses: profiles live one block at a time."""
+        return [slice(b, min(b + self.block, self.n_pulses)) for b in range(0, self.n_pulses, self.block)]
 
 
 def _check_data(data):
@@ -335,6 +344,7 @@ def backproject(data, freq_hz, antenna_position_m, range_to_center_m, grid, weig
             # real and imaginary parts interleaved: [B, n_len + 2 pad, 2]
             kern.bp_tiles(prof.view(st.dtype).reshape(prof.shape + (2,)), *st.kernel_args(sl),
                           st.cache_block, out_re, out_im)
+            del prof   # before the next block's profiles are made
     img = np.empty(st.shape, dtype=np.complex128)
     img.real = out_re
     img.imag = out_im
