@@ -2,14 +2,14 @@
 
 Runs in its own process per method (peak resident set above the level after a warm-up call,
 from /proc/self/status VmHWM after resetting it), so the allocations of compiled libraries
-(FINUFFT's fine grid, FFT work arrays) count, which tracemalloc cannot see. Target (issue 13):
-every method <= 3 x (phase history + image) bytes.
+(FINUFFT's fine grid, FFT work arrays) count, which tracemalloc cannot see. Target: every method
+<= 3 x (phase history + image) bytes.
 
     python bench/bench_memory.py N METHOD ["{'eps': 1e-9}"]      # one measurement
     python bench/bench_memory.py                                 # the table at 2048² and 4096²
     python bench/bench_memory.py stream                          # streaming: 1x and 4x the pulses
 
-Streaming (issue 13): ``sar form-image --method backprojection`` (and ``ffbp``) on collections of P and 4P
+Streaming: ``sar form-image --method backprojection`` (and ``ffbp``) on collections of P and 4P
 pulses with the image fixed, whole-process peak RSS of each, from the sarcli HDF5 phase history
 and from the same collection exported as CPHD; either is read by blocks of pulses, so the 4x
 longer collection should raise the peak by <= 20 %.
@@ -104,5 +104,6 @@ if __name__ == "__main__":
         one(int(sys.argv[1]), sys.argv[2], ast.literal_eval(sys.argv[3]) if len(sys.argv) > 3 else {})
     else:
         for n in (2048, 4096):
-            for method, kw in (("pfa", "{}"), ("nufft", "{'eps': 1e-9}"), ("nufft", "{'eps': 1e-3}")):
+            for method, kw in (("pfa", "{}"), ("nufft", "{'eps': 1e-9}"), ("nufft", "{'eps': 1e-3}"),
+                               ("backprojection", "{}"), ("ffbp", "{}")):
                 subprocess.run([sys.executable, __file__, str(n), method, kw], check=True)
