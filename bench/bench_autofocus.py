@@ -31,7 +31,9 @@ from pathlib import Path
 
 import numpy as np
 
-GOTCHA_DIR = Path(os.environ.get("SARCLI_GOTCHA_DIR") or Path(__file__).resolve().parents[2] / "shared" / "data" / "gotcha")
+from sarcli.io.gotcha import gotcha_dir, gotcha_files
+
+GOTCHA_DIR = gotcha_dir()
 SAR = [sys.executable, "-m", "sarcli.cli.main"] if not (Path(sys.executable).parent / "sar").exists() else \
     [str(Path(sys.executable).parent / "sar")]
 
@@ -53,7 +55,7 @@ def main():
     ap.add_argument("--seeds", default="0,1,2")
     ap.add_argument("--files", default=str(GOTCHA_DIR))
     a = ap.parse_args()
-    files = sorted(Path(a.files).glob("data_3dsar_pass1_az00*_HH.mat"))
+    files = gotcha_files(a.files)
     if len(files) < 4:  # nothing to measure without the data set; `make bench` goes on
         print(f"bench_autofocus: skipped, GOTCHA pass-1 HH files not found in {a.files}")
         return

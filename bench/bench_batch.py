@@ -7,7 +7,7 @@ times, the throughput ratio, the load average and the CPU share each job got (``
 below 1 when other processes competed for the cores), and the ratio of the CPU the 2 workers got to
 what the single worker got, against which the throughput ratio is judged on a busy machine.
 Then times one backprojection job on one GOTCHA file (``.mat``, default 100 m grid at 0.25 m, one
-thread) when ``sarcli.io.gotcha`` and ``../shared/data/gotcha`` exist, else a comparable simulated job,
+thread) when ``sarcli.io.gotcha.gotcha_dir()`` holds the pass files, else a comparable simulated job,
 and projects a 360-file pass on N workers from its CPU seconds.
 
 Usage: ``python bench/bench_batch.py [--jobs 8] [--pulses 512] [--freqs 512] [--n 384]``
@@ -28,8 +28,8 @@ import numpy as np
 import sarcli
 from sarcli.batch.run import Job, parse_plan, run_job, run_plan
 from sarcli.io.config import parse_acquisition
+from sarcli.io.gotcha import gotcha_files
 
-GOTCHA_DIR = Path(os.environ.get("SARCLI_GOTCHA_DIR") or Path(__file__).resolve().parents[2] / "shared" / "data" / "gotcha")
 
 
 def _config(center_deg, pulses, freqs, n):
@@ -58,7 +58,7 @@ def _timed_run(plan, out, n_workers):
 
 
 def _gotcha_job_cost(tmp, repeat=3):
-    files = sorted(GOTCHA_DIR.glob("*.mat"))
+    files = gotcha_files()
     if files:
         job = Job(name="gotcha.h5", input=str(files[0]), method="backprojection", threads=1)
         what = f"one GOTCHA file ({files[0].name}), backprojection on the default 400 x 400 grid (0.25 m)"

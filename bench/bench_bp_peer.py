@@ -28,7 +28,8 @@ random profiles, under 2 % of its run). Usage::
 
     python bench/bench_bp_peer.py [--case gotcha,orbit] [--repeat 2] [--files 4] [--bpbasic]
 
-GOTCHA files: $SARCLI_GOTCHA_DIR, else ../shared/data/gotcha beside the repository.
+GOTCHA files: ``sarcli.io.gotcha.gotcha_dir()`` ($SARCLI_GOTCHA_DIR, else ../shared/data/gotcha beside the
+repository).
 """
 
 from __future__ import annotations
@@ -56,8 +57,9 @@ from sarcli.core.sampling import frequency_line  # noqa: E402
 from sarcli.formers.backprojection import DEFAULT_PRECISION, backproject  # noqa: E402
 from sarcli.formers.direct import direct_spherical  # noqa: E402
 from sarcli.formers.formation import image_error  # noqa: E402
+from sarcli.io.gotcha import gotcha_dir, gotcha_files  # noqa: E402
 
-GOTCHA_DIR = Path(os.environ.get("SARCLI_GOTCHA_DIR") or Path(__file__).resolve().parents[2] / "shared" / "data" / "gotcha")
+GOTCHA_DIR = gotcha_dir()
 FASTSAR_PY = Path(os.environ.get("SARCLI_FASTSAR_PYTHON", "/work/venv-fastsar/bin/python"))
 
 _FASTSAR_WORKER = r"""
@@ -104,7 +106,7 @@ def bp_basic(data, freq, pos, r0, grid, upsample=8):
 def gotcha_case(n_files):
     from sarcli.io.gotcha import read_gotcha
 
-    files = sorted(GOTCHA_DIR.glob("data_3dsar_pass1_az00*_HH.mat"))[:n_files]
+    files = gotcha_files(GOTCHA_DIR)[:n_files]
     if not files:
         return None
     ph = read_gotcha(files)

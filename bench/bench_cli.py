@@ -17,8 +17,8 @@ both sides, medians of wall time reported with their ratio:
 
     python bench/bench_cli.py [--runs N]
 
-GOTCHA files: $SARCLI_GOTCHA_DIR, else ../shared/data/gotcha beside the repository (rows 3 are
-skipped with a note without them).
+GOTCHA files: ``sarcli.io.gotcha.gotcha_dir()`` ($SARCLI_GOTCHA_DIR, else ../shared/data/gotcha beside the
+repository); rows 3 are skipped with a note without them.
 """
 
 from __future__ import annotations
@@ -31,6 +31,8 @@ import sys
 import tempfile
 import time
 from pathlib import Path
+
+from sarcli.io.gotcha import gotcha_dir, gotcha_files
 
 REPO = Path(__file__).resolve().parents[1]
 BIN = Path(sys.executable).parent
@@ -51,7 +53,7 @@ with h5py.File(sys.argv[2], "w") as f:
 '''
 
 
-GOTCHA_DIR = Path(os.environ.get("SARCLI_GOTCHA_DIR") or REPO.parent / "shared" / "data" / "gotcha")
+GOTCHA_DIR = gotcha_dir()
 
 
 #: The children run as a user's commands do: bytecode caches written and read (a shell that sets
@@ -119,7 +121,7 @@ def planning_row(ph, runs):
 
 
 def gotcha_rows(tmp, runs):
-    files = sorted(GOTCHA_DIR.glob("data_3dsar_pass1_az00*_HH.mat"))[:4]
+    files = gotcha_files(GOTCHA_DIR)[:4]
     if len(files) < 4:
         print(f"(no GOTCHA files in {GOTCHA_DIR}: set SARCLI_GOTCHA_DIR; GOTCHA rows skipped)")
         return []

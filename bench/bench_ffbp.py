@@ -9,8 +9,8 @@ same run), ffbp at two settings, the sub-image NUFFT and ``--method auto`` at to
 - the predicted error (each former's error model), the median wall time of ``--repeat`` runs after
   a warm-up, and the speed-up ``t(backprojection) / t(method)``.
 
-Cases: the four GOTCHA files (100 m at 0.125 m, when ``../shared/data/gotcha`` is there), and a
-simulated circular collection at r0 = 10 km (``--synthetic NxP``, default 512x1024: N² pixels from
+Cases: the four GOTCHA files (100 m at 0.125 m, when ``sarcli.io.gotcha.gotcha_dir()`` holds them),
+and a simulated circular collection at r0 = 10 km (``--synthetic NxP``, default 512x1024: N² pixels from
 P pulses; the issue's 2048x2048 takes many minutes per backprojection on a loaded 2-core machine).
 
 Usage::
@@ -39,8 +39,8 @@ from sarcli.core.acquisition import Acquisition
 from sarcli.core.grid import Grid
 from sarcli.core.types import PhaseHistory
 from sarcli.formers.formation import form_image, image_error
+from sarcli.io.gotcha import gotcha_files
 
-GOTCHA = Path(__file__).resolve().parents[1] / ".." / "shared" / "data" / "gotcha"
 
 
 def timed(fn, repeat):
@@ -138,7 +138,7 @@ def main(argv=None):
         from sarcli.formers.planner import calibrate
 
         print("cost model:", calibrate(COST_MODEL_PATH))
-    files = sorted(GOTCHA.glob("*.mat"))[:4] if GOTCHA.is_dir() else []
+    files = gotcha_files()[:4]
     if files and not args.no_gotcha:
         from sarcli.io.gotcha import read_gotcha
 

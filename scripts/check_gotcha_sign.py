@@ -7,7 +7,7 @@ sharpens data of the sign it was estimated for.
 
 Usage::
 
-    python scripts/check_gotcha_sign.py [GOTCHA_DIR]
+    python scripts/check_gotcha_sign.py [GOTCHA_DIR]   # default: sarcli.io.gotcha.gotcha_dir()
 
 Prints, for each sign with and without autofocus, the peak-to-mean ratio of |f| (higher = more
 focused) and the entropy of |f|² (lower = more focused) on the 100 m × 100 m, 0.25 m grid.
@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from sarcli.formers.backprojection import backproject
-from sarcli.io.gotcha import default_gotcha_grid, read_gotcha
+from sarcli.io.gotcha import default_gotcha_grid, gotcha_dir, gotcha_files, read_gotcha
 
 
 def focus(img):
@@ -32,8 +32,8 @@ def focus(img):
 
 def main(argv=None):
     argv = sys.argv[1:] if argv is None else argv
-    folder = Path(argv[0]) if argv else Path(__file__).resolve().parents[2] / "shared" / "data" / "gotcha"
-    files = sorted(folder.glob("data_3dsar_pass1_az00*_HH.mat"))
+    folder = Path(argv[0]) if argv else gotcha_dir()
+    files = gotcha_files(folder)
     if not files:
         sys.exit(f"no GOTCHA files in {folder}")
     grid = default_gotcha_grid()

@@ -8,11 +8,13 @@ from pathlib import Path
 import pytest
 import yaml
 
+from sarcli.io.gotcha import gotcha_dir
+
 REPO = Path(__file__).resolve().parents[1]
 CONFIGS = REPO / "configs"
-#: A local copy of the AFRL GOTCHA pass files: $SARCLI_GOTCHA_DIR, else ../shared/data/gotcha beside the
-#: repository (tests that need it skip with a reason when it is absent).
-GOTCHA_DIR = Path(os.environ.get("SARCLI_GOTCHA_DIR") or REPO.parent / "shared" / "data" / "gotcha")
+#: A local copy of the AFRL GOTCHA pass files (sarcli.io.gotcha.gotcha_dir: $SARCLI_GOTCHA_DIR, else
+#: ../shared/data/gotcha beside the repository); tests that need it skip with a reason when it is absent.
+GOTCHA_DIR = gotcha_dir()
 
 
 @pytest.fixture(autouse=True, scope="session")

@@ -246,7 +246,7 @@ def test_reserved_output_is_released_and_atomic_write_commits(tmp_path):
 
     out = tmp_path / "o.txt"
     tmp = reserve(out)
-    assert tmp.exists() and not out.exists()
+    assert not tmp.exists() and not out.exists()  # the temporary exists only while writing
     with atomic_path(out) as t:
         assert t == tmp
         t.write_text("done")
@@ -254,3 +254,25 @@ def test_reserved_output_is_released_and_atomic_write_commits(tmp_path):
     reserve(tmp_path / "never.txt")
     assert [p.name for p in release_all()] == [".never.txt.tmp-" + str(__import__("os").getpid())]
     assert not list(tmp_path.glob(".*tmp*"))
+
+
+def test_temporaries_of_dead_processes_are_removed_by_the_next_writer(tmp_path):
+    import os
+    import subprocess
+
+    from sarcli._util.atomic import atomic_path, remove_stale
+
+    gone = subprocess.Popen(["true"])
+    gone.wait()  # its process id no longer exists
+    out = tmp_path / "o.h5"
+    stale, live, mine = (tmp_path / f".o.h5.tmp-{pid}" for pid in (gone.pid, os.getppid(), os.getpid()))
+    other = tmp_path / f".other.h5.tmp-{gone.pid}"
+    for p in (stale, live, other):
+        p.write_bytes(b"")
+    assert remove_stale(out) == [stale]
+    assert live.exists() and other.exists()  # a running writer's, and another output's
+    stale.write_bytes(b"")
+    with atomic_path(out) as t:
+        assert t == mine and not stale.exists() and not t.exists()  # created by the writer itself
+        t.write_text("done")
+    assert out.read_text() == "done" and live.exists()

@@ -30,6 +30,8 @@ import fig11_projection  # noqa: E402
 import fig12_example  # noqa: E402
 from _common import acquisition  # noqa: E402
 
+from sarcli.io.gotcha import gotcha_files  # noqa: E402
+
 from .conftest import GOTCHA_DIR  # noqa: E402
 
 
@@ -139,7 +141,7 @@ def test_fig09_optimality_conditions_hold_after_admm():
 
 
 def test_fig10_regularisation_reduces_speckle_and_sharpens_on_gotcha():
-    if not sorted(GOTCHA_DIR.glob("data_3dsar_pass1_az00*_HH.mat")):
+    if not gotcha_files(GOTCHA_DIR):
         pytest.skip(f"GOTCHA files not found in {GOTCHA_DIR} (the shared data folder beside the repository)")
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")

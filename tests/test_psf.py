@@ -177,11 +177,13 @@ def test_predicted_ipr_with_unequal_frequencies_uses_the_exact_sum():
     assert pred["range"]["irw_m"] == pytest.approx(ref["range"]["irw_m"], rel=0.01)
 
 
+from sarcli.io.gotcha import gotcha_files  # noqa: E402
+
 from .conftest import GOTCHA_DIR as GOTCHA  # noqa: E402
 
 
 def test_predicted_ipr_on_gotcha_geometry_matches_the_textbook():
-    files = sorted(GOTCHA.glob("data_3dsar_pass1_az00*_HH.mat")) if GOTCHA.is_dir() else []
+    files = gotcha_files(GOTCHA)
     if not files:
         pytest.skip(f"GOTCHA data not found at {GOTCHA}")
     from sarcli.io import gotcha

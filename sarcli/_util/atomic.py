@@ -1,11 +1,14 @@
 """Atomic file output: write to a temporary name in the same folder, rename at the end.
 
-The temporary name of ``path`` is ``.<name>.tmp-<pid>`` beside it. A command may *reserve* its
-outputs before computing (:func:`reserve`): the temporary file is created at once, so a folder
-that cannot be written is found before any work, and :func:`atomic_path` later writes into that
-same temporary file. Every temporary file this process holds is listed in a registry, so an
-interruption (:mod:`sarcli._util.interrupt`) or a failed command (:func:`release_all`) removes
-them all; the rename onto the final name is the one commit point, taken under a lock.
+The temporary name of ``path`` is ``.<name>.tmp-<pid>`` beside it, and it exists only while the
+output is being written (:func:`atomic_path`). A command may *reserve* its outputs before
+computing (:func:`reserve`): the folder is probed (a file created and removed at once), so a
+folder that cannot be written is found before any work, yet nothing is left on disk during the
+computation. Every temporary file this process holds is listed in a registry, so an interruption
+(:mod:`sarcli._util.interrupt`) or a failed command (:func:`release_all`) removes them all; the
+rename onto the final name is the one commit point, taken under a lock. A process killed while
+writing (SIGKILL, a crash) cannot clean up: the next :func:`reserve` or :func:`atomic_path` of the
+same output removes the temporaries whose process no longer exists (:func:`remove_stale`).
 """
 
 from __future__ import annotations
@@ -18,7 +21,8 @@ from pathlib import Path
 
 from ..errors import SarcliInputError
 
-__all__ = ["atomic_path", "reserve", "release_all", "temp_path", "open_held", "LOCK", "WriteError"]
+__all__ = ["atomic_path", "reserve", "release_all", "temp_path", "open_held", "remove_stale", "LOCK",
+           "WriteError"]
 
 #: held while a temporary file is renamed onto its final name or removed by a clean-up
 LOCK = threading.RLock()
@@ -45,6 +49,42 @@ def temp_path(path) -> Path:
     """The temporary name used for ``path`` by this process."""
     final = Path(path)
     return final.with_name(f".{final.name}.tmp-{os.getpid()}")
+
+
+def _process_exists(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except OSError:  # it exists but belongs to another user (EPERM)
+        return True
+    return True
+
+
+def remove_stale(path) -> list[Path]:
+    """Remove the temporary files of ``path`` left by processes that no longer exist.
+
+    A temporary ``.<name>.tmp-<pid>`` is stale when no process ``pid`` runs on this machine (a run
+    killed while writing); one whose process still runs is left alone (it may be writing now).
+    Process ids are those of this machine: in a folder that several machines write at once, a
+    temporary of another machine's running process would be taken for stale.
+    Returns the paths removed.
+    """
+    final = Path(path)
+    prefix = f".{final.name}.tmp-"
+    removed = []
+    try:
+        candidates = [p for p in final.parent.iterdir() if p.name.startswith(prefix)]
+    except OSError:
+        return removed
+    for tmp in candidates:
+        pid = tmp.name[len(prefix):]
+        if not pid.isdigit() or int(pid) == os.getpid() or _process_exists(int(pid)):
+            continue
+        with contextlib.suppress(OSError):
+            tmp.unlink()
+            removed.append(tmp)
+    return removed
 
 
 def _first_line(exc: BaseException, limit: int = 200) -> str:
@@ -78,7 +118,17 @@ def _make_parent(final: Path) -> None:
 
 
 def reserve(path) -> Path:
-    """Create the temporary file of ``path`` now, before any work (fail before computing).
+    """Check now, before any work, that ``path`` can be written (fail before computing).
+
+    The temporary file of ``path`` is created and removed at once (nothing stays on disk while the
+    command computes; :func:`atomic_path` creates it again when it writes) and is listed in the
+    registry, so :func:`release_all` reports it. Temporaries of ``path`` left by killed processes
+    are removed (:func:`remove_stale`).
+
+    Returns
+    -------
+    Path
+        The temporary name :func:`atomic_path` will write.
 
     Raises
     ------
@@ -89,13 +139,19 @@ def reserve(path) -> Path:
     if final.is_dir():
         raise SarcliInputError(f"{final}: is a folder, expected a file name to write")
     _make_parent(final)
+    remove_stale(final)
     tmp = temp_path(final)
     with LOCK:
         try:
-            fd = os.open(tmp, os.O_CREAT | os.O_WRONLY | os.O_TRUNC, 0o644)
+            fd = os.open(tmp, os.O_CREAT | os.O_WRONLY | os.O_EXCL, 0o644)
+        except FileExistsError:  # this process is writing it already
+            pass
         except OSError as exc:
             raise SarcliInputError(f"{final}: cannot write in {final.parent or '.'} ({_first_line(exc)})") from None
-        os.close(fd)
+        else:
+            os.close(fd)
+            with contextlib.suppress(OSError):
+                os.unlink(tmp)
         _TEMPS[tmp] = final
     return tmp
 
@@ -137,6 +193,7 @@ def atomic_path(path):
     """
     final = Path(path)
     _make_parent(final)
+    remove_stale(final)
     tmp = temp_path(final)
     with LOCK:
         _TEMPS[tmp] = final

@@ -106,25 +106,29 @@ class BenchResult:
 def load_input(paths, *, seed: int = 0, snr_db="config", model=None) -> PhaseHistory:
     """A phase history from a YAML config (simulated with ``seed``, and ``model`` if given: the
     far-field model isolates the numerical knobs from the far-field approximation's own error),
-    a ``.h5`` phase-history file, or GOTCHA ``.mat`` files (read with :func:`sarcli.io.gotcha.read_gotcha`)."""
+    a phase-history file (sarcli HDF5 or CPHD), or GOTCHA ``.mat`` files (joined by
+    :func:`sarcli.io.gotcha.read_gotcha`); each file is recognised by its content
+    (:func:`sarcli.io.detect_format`)."""
+    from ..io import detect_format, open_input
+
     paths = [Path(p) for p in ([paths] if isinstance(paths, (str, Path)) else paths)]
     if not paths:
         raise SarcliInputError("no input given")
-    suffix = paths[0].suffix.lower()
-    if suffix == ".mat":
+    if len(paths) > 1:
+        for p in paths:
+            fmt = detect_format(p)
+            if fmt != "gotcha":
+                raise SarcliInputError(f"{p}: is a {fmt} file; several inputs are only accepted for "
+                                       "GOTCHA .mat files")
         from ..io.gotcha import read_gotcha
 
         return read_gotcha([str(p) for p in paths])
-    if len(paths) > 1:
-        raise SarcliInputError("several inputs are only accepted for GOTCHA .mat files")
-    if suffix in (".yaml", ".yml"):
-        from ..io.config import load_acquisition
+    fmt, src = open_input(paths[0], expect=("config", "phase-history", "gotcha", "cphd"))
+    if fmt == "config":
         from ..simulation.simulator import simulate
 
-        return simulate(load_acquisition(paths[0]), seed=seed, snr_db=snr_db, model=model)
-    from ..io.hdf5 import read_phase_history
-
-    return read_phase_history(paths[0])
+        return simulate(src, seed=seed, snr_db=snr_db, model=model)
+    return src
 
 
 def sweep(methods=FAST_METHODS, *, windows=("none", "taylor")) -> list:

@@ -239,26 +239,23 @@ def load_reference(path):
     Parameters
     ----------
     path : str or Path
-        ``.yaml``/``.yml``: :func:`sarcli.io.config.load_acquisition`, truth = the scene's points;
-        otherwise :func:`sarcli.io.hdf5.read_phase_history`.
+        A YAML acquisition (truth = the scene's points) or a sarcli phase history (truth = its
+        ``/truth``), recognised by :func:`sarcli.io.open_input`.
 
     Returns
     -------
     acquisition : Acquisition
     truth : sarcli.core.types.Truth or None
     """
-    from pathlib import Path
-
     from ..core.types import Truth
-    from ..io.hdf5 import read_phase_history
+    from ..io import open_input
 
-    if Path(path).suffix.lower() in (".yaml", ".yml"):
-        from ..io.config import load_acquisition
+    fmt, src = open_input(path, expect=("config", "phase-history"))
+    if fmt == "config":
         from ..io.scene_spec import point_targets
 
-        acq = load_acquisition(path)
+        acq = src
         pos, amp = point_targets(acq.scene)
         return acq, Truth(point_position_m=np.asarray(pos, dtype=np.float64).reshape(-1, 3),
                           point_amplitude=np.asarray(amp, dtype=np.complex128).reshape(-1))
-    ph = read_phase_history(path)
-    return ph.acquisition, ph.truth
+    return src.acquisition, src.truth

@@ -15,29 +15,19 @@ import numpy as np
 
 from ..core.grid import Grid
 
-__all__ = ["subaperture_windows", "tile_layout", "input_geometry", "is_cphd"]
+__all__ = ["subaperture_windows", "tile_layout", "input_geometry", "INPUT_FORMATS"]
 
-
-def is_cphd(path) -> bool:
-    """The file starts as a CPHD file does (any other is read as a sarcli phase history)."""
-    try:
-        with open(path, "rb") as f:
-            return f.read(5) == b"CPHD/"
-    except OSError:
-        return False
+#: the input formats a batch job reads (keys of :data:`sarcli.io.FORMATS`, recognised by content)
+INPUT_FORMATS = ("phase-history", "gotcha", "cphd")
 
 
 def input_geometry(path: Path):
     """Azimuths (rad) and default grid of an input, reading as little as possible."""
-    if path.suffix.lower() == ".mat":
-        from ..io.gotcha import read_gotcha
+    from ..io import detect_format, open_input
 
-        acq = read_gotcha(path).acquisition
-        return acq.azimuth_rad, acq.grid
-    if is_cphd(path):   # the header and per-vector parameters; the signal stays on disk
-        from ..io.cphd import read_cphd
-
-        acq = read_cphd(path, lazy=True).acquisition
+    fmt = detect_format(path)
+    if fmt != "phase-history":  # GOTCHA, CPHD (its signal stays on disk), or one line naming the format
+        acq = open_input(path, expect=INPUT_FORMATS, truth=False, lazy=True)[1].acquisition
         return acq.azimuth_rad, acq.grid
     import h5py
 

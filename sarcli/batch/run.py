@@ -43,7 +43,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import errors
-from .layout import is_cphd, subaperture_windows, tile_layout
+from .layout import INPUT_FORMATS, subaperture_windows, tile_layout
 from .plan import COMPOSITES, POINTWISE_METHODS, Job, Plan, load_plan, parse_plan
 from ..errors import SarcliError
 from ..core.grid import Grid, resolve_grid
@@ -119,20 +119,11 @@ def _valid_output(path: Path, fingerprint: str) -> bool:
 
 
 def _read_input(job: Job) -> PhaseHistory:
-    if job.input.lower().endswith(".mat"):
-        from ..io.gotcha import read_gotcha
+    from ..io import open_input
 
-        ph = read_gotcha(job.input)
-    elif is_cphd(job.input):
-        from ..io.cphd import read_cphd
-
-        ph = read_cphd(job.input, lazy=True)  # left on disk, as below
-    else:
-        from ..io.hdf5 import read_phase_history
-
-        # left on disk: a worker reads its pulses (by blocks, for backprojection, ffbp and direct),
-        # so a file larger than the worker's memory can still be imaged
-        ph = read_phase_history(job.input, truth=False, lazy=True)
+    # a sarcli phase history or a CPHD file is left on disk: a worker reads its pulses (by blocks,
+    # for backprojection, ffbp and direct), so a file larger than the worker's memory can be imaged
+    ph = open_input(job.input, expect=INPUT_FORMATS, truth=False, lazy=True)[1]
     if job.pulses is None:
         return ph
     sel = np.asarray(job.pulses, dtype=np.intp)

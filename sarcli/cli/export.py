@@ -23,18 +23,16 @@ from .options import handle_errors, prepare_outputs, wrote
               help="SICD: the phase-history file the image was formed from (collection geometry).")
 @handle_errors
 def command(image, output, kind, dynamic_range_db, cmap, bare, annotate, phase_history):
-    """Export IMAGE (a sarcli image file, or a SICD) to GeoTIFF, PNG or SICD."""
-    from ..io.export import export_image, load_image
-    from ..io.hdf5 import read_phase_history
-
-    from ..io.export import format_from_suffix
+    """Export IMAGE (a sarcli image file, a SICD or a GeoTIFF) to GeoTIFF, PNG or SICD."""
+    from ..io import open_input
+    from ..io.export import IMAGE_FORMATS, export_image, format_from_suffix
 
     prepare_outputs([("image", image), ("--phase-history", phase_history)], [("output", output)])
-    img = load_image(image)
-    ph = read_phase_history(phase_history) if phase_history else None
-    annotate = format_from_suffix(output) == "png" and not bare
     fmt = format_from_suffix(output)
-    if fmt == "sicd" and ph is None and not str(image).lower().endswith((".sicd", ".nitf", ".ntf")):
+    annotate = fmt == "png" and not bare
+    source, img = open_input(image, expect=IMAGE_FORMATS)
+    ph = open_input(phase_history, expect="phase-history", truth=False)[1] if phase_history else None
+    if fmt == "sicd" and ph is None and source != "sicd":
         import warnings
 
         from ..io.georef import GeometryWarning

@@ -14,10 +14,10 @@ from .options import handle_errors, prepare_outputs, wrote
 @handle_errors
 def command(phase_history, output):
     """Export PHASE_HISTORY (needs antenna positions and equally spaced frequencies) to CPHD."""
+    from ..io import open_input
     from ..io.cphd import write_cphd
-    from ..io.hdf5 import read_phase_history
 
     prepare_outputs([("input", phase_history)], [("output", output)])
-    ph = read_phase_history(phase_history)
+    _, ph = open_input(phase_history, expect=("phase-history", "gotcha", "cphd"), truth=False)
     write_cphd(ph, output)
     wrote(output, f"CPHD, {ph.data.shape[0]} pulses x {ph.data.shape[1]} frequencies")

@@ -57,7 +57,10 @@ def command(ctx, input_path, output, method, autofocus_method, window, taylor_nb
             tolerance, nthreads, png_path, tif_path):
     """Form the matched-filter image of a phase history (or of a k-grid file with --method pfa)."""
     from ..formers.formation import form_image
+    from pathlib import Path
+
     from ..io import open_input
+    from ..io.export import SICD_SUFFIXES
     from ..io.hdf5 import write_image
     from ..core.grid import resolve_grid
     from ..formers.cost import check_form_image
@@ -86,7 +89,7 @@ def command(ctx, input_path, output, method, autofocus_method, window, taylor_nb
                      eps=eps, kernel=kernel, oversample=oversample, width=width, upsample=upsample,
                      interp=interp, precision=precision, nthreads=nthreads, base=base, merge=merge,
                      os_range=os_range, os_angle=os_angle, tile=tile, tolerance=tolerance)
-    if str(output).lower().endswith((".sicd", ".nitf", ".ntf")):
+    if Path(output).suffix.lower() in SICD_SUFFIXES:
         from ..io.sicd import write_sicd
 
         if acq is None:

@@ -22,9 +22,10 @@ def command(what, input_path, output, at, dynamic_range_db, center, extent, pixe
     """Draw WHAT from INPUT.
 
     \b
-    psf-cuts   INPUT an image (.h5 or SICD): x and y cuts through the peak, -3 dB width marked
-    kspace     INPUT a YAML acquisition or phase-history .h5: samples in dimensionless
-               frequencies (k1, k2) = k h ξ with their aliased copies (grid options set h)
+    psf-cuts   INPUT an image (.h5, SICD or GeoTIFF): x and y cuts through the peak, -3 dB width marked
+    kspace     INPUT a YAML acquisition or a phase history (.h5, GOTCHA .mat, CPHD): samples
+               in dimensionless frequencies (k1, k2) = k h ξ with their aliased copies (grid
+               options set h)
     image-fft  INPUT an image: the image beside log|2-D FFT|
     """
     from .. import viz as plots
@@ -32,18 +33,13 @@ def command(what, input_path, output, at, dynamic_range_db, center, extent, pixe
     prepare_outputs([("input", input_path)], [("output", output)])
 
     if what == "kspace":
-        from pathlib import Path
-
         from ..core.grid import resolve_grid
+        from ..io import open_input
 
-        if Path(input_path).suffix.lower() in (".yaml", ".yml"):
-            from ..io.config import load_acquisition
-
-            acq = load_acquisition(input_path)
-        else:
-            from ..io.hdf5 import read_phase_history
-
-            acq = read_phase_history(input_path).acquisition
+        # a phase history's samples stay on disk: only its geometry is drawn
+        fmt, src = open_input(input_path, expect=("config", "phase-history", "gotcha", "cphd"), truth=False,
+                              lazy=True)
+        acq = src if fmt == "config" else src.acquisition
         try:
             grid = resolve_grid(acq.grid, center=parse_pair(center, "--center"),
                                 extent=parse_pair(extent, "--extent"), pixel_size=pixel_size)

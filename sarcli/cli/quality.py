@@ -106,18 +106,18 @@ def command(image, ph_path, config_path, at, window, oversample, extent_cells, a
     (position and peak measured, cut figures not); 'no peak': none of its own within reach.
     """
     from ..errors import SarcliInputError
-    from ..io.hdf5 import read_image
+    from ..io import open_input
     from ..core.types import to_json
     from ..analysis.quality import image_quality, load_reference
 
     if speckle or region is not None:
-        _speckle(read_image(image), region, as_json)
+        _speckle(open_input(image, expect=("image", "sicd"))[1], region, as_json)
         if ph_path is None and config_path is None:
             return
     if (ph_path is None) == (config_path is None):
         raise SarcliInputError("give exactly one of --ph PH.h5 or --config CONFIG.yaml (the geometry)")
     acq, truth = load_reference(ph_path or config_path)
-    img = read_image(image)
+    img = open_input(image, expect=("image", "sicd"))[1]
     targets = [parse_pair(a, "--at") for a in at] or None
     results = image_quality(img, acq, at=targets, truth=truth, window=window, oversample=oversample,
                             sidelobe_extent_cells=extent_cells)

@@ -25,12 +25,13 @@ def command(ctx, input_path, output, window, taylor_nbar, taylor_sll_db, center,
     """Interpolate polar phase history onto a Cartesian k-grid covering only the data's support."""
     from ..formers.formation import regrid
     from ..core.grid import resolve_grid
-    from ..io.hdf5 import read_phase_history, write_kgrid
+    from ..io import open_input
+    from ..io.hdf5 import write_kgrid
 
     from ..formers.cost import check_form_image
 
     prepare_outputs([("input", input_path)], [("output", output)])
-    ph = read_phase_history(input_path, truth=False)
+    _, ph = open_input(input_path, expect=("phase-history", "gotcha", "cphd"), truth=False)
     grid = resolve_grid(ph.acquisition.grid, center=parse_pair(center, "--center"),
                         extent=parse_pair(extent, "--extent"), pixel_size=pixel_size)
     check_form_image(ph, "pfa", grid, oversample=oversample, width=width)

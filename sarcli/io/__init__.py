@@ -126,6 +126,8 @@ def detect_format(path) -> str:
     if head.startswith(b"\x89PNG"):
         raise InputFileError(path, "a PNG picture holds no complex image to read back; use the HDF5 "
                                    "image or a GeoTIFF/SICD export")
+    if p.suffix.lower() in (".h5", ".hdf5", ".he5"):  # the name says HDF5, the content does not
+        raise InputFileError(path, "not a readable HDF5 file (its first bytes are not an HDF5 signature)")
     readable = "sarcli HDF5 (phase history, image, k-grid), YAML config, GOTCHA .mat, CPHD, SICD, GeoTIFF"
     raise InputFileError(path, f"unrecognised file content; sarcli reads {readable}")
 

@@ -2,12 +2,14 @@
 
 Public API
 ----------
-load_image(path) -> Image   (a sarcli image file, or a ground-plane SICD by its suffix)
+load_image(path) -> Image   (a sarcli image, a SICD or a GeoTIFF, recognised by its content)
 export_image(img, path, *, kind=None, dynamic_range_db=50, cmap='gray', annotate=False, fmt=None,
              phase_history=None)
+format_from_suffix(path) -> str  (the export format an output name asks for)
 
-The format is chosen from the suffix (``.tif``/``.tiff`` GeoTIFF, ``.png`` PNG, ``.sicd``/``.nitf``
-SICD) unless ``fmt`` names it. ``docs/formats.md`` gives every mapping.
+The format written is chosen from the output's suffix (:data:`EXPORT_FORMATS`: ``.tif``/``.tiff``
+GeoTIFF, ``.png`` PNG, :data:`SICD_SUFFIXES` SICD) unless ``fmt`` names it; a file read is
+recognised by its content (:func:`sarcli.io.open_input`). ``docs/formats.md`` gives every mapping.
 """
 
 from __future__ import annotations
@@ -17,22 +19,26 @@ from pathlib import Path
 from ..errors import SarcliInputError
 from ..core.types import Image
 
-__all__ = ["export_image", "load_image", "FORMATS", "format_from_suffix"]
+__all__ = ["export_image", "load_image", "format_from_suffix", "EXPORT_FORMATS", "SICD_SUFFIXES", "IMAGE_FORMATS"]
 
-#: format name -> suffixes it is chosen by
-FORMATS = {"geotiff": (".tif", ".tiff"), "png": (".png",), "sicd": (".sicd", ".nitf", ".ntf")}
+#: output names that ask for a SICD (NITF) file, here and in ``sar form-image -o``
+SICD_SUFFIXES = (".sicd", ".nitf", ".ntf")
+#: export format name -> the output suffixes that choose it (what is *written*; the formats sarcli
+#: *reads* are :data:`sarcli.io.FORMATS`, recognised by content)
+EXPORT_FORMATS = {"geotiff": (".tif", ".tiff"), "png": (".png",), "sicd": SICD_SUFFIXES}
 
 #: kind used when none is given
 DEFAULT_KIND = {"geotiff": "magnitude", "png": "db", "sicd": "complex"}
 
 
 def format_from_suffix(path) -> str:
-    """The export format a file name asks for; SarcliInputError for an unknown suffix."""
+    """The export format an output name asks for (a key of :data:`EXPORT_FORMATS`);
+    SarcliInputError for an unknown suffix."""
     suffix = Path(path).suffix.lower()
-    for name, suffixes in FORMATS.items():
+    for name, suffixes in EXPORT_FORMATS.items():
         if suffix in suffixes:
             return name
-    known = ", ".join(s for ss in FORMATS.values() for s in ss)
+    known = ", ".join(s for ss in EXPORT_FORMATS.values() for s in ss)
     raise SarcliInputError(f"{path}: cannot tell the export format from suffix {suffix!r}; use one of {known}")
 
 
@@ -64,8 +70,8 @@ def export_image(img: Image, path, *, kind: str | None = None, dynamic_range_db:
     Path
     """
     name = fmt.lower() if fmt else format_from_suffix(path)
-    if name not in FORMATS:
-        raise SarcliInputError(f"unknown export format {fmt!r}; choose one of {', '.join(FORMATS)}")
+    if name not in EXPORT_FORMATS:
+        raise SarcliInputError(f"unknown export format {fmt!r}; choose one of {', '.join(EXPORT_FORMATS)}")
     kind = kind or DEFAULT_KIND[name]
     if annotate and name != "png":
         raise SarcliInputError("--annotate applies to PNG output only")
@@ -86,13 +92,19 @@ def export_image(img: Image, path, *, kind: str | None = None, dynamic_range_db:
     return Path(path)
 
 
+#: the formats :func:`load_image` reads (keys of :data:`sarcli.io.FORMATS`)
+IMAGE_FORMATS = ("image", "sicd", "geotiff")
+
+
 def load_image(path) -> Image:
-    """Read an image: a SICD (``.sicd``/``.nitf``/``.ntf``, see :func:`sarcli.io.sicd.read_sicd`)
-    or a sarcli image file (anything else)."""
-    if Path(path).suffix.lower() in FORMATS["sicd"]:
-        from .sicd import read_sicd
+    """Read an image: a sarcli image file, a SICD (:func:`sarcli.io.sicd.read_sicd`) or a GeoTIFF
+    (:func:`sarcli.io.geotiff.read_geotiff`), recognised by its content (:func:`sarcli.io.open_input`).
 
-        return read_sicd(path)
-    from .hdf5 import read_image
+    Raises
+    ------
+    InputFileError
+        Any other file: one line naming the file, the format found and those expected.
+    """
+    from . import open_input
 
-    return read_image(path)
+    return open_input(path, expect=IMAGE_FORMATS)[1]

@@ -22,10 +22,15 @@ The autofocus solution is applied as AFRL's MATLAB scripts do: ``r0 ← r0 + r_c
 Public API
 ----------
 read_gotcha(paths, *, autofocus=False, grid=None) -> PhaseHistory
+gotcha_dir() -> Path                      the local copy of the data set the tests, benchmarks and
+                                          scripts use: ``$SARCLI_GOTCHA_DIR``, else
+                                          ``../shared/data/gotcha`` beside the repository
+gotcha_files(folder=None) -> list[Path]   the pass-1 HH files in that folder (sorted; may be empty)
 """
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import numpy as np
@@ -35,12 +40,39 @@ from ..errors import InputFileError
 from ..core.grid import Grid
 from ..core.types import PhaseHistory
 
-__all__ = ["read_gotcha", "default_gotcha_grid", "GOTCHA_FIELDS"]
+__all__ = ["read_gotcha", "default_gotcha_grid", "gotcha_dir", "gotcha_files", "GOTCHA_FIELDS",
+           "GOTCHA_DIR_ENV", "GOTCHA_PASS_FILES"]
 
 #: Fields of ``data`` every GOTCHA file must have.
 GOTCHA_FIELDS = ("fp", "freq", "x", "y", "z", "r0", "th", "phi")
 #: Largest frequency disagreement (Hz) tolerated between files that are joined (float32 rounding).
 _FREQ_ATOL_HZ = 1.0
+
+
+#: The environment variable that names a local copy of the GOTCHA data set.
+GOTCHA_DIR_ENV = "SARCLI_GOTCHA_DIR"
+#: The files of pass 1, HH polarisation, one per degree of azimuth (``glob`` pattern).
+GOTCHA_PASS_FILES = "data_3dsar_pass1_az00*_HH.mat"
+
+
+def gotcha_dir() -> Path:
+    """The folder of a local copy of the AFRL GOTCHA data set, for tests, benchmarks and scripts.
+
+    ``$SARCLI_GOTCHA_DIR`` when set and not empty; otherwise ``../shared/data/gotcha`` beside the
+    repository that holds this package (the folder may not exist: callers skip or say so).
+    The data set is published by AFRL; docs/conventions.md says where.
+    """
+    folder = os.environ.get(GOTCHA_DIR_ENV)
+    if folder:
+        return Path(folder)
+    return Path(__file__).resolve().parents[3] / "shared" / "data" / "gotcha"
+
+
+def gotcha_files(folder=None) -> list[Path]:
+    """The pass-1 HH files (:data:`GOTCHA_PASS_FILES`) in ``folder`` (default :func:`gotcha_dir`),
+    sorted by name, which is by azimuth; an empty list when the folder is absent."""
+    folder = gotcha_dir() if folder is None else Path(folder)
+    return sorted(folder.glob(GOTCHA_PASS_FILES)) if folder.is_dir() else []
 
 
 def default_gotcha_grid() -> Grid:

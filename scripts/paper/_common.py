@@ -8,7 +8,6 @@ figure). :mod:`run_all` collects the results into ``docs/paper.md``.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-import os
 from pathlib import Path
 
 import matplotlib
@@ -19,10 +18,11 @@ import numpy as np  # noqa: E402
 import yaml  # noqa: E402
 
 import sarcli  # noqa: E402
+from sarcli.io.gotcha import gotcha_dir  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[2]
 CONFIGS = REPO / "configs"
-GOTCHA_DIR = Path(os.environ.get("SARCLI_GOTCHA_DIR") or REPO.parent / "shared" / "data" / "gotcha")
+GOTCHA_DIR = gotcha_dir()
 _MERGED = ("frequencies", "azimuths", "image", "noise")
 
 

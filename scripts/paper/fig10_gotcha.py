@@ -19,6 +19,7 @@ from scipy.ndimage import binary_dilation
 
 from sarcli.core import geometry
 from sarcli.core.grid import Grid
+from sarcli.io.gotcha import gotcha_files as pass_files
 
 from _common import GOTCHA_DIR, Result, db, fmt
 
@@ -26,7 +27,7 @@ KEY, LABEL = "fig10_gotcha", "fig: final-reg"
 
 
 def gotcha_files(n_files: int = 4):
-    return sorted(GOTCHA_DIR.glob("data_3dsar_pass1_az00*_HH.mat"))[:n_files]
+    return pass_files(GOTCHA_DIR)[:n_files]
 
 
 def support_mask(acq, grid: Grid, dilate: int = 2) -> np.ndarray:

@@ -299,13 +299,31 @@ def write_cases(ws: Workspace) -> list[Fault]:
 # ---------------------------------------------------------------------------------------------
 # S: signals
 # ---------------------------------------------------------------------------------------------
-def _interrupt(key, case, ws, args, out, sig, *, after=2.0, expect=None, tolerate=None) -> Fault:
-    """Start ``sar ARGS``, send ``sig`` ``after`` seconds past the reservation of the output."""
-    out.write_bytes(b"previous output")
+def _handlers_installed(pid: int) -> bool:
+    """``sar`` has installed its signal handlers (:func:`sarcli._util.interrupt.install`, before the
+    command parses its options): the process catches SIGTERM (``SigCgt`` in ``/proc/PID/status``),
+    which a Python process does not by default."""
+    try:
+        lines = Path(f"/proc/{pid}/status").read_text().splitlines()
+    except OSError:
+        return False
+    mask = next((int(ln.split()[1], 16) for ln in lines if ln.startswith("SigCgt:")), 0)
+    return bool(mask >> (signal.SIGTERM - 1) & 1)
+
+
+def _start(args, ws):
+    """Spawn ``sar ARGS`` and return once its signal handlers are installed (or it ended, or 60 s)."""
     p = spawn(args, ws.tmp)
     t0 = time.perf_counter()
-    while not glob.glob(str(out.parent / f".{out.name}.tmp-*")) and time.perf_counter() - t0 < 60 and p.poll() is None:
+    while not _handlers_installed(p.pid) and time.perf_counter() - t0 < 60 and p.poll() is None:
         time.sleep(0.02)
+    return p
+
+
+def _interrupt(key, case, ws, args, out, sig, *, after=2.0, expect=None, tolerate=None) -> Fault:
+    """Start ``sar ARGS``, send ``sig`` ``after`` seconds past the installation of its handlers."""
+    out.write_bytes(b"previous output")
+    p = _start(args, ws)
     time.sleep(after)
     t1 = time.perf_counter()
     p.send_signal(sig)
@@ -375,6 +393,50 @@ def _sweep(key, ws, n=8) -> Fault:
                  not bad)
 
 
+def _killed(key, case, ws, args, out, *, after=2.0) -> Fault:
+    """SIGKILL ``after`` seconds into a long computation, long before the output is written: the
+    process cannot clean up, so no temporary file may exist yet (it is created at write time)."""
+    out.write_bytes(b"previous output")
+    p = _start(args, ws)
+    time.sleep(after)
+    running = p.poll() is None
+    p.kill()
+    _, err = p.communicate(timeout=30)
+    untouched = out.read_bytes() == b"previous output"
+    temps = sorted(set(_temps(ws.tmp) + _temps(out.parent)))
+    ok = running and p.returncode == -signal.SIGKILL and untouched and not temps
+    for t in temps:  # clear them for the next cases
+        (out.parent / t).unlink(missing_ok=True)
+    return Fault(key, case, f"sar {' '.join(_clean(str(a)) for a in args)}; SIGKILL after {after:g} s",
+                 "killed while computing; previous output untouched, no temporary file left",
+                 f"{'killed while running' if running else 'ENDED BEFORE THE SIGNAL'} (exit {p.returncode}), "
+                 f"previous output {'untouched' if untouched else 'CHANGED'}, temporaries left: {len(temps)}",
+                 bool(ok))
+
+
+def _stale_temporaries(key, ws) -> Fault:
+    """A temporary left by a killed writer (its process gone) is removed by the next run writing the
+    same output; one of a process that still runs is left alone (it may be writing now)."""
+    out = ws.path("s9.h5")
+    out.unlink(missing_ok=True)
+    gone = subprocess.Popen(["true"])
+    gone.wait()  # a process id that no longer exists
+    stale = out.with_name(f".{out.name}.tmp-{gone.pid}")
+    live = out.with_name(f".{out.name}.tmp-{os.getppid()}")
+    stale.write_bytes(b"")
+    live.write_bytes(b"")
+    r = run(["form-image", ws.ph, "-o", out, "--method", "nufft"])
+    ok = r.code == 0 and out.exists() and not stale.exists() and live.exists()
+    observed = (f"exit {r.code}; the dead process's temporary {'REMAINS' if stale.exists() else 'removed'}, "
+                f"the running process's temporary {'kept' if live.exists() else 'REMOVED'}")
+    live.unlink(missing_ok=True)
+    stale.unlink(missing_ok=True)
+    return Fault(key, "a temporary left by a killed writer, then a new run writing the same output",
+                 "sar form-image ph.h5 -o s9.h5 --method nufft, beside .s9.h5.tmp-<dead pid> and "
+                 ".s9.h5.tmp-<live pid>", "exit 0; the dead process's temporary removed, the live one's kept",
+                 observed, bool(ok))
+
+
 def signal_cases(ws: Workspace) -> list[Fault]:
     big = ws.big_ph
     return [
@@ -391,6 +453,12 @@ def signal_cases(ws: Workspace) -> list[Fault]:
                    ws.path("s4.h5"), signal.SIGTERM, after=1.0),
         _sweep("S5", ws),
         _batch_interrupt(ws),
+        _killed("S7", "SIGKILL inside the compiled direct (spherical) loop", ws,
+                ["form-image", big, "-o", ws.path("s7.h5"), "--method", "direct"], ws.path("s7.h5")),
+        _killed("S8", "SIGKILL inside regularize (ADMM iterations)", ws,
+                ["regularize", big, "-o", ws.path("s8.h5"), "--iters", "10000", "--tol", "1e-30", "--lam", "0.05"],
+                ws.path("s8.h5")),
+        _stale_temporaries("S9", ws),
     ]
 
 
