@@ -9,7 +9,7 @@ plot_image_fft(img, path=None, *, dynamic_range_db=60) -> dict
 plot_psf(img, path, *, dynamic_range_db=60)
 plot_history(history, path)
 plot_benchmark(result, path, *, title='')
-image_figure(img, path, values, kind, dynamic_range_db, colormap)
+image_figure(img, path, *, kind="db", dynamic_range_db=50, cmap="gray")
 
 The diagnostic plots return a dict with the matplotlib ``figure`` and the numbers it shows, and
 write a PNG when ``path`` is given (atomically). Images are drawn north-up with axes in metres.
@@ -378,12 +378,15 @@ def plot_benchmark(result, path, *, title: str = ""):
     return path
 
 
-def image_figure(img, path, values, kind, dynamic_range_db, colormap):
+def image_figure(img, path, *, kind="db", dynamic_range_db=50.0, cmap="gray"):
     """An image as a figure: metre axes (east, north), title, colour bar (PNG, atomic).
 
-    ``values`` are the 8-bit display values of :func:`sarcli.io.png.display_values` (row 0
-    south); ``kind`` is ``'db'`` or ``'magnitude'``.
+    The pixels are the display values of :func:`sarcli.io.png.display_values` (``kind`` 'db' or
+    'magnitude', ``dynamic_range_db``) in the matplotlib colormap ``cmap``.
     """
+    from .io.png import colormap, display_values
+
+    values = display_values(img, kind=kind, dynamic_range_db=dynamic_range_db)
     dr = float(dynamic_range_db)
     grid = img.grid
     extent = (img.x_m[0] - grid.dx / 2, img.x_m[-1] + grid.dx / 2,
@@ -398,7 +401,7 @@ def image_figure(img, path, values, kind, dynamic_range_db, colormap):
         shown = values.astype(np.float64) / 255.0
         label, vmin, vmax = "|f| / max|f|", 0.0, 1.0
     # origin='lower' puts our row 0 (south) at the bottom: the figure is north-up
-    im = ax.imshow(shown, origin="lower", extent=extent, cmap=colormap, vmin=vmin, vmax=vmax,
+    im = ax.imshow(shown, origin="lower", extent=extent, cmap=colormap(cmap), vmin=vmin, vmax=vmax,
                    interpolation="nearest")
     ax.set_xlabel("x (east) [m]")
     ax.set_ylabel("y (north) [m]")

@@ -126,7 +126,9 @@ def test_png_colormap_rgb_and_annotated(tmp_path):
 
     top = np.rint(np.asarray(matplotlib.colormaps["viridis"](1.0)[:3]) * 255)
     assert np.abs(rgb.reshape(-1, 3).astype(int) - top).sum(axis=1).min() == 0
-    export_image(img, tmp_path / "ann.png", annotate=True)
+    from sarcli.viz import image_figure
+
+    image_figure(img, tmp_path / "ann.png")
     fig = np.asarray(PILImage.open(tmp_path / "ann.png"))
     assert fig.shape[0] > 200 and fig.shape[1] > 200  # a figure, not the 32x48 pixels
 

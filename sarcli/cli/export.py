@@ -41,8 +41,12 @@ def command(image, output, kind, dynamic_range_db, cmap, bare, annotate, phase_h
                       "RadarCollection) is NOMINAL, not the collection's; give --phase-history PH.h5, or "
                       "form the SICD straight from the data (sar form-image FILE.cphd -o IMG.sicd)",
                       GeometryWarning, stacklevel=2)
-    export_image(img, output, kind=kind, dynamic_range_db=dynamic_range_db, cmap=cmap,
-                 annotate=annotate, phase_history=ph)
+    if annotate:
+        from ..viz import image_figure
+
+        image_figure(img, output, kind=kind or "db", dynamic_range_db=dynamic_range_db, cmap=cmap)
+    else:
+        export_image(img, output, kind=kind, dynamic_range_db=dynamic_range_db, cmap=cmap, phase_history=ph)
     what = {"png": "annotated dB figure" if annotate else f"{kind or 'db'} raster", "geotiff": f"GeoTIFF, {kind or 'magnitude'}",
             "sicd": "SICD, complex"}[fmt]
     wrote(output, f"{what}, {img.image.shape[1]} x {img.image.shape[0]} pixels")

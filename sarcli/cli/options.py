@@ -261,7 +261,12 @@ def write_side_outputs(img, png_path=None, tif_path=None):
         if png_path:
             ctx = click.get_current_context(silent=True)
             bare = bool(ctx and ctx.meta.get("sarcli.png_bare"))
-            export_image(img, png_path, kind="db", annotate=not bare)
+            if bare:
+                export_image(img, png_path, kind="db")
+            else:
+                from ..viz import image_figure
+
+                image_figure(img, png_path, kind="db")
             wrote(png_path, "dB picture, raw raster" if bare else "dB figure")
         if tif_path:
             export_image(img, tif_path, kind="magnitude")

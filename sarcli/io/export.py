@@ -3,13 +3,14 @@
 Public API
 ----------
 load_image(path) -> Image   (a sarcli image, a SICD or a GeoTIFF, recognised by its content)
-export_image(img, path, *, kind=None, dynamic_range_db=50, cmap='gray', annotate=False, fmt=None,
+export_image(img, path, *, kind=None, dynamic_range_db=50, cmap='gray', fmt=None,
              phase_history=None)
 format_from_suffix(path) -> str  (the export format an output name asks for)
 
 The format written is chosen from the output's suffix (:data:`EXPORT_FORMATS`: ``.tif``/``.tiff``
 GeoTIFF, ``.png`` PNG, :data:`SICD_SUFFIXES` SICD) unless ``fmt`` names it; a file read is
-recognised by its content (:func:`sarcli.io.open_input`). ``docs/formats.md`` gives every mapping.
+recognised by its content (:func:`sarcli.io.open_input`). ``docs/formats.md`` gives every mapping. The annotated PNG figure (metre axes,
+colour bar) is a figure: :func:`sarcli.viz.image_figure`.
 """
 
 from __future__ import annotations
@@ -43,7 +44,7 @@ def format_from_suffix(path) -> str:
 
 
 def export_image(img: Image, path, *, kind: str | None = None, dynamic_range_db: float = 50.0,
-                 cmap: str = "gray", annotate: bool = False, fmt: str | None = None,
+                 cmap: str = "gray", fmt: str | None = None,
                  phase_history=None):
     """Write an image to GeoTIFF, PNG or SICD.
 
@@ -58,8 +59,6 @@ def export_image(img: Image, path, *, kind: str | None = None, dynamic_range_db:
         Displayed range of dB pictures (PNG) and the floor of dB GeoTIFFs.
     cmap : str
         PNG colormap ('gray' or a matplotlib name).
-    annotate : bool
-        PNG only: a figure with metre axes and a colour bar.
     fmt : {'geotiff', 'png', 'sicd'}, optional
         Overrides the suffix.
     phase_history : sarcli.core.types.PhaseHistory or Acquisition, optional
@@ -73,8 +72,6 @@ def export_image(img: Image, path, *, kind: str | None = None, dynamic_range_db:
     if name not in EXPORT_FORMATS:
         raise SarcliInputError(f"unknown export format {fmt!r}; choose one of {', '.join(EXPORT_FORMATS)}")
     kind = kind or DEFAULT_KIND[name]
-    if annotate and name != "png":
-        raise SarcliInputError("--annotate applies to PNG output only")
     if name == "geotiff":
         from .geotiff import write_geotiff
 
@@ -82,7 +79,7 @@ def export_image(img: Image, path, *, kind: str | None = None, dynamic_range_db:
     elif name == "png":
         from .png import write_png
 
-        write_png(img, path, kind=kind, dynamic_range_db=dynamic_range_db, cmap=cmap, annotate=annotate)
+        write_png(img, path, kind=kind, dynamic_range_db=dynamic_range_db, cmap=cmap)
     else:
         if kind != "complex":
             raise SarcliInputError(f"SICD holds complex pixels only; kind {kind!r} is not available")

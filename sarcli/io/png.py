@@ -4,9 +4,8 @@ Mapping (``kind='db'``, the default): ``20 log10(|f| / max|f|)`` clipped to ``[-
 linearly onto 0..255, so the peak is exactly 255 and ``-DR`` dB (and below) is 0. ``kind='magnitude'``
 maps ``|f| / max|f|`` linearly onto 0..255. Rows are flipped so the top of the picture is north;
 the PNG's ``Description`` text chunk records the flip and the mapping. Grey pictures are 8-bit
-single-channel; a named matplotlib colormap gives 8-bit RGB.
-With ``annotate=True`` a matplotlib figure is written instead: axes in metres (east, north) and a
-colour bar in dB (or linear units).
+single-channel; a named matplotlib colormap gives 8-bit RGB. The same display values drawn as a
+figure with metre axes and a colour bar: :func:`sarcli.viz.image_figure`.
 """
 
 from __future__ import annotations
@@ -19,7 +18,7 @@ from ..errors import SarcliInputError
 from ..core.types import Image
 from . import pixels as _common
 
-__all__ = ["write_png", "display_values"]
+__all__ = ["write_png", "display_values", "colormap"]
 
 
 def display_values(img: Image, *, kind: str = "db", dynamic_range_db: float = 50.0) -> np.ndarray:
@@ -34,7 +33,8 @@ def display_values(img: Image, *, kind: str = "db", dynamic_range_db: float = 50
     return np.clip(np.rint(255.0 * scaled), 0, 255).astype(np.uint8)
 
 
-def _colormap(name):
+def colormap(name):
+    """The matplotlib colormap ``name`` (SarcliInputError naming it when unknown)."""
     import matplotlib
 
     try:
@@ -44,7 +44,7 @@ def _colormap(name):
 
 
 def write_png(img: Image, path, *, kind: str = "db", dynamic_range_db: float = 50.0,
-              cmap: str = "gray", annotate: bool = False):
+              cmap: str = "gray"):
     """Write ``img`` as a PNG picture (north-up).
 
     Parameters
@@ -56,13 +56,9 @@ def write_png(img: Image, path, *, kind: str = "db", dynamic_range_db: float = 5
         Displayed dynamic range DR (dB) of the dB mapping.
     cmap : str
         'gray' (8-bit grey) or any matplotlib colormap name (8-bit RGB).
-    annotate : bool
-        Write a matplotlib figure with metre axes and a colour bar instead of the bare pixels.
     """
     values = display_values(img, kind=kind, dynamic_range_db=dynamic_range_db)
-    colormap = _colormap(cmap)
-    if annotate:
-        return _write_annotated(img, path, values, kind, float(dynamic_range_db), colormap)
+    cm = colormap(cmap)
     from PIL import Image as PILImage
     from PIL.PngImagePlugin import PngInfo
 
@@ -70,7 +66,7 @@ def write_png(img: Image, path, *, kind: str = "db", dynamic_range_db: float = 5
     if cmap in ("gray", "grey", "Greys_r"):
         pic = PILImage.fromarray(up, mode="L")
     else:
-        rgb = (colormap(up.astype(np.float64) / 255.0)[..., :3] * 255.0 + 0.5).astype(np.uint8)
+        rgb = (cm(up.astype(np.float64) / 255.0)[..., :3] * 255.0 + 0.5).astype(np.uint8)
         pic = PILImage.fromarray(rgb, mode="RGB")
     info = PngInfo()
     mapping = (f"20log10(|f|/max|f|) clipped to [-{dynamic_range_db:g}, 0] dB -> 0..255" if kind == "db"
@@ -80,8 +76,3 @@ def write_png(img: Image, path, *, kind: str = "db", dynamic_range_db: float = 5
     with atomic_path(path) as tmp:
         pic.save(tmp, format="PNG", pnginfo=info)
 
-
-def _write_annotated(img, path, values, kind, dr, colormap):
-    from ..viz import image_figure
-
-    image_figure(img, path, values, kind, dr, colormap)
