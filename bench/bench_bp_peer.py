@@ -8,7 +8,7 @@ Two cases, each timed in this process (sarcli) and in a subprocess (FastSAR), al
 
 Wall seconds and CPU seconds (summed over threads; on a shared, loaded machine the more stable
 measure of the work) are the best of the calls. Every image is compared with sarcli's exact matched filter (``direct``) on a strided sub-grid
-(:func:`sarcli.analysis.benchmark.reference_grid`). FastSAR's image is the unnormalised, unwindowed
+(:func:`sarcli.analysis.accuracy.reference_grid`). FastSAR's image is the unnormalised, unwindowed
 sum over pulses and frequencies, ``[nx, ny]`` on the grid ``x_i = (i - nx/2) dx`` about a centre;
 the script transposes it, passes the same frequency line sarcli's backprojection uses (least
 squares, :func:`sarcli.core.sampling.frequency_line`) and the same reference ranges, and
@@ -49,7 +49,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from bench_backprojection import build_anchor  # noqa: E402
 
-from sarcli.analysis.benchmark import reference_grid  # noqa: E402
+from sarcli.analysis.accuracy import reference_grid  # noqa: E402
 from sarcli.core import geometry  # noqa: E402
 from sarcli.core.geometry import C  # noqa: E402
 from sarcli.core.grid import Grid  # noqa: E402

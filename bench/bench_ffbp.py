@@ -33,7 +33,7 @@ from pathlib import Path
 
 import numpy as np
 
-from sarcli.analysis.benchmark import reference_grid
+from sarcli.analysis.accuracy import reference_grid
 from sarcli.core import geometry
 from sarcli.core.acquisition import Acquisition
 from sarcli.core.grid import Grid

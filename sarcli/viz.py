@@ -334,13 +334,13 @@ def plot_benchmark(result, path, *, title: str = ""):
 
     Parameters
     ----------
-    result : sarcli.analysis.benchmark.BenchResult
+    result : sarcli.batch.benchmark.BenchResult
     path : str or Path
     title : str
     """
     from pathlib import Path
 
-    from .analysis.benchmark import pareto_front
+    from .analysis.accuracy import pareto_front
 
     rows = result.rows
     has_truth = any(np.isfinite(r.error_truth) for r in rows)

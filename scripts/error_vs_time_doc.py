@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from sarcli.analysis.benchmark import pareto_front
+from sarcli.analysis.accuracy import pareto_front
 from sarcli.formers import backprojection as bp
 
 #: When the runs below were last made (update with them).

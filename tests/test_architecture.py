@@ -129,8 +129,7 @@ RANKS = {
     "": 14,                    # the package's lazy front door, sarcli/__init__.py
 }
 #: Upward imports not yet removed, as (importer, imported) module pairs.
-PENDING = {("sarcli.analysis.benchmark", "sarcli.regularize"),
-           ("sarcli.analysis.benchmark", "sarcli.formers.formation"), ("sarcli.viz", "sarcli.analysis.benchmark")}
+PENDING: set = set()
 
 
 def _layer(module: str) -> str:

@@ -1,4 +1,4 @@
-"""``sarcli.analysis.benchmark`` and ``sar bench``: error against run time, Pareto front, CSV/PNG."""
+"""``sarcli.batch.benchmark`` and ``sar bench``: error against run time, Pareto front, CSV/PNG."""
 
 from __future__ import annotations
 
@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from sarcli.analysis import benchmark as bm
+from sarcli.analysis import accuracy
+from sarcli.batch import benchmark as bm
 from sarcli.viz import plot_benchmark
 from sarcli.cli.main import cli
 
@@ -34,7 +35,7 @@ def test_pareto_front_by_hand():
     err = [1e-1, 1e-3, 1e-2, 1e-6, 1e-4, np.nan]
     sec = [0.1, 0.2, 0.3, 1.0, 2.0, 0.01]
     # (0.1, 1e-1), (0.2, 1e-3), (1.0, 1e-6) are unbeaten; (0.3, 1e-2) and (2.0, 1e-4) are dominated
-    assert bm.pareto_front(err, sec).tolist() == [0, 1, 3]
+    assert accuracy.pareto_front(err, sec).tolist() == [0, 1, 3]
 
 
 def test_sweep_covers_every_accuracy_knob():
@@ -50,7 +51,7 @@ def test_sweep_covers_every_accuracy_knob():
 
 def test_reference_subgrid_pixels_are_grid_pixels(ph):
     grid = ph.acquisition.grid
-    sub, rs, cs, cost = bm.reference_grid(ph, grid, max_cost=cost_of(ph) / 10)
+    sub, rs, cs, cost = accuracy.reference_grid(ph, grid, max_cost=cost_of(ph) / 10)
     assert cost == pytest.approx(cost_of(ph))
     assert sub.nx < grid.nx and sub.nx * sub.ny * ph.data.size <= cost_of(ph) / 10
     np.testing.assert_allclose(sub.x, grid.x[cs], atol=1e-12)
@@ -58,7 +59,7 @@ def test_reference_subgrid_pixels_are_grid_pixels(ph):
     # strided over the whole image: first and last sampled pixels lie within one stride of the edges
     stride = cs[1] - cs[0]
     assert stride == 4 and cs[0] < stride and cs[-1] >= grid.nx - stride
-    assert bm.reference_grid(ph, grid, max_cost=cost_of(ph))[0] == grid
+    assert accuracy.reference_grid(ph, grid, max_cost=cost_of(ph))[0] == grid
 
 
 def cost_of(ph):

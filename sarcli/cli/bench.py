@@ -36,7 +36,7 @@ def command(ctx, inputs, out_dir, methods, repeat, windows, regularizers, reg_it
     """Form the image with every method and knob setting; write error against run time (CSV, PNG)."""
     from pathlib import Path
 
-    from ..analysis import benchmark as bm
+    from ..batch import benchmark as bm
     from ..viz import plot_benchmark
     from ..errors import SarcliInputError
 

@@ -43,6 +43,7 @@ from pathlib import Path
 import numpy as np
 
 from .._util.atomic import atomic_path
+from ..analysis.accuracy import MAX_REFERENCE_COST, pareto_front, reference_grid, truth_error, truth_on_grid
 from ..errors import SarcliInputError
 from ..formers.formation import form_image, image_error
 from ..core.grid import Grid, resolve_grid
@@ -50,9 +51,9 @@ from ..core.types import PhaseHistory
 from .._util.progress import progress
 
 __all__ = ["BenchRow", "BenchResult", "sweep", "run_benchmark", "regularizer_sweep", "measure",
-           "reference_grid", "truth_on_grid", "pareto_front", "write_csv", "format_table",
+           "write_csv", "format_table",
            "load_input", "NUFFT_EPS", "PFA_OVERSAMPLE", "PFA_WIDTH", "BP_UPSAMPLE", "BP_INTERP",
-           "BP_PRECISION", "MAX_REFERENCE_COST", "CSV_COLUMNS"]
+           "BP_PRECISION", "CSV_COLUMNS"]
 
 NUFFT_EPS = tuple(10.0 ** -k for k in range(2, 13))
 PFA_OVERSAMPLE = (1.25, 1.5, 2.0, 3.0)
@@ -69,7 +70,6 @@ FFBP_BASE = (8, 16, 32)   # 16: the default
 #: subimage: the tolerance its tile (and NUFFT eps) is chosen for.
 SUBIMAGE_TOL = (1e-1, 1e-2, 1e-3)
 #: Largest P·M·pixels the exact reference is computed for (about 10 s on one core); beyond it a sub-grid.
-MAX_REFERENCE_COST = 1.0e9
 CSV_COLUMNS = ("method", "knobs", "error", "error_truth", "seconds", "compile_s", "peak_mb", "warnings")
 
 
@@ -193,74 +193,6 @@ def measure(fn, repeat: int = 3, *, memory: bool = True):
     return out, med, max(0.0, first - med), peak, names
 
 
-def _strided_axis(n: int, stride: int) -> np.ndarray:
-    """Indices ``n//2 + (j - m//2)·stride`` of an axis of ``n`` pixels, as many as fit (``m`` of them)."""
-    left = (n // 2) // stride
-    right = (n - 1 - n // 2) // stride
-    m = 2 * right + 2 if left > right else 2 * left + 1
-    return n // 2 + (np.arange(m) - m // 2) * stride
-
-
-def reference_grid(ph: PhaseHistory, grid: Grid, max_cost: float = MAX_REFERENCE_COST):
-    """The grid the exact reference is formed on: ``grid`` itself, or a strided sub-grid of it.
-
-    The sub-grid takes every ``s``-th pixel of ``grid`` in x and y around its centre pixel, with the
-    smallest stride ``s`` for which ``P·M·pixels <= max_cost``; its pixels are pixels of ``grid``
-    and they cover the whole image, so errors that grow towards the edges (gridding roll-off,
-    far-field defocus) are sampled fairly. Returns ``(sub_grid, rows, cols, cost)`` with
-    ``rows``/``cols`` the indices into ``grid`` (use ``img[np.ix_(rows, cols)]``) and
-    ``cost = P·M·pixels`` of the full grid.
-    """
-    P, M = ph.data.shape
-    cost = float(P) * M * grid.nx * grid.ny
-    if cost <= max_cost:
-        return grid, np.arange(grid.ny), np.arange(grid.nx), cost
-    stride = max(2, int(np.ceil(np.sqrt(cost / max_cost))))
-    cols = _strided_axis(grid.nx, stride)
-    rows = _strided_axis(grid.ny, stride)
-    sub = Grid(cols.size, rows.size, grid.dx * stride, grid.dy * stride,
-               float(grid.x[grid.nx // 2]), float(grid.y[grid.ny // 2]))
-    return sub, rows, cols, cost
-
-
-def truth_on_grid(ph: PhaseHistory, grid: Grid):
-    """The truth on ``grid`` as ``(values, mask)``, or None when unknown.
-
-    Extended scenes: ``|ph.truth.scene|`` when its grid is ``grid`` (mask None: every pixel counts).
-    Point-only scenes: ``|a_s|`` at each target's nearest pixel with ``mask`` selecting those
-    pixels, so the error is that of the peak amplitudes (a matched filter blurs a point into its
-    PSF, which a pixel-wise comparison with a one-pixel truth would only measure the width of).
-    """
-    t = ph.truth
-    if t is None:
-        return None
-    scene = ph.acquisition.scene or {}
-    extended = any(k in scene for k in ("phantom", "image_file"))
-    if extended or t.point_amplitude.size == 0:
-        if t.scene is not None and t.x_m is not None and t.x_m.shape == grid.x.shape and \
-                t.y_m.shape == grid.y.shape and np.allclose(t.x_m, grid.x) and np.allclose(t.y_m, grid.y):
-            mag = np.abs(t.scene)
-            return (mag, None) if np.any(mag) else None
-        return None
-    out = np.zeros(grid.shape)
-    for (x, y, _), a in zip(t.point_position_m, t.point_amplitude):
-        r, c = grid.index_of(x, y)
-        if 0 <= r < grid.ny and 0 <= c < grid.nx:
-            out[r, c] += abs(a)
-    return (out, out > 0) if np.any(out) else None
-
-
-def _truth_error(img, truth):
-    """``‖|f| − |t|‖₂ / ‖t‖₂`` over the truth's pixels (see :func:`truth_on_grid`)."""
-    if truth is None:
-        return float("nan")
-    t, mask = truth
-    f = np.abs(np.asarray(img))
-    if mask is not None:
-        f, t = f[mask], t[mask]
-    return float(np.linalg.norm(f - t) / np.linalg.norm(t))
-
-
 def run_benchmark(ph: PhaseHistory, *, methods=("direct",) + FAST_METHODS, repeat: int = 3, grid: Grid | None = None,
                   center=None, extent=None, pixel_size=None, max_reference_cost: float = MAX_REFERENCE_COST,
                   windows=("none", "taylor"), settings=None, regularizers=(), reg_iters=(1, 2, 5, 10, 20, 50),
@@ -321,7 +253,7 @@ def run_benchmark(ph: PhaseHistory, *, methods=("direct",) + FAST_METHODS, repea
             refs[window] = out.image
             if "direct" in methods:
                 rows.append(BenchRow("direct", {"window": window, "pixels": sub.nx * sub.ny}, 0.0,
-                                     _truth_error(out.image, truth) if sub == grid else float("nan"),
+                                     truth_error(out.image, truth) if sub == grid else float("nan"),
                                      sec, comp, float("nan"), wn))
         return refs[window]
 
@@ -338,7 +270,7 @@ def run_benchmark(ph: PhaseHistory, *, methods=("direct",) + FAST_METHODS, repea
             rows.append(BenchRow(method, knobs, nan, nan, nan, nan, nan, [f"refused: {exc}"]))
             continue
         img = out.image
-        rows.append(BenchRow(method, knobs, image_error(img[np.ix_(rs, cs)], ref), _truth_error(img, truth),
+        rows.append(BenchRow(method, knobs, image_error(img[np.ix_(rs, cs)], ref), truth_error(img, truth),
                              sec, comp, peak, wn))
     for prior in regularizers:
         rows += regularizer_sweep(ph, prior, grid=grid, iters=reg_iters, truth=truth)
@@ -373,24 +305,10 @@ def regularizer_sweep(ph: PhaseHistory, prior: str, *, grid: Grid, iters=(1, 2, 
         knobs = {"iters": int(n), **{k: v for k, v in kwargs.items() if np.isscalar(v)}}
         if obj is not None and len(obj):
             knobs["objective"] = float(obj[-1])
-        rows.append(BenchRow(f"regularize-{prior}", knobs, float("nan"), _truth_error(img.image, truth),
+        rows.append(BenchRow(f"regularize-{prior}", knobs, float("nan"), truth_error(img.image, truth),
                              float(img.runtime_s), 0.0, float("nan"),
                              sorted({w.category.__name__ for w in caught})))
     return rows
-
-
-def pareto_front(errors, seconds) -> np.ndarray:
-    """Indices of the settings no other setting beats in both error and time, by increasing time."""
-    e = np.asarray(errors, float)
-    s = np.asarray(seconds, float)
-    ok = np.flatnonzero(np.isfinite(e) & np.isfinite(s))
-    order = ok[np.lexsort((e[ok], s[ok]))]
-    front, best = [], np.inf
-    for i in order:
-        if e[i] < best:
-            front.append(i)
-            best = e[i]
-    return np.asarray(front, dtype=int)
 
 
 def write_csv(result: BenchResult, path) -> Path:
