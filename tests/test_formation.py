@@ -15,7 +15,12 @@ from sarcli.formers.formation import image_error
 from .conftest import CONFIGS
 
 # documented bounds at default settings (docs/accuracy.md)
-BOUNDS = {"nufft": 1e-5, "pfa": 2e-2, "backprojection": 1e-2}
+#: relative error against the exact matched filter, within 10x of what is measured (nufft 1.5e-10,
+#: pfa 8.1e-7, backprojection 6.8e-5)
+BOUNDS = {"nufft": 1e-9, "pfa": 8e-6, "backprojection": 5e-4}
+#: |peak| - 1 of a lone unit point on a pixel centre (measured: direct 0, nufft 1.2e-11, pfa 5.4e-9,
+#: backprojection 3.8e-6)
+PEAK = {"direct": 1e-12, "nufft": 1e-10, "pfa": 5e-8, "backprojection": 4e-5}
 
 
 def _three_points(model, **image):
@@ -72,7 +77,7 @@ def test_unit_points_on_pixel_centres_peak_at_one(ff, sph, method):
         r, c = img.grid.index_of(pos[0], pos[1])
         win = np.abs(img.image[r - 2:r + 3, c - 2:c + 3])
         assert np.unravel_index(np.argmax(win), win.shape) == (2, 2)
-        assert abs(np.abs(img.image[r, c]) - 1) < 1e-3
+        assert abs(np.abs(img.image[r, c]) - 1) < PEAK[method]
 
 
 @pytest.mark.parametrize("window", ["hann", "hamming", "taylor"])
@@ -119,7 +124,7 @@ def test_grid_overrides(ff):
     r, c = np.unravel_index(np.argmax(np.abs(img.image)), img.image.shape)
     assert (img.x_m[c], img.y_m[r]) == (pytest.approx(1.0), pytest.approx(4.0))
     ref = sarcli.form_image(ph, "direct", center=(1.0, 4.0), extent=(2.0, 1.0), pixel_size=0.05)
-    assert image_error(img.image, ref.image) < 1e-5
+    assert image_error(img.image, ref.image) < BOUNDS["nufft"]
 
 
 def test_cli_form_image_and_regrid(tmp_path, ff):
@@ -130,7 +135,7 @@ def test_cli_form_image_and_regrid(tmp_path, ff):
     res = run(cli, ["form-image", str(phf), "-o", str(tmp_path / "nufft.h5"), "--method", "nufft"])
     assert res.exit_code == 0, res.output
     img = sarcli.read_image(tmp_path / "nufft.h5")
-    assert image_error(img.image, ref.image) < 1e-5 and img.parameters["eps"] == 1e-9
+    assert image_error(img.image, ref.image) < BOUNDS["nufft"] and img.parameters["eps"] == 1e-9
     res = run(cli, ["regrid", str(phf), "-o", str(tmp_path / "kg.h5")])
     assert res.exit_code == 0, res.output
     res = run(cli, ["form-image", str(tmp_path / "kg.h5"), "-o", str(tmp_path / "pfa.h5"), "--method", "pfa"])
