@@ -89,13 +89,7 @@ class _Level:
 
 def _frame_geometry(pos, first, count, grid, margin):
     """What :func:`_frame` finds that does not depend on the sampling (centres, bounds in the polar
-    coordinates, the band's geometric factors), kept for the sub-apertures and grid of recent plans:
-    a sweep of oversamplings (the planner's) takes it once per base."""
-    key = (_digest(pos), _digest(first), _digest(count), grid.x[0], grid.x[-1], grid.nx, grid.y[0], grid.y[-1],
-           grid.ny, float(margin))
-    hit = _FRAMES.get(key)
-    if hit is not None:
-        return hit
+    coordinates, the band's geometric factors; :meth:`Apertures.geometry` keeps it)."""
     run = pos[first[0]:first[-1] + count[-1]]   # the sub-apertures are consecutive runs of pulses
     starts = first - first[0]
     centres = np.add.reduceat(run, starts, axis=0) / count[:, None]
@@ -116,26 +110,22 @@ def _frame_geometry(pos, first, count, grid, margin):
     tmin, tmax = tau.min(axis=1), tau.max(axis=1)
     hit = {"g": g, "qmin": qmin, "qmax": qmax, "tmin": tmin, "tmax": tmax, "d": d, "tilt": tilt}
     for v in hit.values():
-        v.setflags(write=False)   # shared by the plans that hit the cache
-    return _keep(_FRAMES, key, hit, 256)
+        v.setflags(write=False)   # shared by the plans of one Apertures
+    return hit
 
 
-_FRAMES: dict = {}
-
-
-def _frame(pos, first, count, grid, kmax, os_angle, margin, band_scale=1.0):
-    """Polar frames of the sub-apertures ``first/count``: centres, bounds of the grid grown by
-    ``margin`` in their coordinates, spacing in u and ground metres per unit u (the largest R).
-    ``band_scale`` widens the band in u the spacing is made for (:func:`band_excess`)."""
-    first, count = np.asarray(first), np.asarray(count)
-    geo = _frame_geometry(pos, first, count, grid, margin)
+def _frame(geo, first, count, kmax, os_angle, band_scale=1.0):
+    """Polar frames of the sub-apertures ``first/count`` of frame geometry ``geo``
+    (:func:`_frame_geometry`): centres, bounds of the grid grown by the margin in their
+    coordinates, spacing in u and ground metres per unit u (the largest R). ``band_scale`` widens
+    the band in u the spacing is made for (:func:`band_excess`)."""
     g, qmin, qmax, tmin, tmax, d, tilt = (geo[k] for k in ("g", "qmin", "qmax", "tmin", "tmax", "d", "tilt"))
     span = np.maximum(tmax - tmin, 1e-300)
     band = kmax * d * np.sqrt(1.0 + tilt * tilt) * float(band_scale)
     dtau = np.where(band > 0, np.pi / np.maximum(band, 1e-300) / os_angle, span)
     dtau = np.minimum(dtau, span / 2.0)
     beta = float(np.min(np.where(band > 0, np.pi / np.maximum(band * dtau, 1e-300), np.inf)))
-    return {"beta": beta, "first": np.asarray(first), "count": np.asarray(count), "geo": g, "qmin": qmin, "qmax": qmax,
+    return {"beta": beta, "first": first, "count": count, "geo": g, "qmin": qmin, "qmax": qmax,
             "tmin": tmin, "tmax": tmax, "dtau": dtau, "metres_per_tau": float(np.max(g[2] + qmax))}
 
 
@@ -148,7 +138,7 @@ def _level(fr, dq, ext_q, ext_t) -> _Level:
                   fr["dtau"], nt, nq)
 
 
-def pulse_rates(t, r, fr, xs, ys, parent=None):
+def pulse_rates(t, r, fr, xs, ys, parent=None, rays=None):
     """Each pulse's ``∂R_p/∂q`` and ``∂R_p/∂u`` on its sub-aperture's polar grid (derivatives along
     a row and across rows, :func:`_ray_derivatives`): the middle of each one's range over the points
     (xs, ys) and half that range, as ``(q_mid, q_half, u_mid, u_half)`` over the frame's pulses.
@@ -160,36 +150,58 @@ def pulse_rates(t, r, fr, xs, ys, parent=None):
     ``t``, ``r``: transmit and receive positions (the same array for a monostatic collection; the
     range is their mean). ``parent``: the centre geometry of each sub-aperture's parent [7, S] when
     a merge reads this level; its second pass interpolates along the parent's rows (direction
-    ``v``), so the range tone it reads is ``∇R_p·v / ∇q·v`` per unit of this grid's q."""
+    ``v``), so the range tone it reads is ``∇R_p·v / ∇q·v`` per unit of this grid's q. ``rays``:
+    :func:`_unit_rays` of ``t`` and ``r`` at the points, when already at hand."""
+    rays = rays or _unit_rays(t, r, xs, ys)
+    q_mid, q_half, u_mid, u_half = _rates(rays, fr, xs, ys, parent, True)
+    return q_mid, q_half, u_mid, u_half
+
+
+def _rates(rays, fr, xs, ys, parent, want_u):
+    """:func:`pulse_rates` from the unit rays; ``want_u=False`` leaves the u rows out (``None``)."""
     n_sub = fr["first"].size
     sub = np.repeat(np.arange(n_sub), fr["count"])
-    a0 = fr["first"][0]
+    a0, a1 = fr["first"][0], fr["first"][-1] + fr["count"][-1]
     g = fr["geo"]
     every = np.arange(n_sub)   # the grids' directions, once per sub-aperture
     (gqx, gqy), (gux, guy) = _ray_derivatives(g, every, xs[None, :], ys[None, :])
-    gden = np.ones_like(gqx)
+    gden = None
     if parent is not None:
         (gqx, gqy), _ = _ray_derivatives(parent, every, xs[None, :], ys[None, :])
         gden = _range_rate(np.stack([g[0], g[1], g[6]], axis=1), xs[None, :], ys[None, :], gqx, gqy)
     out = np.empty((4, sub.size))
     for a in range(0, sub.size, 4096):   # blocks of pulses: no [P, points] temporaries beyond 4096 rows
         sb = sub[a:a + 4096]
-        rq, ru = _unit_rays(t[a0 + a:a0 + a + 4096], xs, ys, gqx[sb], gqy[sb], gux[sb], guy[sb])
-        if r is not t:
-            rq2, ru2 = _unit_rays(r[a0 + a:a0 + a + 4096], xs, ys, gqx[sb], gqy[sb], gux[sb], guy[sb])
-            rq, ru = 0.5 * (rq + rq2), 0.5 * (ru + ru2)
-        for i, rate in enumerate((rq / gden[sb], ru)):
-            hi, lo = rate.max(axis=1), rate.min(axis=1)
-            out[2 * i, a:a + hi.size], out[2 * i + 1, a:a + hi.size] = 0.5 * (hi + lo), 0.5 * (hi - lo)
-    return tuple(out)
+        lo, hi = a0 + a, min(a0 + a + 4096, a1)
+        for i, (gx, gy) in enumerate(((gqx, gqy), (gux, guy)) if want_u else ((gqx, gqy),)):
+            rate = _dot(rays, lo, hi, gx[sb], gy[sb])
+            if i == 0 and gden is not None:
+                rate = rate / gden[sb]
+            top, bottom = rate.max(axis=1), rate.min(axis=1)
+            out[2 * i, a:a + top.size], out[2 * i + 1, a:a + top.size] = 0.5 * (top + bottom), 0.5 * (top - bottom)
+    return (out[0], out[1]) + ((out[2], out[3]) if want_u else (None, None))
 
 
-def _unit_rays(pos, xs, ys, qx, qy, ux, uy):
-    """:func:`_range_rate` of pulses ``pos`` along (qx, qy) and (ux, uy), sharing the unit rays."""
-    px, py, pz = xs[None, :] - pos[:, 0:1], ys[None, :] - pos[:, 1:2], pos[:, 2:3]
-    inv = 1.0 / np.sqrt(px * px + py * py + pz * pz)
-    px, py = px * inv, py * inv
-    return px * qx + py * qy, px * ux + py * uy
+def _unit_rays(t, r, xs, ys):
+    """Unit vectors (x and y components, ``[P, points]``) from the pulses ``t`` (and the receive
+    positions ``r`` where they differ) to the ground points (xs, ys): what :func:`pulse_rates`
+    needs of the pulses, shared by every level."""
+    def one(pos):
+        px, py, pz = xs[None, :] - pos[:, 0:1], ys[None, :] - pos[:, 1:2], pos[:, 2:3]
+        inv = 1.0 / np.sqrt(px * px + py * py + pz * pz)
+        return px * inv, py * inv
+    return (one(t),) if r is t else (one(t), one(r))
+
+
+def _dot(rays, lo, hi, gx, gy):
+    """:func:`_range_rate` of pulses ``lo .. hi-1`` along the directions (gx, gy) [pulses, points]:
+    the mean over the transmit and receive rays."""
+    (px, py), rest = rays[0], rays[1:]
+    rate = px[lo:hi] * gx + py[lo:hi] * gy
+    if rest:
+        (qx, qy), = rest
+        rate = 0.5 * (rate + (qx[lo:hi] * gx + qy[lo:hi] * gy))
+    return rate
 
 
 def deapodization(freq_hz, plan, n_len):
@@ -211,25 +223,115 @@ def _check_points(grid, margin):
             np.concatenate([by[::4], [0.5 * (grid.y[0] + grid.y[-1])]]))
 
 
-def tone_rates(t, r, frames, parents, grid, margin):
-    """:func:`pulse_rates` of every level on the grid grown by ``margin`` (its edge and centre).
-    ``parents[l]``: the index in level l+1 of each level-l sub-aperture's parent (``None`` for
-    the last level, which the final stage reads)."""
+def _split(n, size, merge=None):
+    """``ceil(n / size)`` consecutive groups of ``n`` items, as equal as possible: (first, count).
+
+    Equal groups give sub-apertures of equal length, hence equal angular spacings; a short last
+    group would have a coarse spacing that sets every grid's extension (the grids share a shape).
+    With ``merge`` (the base sub-apertures), the number of groups is rounded up, by at most a
+    quarter, to ``r·merge^a`` (``r < 2·merge``), so that every merge stage groups them evenly too.
+    """
+    k = -(-int(n) // int(size))
+    if merge is not None:
+        m, cands = int(merge), []
+        while m <= 2 * k:
+            cand = m * -(-k // m)
+            if cand // m < 2 * int(merge) and cand <= min(1.25 * k, n):
+                cands.append(cand)
+            m *= int(merge)
+        k = min(cands, default=k)
+    edges = (np.arange(k + 1) * int(n)) // k
+    return edges[:-1], np.diff(edges)
+
+
+class Apertures:
+    """Every level of sub-apertures ffbp can form from the pulses ``t`` (``r``: receive positions,
+    the same array when monostatic) with ``base`` and ``merge``, on one grid: their pulses, the
+    geometry of their polar frames (:func:`_frame_geometry`) and their pulses' tones
+    (:func:`pulse_rates`), each computed when first asked for and kept. None of it depends on the
+    oversampling, so a sweep of oversamplings (the planner's) computes it once per base.
+
+    Level 0 holds the base sub-apertures (:func:`_split`); level l+1 groups level l's in runs of
+    ``merge``; the last level has one sub-aperture. ``children[l]``: ``(first, count)`` of each
+    level-l sub-aperture's children in level l-1 (``None`` for level 0)."""
+
+    def __init__(self, t, r, grid: Grid, margin: float, base: int, merge: int):
+        self.t, self.r, self.grid, self.margin = t, r, grid, float(margin)
+        first, count = _split(t.shape[0], base, merge)
+        self.first, self.count, self.children = [first], [count], [None]
+        while self.first[-1].size > 1:
+            cur_first, cur_count = self.first[-1], self.count[-1]
+            pf, pc = _split(cur_first.size, merge)
+            self.first.append(cur_first[pf])
+            self.count.append(np.array([cur_count[i:i + m].sum() for i, m in zip(pf, pc)]))
+            self.children.append((pf, pc))
+        pos = t if r is t else 0.5 * (t + r)
+        self._pos = pos
+        self._geometry, self._frames, self._rates, self._reach = {}, {}, {}, {}
+        self._points = self._rays = None
+
+    @property
+    def n_levels(self) -> int:
+        return len(self.first)
+
+    def geometry(self, l: int) -> dict:
+        """:func:`_frame_geometry` of level ``l``."""
+        if l not in self._geometry:
+            self._geometry[l] = _frame_geometry(self._pos, self.first[l], self.count[l], self.grid, self.margin)
+        return self._geometry[l]
+
+    def frame(self, l: int, kmax: float, os_angle: float, band_scale: float) -> dict:
+        """:func:`_frame` of level ``l``."""
+        key = (l, float(kmax), float(os_angle), float(band_scale))
+        if key not in self._frames:
+            self._frames[key] = _frame(self.geometry(l), self.first[l], self.count[l], kmax, os_angle, band_scale)
+        return self._frames[key]
+
+    def tone_reach(self, l: int, last: bool) -> tuple:
+        """What :func:`band_excess` needs of :meth:`rates`: the least and largest ``∂R_p/∂q`` over
+        the pulses and points, and each sub-aperture's largest ``|∂R_p/∂u|``."""
+        key = (l, bool(last))
+        if key not in self._reach:
+            q_mid, q_half, u_mid, u_half = self.rates(l, last)
+            starts = self.first[l] - self.first[l][0]
+            self._reach[key] = (float(np.min(q_mid - q_half)), float(np.max(q_mid + q_half)),
+                                np.maximum.reduceat(np.abs(u_mid) + u_half, starts))
+        return self._reach[key]
+
+    def parents(self, l: int) -> np.ndarray:
+        """Index in level l+1 of each level-l sub-aperture's parent."""
+        return np.searchsorted(self.children[l + 1][0], np.arange(self.first[l].size), side="right") - 1
+
+    def rates(self, l: int, last: bool) -> tuple:
+        """:func:`pulse_rates` of level ``l`` on the grid grown by the margin (its edge and centre,
+        :func:`_check_points`): read by the final stage where ``last``, else by a merge into
+        level l+1 (along its parents' rows)."""
+        key = (l, bool(last))
+        if key not in self._rates:
+            if self._rays is None:
+                self._points = _check_points(self.grid, self.margin)
+                self._rays = _unit_rays(self.t, self.r, *self._points)
+            g = self.geometry(l)["g"]
+            fr = {"first": self.first[l], "count": self.count[l], "geo": g}
+            parent = None if last else self.geometry(l + 1)["g"][:, self.parents(l)]
+            u = self._rates.get((l, not last))   # the u rows do not depend on the reader
+            q_mid, q_half, u_mid, u_half = _rates(self._rays, fr, *self._points, parent, u is None)
+            if u is not None:
+                u_mid, u_half = u[2], u[3]
+            self._rates[key] = (q_mid, q_half, u_mid, u_half)
+        return self._rates[key]
+
+
+def apertures(t, r, grid: Grid, margin: float, base: int, merge: int) -> Apertures:
+    """The :class:`Apertures` of these pulses, grid and knobs, kept for recent plans."""
     key = (_digest(t), _digest(r) if r is not t else None, grid.x[0], grid.x[-1], grid.nx, grid.y[0], grid.y[-1],
-           grid.ny, float(margin), tuple((_digest(fr["first"]), _digest(fr["count"])) for fr in frames),
-           tuple(None if p is None else _digest(p) for p in parents))
-    hit = _RATES.get(key)
-    if hit is None:
-        bx, by = _check_points(grid, margin)
-        hit = [pulse_rates(t, r, fr, bx, by, None if parents[l] is None else frames[l + 1]["geo"][:, parents[l]])
-               for l, fr in enumerate(frames)]
-        _keep(_RATES, key, hit, 32)
-    return hit
+           grid.ny, float(margin), int(base), int(merge))
+    hit = _APERTURES.get(key)
+    return hit if hit is not None else _keep(_APERTURES, key, Apertures(t, r, grid, margin, base, merge), 16)
 
 
-#: :func:`tone_rates` of recent plans: they depend on the sub-apertures and the grid, not on the
-#: oversampling, so a sweep of oversamplings (the planner's) takes them once per base.
-_RATES: dict = {}
+#: :func:`apertures` of recent plans.
+_APERTURES: dict = {}
 
 
 def _keep(cache: dict, key, value, limit: int):
@@ -245,26 +347,25 @@ def _digest(a) -> bytes:
     return hashlib.blake2b(a.view(np.uint8), digest_size=16).digest() + str(a.shape).encode()
 
 
-def band_excess(rates, frames, kmin, kmax, kref, os_angle):
+def band_excess(reach, frames, kmin, kmax, kref, os_angle):
     """How far the pulses' tones reach past the bands the polar grids are sampled for, as
     ``(range, angle)`` ratios (1: exactly to the band's edge). Range: ``max |k ∂R_p/∂q − k_ref|``
     over the band and the grids against ``K_B/2``; angle: ``max k_max |∂R_p/∂u| Δu`` against
     ``π/os_angle``. Level paths stay within 2 %, climbing or squinted ones within ~15 %; a receiver far from the
     transmitter (the grids are centred on their mean) or a wide baseline does not, and then the
-    grids must be sampled that much finer (:func:`sarcli.formers.ffbp.plan_stages`)."""
+    grids must be sampled that much finer (:func:`sarcli.formers.ffbp.plan_stages`). ``reach``:
+    :meth:`Apertures.tone_reach` of every level."""
     rq = ru = 0.0
-    for (q_mid, q_half, u_mid, u_half), fr in zip(rates, frames):
+    for (q_lo, q_hi, u_max), fr in zip(reach, frames):
         for k in (kmin, kmax):
-            rq = max(rq, float(np.max(np.abs(k * (q_mid - q_half) - kref))),
-                     float(np.max(np.abs(k * (q_mid + q_half) - kref))))
-        du = np.repeat(fr["dtau"], fr["count"])
-        ru = max(ru, float(np.max(kmax * (np.abs(u_mid) + u_half) * du)) / (np.pi / float(os_angle)))
+            rq = max(rq, abs(k * q_lo - kref), abs(k * q_hi - kref))
+        ru = max(ru, float(np.max(kmax * u_max * fr["dtau"])) / (np.pi / float(os_angle)))
     return rq / (0.5 * (kmax - kmin)), ru
 
 
 def decide_deapodization(rates, frames, kmax, kref, dq, os_range, os_angle):
     """Whether to deapodize the polar grids' range and angular kernels, from each pulse's tones on
-    every level's grid (:func:`tone_rates`).
+    every level's grid (:meth:`Apertures.rates`).
 
     Pulse p's component at ``k_j`` is read by level l's interpolations at
     ``ν_q = k_j a_q[l, p] + b_q`` and ``ν_u = k_j a_u[l, p]`` cycles per sample, with
@@ -275,7 +376,7 @@ def decide_deapodization(rates, frames, kmax, kref, dq, os_range, os_angle):
     :func:`sarcli.formers.ffbp_model.deapodized_error`). An axis is deapodized where its mismatch plus every level's aliases
     (:func:`sarcli.formers.ffbp_model.deapodized_error`) stays below the minimax stencils' error at
     the same oversampling. Returns ``{"range": (ok, mismatch, a_q, b_q), "angle": (ok, mismatch, a_u)}``
-    (the arrays ``None`` where not deapodized). ``rates``: :func:`tone_rates`."""
+    (the arrays ``None`` where not deapodized). ``rates``: :meth:`Apertures.rates` of every level."""
     n_lev, n_p = len(frames), rates[0][0].size
     a_q, a_u = np.empty((n_lev, n_p)), np.empty((n_lev, n_p))
     mis_q = mis_u = minimax_u = 0.0

@@ -52,6 +52,7 @@ docs/ffbp.md for the check against the exact matched filter.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, field
 
@@ -62,8 +63,8 @@ from ..core.grid import Grid
 from ..errors import SarcliInputError
 from .ffbp_model import INTERPOLATORS, NTAPS as _NTAPS, frequency_error, interp_error, optimal_kernel, predict_error
 from .ffbp_model import coefficients as _coefficients
-from ._ffbp_grids import _frame, _level
-from ._ffbp_grids import band_excess, deapodization as _deapodization, decide_deapodization, tone_rates
+from ._ffbp_grids import _level, _split, apertures
+from ._ffbp_grids import band_excess, deapodization as _deapodization, decide_deapodization
 from .ffbp_model import deapodized_edge_error, deapodized_error, deapodized_inverse, deapodized_kernel, default_upsample
 
 __all__ = ["ffbp", "ffbp_image", "optimal_kernel", "plan_stages", "predict_error", "interp_error", "FfbpPlan", "DEFAULTS"]
@@ -127,27 +128,6 @@ class FfbpPlan:
         return len(self.levels)
 
 
-def _split(n, size, merge=None):
-    """``ceil(n / size)`` consecutive groups of ``n`` items, as equal as possible: (first, count).
-
-    Equal groups give sub-apertures of equal length, hence equal angular spacings; a short last
-    group would have a coarse spacing that sets every grid's extension (the grids share a shape).
-    With ``merge`` (the base sub-apertures), the number of groups is rounded up, by at most a
-    quarter, to ``r·merge^a`` (``r < 2·merge``), so that every merge stage groups them evenly too.
-    """
-    k = -(-int(n) // int(size))
-    if merge is not None:
-        m, cands = int(merge), []
-        while m <= 2 * k:
-            cand = m * -(-k // m)
-            if cand // m < 2 * int(merge) and cand <= min(1.25 * k, n):
-                cands.append(cand)
-            m *= int(merge)
-        k = min(cands, default=k)
-    edges = (np.arange(k + 1) * int(n)) // k
-    return edges[:-1], np.diff(edges)
-
-
 def plan_stages(antenna_position_m, freq_hz, grid: Grid, *, base=None, merge=None, os_range=None,
                 os_angle=None, interp=None, upsample=None, final=None, receive_position_m=None) -> FfbpPlan:
     """The FFBP stages for a geometry (no data needed): levels, operation counts, predicted error
@@ -181,17 +161,145 @@ def plan_stages(antenna_position_m, freq_hz, grid: Grid, *, base=None, merge=Non
     return plan
 
 
-def _plan_stages(antenna_position_m, freq_hz, grid: Grid, *, base=None, merge=None, os_range=None,
-                 os_angle=None, interp=None, upsample=None, final=None, receive_position_m=None,
-                 _band=None) -> FfbpPlan:
-    """:func:`plan_stages` for given knobs (``None``: :data:`DEFAULTS`).
+def _plan_stages(antenna_position_m, freq_hz, grid: Grid, **knobs) -> FfbpPlan:
+    """:func:`plan_stages` for given knobs (``None``: :data:`DEFAULTS`): :func:`layout_stages`,
+    then :meth:`StageLayout.plan`."""
+    return layout_stages(antenna_position_m, freq_hz, grid, **knobs).plan()
+
+
+class StageLayout:
+    """The stages of a plan short of its error model (:func:`layout_stages`): the sub-apertures of
+    every level and their polar frames, then, when first asked for, the polar grids (``levels``)
+    and the operation counts (``ops``). :meth:`error_floor` bounds the plan's predicted error from
+    below at little cost; :meth:`plan` completes the plan."""
+
+    def __init__(self, knobs, frames, children, apertures, dq, kref, kmax, band_scale, freq_hz, pos, grid):
+        self.knobs, self.frames, self.children, self.apertures = knobs, frames, children, apertures
+        self.dq, self.kref, self.kmax, self.band_scale = dq, kref, kmax, band_scale
+        self.freq_hz, self.pos, self.grid = freq_hz, pos, grid
+
+    @functools.cached_property
+    def levels(self) -> list:
+        """Every level's polar grids, extended to hold the stencils of the levels after it and of
+        the final stage (:func:`layout_stages`)."""
+        frames, children, dq = self.frames, self.children, self.dq
+        half = _NTAPS[INTERPOLATORS[self.knobs["interp"]]] // 2
+        n_lev = len(frames)
+        levels = []
+        for l, fr in enumerate(frames):
+            # angular reach in τ of the stencils of this level and of every later one, per sub-aperture:
+            # each later level counted at the spacing of the sub-aperture's own ancestor there
+            reach = fr["dtau"].copy()
+            anc = np.arange(fr["first"].size)
+            for j in range(l + 1, n_lev):
+                anc = np.searchsorted(children[j][0], anc, side="right") - 1
+                reach += frames[j]["dtau"][anc]
+            # exactly the stencils' reach, plus one sample (measured on GOTCHA: the image edges lose
+            # nothing down to 0.7 of this reach, and break at 0.5)
+            ext_q = int(math.ceil(half * (n_lev - l))) + 1
+            ext_t = np.ceil(half * reach / fr["dtau"]
+                            + 0.2 * ext_q * dq / (fr["metres_per_tau"] * fr["dtau"])).astype(np.int64) + 1
+            lv = _level(fr, dq, ext_q, ext_t)
+            lv.children = children[l]
+            levels.append(lv)
+        return levels
+
+    @functools.cached_property
+    def ops(self) -> dict:
+        """Operation counts of the stages (:func:`layout_stages`)."""
+        levels, merge = self.levels, int(self.knobs["merge"])
+        ntap = _NTAPS[INTERPOLATORS[self.knobs["interp"]]]
+        n_pix = self.grid.nx * self.grid.ny
+        P = self.pos.shape[0]
+        ops = {"stage0": float(P) * levels[0].nt * levels[0].nq * ntap, "merge": 0.0,
+               "final": float(n_pix) * levels[-1].n * ntap * ntap,
+               "nodes": float(max(lv.n * lv.nt * lv.nq for lv in levels)),
+               "stage0_nodes": float(levels[0].n) * levels[0].nt * levels[0].nq, "pairs": float(n_pix) * levels[-1].n}
+        for lv in levels[1:]:
+            ops["merge"] += float(lv.n) * lv.nt * lv.nq * merge * 2 * ntap
+            ops["pairs"] += float(lv.n) * lv.nt * lv.nq * merge
+        return ops
+
+    @property
+    def rates(self) -> list:
+        """Every level's pulse tones (:meth:`sarcli.formers._ffbp_grids.Apertures.rates`)."""
+        n_lev = len(self.frames)
+        return [self.apertures.rates(l, l == n_lev - 1) for l in range(n_lev)]
+
+    def _profiles_deapodized(self) -> bool:
+        # the profiles' kernel is deapodized exactly, but near upsample 1 its Ψ vanishes at the
+        # band edge (1.8e-3 at β = 1) and the minimax stencil errs less
+        up = float(self.knobs["upsample"])
+        return self.knobs["interp"] == "optimal" and bool(deapodized_edge_error(up) < interp_error("optimal", up))
+
+    def error_floor(self, frequency_err=None, above=math.inf) -> float:
+        """A lower bound of :meth:`plan`'s ``predicted_error`` (``optimal`` kernels; 0 for the others)
+        short of the deapodization's decisions: whichever way each axis goes
+        (:func:`sarcli.formers._ffbp_grids.decide_deapodization`), its error is at least the smaller
+        of its deapodized aliases (the mismatch adds to them) and the minimax stencils' error, and
+        the deapodized profiles err at least their own aliases (:func:`predict_error`).
+        ``frequency_err``: :func:`frequency_error` of these frequencies, positions and grid, where at
+        hand. Where the bound passes ``above`` without the angular kernel's error, that is left out
+        (the bound returned is lower, and still above ``above``)."""
+        k = self.knobs
+        if k["interp"] != "optimal":
+            return 0.0
+        up, os_r, os_a = float(k["upsample"]), float(k["os_range"]), float(k["os_angle"])
+        n = len(self.frames)
+        floor = deapodized_error(up) if self._profiles_deapodized() else interp_error("optimal", up)
+        floor += n * min(deapodized_error(os_r), interp_error("optimal", os_r))
+        floor += self._frequency_error(frequency_err)
+        if floor > above:
+            return floor
+        return floor + min(n * deapodized_error(os_a), sum(_angle_error(fr, os_a) for fr in self.frames))
+
+    def _frequency_error(self, given) -> float:
+        return frequency_error(self.freq_hz, self.pos, self.grid) if given is None else float(given)
+
+    def plan(self, frequency_err=None) -> FfbpPlan:
+        """The complete :class:`FfbpPlan`: deapodization decisions, peak memory, predicted error.
+        ``frequency_err`` as for :meth:`error_floor`."""
+        k, frames, levels, ops = self.knobs, self.frames, self.levels, dict(self.ops)
+        plan = FfbpPlan(levels, self.dq, self.kref, levels[-1].n, ops, dict(k))
+        plan.band_scale = self.band_scale
+        if k["interp"] == "optimal":
+            plan.profiles_deapodized = self._profiles_deapodized()
+            dec = decide_deapodization(self.rates, frames, self.kmax, self.kref, self.dq, k["os_range"], k["os_angle"])
+            plan.range_deapodized, plan.range_mismatch, plan.range_rates, plan.range_offset = dec["range"]
+            plan.angle_deapodized, plan.angle_mismatch, plan.angle_rates = dec["angle"]
+        # peak bytes of polar grids (float32 pairs): two adjacent levels of one depth-first group
+        lv_bytes = [lv.nbytes for lv in levels]
+        pair = max([a + b for a, b in zip(lv_bytes, lv_bytes[1:])] or lv_bytes)
+        a0, b0 = _subtree_groups(plan)[0]
+        ops["grid_bytes"] = pair * (b0 - a0) / levels[-1].n
+        plan.predicted_error = predict_error([(int(fr["count"].max()), fr["beta"]) for fr in frames],
+                                             interp=k["interp"], os_range=k["os_range"], os_angle=k["os_angle"],
+                                             upsample=k["upsample"], profiles_deapodized=plan.profiles_deapodized,
+                                             range_deapodized=plan.range_deapodized,
+                                             range_mismatch=plan.range_mismatch,
+                                             angle_deapodized=plan.angle_deapodized,
+                                             angle_mismatch=plan.angle_mismatch) + self._frequency_error(frequency_err)
+        return plan
+
+
+def _angle_error(frame, os_angle) -> float:
+    """The minimax stencils' error interpolating a frame across u (:func:`predict_error`'s term)."""
+    n = int(frame["count"].max())
+    return interp_error("optimal", float(round(frame["beta"], 3)), n if n < 64 else 0, float(os_angle))
+
+
+def layout_stages(antenna_position_m, freq_hz, grid: Grid, *, base=None, merge=None, os_range=None,
+                  os_angle=None, interp=None, upsample=None, final=None, receive_position_m=None,
+                  _band=None) -> StageLayout:
+    """The stages of :func:`plan_stages` for given knobs (``None``: :data:`DEFAULTS`), without the
+    error model (:class:`StageLayout`).
 
     Parameters as for :func:`ffbp`. ``ops`` holds the multiply-add counts of stage 0
     (pulse × node × taps), the merges (node × child × 2 taps: two 1-D passes) and the final stage
     (pixel × child × taps²), the stage-0 nodes and the (node or pixel, child) pairs of the merges
     and the final stage (each with its own coordinates and carrier), from which
-    :mod:`sarcli.formers.planner` predicts the time, and
-    ``grid_bytes``, the peak bytes of polar grids (two adjacent levels of one depth-first group).
+    :mod:`sarcli.formers.planner` predicts the time; the completed plan adds ``grid_bytes``, the
+    peak bytes of polar grids (two adjacent levels of one depth-first group).
 
     ``final``: merge until at most that many sub-images remain (default: while a merge costs less
     than it saves in the final stage).
@@ -213,7 +321,6 @@ def _plan_stages(antenna_position_m, freq_hz, grid: Grid, *, base=None, merge=No
         raise SarcliInputError(f"unknown interpolation {k['interp']!r}; choose one of {sorted(INTERPOLATORS)}")
     t = np.asarray(antenna_position_m, dtype=np.float64)
     r = t if receive_position_m is None else np.asarray(receive_position_m, dtype=np.float64)
-    pos = t if r is t else 0.5 * (t + r)
     f = np.asarray(freq_hz, dtype=np.float64)
     fmin, fmax = float(f.min()), float(f.max())
     if not fmax > fmin:
@@ -223,89 +330,35 @@ def _plan_stages(antenna_position_m, freq_hz, grid: Grid, *, base=None, merge=No
     kref = 2 * np.pi * (fmax + fmin) / C
     bq, bu = _band or (1.0, 1.0)
     dq = np.pi / (kband / 2 * bq) / k["os_range"]
-    ntap = _NTAPS[INTERPOLATORS[k["interp"]]]
-    half = ntap // 2   # a stencil reaches ntap/2 samples past its point
+    half = _NTAPS[INTERPOLATORS[k["interp"]]] // 2   # a stencil reaches ntap/2 samples past its point
     n_pix = grid.nx * grid.ny
-    P = pos.shape[0]
     margin = 2 * max(grid.dx, grid.dy)
-    first, count = _split(P, base, merge)
-    frames = [_frame(pos, first, count, grid, kmax, k["os_angle"], margin, bu)]
+    ap = apertures(t, r, grid, margin, base, merge)
+    frames = [ap.frame(0, kmax, k["os_angle"], bu)]
     children = [None]
-    est = [_level(frames[0], dq, 2 * half, 2 * half)]
     while frames[-1]["first"].size > 1:   # merge while it costs less than it saves in the final stage
-        cur = frames[-1]
-        n_cur = cur["first"].size
-        pf, pc = _split(n_cur, merge)
-        pcount = np.array([cur["count"][i:i + m].sum() for i, m in zip(pf, pc)])
-        nxt = _frame(pos, cur["first"][pf], pcount, grid, kmax, k["os_angle"], margin, bu)
+        n_cur = frames[-1]["first"].size
+        nxt = ap.frame(len(frames), kmax, k["os_angle"], bu)
         lv = _level(nxt, dq, 2 * half, 2 * half)
         if final is not None:
             if n_cur <= int(final):
                 break
         elif float(lv.n) * lv.nt * lv.nq * merge + float(n_pix) * lv.n >= float(n_pix) * n_cur:
             break
+        children.append(ap.children[len(frames)])
         frames.append(nxt)
-        children.append((pf, pc))
-        est.append(lv)
-    # extensions: level l must hold the stencils of levels l+1 .. L and of the final stage
-    n_lev = len(frames)
-    levels = []
-    for l, fr in enumerate(frames):
-        # angular reach in τ of the stencils of this level and of every later one, per sub-aperture:
-        # each later level counted at the spacing of the sub-aperture's own ancestor there
-        reach = fr["dtau"].copy()
-        anc = np.arange(fr["first"].size)
-        for j in range(l + 1, n_lev):
-            anc = np.searchsorted(children[j][0], anc, side="right") - 1
-            reach += frames[j]["dtau"][anc]
-        # exactly the stencils' reach, plus one sample (measured on GOTCHA: the image edges lose
-        # nothing down to 0.7 of this reach, and break at 0.5)
-        ext_q = int(math.ceil(half * (n_lev - l))) + 1
-        ext_t = np.ceil(half * reach / fr["dtau"]
-                        + 0.2 * ext_q * dq / (fr["metres_per_tau"] * fr["dtau"])).astype(np.int64) + 1
-        lv = _level(fr, dq, ext_q, ext_t)
-        lv.children = children[l]
-        levels.append(lv)
-    ops = {"stage0": float(P) * levels[0].nt * levels[0].nq * ntap, "merge": 0.0,
-           "final": float(n_pix) * levels[-1].n * ntap * ntap,
-           "nodes": float(max(lv.n * lv.nt * lv.nq for lv in levels)),
-           "stage0_nodes": float(levels[0].n) * levels[0].nt * levels[0].nq, "pairs": float(n_pix) * levels[-1].n}
-    for lv in levels[1:]:
-        ops["merge"] += float(lv.n) * lv.nt * lv.nq * merge * 2 * ntap
-        ops["pairs"] += float(lv.n) * lv.nt * lv.nq * merge
     # every pulse's tones on every level's grid: where they overflow the bands the grids were
     # sampled for (a receiver far from the transmitter, a wide baseline), sample that much finer
-    parents = [np.searchsorted(children[l + 1][0], np.arange(fr["first"].size), side="right") - 1
-               for l, fr in enumerate(frames[:-1])] + [None]
-    rates = tone_rates(t, r, frames, parents, grid, margin)
-    excess = band_excess(rates, frames, 4 * np.pi * fmin / C, kmax, kref, k["os_angle"])
+    n_lev = len(frames)
+    excess = band_excess([ap.tone_reach(l, l == n_lev - 1) for l in range(n_lev)], frames, 4 * np.pi * fmin / C,
+                         kmax, kref, k["os_angle"])
     if _band is None and max(excess) > BAND_SLACK:
-        return _plan_stages(antenna_position_m, freq_hz, grid, base=base, merge=merge, os_range=k["os_range"],
-                            os_angle=k["os_angle"], interp=k["interp"], upsample=k["upsample"], final=final,
-                            receive_position_m=receive_position_m,
-                            _band=tuple(max(e, 1.0) * BAND_SLACK for e in excess))
-    plan = FfbpPlan(levels, dq, kref, levels[-1].n, ops, {**k, "base": base, "merge": merge})
-    plan.band_scale = (bq, bu)
-    if k["interp"] == "optimal":
-        # the profiles' kernel is deapodized exactly, but near upsample 1 its Ψ vanishes at the
-        # band edge (1.8e-3 at β = 1) and the minimax stencil errs less
-        plan.profiles_deapodized = bool(deapodized_edge_error(float(k["upsample"]))
-                                        < interp_error("optimal", float(k["upsample"])))
-        dec = decide_deapodization(rates, frames, kmax, kref, dq, k["os_range"], k["os_angle"])
-        plan.range_deapodized, plan.range_mismatch, plan.range_rates, plan.range_offset = dec["range"]
-        plan.angle_deapodized, plan.angle_mismatch, plan.angle_rates = dec["angle"]
-    # peak bytes of polar grids (float32 pairs): two adjacent levels of one depth-first group
-    lv_bytes = [lv.nbytes for lv in levels]
-    pair = max([a + b for a, b in zip(lv_bytes, lv_bytes[1:])] or lv_bytes)
-    a0, b0 = _subtree_groups(plan)[0]
-    ops["grid_bytes"] = pair * (b0 - a0) / levels[-1].n
-    plan.predicted_error = predict_error([(int(fr["count"].max()), fr["beta"]) for fr in frames],
-                                         interp=k["interp"], os_range=k["os_range"], os_angle=k["os_angle"],
-                                         upsample=k["upsample"], profiles_deapodized=plan.profiles_deapodized,
-                                         range_deapodized=plan.range_deapodized,
-                                         range_mismatch=plan.range_mismatch, angle_deapodized=plan.angle_deapodized,
-                                         angle_mismatch=plan.angle_mismatch) + frequency_error(f, pos, grid)
-    return plan
+        return layout_stages(antenna_position_m, freq_hz, grid, base=base, merge=merge, os_range=k["os_range"],
+                             os_angle=k["os_angle"], interp=k["interp"], upsample=k["upsample"], final=final,
+                             receive_position_m=receive_position_m,
+                             _band=tuple(max(e, 1.0) * BAND_SLACK for e in excess))
+    return StageLayout({**k, "base": base, "merge": merge}, frames, children, ap, dq, kref, kmax, (bq, bu), f,
+                       t if r is t else 0.5 * (t + r), grid)
 
 
 # ---------------------------------------------------------------------------------------------
