@@ -87,14 +87,15 @@ class _Level:
         return 8.0 * self.n * self.nt * self.nq
 
 
-def _frame_geometry(pos, first, count, grid, margin):
+def _frame_geometry(pos, first, count, boundary):
     """What :func:`_frame` finds that does not depend on the sampling (centres, bounds in the polar
-    coordinates, the band's geometric factors; :meth:`Apertures.geometry` keeps it)."""
+    coordinates, the band's geometric factors; :meth:`Apertures.geometry` keeps it), for the grid
+    grown by a margin whose :func:`_boundary` is ``boundary``."""
     run = pos[first[0]:first[-1] + count[-1]]   # the sub-apertures are consecutive runs of pulses
     starts = first - first[0]
     centres = np.add.reduceat(run, starts, axis=0) / count[:, None]
     g = _centre_geometry(centres)
-    xs, ys, (x0, x1, y0, y1) = _boundary(grid, margin)
+    xs, ys, (x0, x1, y0, y1) = boundary
     q, tau, den = _coords_np(g, xs[None, :], ys[None, :])
     if np.any(den <= 0.05 * g[3][:, None]):
         raise SarcliInputError("ffbp needs the antennas' nadir well outside the image; use method 'backprojection'")
@@ -215,10 +216,10 @@ def deapodization(freq_hz, plan, n_len):
     return 1.0 / deapodized_response(float(plan.knobs["upsample"]), (np.arange(m) - m // 2) / float(n_len))[None, :]
 
 
-def _check_points(grid, margin):
+def _check_points(grid, boundary):
     """Points where the deapodization's frequency mismatch is bounded: every fourth point of the
-    grown grid's boundary, and its centre."""
-    bx, by, _ = _boundary(grid, margin)
+    grown grid's boundary (:func:`_boundary`), and its centre."""
+    bx, by, _ = boundary
     return (np.concatenate([bx[::4], [0.5 * (grid.x[0] + grid.x[-1])]]),
             np.concatenate([by[::4], [0.5 * (grid.y[0] + grid.y[-1])]]))
 
@@ -268,6 +269,7 @@ class Apertures:
         pos = t if r is t else 0.5 * (t + r)
         self._pos = pos
         self._geometry, self._frames, self._rates, self._reach = {}, {}, {}, {}
+        self._boundary = _boundary(grid, margin)
         self._points = self._rays = None
 
     @property
@@ -277,7 +279,7 @@ class Apertures:
     def geometry(self, l: int) -> dict:
         """:func:`_frame_geometry` of level ``l``."""
         if l not in self._geometry:
-            self._geometry[l] = _frame_geometry(self._pos, self.first[l], self.count[l], self.grid, self.margin)
+            self._geometry[l] = _frame_geometry(self._pos, self.first[l], self.count[l], self._boundary)
         return self._geometry[l]
 
     def frame(self, l: int, kmax: float, os_angle: float, band_scale: float) -> dict:
@@ -309,7 +311,7 @@ class Apertures:
         key = (l, bool(last))
         if key not in self._rates:
             if self._rays is None:
-                self._points = _check_points(self.grid, self.margin)
+                self._points = _check_points(self.grid, self._boundary)
                 self._rays = _unit_rays(self.t, self.r, *self._points)
             g = self.geometry(l)["g"]
             fr = {"first": self.first[l], "count": self.count[l], "geo": g}
@@ -324,8 +326,7 @@ class Apertures:
 
 def apertures(t, r, grid: Grid, margin: float, base: int, merge: int) -> Apertures:
     """The :class:`Apertures` of these pulses, grid and knobs, kept for recent plans."""
-    key = (_digest(t), _digest(r) if r is not t else None, grid.x[0], grid.x[-1], grid.nx, grid.y[0], grid.y[-1],
-           grid.ny, float(margin), int(base), int(merge))
+    key = (_digest(t), _digest(r) if r is not t else None, grid, float(margin), int(base), int(merge))
     hit = _APERTURES.get(key)
     return hit if hit is not None else _keep(_APERTURES, key, Apertures(t, r, grid, margin, base, merge), 16)
 
