@@ -46,8 +46,59 @@ interpolates once per pulse (the range profile, ``β`` = upsample) and twice (ra
 stage and in the final stage. The angular spectrum of a sub-aperture of n pulses is n lines, not a
 flat band (two pulses sit at the band edges), and the errors of the stages add coherently
 (interpolation attenuates the band's edges alike every time), so
-``ε ≈ ε_prof + Σ_stages (ε(K, os_range) + ε_n(K, β_angle))`` (:func:`predict_error`). See
-docs/ffbp.md for the check against the exact matched filter.
+``ε ≈ ε_prof + Σ_stages (ε(K, os_range) + ε_n(K, β_angle))`` (:func:`predict_error`), plus the
+error of treating the frequencies as equally spaced (:func:`frequency_error`). See docs/ffbp.md for
+the check against the exact matched filter.
+
+Deapodization
+-------------
+An interpolation with weights ``ψ(n − t)`` answers a frequency ν (cycles per sample) with a mean
+``Ψ(ν)`` that does not depend on the fraction t, plus aliases that do (Poisson summation). Where
+the frequency each data sample will be read at is known beforehand, ``Ψ`` can be divided out of the
+data, as a NUFFT divides out its kernel, and only the aliases remain: with a 6-tap
+exponential-of-semicircle kernel (:func:`sarcli.formers.ffbp_model.deapodized_kernel`) 7e-6 at
+oversampling 2 and 5e-5 at 1.5 (:func:`~sarcli.formers.ffbp_model.deapodized_error`), against
+2.3e-3 and 1.7e-2 for the best stencil without the division (the ``optimal`` minimax kernel). That
+lets the grids be sampled coarser (1.5 instead of 2) at a smaller error. ffbp deapodizes three
+interpolations:
+
+- **range profiles**: bin ``j − j_c`` of an FFT of length L is exactly the frequency
+  ``(j − j_c)/L``, so ``1/Ψ`` is a weight per frequency (``_ffbp_grids.deapodization``); kept where
+  ``Ψ`` does not vanish at the band's edge (``upsample`` above ~1,
+  :func:`~sarcli.formers.ffbp_model.deapodized_edge_error`). The profile upsampling is a multiple of
+  ``os_range`` (:func:`~sarcli.formers.ffbp_model.default_upsample`): the profiles' aliases then land
+  on their own tones on the polar grids instead of growing by ``(Ψ(ν')/Ψ(ν))^S``
+  (:func:`~sarcli.formers.ffbp_model.profile_alias_error`);
+- **polar grids in range (q)**: level l reads pulse p's component at wavenumber ``k_j`` at
+  ``ν_q = (k_j ∂R_p/∂q − k_ref) Δq/2π``;
+- **polar grids across (u)**: at ``ν_u = k_j ∂R_p/∂u Δu_l/2π`` (``∂R_p/∂u ≈ Δ⊥``, the pulse's offset
+  across from the centre, wherever it is on the grid: why u, a direction cosine, is the grids'
+  coordinate).
+
+So ``Π_l Ψ(ν)`` over the levels a pulse passes is divided out of its data before the profiles' FFT
+(``_ffbp_stage0._tone_weights``). Each pulse's ``∂R_p/∂q`` and ``∂R_p/∂u`` on every level's grid come
+from its rays to the grown grid's edge and centre (``_ffbp_grids.pulse_rates``); their spread over a
+grid (a climbing path, a near-field aperture) leaves a *mismatch*, ``rms_ν (d ln Ψ/dν)`` times the
+rms over the pulses of the half-spread, in the predicted error. An axis is deapodized only where its
+mismatch plus every level's aliases stays below the minimax stencils' error at the same
+oversampling (``_ffbp_grids.decide_deapodization``; ``FfbpPlan.range_deapodized``,
+``angle_deapodized``). The same tones say how far a pulse reaches past the band a grid was sampled
+for (a receiver far from the transmitter, a wide baseline): past :data:`BAND_SLACK`, the grids are
+sampled that much finer (``_ffbp_grids.band_excess``, ``FfbpPlan.band_scale``).
+
+Planning
+--------
+:func:`plan_stages` needs no data: :func:`layout_stages` splits the pulses into sub-apertures
+(:data:`DEFAULTS`' ``base`` and ``merge``), places each level's polar frame and merges while a merge
+costs less than it saves in the final stage (:class:`StageLayout`: frames, then grids and operation
+counts); :meth:`StageLayout.plan` then decides the deapodization and predicts the error
+(:class:`FfbpPlan`). What does not depend on the oversampling (each level's frame geometry and pulse
+tones) is kept per pulses, grid, base and merge (``_ffbp_grids.Apertures``), so a sweep of
+oversamplings (``--method auto``'s, :mod:`sarcli.formers.planner`) computes it once per base; and
+:meth:`StageLayout.error_floor` bounds the predicted error from below before the deapodization is
+decided, so the sweep completes only the settings that can be its pick. ``os_range`` or ``os_angle``
+not given: :data:`OS_RANGE_DEAPODIZED` (:data:`OS_ANGLE_DEAPODIZED`) is tried first and kept where
+that axis is deapodized and errs no more than the minimax stencil at the default.
 """
 
 from __future__ import annotations
@@ -61,13 +112,14 @@ import numpy as np
 from ..core.geometry import C
 from ..core.grid import Grid
 from ..errors import SarcliInputError
-from .ffbp_model import INTERPOLATORS, NTAPS as _NTAPS, frequency_error, interp_error, optimal_kernel, predict_error
-from .ffbp_model import coefficients as _coefficients
+from .ffbp_model import INTERPOLATORS, NTAPS as _NTAPS, angle_interp_error, frequency_error, interp_error
+from .ffbp_model import optimal_kernel, predict_error
 from ._ffbp_grids import _level, _split, apertures
 from ._ffbp_grids import band_excess, deapodization as _deapodization, decide_deapodization
 from .ffbp_model import deapodized_edge_error, deapodized_error, deapodized_inverse, deapodized_kernel, default_upsample
 
-__all__ = ["ffbp", "ffbp_image", "optimal_kernel", "plan_stages", "predict_error", "interp_error", "FfbpPlan", "DEFAULTS"]
+__all__ = ["ffbp", "ffbp_image", "optimal_kernel", "plan_stages", "layout_stages", "predict_error", "interp_error",
+           "FfbpPlan", "StageLayout", "DEFAULTS"]
 
 #: Default knobs (see docs/ffbp.md for the error-vs-time frontier behind them); ``upsample`` not
 #: given is :func:`default_upsample` for ``optimal``, :data:`UPSAMPLE_ANALYTIC` for the others.
@@ -90,6 +142,18 @@ _PROFILE_BLOCK = 64
 #: Polar sub-images (bytes) formed at once: the last level's sub-images are formed and imaged in
 #: groups whose subtrees fit this (:func:`_subtree_groups`), so memory does not grow with the pulses.
 SUBTREE_BYTES = 256 * 2 ** 20
+#: The polar frames hold the grid grown by this many pixels on every side.
+MARGIN_PIXELS = 2
+#: A level's grid holds the stencils of every later level, plus this many samples on each side
+#: (measured on GOTCHA: the image edges lose nothing down to 0.7 of the stencils' reach, and break
+#: at 0.5).
+EXTRA_SAMPLES = 1
+#: The grid's extension across (u) also holds this fraction of its extension in range, in ground
+#: metres.
+U_FOR_Q_EXTENSION = 0.2
+#: Whether one more merge pays is judged on the merged level's grids extended by this many
+#: half-stencils on each side.
+MERGE_TEST_EXTENSION = 2
 
 
 # ---------------------------------------------------------------------------------------------
@@ -131,7 +195,8 @@ class FfbpPlan:
 def plan_stages(antenna_position_m, freq_hz, grid: Grid, *, base=None, merge=None, os_range=None,
                 os_angle=None, interp=None, upsample=None, final=None, receive_position_m=None) -> FfbpPlan:
     """The FFBP stages for a geometry (no data needed): levels, operation counts, predicted error
-    (:func:`_plan_stages`). ``os_range=None`` with ``optimal`` kernels: :data:`OS_RANGE_DEAPODIZED`
+    (:func:`layout_stages`, then :meth:`StageLayout.plan`). ``os_range=None`` with ``optimal``
+    kernels: :data:`OS_RANGE_DEAPODIZED`
     where the range kernel is deapodized and its range error (aliases plus frequency mismatch) is
     no larger than the minimax stencil's at the default, else the default; ``os_angle=None``
     likewise with :data:`OS_ANGLE_DEAPODIZED` and the angular kernel. ``upsample=None``:
@@ -141,8 +206,9 @@ def plan_stages(antenna_position_m, freq_hz, grid: Grid, *, base=None, merge=Non
     kw = dict(base=base, merge=merge, interp=interp, final=final, upsample=upsample,
               receive_position_m=receive_position_m)
     auto = interp in (None, "optimal")
-    r_try = (OS_RANGE_DEAPODIZED, None) if os_range is None and auto else (os_range,)
-    a_try = (OS_ANGLE_DEAPODIZED, None) if os_angle is None and auto else (os_angle,)
+    # (oversampling, tentative): a tentative one is kept only where its kernel's deapodization pays
+    r_try = ((OS_RANGE_DEAPODIZED, True), (None, False)) if os_range is None and auto else ((os_range, False),)
+    a_try = ((OS_ANGLE_DEAPODIZED, True), (None, False)) if os_angle is None and auto else ((os_angle, False),)
 
     def pays(plan, deapodized, mismatch, os_fine, default):
         # the coarse sampling tried first is kept where its kernel is deapodized and errs no more
@@ -150,21 +216,14 @@ def plan_stages(antenna_position_m, freq_hz, grid: Grid, *, base=None, merge=Non
         n = len(plan.levels)
         return deapodized and n * deapodized_error(os_fine) + mismatch <= n * interp_error("optimal", default)
 
-    for o_r in r_try:
-        for o_a in a_try:
-            plan = _plan_stages(antenna_position_m, freq_hz, grid, os_range=o_r, os_angle=o_a, **kw)
-            if ((o_r is not OS_RANGE_DEAPODIZED
-                 or pays(plan, plan.range_deapodized, plan.range_mismatch, o_r, DEFAULTS["os_range"]))
-                    and (o_a is not OS_ANGLE_DEAPODIZED
+    for o_r, r_tentative in r_try:
+        for o_a, a_tentative in a_try:
+            plan = layout_stages(antenna_position_m, freq_hz, grid, os_range=o_r, os_angle=o_a, **kw).plan()
+            if ((not r_tentative or pays(plan, plan.range_deapodized, plan.range_mismatch, o_r, DEFAULTS["os_range"]))
+                    and (not a_tentative
                          or pays(plan, plan.angle_deapodized, plan.angle_mismatch, o_a, DEFAULTS["os_angle"]))):
                 return plan
     return plan
-
-
-def _plan_stages(antenna_position_m, freq_hz, grid: Grid, **knobs) -> FfbpPlan:
-    """:func:`plan_stages` for given knobs (``None``: :data:`DEFAULTS`): :func:`layout_stages`,
-    then :meth:`StageLayout.plan`."""
-    return layout_stages(antenna_position_m, freq_hz, grid, **knobs).plan()
 
 
 class StageLayout:
@@ -187,21 +246,17 @@ class StageLayout:
         n_lev = len(frames)
         levels = []
         for l, fr in enumerate(frames):
-            # angular reach in τ of the stencils of this level and of every later one, per sub-aperture:
+            # reach in u of the stencils of this level and of every later one, per sub-aperture:
             # each later level counted at the spacing of the sub-aperture's own ancestor there
-            reach = fr["dtau"].copy()
-            anc = np.arange(fr["first"].size)
+            reach = fr.du.copy()
+            anc = np.arange(fr.first.size)
             for j in range(l + 1, n_lev):
                 anc = np.searchsorted(children[j][0], anc, side="right") - 1
-                reach += frames[j]["dtau"][anc]
-            # exactly the stencils' reach, plus one sample (measured on GOTCHA: the image edges lose
-            # nothing down to 0.7 of this reach, and break at 0.5)
-            ext_q = int(math.ceil(half * (n_lev - l))) + 1
-            ext_t = np.ceil(half * reach / fr["dtau"]
-                            + 0.2 * ext_q * dq / (fr["metres_per_tau"] * fr["dtau"])).astype(np.int64) + 1
-            lv = _level(fr, dq, ext_q, ext_t)
-            lv.children = children[l]
-            levels.append(lv)
+                reach += frames[j].du[anc]
+            ext_q = int(math.ceil(half * (n_lev - l))) + EXTRA_SAMPLES
+            ext_u = np.ceil(half * reach / fr.du + U_FOR_Q_EXTENSION * ext_q * dq / (fr.metres_per_u * fr.du)
+                            ).astype(np.int64) + EXTRA_SAMPLES
+            levels.append(_level(fr, dq, ext_q, ext_u, children[l]))
         return levels
 
     @functools.cached_property
@@ -211,13 +266,14 @@ class StageLayout:
         ntap = _NTAPS[INTERPOLATORS[self.knobs["interp"]]]
         n_pix = self.grid.nx * self.grid.ny
         P = self.pos.shape[0]
-        ops = {"stage0": float(P) * levels[0].nt * levels[0].nq * ntap, "merge": 0.0,
+        ops = {"stage0": float(P) * levels[0].n_u * levels[0].n_q * ntap, "merge": 0.0,
                "final": float(n_pix) * levels[-1].n * ntap * ntap,
-               "nodes": float(max(lv.n * lv.nt * lv.nq for lv in levels)),
-               "stage0_nodes": float(levels[0].n) * levels[0].nt * levels[0].nq, "pairs": float(n_pix) * levels[-1].n}
+               "nodes": float(max(lv.n * lv.n_u * lv.n_q for lv in levels)),
+               "stage0_nodes": float(levels[0].n) * levels[0].n_u * levels[0].n_q,
+               "pairs": float(n_pix) * levels[-1].n}
         for lv in levels[1:]:
-            ops["merge"] += float(lv.n) * lv.nt * lv.nq * merge * 2 * ntap
-            ops["pairs"] += float(lv.n) * lv.nt * lv.nq * merge
+            ops["merge"] += float(lv.n) * lv.n_u * lv.n_q * merge * 2 * ntap
+            ops["pairs"] += float(lv.n) * lv.n_u * lv.n_q * merge
         return ops
 
     @property
@@ -241,17 +297,18 @@ class StageLayout:
         ``frequency_err``: :func:`frequency_error` of these frequencies, positions and grid, where at
         hand. Where the bound passes ``above`` without the angular kernel's error, that is left out
         (the bound returned is lower, and still above ``above``)."""
-        k = self.knobs
-        if k["interp"] != "optimal":
+        knobs = self.knobs
+        if knobs["interp"] != "optimal":
             return 0.0
-        up, os_r, os_a = float(k["upsample"]), float(k["os_range"]), float(k["os_angle"])
+        up, os_r, os_a = float(knobs["upsample"]), float(knobs["os_range"]), float(knobs["os_angle"])
         n = len(self.frames)
         floor = deapodized_error(up) if self._profiles_deapodized() else interp_error("optimal", up)
         floor += n * min(deapodized_error(os_r), interp_error("optimal", os_r))
         floor += self._frequency_error(frequency_err)
         if floor > above:
             return floor
-        return floor + min(n * deapodized_error(os_a), sum(_angle_error(fr, os_a) for fr in self.frames))
+        return floor + min(n * deapodized_error(os_a),
+                           sum(angle_interp_error("optimal", fr.beta, int(fr.count.max()), os_a) for fr in self.frames))
 
     def _frequency_error(self, given) -> float:
         return frequency_error(self.freq_hz, self.pos, self.grid) if given is None else float(given)
@@ -259,12 +316,13 @@ class StageLayout:
     def plan(self, frequency_err=None) -> FfbpPlan:
         """The complete :class:`FfbpPlan`: deapodization decisions, peak memory, predicted error.
         ``frequency_err`` as for :meth:`error_floor`."""
-        k, frames, levels, ops = self.knobs, self.frames, self.levels, dict(self.ops)
-        plan = FfbpPlan(levels, self.dq, self.kref, levels[-1].n, ops, dict(k))
+        knobs, frames, levels, ops = self.knobs, self.frames, self.levels, dict(self.ops)
+        plan = FfbpPlan(levels, self.dq, self.kref, levels[-1].n, ops, dict(knobs))
         plan.band_scale = self.band_scale
-        if k["interp"] == "optimal":
+        if knobs["interp"] == "optimal":
             plan.profiles_deapodized = self._profiles_deapodized()
-            dec = decide_deapodization(self.rates, frames, self.kmax, self.kref, self.dq, k["os_range"], k["os_angle"])
+            dec = decide_deapodization(self.rates, frames, self.kmax, self.kref, self.dq, knobs["os_range"],
+                                       knobs["os_angle"])
             plan.range_deapodized, plan.range_mismatch, plan.range_rates, plan.range_offset = dec["range"]
             plan.angle_deapodized, plan.angle_mismatch, plan.angle_rates = dec["angle"]
         # peak bytes of polar grids (float32 pairs): two adjacent levels of one depth-first group
@@ -272,20 +330,15 @@ class StageLayout:
         pair = max([a + b for a, b in zip(lv_bytes, lv_bytes[1:])] or lv_bytes)
         a0, b0 = _subtree_groups(plan)[0]
         ops["grid_bytes"] = pair * (b0 - a0) / levels[-1].n
-        plan.predicted_error = predict_error([(int(fr["count"].max()), fr["beta"]) for fr in frames],
-                                             interp=k["interp"], os_range=k["os_range"], os_angle=k["os_angle"],
-                                             upsample=k["upsample"], profiles_deapodized=plan.profiles_deapodized,
+        plan.predicted_error = predict_error([(int(fr.count.max()), fr.beta) for fr in frames],
+                                             interp=knobs["interp"], os_range=knobs["os_range"],
+                                             os_angle=knobs["os_angle"], upsample=knobs["upsample"],
+                                             profiles_deapodized=plan.profiles_deapodized,
                                              range_deapodized=plan.range_deapodized,
                                              range_mismatch=plan.range_mismatch,
                                              angle_deapodized=plan.angle_deapodized,
                                              angle_mismatch=plan.angle_mismatch) + self._frequency_error(frequency_err)
         return plan
-
-
-def _angle_error(frame, os_angle) -> float:
-    """The minimax stencils' error interpolating a frame across u (:func:`predict_error`'s term)."""
-    n = int(frame["count"].max())
-    return interp_error("optimal", float(round(frame["beta"], 3)), n if n < 64 else 0, float(os_angle))
 
 
 def layout_stages(antenna_position_m, freq_hz, grid: Grid, *, base=None, merge=None, os_range=None,
@@ -308,19 +361,20 @@ def layout_stages(antenna_position_m, freq_hz, grid: Grid, *, base=None, merge=N
     grid extends beyond the image by the stencil half-widths of every later level, in its own
     samples (range spacing is common; angular spacings shrink by ``merge`` per level).
     """
-    k = {**DEFAULTS, **{n: v for n, v in dict(base=base, merge=merge, os_range=os_range, os_angle=os_angle,
+    knobs = {**DEFAULTS, **{name: v for name, v in dict(base=base, merge=merge, os_range=os_range, os_angle=os_angle,
                                                interp=interp, upsample=upsample).items() if v is not None}}
     if upsample is None:
-        k["upsample"] = default_upsample(float(k["os_range"])) if k["interp"] == "optimal" else UPSAMPLE_ANALYTIC
-    base, merge = int(k["base"]), int(k["merge"])
+        knobs["upsample"] = (default_upsample(float(knobs["os_range"])) if knobs["interp"] == "optimal"
+                             else UPSAMPLE_ANALYTIC)
+    base, merge = int(knobs["base"]), int(knobs["merge"])
     if base < 1 or merge < 2:
         raise SarcliInputError(f"ffbp needs base >= 1 and merge >= 2, got base={base}, merge={merge}")
-    if not (k["os_range"] >= 1 and k["os_angle"] >= 1 and k["upsample"] >= 1):
+    if not (knobs["os_range"] >= 1 and knobs["os_angle"] >= 1 and knobs["upsample"] >= 1):
         raise SarcliInputError("ffbp oversampling factors (os_range, os_angle, upsample) must be >= 1")
-    if k["interp"] not in INTERPOLATORS:
-        raise SarcliInputError(f"unknown interpolation {k['interp']!r}; choose one of {sorted(INTERPOLATORS)}")
+    if knobs["interp"] not in INTERPOLATORS:
+        raise SarcliInputError(f"unknown interpolation {knobs['interp']!r}; choose one of {sorted(INTERPOLATORS)}")
     t = np.asarray(antenna_position_m, dtype=np.float64)
-    r = t if receive_position_m is None else np.asarray(receive_position_m, dtype=np.float64)
+    rcv = t if receive_position_m is None else np.asarray(receive_position_m, dtype=np.float64)
     f = np.asarray(freq_hz, dtype=np.float64)
     fmin, fmax = float(f.min()), float(f.max())
     if not fmax > fmin:
@@ -329,21 +383,21 @@ def layout_stages(antenna_position_m, freq_hz, grid: Grid, *, base=None, merge=N
     kmax = 4 * np.pi * fmax / C
     kref = 2 * np.pi * (fmax + fmin) / C
     bq, bu = _band or (1.0, 1.0)
-    dq = np.pi / (kband / 2 * bq) / k["os_range"]
-    half = _NTAPS[INTERPOLATORS[k["interp"]]] // 2   # a stencil reaches ntap/2 samples past its point
+    dq = np.pi / (kband / 2 * bq) / knobs["os_range"]
+    half = _NTAPS[INTERPOLATORS[knobs["interp"]]] // 2   # a stencil reaches ntap/2 samples past its point
     n_pix = grid.nx * grid.ny
-    margin = 2 * max(grid.dx, grid.dy)
-    ap = apertures(t, r, grid, margin, base, merge)
-    frames = [ap.frame(0, kmax, k["os_angle"], bu)]
+    margin = MARGIN_PIXELS * max(grid.dx, grid.dy)
+    ap = apertures(t, rcv, grid, margin, base, merge)
+    frames = [ap.frame(0, kmax, knobs["os_angle"], bu)]
     children = [None]
-    while frames[-1]["first"].size > 1:   # merge while it costs less than it saves in the final stage
-        n_cur = frames[-1]["first"].size
-        nxt = ap.frame(len(frames), kmax, k["os_angle"], bu)
-        lv = _level(nxt, dq, 2 * half, 2 * half)
+    while frames[-1].first.size > 1:   # merge while it costs less than it saves in the final stage
+        n_cur = frames[-1].first.size
+        nxt = ap.frame(len(frames), kmax, knobs["os_angle"], bu)
+        lv = _level(nxt, dq, MERGE_TEST_EXTENSION * half, MERGE_TEST_EXTENSION * half)
         if final is not None:
             if n_cur <= int(final):
                 break
-        elif float(lv.n) * lv.nt * lv.nq * merge + float(n_pix) * lv.n >= float(n_pix) * n_cur:
+        elif float(lv.n) * lv.n_u * lv.n_q * merge + float(n_pix) * lv.n >= float(n_pix) * n_cur:
             break
         children.append(ap.children[len(frames)])
         frames.append(nxt)
@@ -351,14 +405,15 @@ def layout_stages(antenna_position_m, freq_hz, grid: Grid, *, base=None, merge=N
     # sampled for (a receiver far from the transmitter, a wide baseline), sample that much finer
     n_lev = len(frames)
     excess = band_excess([ap.tone_reach(l, l == n_lev - 1) for l in range(n_lev)], frames, 4 * np.pi * fmin / C,
-                         kmax, kref, k["os_angle"])
+                         kmax, kref, knobs["os_angle"])
     if _band is None and max(excess) > BAND_SLACK:
-        return layout_stages(antenna_position_m, freq_hz, grid, base=base, merge=merge, os_range=k["os_range"],
-                             os_angle=k["os_angle"], interp=k["interp"], upsample=k["upsample"], final=final,
+        return layout_stages(antenna_position_m, freq_hz, grid, base=base, merge=merge, os_range=knobs["os_range"],
+                             os_angle=knobs["os_angle"], interp=knobs["interp"], upsample=knobs["upsample"],
+                             final=final,
                              receive_position_m=receive_position_m,
                              _band=tuple(max(e, 1.0) * BAND_SLACK for e in excess))
-    return StageLayout({**k, "base": base, "merge": merge}, frames, children, ap, dq, kref, kmax, (bq, bu), f,
-                       t if r is t else 0.5 * (t + r), grid)
+    return StageLayout({**knobs, "base": base, "merge": merge}, frames, children, ap, dq, kref, kmax, (bq, bu), f,
+                       t if rcv is t else 0.5 * (t + rcv), grid)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -412,8 +467,9 @@ def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weigh
         Oversampling of the polar grids over the Nyquist rate in range and angle (not given: 1.5
         where that axis's kernel can be deapodized, else 2; :func:`plan_stages`).
     interp : {'linear', 'cubic', 'lanczos', 'optimal'}, default 'optimal'
-        Interpolator of the range profiles and the polar grids (``optimal``: least-squares 6-tap
-        kernels designed for each grid's oversampling, :func:`optimal_kernel`).
+        Interpolator of the range profiles and the polar grids (``optimal``: minimax 6-tap
+        kernels designed for each grid's oversampling, :func:`optimal_kernel`, deapodized where
+        the plan finds it pays: module docstring).
     upsample : float, optional
         Range-profile oversampling (the IFFT length is ``upsample·M``); default: ``os_range``
         (at least 1.5: :func:`default_upsample`) for ``optimal``, 4 for the analytic kernels.
@@ -421,7 +477,7 @@ def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weigh
         Merge until at most this many sub-images remain (default: as long as a merge pays).
     nthreads : int, optional
     receive_position_m : array_like, shape (P, 3), optional
-        Separate receive positions (range ``(|t − x| + |q − x|)/2 − r0``).
+        Separate receive positions ``r`` (range ``(|t − x| + |r − x|)/2 − r0``).
     return_plan : bool
         Also return the :class:`FfbpPlan` (stages, predicted error).
 
@@ -441,8 +497,8 @@ def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weigh
         raise SarcliInputError("ffbp needs at least two frequencies per pulse; use method 'direct'")
     t = np.asarray(antenna_position_m, dtype=np.float64)
     r0 = np.asarray(range_to_center_m, dtype=np.float64)
-    q = t if receive_position_m is None else np.asarray(receive_position_m, dtype=np.float64)
-    if t.shape != (P, 3) or q.shape != (P, 3) or r0.shape != (P,):
+    rcv = t if receive_position_m is None else np.asarray(receive_position_m, dtype=np.float64)
+    if t.shape != (P, 3) or rcv.shape != (P, 3) or r0.shape != (P,):
         raise SarcliInputError(f"antenna positions {t.shape} / ranges {r0.shape} do not match {P} pulses")
     # one row when every pulse has the same frequencies: the checks cost O(M), not O(P M)
     f = np.asarray(freq_hz, dtype=np.float64)
@@ -457,28 +513,28 @@ def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weigh
         total = float(w.sum())
         if not total > 0:
             raise SarcliInputError("window weights sum to zero")
-    bistatic = receive_position_m is not None and not np.array_equal(t, q)
+    bistatic = receive_position_m is not None and not np.array_equal(t, rcv)
     plan = plan_stages(t, f, grid, base=base, merge=merge, os_range=os_range, os_angle=os_angle, interp=interp,
-                       upsample=upsample, final=final, receive_position_m=q if bistatic else None)
-    k = plan.knobs
-    kind = INTERPOLATORS[k["interp"]]
-    n_len = profile_length(M, k["upsample"])
+                       upsample=upsample, final=final, receive_position_m=rcv if bistatic else None)
+    knobs = plan.knobs
+    kind = INTERPOLATORS[knobs["interp"]]
+    n_len = profile_length(M, knobs["upsample"])
     jc = M // 2
     bin_m = C / (2.0 * dalpha * n_len)
     inv_bin = 1.0 / bin_m
     kc = 4.0 * np.pi * (np.broadcast_to(f[:, 0], (P,)) + jc * dalpha) / C
     lev = plan.levels[0]
-    dlt, series = _series_inputs(t, q, r0, lev, plan.dq, 4.0 * np.pi * float(f.max()) / C)
-    pulses = pulse_table(_pulse_geometry(t, q, r0), dlt, inv_bin, kc)
+    dlt, series = _series_inputs(t, rcv, r0, lev, plan.dq, 4.0 * np.pi * float(f.max()) / C)
+    pulses = pulse_table(_pulse_geometry(t, rcv, r0), dlt, inv_bin, kc)
     deapodize = plan.profiles_deapodized or plan.range_deapodized or plan.angle_deapodized
-    tab_p = deapodized_kernel(float(k["upsample"])) if plan.profiles_deapodized else \
-        _coefficients(k["interp"], k["upsample"])
-    tab_q = deapodized_kernel(float(k["os_range"])) if plan.range_deapodized else \
-        _coefficients(k["interp"], k["os_range"])
-    tab_t = deapodized_kernel(float(k["os_angle"])) if plan.angle_deapodized else \
-        _coefficients(k["interp"], k["os_angle"])
+    # each interpolation's weight polynomials (profiles, range, angle): the deapodized kernel where
+    # the plan says, else the minimax one for ``optimal``; the analytic kernels read none
+    tab_p, tab_q, tab_t = (deapodized_kernel(float(knobs[name])) if on else
+                           optimal_kernel(float(knobs[name])) if knobs["interp"] == "optimal" else None
+                           for on, name in ((plan.profiles_deapodized, "upsample"), (plan.range_deapodized, "os_range"),
+                                            (plan.angle_deapodized, "os_angle")))
     # the polar grids' deapodized kernels: 1/Ψ at each pulse's tones on every level (_tone_weights)
-    tones = [(rates, off, deapodized_inverse(float(k[os]))) for on, rates, off, os in
+    tones = [(rates, off, deapodized_inverse(float(knobs[os]))) for on, rates, off, os in
              ((plan.range_deapodized, plan.range_rates, plan.range_offset, "os_range"),
               (plan.angle_deapodized, plan.angle_rates, 0.0, "os_angle")) if on]
     k_all = 4.0 * np.pi * f / C
@@ -491,8 +547,8 @@ def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weigh
         for a0, b0 in _subtree_groups(plan):
             rng = _descend(levels, a0, b0)
             lo, hi = rng[0]
-            cur_re = np.empty((hi - lo, lev.nt, lev.nq), dtype=_STORE)
-            cur_im = np.empty((hi - lo, lev.nt, lev.nq), dtype=_STORE)
+            cur_re = np.empty((hi - lo, lev.n_u, lev.n_q), dtype=_STORE)
+            cur_im = np.empty((hi - lo, lev.n_u, lev.n_q), dtype=_STORE)
             # stage 0 in blocks of sub-apertures (bounded profile memory)
             per = max(1, _PROFILE_BLOCK // int(lev.count.max()))
             for s0 in range(lo, hi, per):
@@ -503,9 +559,9 @@ def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weigh
                     wb = deap if wb is None else wb * deap
                     if tones:   # per pulse: a [pulses, M] block of its own
                         wb = np.array(np.broadcast_to(wb, (p1 - p0, M)), order="C")
-                    for rates, off, (h_t, inv_t) in tones:
+                    for rates, off, (h_psi, inv_psi) in tones:
                         _tone_weights(k_all if k_all.shape[0] == 1 else k_all[p0:p1], rates[:, p0:p1], off,
-                                     1.0 / h_t, inv_t, wb)
+                                     1.0 / h_psi, inv_psi, wb)
                 pre, pim = range_profiles(d[p0:p1], wb, total, n_len, nthr, dtype=np.complex64)
                 stage0(pre, pim, lev.first[s0:s1] - p0, lev.count[s0:s1], np.ascontiguousarray(pulses[:, p0:p1]),
                        series[s0:s1], kern.frame(lev, s0, s1), tab_p, kind, bistatic, n_len // 2, n_len, _PAD,
@@ -515,8 +571,8 @@ def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weigh
                 child, parent = levels[l - 1], levels[l]
                 (c0, c1), (u0, u1) = rng[l - 1], rng[l]
                 pf, pc = parent.children
-                nxt_re = np.empty((u1 - u0, parent.nt, parent.nq), dtype=_STORE)
-                nxt_im = np.empty((u1 - u0, parent.nt, parent.nq), dtype=_STORE)
+                nxt_re = np.empty((u1 - u0, parent.n_u, parent.n_q), dtype=_STORE)
+                nxt_im = np.empty((u1 - u0, parent.n_u, parent.n_q), dtype=_STORE)
                 kern.merge(cur_re, cur_im, kern.frame(child, c0, c1), kern.frame(parent, u0, u1), pf[u0:u1] - c0,
                            pc[u0:u1], kind, tab_q, tab_t, plan.dq, plan.kref, nxt_re, nxt_im)
                 cur_re, cur_im = nxt_re, nxt_im
@@ -533,10 +589,10 @@ def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weigh
 def ffbp_image(data, freq_hz, antenna_position_m, range_to_center_m, grid, weights=None, **knobs):
     """:func:`ffbp` for :func:`sarcli.formers.formation.form_image`: the image and the settings
     to record (every knob, the stages and the predicted error). ``None`` knobs take :data:`DEFAULTS`."""
-    knobs = {k: v for k, v in knobs.items() if v is not None}
+    knobs = {name: v for name, v in knobs.items() if v is not None}
     img, plan = ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid, weights, return_plan=True,
                      **knobs)
-    params = {k: plan.knobs[k] for k in ("base", "merge", "os_range", "os_angle", "interp", "upsample")}
-    params["ffbp_stages"] = [[int(lv.n), int(lv.nt), int(lv.nq)] for lv in plan.levels]
+    params = {name: plan.knobs[name] for name in ("base", "merge", "os_range", "os_angle", "interp", "upsample")}
+    params["ffbp_stages"] = [[int(lv.n), int(lv.n_u), int(lv.n_q)] for lv in plan.levels]
     params["predicted_error"] = plan.predicted_error
     return img, params

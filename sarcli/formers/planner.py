@@ -264,10 +264,10 @@ def _by_time(settings) -> list:
 def _ffbp_candidate(lay, plan, seconds, c, P, M) -> Candidate:
     from . import ffbp as fb
 
-    k = plan.knobs
+    knobs = plan.knobs
     npix = float(lay.grid.nx) * lay.grid.ny
-    return Candidate("ffbp", {"base": k["base"], "merge": fb.DEFAULTS["merge"], "os_range": k["os_range"],
-                              "os_angle": k["os_angle"], "interp": "optimal", "upsample": k["upsample"]},
+    return Candidate("ffbp", {"base": knobs["base"], "merge": fb.DEFAULTS["merge"], "os_range": knobs["os_range"],
+                              "os_angle": knobs["os_angle"], "interp": "optimal", "upsample": knobs["upsample"]},
                      plan.predicted_error, seconds, plan.ops["grid_bytes"] + 16 * (P * M + npix),
                      f"{plan.n_stages} stages")
 
