@@ -317,28 +317,25 @@ class StageLayout:
         """The complete :class:`FfbpPlan`: deapodization decisions, peak memory, predicted error.
         ``frequency_err`` as for :meth:`error_floor`."""
         knobs, frames, levels, ops = self.knobs, self.frames, self.levels, dict(self.ops)
-        plan = FfbpPlan(levels, self.dq, self.kref, levels[-1].n, ops, dict(knobs))
-        plan.band_scale = self.band_scale
+        deapodized = {}
         if knobs["interp"] == "optimal":
-            plan.profiles_deapodized = self._profiles_deapodized()
             dec = decide_deapodization(self.rates, frames, self.kmax, self.kref, self.dq, knobs["os_range"],
                                        knobs["os_angle"])
-            plan.range_deapodized, plan.range_mismatch, plan.range_rates, plan.range_offset = dec["range"]
-            plan.angle_deapodized, plan.angle_mismatch, plan.angle_rates = dec["angle"]
+            deapodized = dict(zip(("range_deapodized", "range_mismatch", "range_rates", "range_offset"), dec["range"]))
+            deapodized.update(zip(("angle_deapodized", "angle_mismatch", "angle_rates"), dec["angle"]))
+            deapodized["profiles_deapodized"] = self._profiles_deapodized()
         # peak bytes of polar grids (float32 pairs): two adjacent levels of one depth-first group
         lv_bytes = [lv.nbytes for lv in levels]
         pair = max([a + b for a, b in zip(lv_bytes, lv_bytes[1:])] or lv_bytes)
-        a0, b0 = _subtree_groups(plan)[0]
+        a0, b0 = _subtree_groups(self)[0]
         ops["grid_bytes"] = pair * (b0 - a0) / levels[-1].n
-        plan.predicted_error = predict_error([(int(fr.count.max()), fr.beta) for fr in frames],
-                                             interp=knobs["interp"], os_range=knobs["os_range"],
-                                             os_angle=knobs["os_angle"], upsample=knobs["upsample"],
-                                             profiles_deapodized=plan.profiles_deapodized,
-                                             range_deapodized=plan.range_deapodized,
-                                             range_mismatch=plan.range_mismatch,
-                                             angle_deapodized=plan.angle_deapodized,
-                                             angle_mismatch=plan.angle_mismatch) + self._frequency_error(frequency_err)
-        return plan
+        error = predict_error([(int(fr.count.max()), fr.beta) for fr in frames], interp=knobs["interp"],
+                              os_range=knobs["os_range"], os_angle=knobs["os_angle"], upsample=knobs["upsample"],
+                              **{name: deapodized[name] for name in ("profiles_deapodized", "range_deapodized",
+                                                                      "range_mismatch", "angle_deapodized",
+                                                                      "angle_mismatch") if name in deapodized})
+        return FfbpPlan(levels, self.dq, self.kref, levels[-1].n, ops, dict(knobs),
+                        error + self._frequency_error(frequency_err), band_scale=self.band_scale, **deapodized)
 
 
 def layout_stages(antenna_position_m, freq_hz, grid: Grid, *, base=None, merge=None, os_range=None,
@@ -432,7 +429,8 @@ def _descend(levels, a, b):
 
 def _subtree_groups(plan):
     """Groups ``(a, b)`` of the last level's sub-images whose subtrees (every level's polar grids
-    below them, float32) fit :data:`SUBTREE_BYTES` together; at least one sub-image a group."""
+    below them, float32) fit :data:`SUBTREE_BYTES` together; at least one sub-image a group.
+    ``plan``: an :class:`FfbpPlan` or :class:`StageLayout` (its ``levels``)."""
     levels = plan.levels
     n_last = levels[-1].n
     per = sum(lv.nbytes for lv in levels) / n_last
