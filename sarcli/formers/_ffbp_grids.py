@@ -27,6 +27,8 @@ PULSE_BLOCK = 4096
 SPLIT_ROUND_UP = 1.25
 #: Recent :class:`Apertures` kept (:func:`apertures`).
 APERTURES_KEPT = 16
+#: Digests of unchangeable arrays kept (:func:`_digest`).
+DIGESTS_KEPT = 8
 _TINY = 1e-300
 
 
@@ -390,8 +392,21 @@ def _keep(cache: dict, key, value, limit: int):
 
 
 def _digest(a) -> bytes:
+    """A key for the contents of ``a``; kept for arrays that cannot change (read-only and owning
+    their data, as an :class:`~sarcli.core.acquisition.Acquisition`'s), which a sweep digests once."""
     a = np.ascontiguousarray(a)
-    return hashlib.blake2b(a.view(np.uint8), digest_size=16).digest() + str(a.shape).encode()
+    fixed = not a.flags.writeable and a.flags.owndata
+    hit = _DIGESTS.get(id(a)) if fixed else None
+    if hit is not None and hit[0] is a:
+        return hit[1]
+    out = hashlib.blake2b(a.view(np.uint8), digest_size=16).digest() + str(a.shape).encode()
+    if fixed:
+        _keep(_DIGESTS, id(a), (a, out), DIGESTS_KEPT)
+    return out
+
+
+#: :func:`_digest` of recent arrays that cannot change, by identity (each held, so its id stays its own).
+_DIGESTS: dict = {}
 
 
 def band_excess(reach, frames, kmin, kmax, kref, os_angle):
