@@ -1,6 +1,12 @@
 """Polar-grid geometry of ffbp (:mod:`sarcli.formers.ffbp`) in NumPy, and the deapodization of its
 kernels: where it holds, each pulse's tones, and the profiles' weights that divide the kernels'
-mean responses out of the data (:func:`sarcli.formers.ffbp_model.deapodized_kernel`)."""
+mean responses out of the data (:func:`sarcli.formers.ffbp_model.deapodized_kernel`).
+
+The sub-apertures of every level (:func:`_split`, :class:`Apertures`) have polar frames: their
+centres and the grown grid's bounds in each frame's q and u (:class:`_FrameGeometry`, independent
+of the sampling), then the spacing in u for an angular oversampling (:class:`_Frame`), then the
+grids extended to hold later stencils (:class:`_Level`). :class:`Apertures` keeps what does not
+depend on the oversampling (frame geometry, pulse tones) for recent pulses, grids and knobs."""
 
 from __future__ import annotations
 
