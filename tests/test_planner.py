@@ -214,3 +214,99 @@ def test_calibrate_measures_every_constant(tmp_path):
     for key in ("bp", "direct", "ffbp_stage0", "nufft_spread", "subimage_point", "startup", "planning",
                 "read_per_byte", "write_per_byte"):
         assert c[key] > 0, key
+
+
+def _ffbp_picks_planned_fully(ph, grid, tol, costs):
+    """ffbp's two candidates as planning every setting of the sweep fully gives them: the cheapest
+    that meets the target and the most accurate that does not (ties: the first in the sweep)."""
+    from sarcli.formers import ffbp as fb
+    from sarcli.formers.backprojection import profile_length
+    from sarcli.formers.ffbp_model import deapodized_error, default_upsample, frequency_error
+    from sarcli.formers.planner import FFBP_BASES, FFBP_OVERSAMPLINGS, FFBP_PAIRS_PAST_MET, SAFETY, ffbp_seconds
+
+    acq, target = ph.acquisition, tol / SAFETY
+    rcv = acq.receive_position_m if acq.is_bistatic else None
+    pos = acq.transmit_position_m if rcv is not None else acq.antenna_position_m
+    P, M = ph.data.shape
+    met, miss, met_at = None, None, None
+    for i, (os_r, os_a) in enumerate(FFBP_OVERSAMPLINGS):
+        if met_at is not None and i > met_at + FFBP_PAIRS_PAST_MET:
+            break
+        up = default_upsample(os_r)
+        while deapodized_error(up) > target / 8 and up < 16 * os_r:
+            up *= 2
+        for base in FFBP_BASES:
+            try:
+                lay = fb.layout_stages(pos, acq.frequency_hz, grid, base=base, os_range=os_r, os_angle=os_a,
+                                       upsample=up, interp="optimal", receive_position_m=rcv)
+            except SarcliInputError:
+                continue
+            plan = lay.plan()
+            # the floors the sweep prunes by are below the error (to the rounding of their sums)
+            for floor in (lay.error_floor(), lay.error_floor(above=-np.inf)):
+                assert floor <= plan.predicted_error * (1 + 1e-12), (floor, plan.predicted_error)
+            assert lay.error_floor(above=-np.inf) <= lay.error_floor()
+            t = ffbp_seconds(costs, plan.ops, P, profile_length(M, up), costs["threads"])
+            got = ({"base": base, "os_range": os_r, "os_angle": os_a, "upsample": up}, plan.predicted_error, t)
+            if plan.predicted_error <= target:
+                met_at = i if met_at is None else met_at
+                met = got if met is None or t < met[2] else met
+            elif miss is None or plan.predicted_error < miss[1]:
+                miss = got
+    return met, miss
+
+
+def _picks(cands):
+    ff = [c for c in cands if c.method == "ffbp"]
+    out = [None, None]
+    for c in ff:
+        k = {n: c.knobs[n] for n in ("base", "os_range", "os_angle", "upsample")}
+        out[0 if c.meets else 1] = (k, c.predicted_error, c.seconds)
+    return tuple(out)
+
+
+def _plan_cases():
+    from sarcli import read_phase_history
+
+    from .conftest import GOTCHA_DIR, REPO
+
+    yield "circle", spherical(), GRID
+    near = spherical(r0=1.5e3, P=160)
+    yield "near", near, Grid(96, 96, 0.3, 0.3)
+    a = near.acquisition
+    rcv = geometry.antenna_positions_circle(np.radians(np.linspace(0.5, 5.5, 160)), np.radians(40), 2.5e3)
+    bi = PhaseHistory(near.data, Acquisition(a.frequency_hz, a.azimuth_rad, a.elevation_rad, a.grid,
+                                             transmit_position_m=a.antenna_position_m, receive_position_m=rcv,
+                                             model="spherical"))
+    yield "bistatic", bi, Grid(64, 64, 0.4, 0.4)
+    demo = read_phase_history(REPO / "data" / "synthetic" / "three-points-small.h5")
+    yield "demo", demo, demo.acquisition.grid
+    files = sorted(GOTCHA_DIR.glob("data_3dsar_pass1_az00*_HH.mat"))[:4] if GOTCHA_DIR.is_dir() else []
+    if len(files) == 4:
+        from sarcli.io.gotcha import read_gotcha
+
+        yield "gotcha", read_gotcha(files, grid=Grid.from_extent(100, 0.125)), Grid.from_extent(100, 0.125)
+
+
+def test_the_sweep_picks_what_planning_every_setting_picks():
+    """The planner lays out every ffbp setting but completes the error model only where it can
+    change the answer: its picks are those of planning every setting fully, on geometries that
+    deapodize, that do not and that widen the bands, at three tolerances; and ``recommend`` picks
+    what the full list does."""
+    c = dict(load_cost_model(), threads=2)
+    seen = set()
+    for name, ph, grid in _plan_cases():
+        for tol in (1e-2, 1e-3, 1e-4):
+            want = _ffbp_picks_planned_fully(ph, grid, tol, c)
+            full = candidates(ph, grid, tol, costs=c, nthreads=2)
+            assert _picks(full) == want, (name, tol)
+            pruned = candidates(ph, grid, tol, costs=c, nthreads=2, prune=True)
+            assert _picks(pruned)[0] == want[0], (name, tol)
+            pick = recommend(ph, grid, tol, costs=c, nthreads=2)
+            met = [x for x in full if x.meets]
+            if any(x.method in ("nufft", "subimage") for x in met):
+                met = [x for x in met if x.method not in ("backprojection", "direct")]
+            best = min(met, key=lambda x: x.seconds)
+            assert (pick.method, pick.knobs, pick.seconds) == (best.method, best.knobs, best.seconds), (name, tol)
+            seen.add((name, want[0] is not None, want[1] is not None))
+    assert {s[1] for s in seen} == {True, False} and {s[2] for s in seen} == {True, False}

@@ -16,7 +16,7 @@ coordinates of a ground point ``x``: the differential slant range ``q = |c - x| 
 direction cosine ``u = ((x - c)·e⊥)/|c - x|`` of the ray from ``c`` to ``x`` across ``e0``
 (``e⊥ = ẑ × e0``). Both are taken without cancellation, so virtual antennas 10^9 m away
 (far-field data) keep their accuracy. Stored sub-images are demodulated:
-``F(q, u) = I(x) exp(-i k_ref q)``, float32 real and imaginary planes ``[n, nu, nq]``.
+``F(q, u) = I(x) exp(-i k_ref q)``, float32 real and imaginary planes ``[n, n_u, n_q]``.
 """
 
 from __future__ import annotations
@@ -39,13 +39,13 @@ def frame(level, a=0, b=None):
     """The kernels' description of sub-apertures ``a .. b-1`` of a level: rows cx, cy, |c|, ρ0,
     e0x, e0y, cz (``level.geo``), q0, u0, Δu, float64 ``[10, n]``."""
     sl = slice(a, b)
-    return np.ascontiguousarray(np.vstack([level.geo[:7, sl], level.q0[None, sl], level.t0[None, sl],
-                                           level.dtau[None, sl]]), dtype=np.float64)
+    return np.ascontiguousarray(np.vstack([level.geo[:7, sl], level.q0[None, sl], level.u0[None, sl],
+                                           level.du[None, sl]]), dtype=np.float64)
 
 
 def table(coef):
-    """A kernel's weight polynomials as the kernels read them: float32 ``[6, 8]`` (zeros for the
-    analytic kernels, which take none)."""
+    """A kernel's weight polynomials as the kernels read them: float32 ``[6, 8]``; ``None`` (the
+    analytic kernels, which read none): zeros in its place."""
     if coef is None:
         return np.zeros((6, 8), np.float32)
     return np.ascontiguousarray(coef, dtype=np.float32)
@@ -56,7 +56,7 @@ def merge(cre, cim, cframe, pframe, first, count, kind, tab_q, tab_t, dq, kref, 
 
     Parameters
     ----------
-    cre, cim : ndarray, shape (C, nu, nq), float32
+    cre, cim : ndarray, shape (C, n_u, n_q), float32
         Children's sub-images.
     cframe, pframe : ndarray, shape (10, C) and (10, S)
         Children's and parents' :func:`frame`.
@@ -68,7 +68,7 @@ def merge(cre, cim, cframe, pframe, first, count, kind, tab_q, tab_t, dq, kref, 
         Range and angular weight polynomials (:func:`table`).
     dq, kref : float
         Range spacing of every grid; reference wavenumber of the demodulation.
-    out_re, out_im : ndarray, shape (S, nu', nq'), float32
+    out_re, out_im : ndarray, shape (S, n_u', n_q'), float32
         Parents' sub-images (written).
     """
     native().merge(cre, cim, cframe, pframe, np.ascontiguousarray(first, np.int64),

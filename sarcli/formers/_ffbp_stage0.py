@@ -64,7 +64,7 @@ def stage0(pre, pim, first, count, pulses, series, frame, tab, kind, bistatic, h
     pad : int
         Bins of padding on each side of the profiles.
     dq, kref : float
-    out_re, out_im : ndarray, shape (S, nu, nq), float32
+    out_re, out_im : ndarray, shape (S, n_u, n_q), float32
         The sub-images (written).
     """
     native().stage0(pre, pim, np.ascontiguousarray(first, np.int64), np.ascontiguousarray(count, np.int64), pulses,
@@ -78,7 +78,7 @@ def pulse_table(geo, dlt, inv_bin, kc):
     return np.ascontiguousarray(np.vstack([geo, dlt, inv_bin[None, :], kc[None, :]]), dtype=np.float64)
 
 
-def _series_inputs(t, q, r0, lev, dq, kmax):
+def _series_inputs(t, rcv, r0, lev, dq, kmax):
     """Per-pulse rows of stage 0's range series (:func:`stage0`: Δ = position − centre
     and |Δ|² for transmit and receive, ``|c| − r0``) and, per sub-aperture, whether the series'
     truncated tail stays below :data:`SERIES_PHASE` radians of phase at every node of its grid.
@@ -91,7 +91,7 @@ def _series_inputs(t, q, r0, lev, dq, kmax):
     """
     sub = np.repeat(np.arange(lev.n), lev.count)
     cen = np.stack([lev.geo[0], lev.geo[1], lev.geo[6]], axis=1)[sub]
-    dt, dr = t - cen, q - cen
+    dt, dr = t - cen, rcv - cen
     dlt = np.empty((9, t.shape[0]))
     dlt[0:3], dlt[3] = dt.T, np.sum(dt * dt, axis=1)
     dlt[4:7], dlt[7] = dr.T, np.sum(dr * dr, axis=1)
@@ -100,7 +100,7 @@ def _series_inputs(t, q, r0, lev, dq, kmax):
     dmax = np.zeros(lev.n)
     np.maximum.at(dmax, sub, reach)
     r_near = np.maximum(lev.geo[2] + lev.q0, 1e-300)
-    r_far = lev.geo[2] + lev.q0 + (lev.nq - 1) * dq
+    r_far = lev.geo[2] + lev.q0 + (lev.n_q - 1) * dq
     e = 2.0 * dmax / r_near + (dmax / r_near) ** 2
     tail = r_far * SQRT_TAIL * np.minimum(e, 0.5) ** 9 / (1.0 - np.minimum(e, 0.5))
     # the series' sum, ~R e/2 metres, rounds at a few ulps of itself: far-field data's virtual
@@ -110,13 +110,15 @@ def _series_inputs(t, q, r0, lev, dq, kmax):
     return np.ascontiguousarray(dlt), series
 
 
-def _pulse_geometry(t, q, r0):
-    """Rows tx, ty, |t|², |t|, qx, qy, |q|², |q|, offset of the per-pulse range (stage 0's exact range)."""
-    nt = np.sqrt(np.sum(t.astype(np.longdouble) ** 2, axis=1))
-    nq = np.sqrt(np.sum(q.astype(np.longdouble) ** 2, axis=1))
-    off = (0.5 * (nt + nq) - r0.astype(np.longdouble)).astype(np.float64)
-    nt, nq = nt.astype(np.float64), nq.astype(np.float64)
-    return np.ascontiguousarray(np.stack([t[:, 0], t[:, 1], nt * nt, nt, q[:, 0], q[:, 1], nq * nq, nq, off]))
+def _pulse_geometry(t, rcv, r0):
+    """Rows tx, ty, |t|², |t|, rx, ry, |r|², |r|, offset of the per-pulse range (stage 0's exact
+    range; ``t`` transmit, ``rcv`` (r) receive positions)."""
+    norm_t = np.sqrt(np.sum(t.astype(np.longdouble) ** 2, axis=1))
+    norm_r = np.sqrt(np.sum(rcv.astype(np.longdouble) ** 2, axis=1))
+    off = (0.5 * (norm_t + norm_r) - r0.astype(np.longdouble)).astype(np.float64)
+    norm_t, norm_r = norm_t.astype(np.float64), norm_r.astype(np.float64)
+    return np.ascontiguousarray(np.stack([t[:, 0], t[:, 1], norm_t * norm_t, norm_t, rcv[:, 0], rcv[:, 1],
+                                          norm_r * norm_r, norm_r, off]))
 
 
 def _tone_weights(k, a, b, inv_h, inv_psi, out):

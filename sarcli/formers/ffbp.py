@@ -46,14 +46,62 @@ interpolates once per pulse (the range profile, ``β`` = upsample) and twice (ra
 stage and in the final stage. The angular spectrum of a sub-aperture of n pulses is n lines, not a
 flat band (two pulses sit at the band edges), and the errors of the stages add coherently
 (interpolation attenuates the band's edges alike every time), so
-``ε ≈ ε_prof + Σ_stages (ε(K, os_range) + ε_n(K, β_angle))`` (:func:`predict_error`). See
-docs/ffbp.md for the check against the exact matched filter.
+``ε ≈ ε_prof + Σ_stages (ε(K, os_range) + ε_n(K, β_angle))`` (:func:`predict_error`), plus the
+error of treating the frequencies as equally spaced (:func:`frequency_error`). See docs/ffbp.md for
+the check against the exact matched filter.
+
+Deapodization
+-------------
+An interpolation with weights ``ψ(n − t)`` answers a frequency ν (cycles per sample) with a mean
+``Ψ(ν)`` that does not depend on the fraction t, plus aliases that do (Poisson summation). Where
+the frequency each data sample will be read at is known beforehand, ``Ψ`` can be divided out of the
+data, as a NUFFT divides out its kernel, and only the aliases remain: with a 6-tap
+exponential-of-semicircle kernel (:func:`sarcli.formers.ffbp_model.deapodized_kernel`) 7e-6 at
+oversampling 2 and 5e-5 at 1.5 (:func:`~sarcli.formers.ffbp_model.deapodized_error`), against
+2.3e-3 and 1.7e-2 for the best stencil without the division (the ``optimal`` minimax kernel). That
+lets the grids be sampled coarser (1.5 instead of 2) at a smaller error. ffbp deapodizes three
+interpolations:
+
+- **range profiles**: bin ``j − j_c`` of an FFT of length L is exactly the frequency
+  ``(j − j_c)/L``, so ``1/Ψ`` is a weight per frequency (``_ffbp_grids.deapodization``); kept where
+  ``Ψ`` does not vanish at the band's edge (``upsample`` above ~1,
+  :func:`~sarcli.formers.ffbp_model.deapodized_edge_error`). The profile upsampling is a multiple of
+  ``os_range`` (:func:`~sarcli.formers.ffbp_model.default_upsample`): the profiles' aliases then land
+  on their own tones on the polar grids instead of growing by ``(Ψ(ν')/Ψ(ν))^S``
+  (:func:`~sarcli.formers.ffbp_model.profile_alias_error`);
+- **polar grids in range (q)**: level l reads pulse p's component at wavenumber ``k_j`` at
+  ``ν_q = (k_j ∂R_p/∂q − k_ref) Δq/2π``;
+- **polar grids across (u)**: at ``ν_u = k_j ∂R_p/∂u Δu_l/2π`` (``∂R_p/∂u ≈ Δ⊥``, the pulse's offset
+  across from the centre, wherever it is on the grid: why u, a direction cosine, is the grids'
+  coordinate).
+
+So ``Π_l Ψ(ν)`` over the levels a pulse passes is divided out of its data before the profiles' FFT
+(``_ffbp_stage0._tone_weights``). Each pulse's ``∂R_p/∂q`` and ``∂R_p/∂u`` on every level's grid come
+from its rays to the grown grid's edge and centre (``_ffbp_grids.pulse_rates``); their spread over a
+grid (a climbing path, a near-field aperture) leaves a *mismatch*, ``rms_ν (d ln Ψ/dν)`` times the
+rms over the pulses of the half-spread, in the predicted error. An axis is deapodized only where its
+mismatch plus every level's aliases stays below the minimax stencils' error at the same
+oversampling (``_ffbp_grids.decide_deapodization``; ``FfbpPlan.range_deapodized``,
+``angle_deapodized``). The same tones say how far a pulse reaches past the band a grid was sampled
+for (a receiver far from the transmitter, a wide baseline): past :data:`BAND_SLACK`, the grids are
+sampled that much finer (``_ffbp_grids.band_excess``, ``FfbpPlan.band_scale``).
+
+Planning
+--------
+:func:`plan_stages` (in ``_ffbp_plan``) needs no data: :func:`layout_stages` splits the pulses
+into sub-apertures (:data:`DEFAULTS`' ``base`` and ``merge``), places each level's polar frame and
+merges while a merge costs less than it saves in the final stage (:class:`StageLayout`: frames,
+then grids and operation counts); :meth:`StageLayout.plan` then decides the deapodization and
+predicts the error (:class:`FfbpPlan`). What does not depend on the oversampling (each level's
+frame geometry and pulse tones) is kept per pulses, grid, base and merge
+(``_ffbp_grids.Apertures``), so a sweep of oversamplings (``--method auto``'s,
+:mod:`sarcli.formers.planner`) computes it once per base; and :meth:`StageLayout.error_floor`
+bounds the predicted error from below before the deapodization is decided, so the sweep completes
+only the settings that can be its pick. ``os_range`` or ``os_angle`` not given:
+:data:`OS_RANGE_DEAPODIZED` (:data:`OS_ANGLE_DEAPODIZED`) is tried first and kept where
+that axis is deapodized and errs no more than the minimax stencil at the default.
 """
-
 from __future__ import annotations
-
-import math
-from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -61,257 +109,31 @@ from ..core.geometry import C
 from ..core.sampling import equally_spaced, range_wavenumbers
 from ..core.grid import Grid
 from ..errors import SarcliInputError
-from .ffbp_model import INTERPOLATORS, NTAPS as _NTAPS, frequency_error, interp_error, optimal_kernel, predict_error
-from .ffbp_model import coefficients as _coefficients
-from ._ffbp_grids import _frame, _level
-from ._ffbp_grids import band_excess, deapodization as _deapodization, decide_deapodization, tone_rates
-from .ffbp_model import deapodized_edge_error, deapodized_error, deapodized_inverse, deapodized_kernel, default_upsample
+from .ffbp_model import INTERPOLATORS, interp_error, optimal_kernel, predict_error
+from .ffbp_model import deapodized_inverse, deapodized_kernel
+from ._ffbp_grids import _split, deapodization as _deapodization
+from ._ffbp_plan import (BAND_SLACK, DEFAULTS, OS_ANGLE_DEAPODIZED, OS_RANGE_DEAPODIZED, SUBTREE_BYTES,
+                         UPSAMPLE_ANALYTIC, FfbpPlan, StageLayout, layout_stages, plan_stages, subtree_groups)
 
-__all__ = ["ffbp", "ffbp_image", "optimal_kernel", "plan_stages", "predict_error", "interp_error", "FfbpPlan", "DEFAULTS"]
+__all__ = ["ffbp", "ffbp_image", "optimal_kernel", "plan_stages", "layout_stages", "predict_error", "interp_error",
+           "FfbpPlan", "StageLayout", "DEFAULTS"]
 
-#: Default knobs (see docs/ffbp.md for the error-vs-time frontier behind them); ``upsample`` not
-#: given is :func:`default_upsample` for ``optimal``, :data:`UPSAMPLE_ANALYTIC` for the others.
-DEFAULTS = {"base": 16, "merge": 4, "os_range": 2.0, "os_angle": 2.0, "interp": "optimal"}
-#: ``os_range`` tried first when it is not given (``interp='optimal'``): kept where the plan
-#: deapodizes the range kernel and its range error is predicted no larger than at the default 2.
-OS_RANGE_DEAPODIZED = 1.5
-#: ``os_angle`` tried first when it is not given (``interp='optimal'``), on the same terms.
-OS_ANGLE_DEAPODIZED = 1.5
-#: How far (ratio) the pulses' tones may reach past the polar grids' nominal bands before the
-#: grids are sampled finer to hold them (:func:`sarcli.formers._ffbp_grids.band_excess`).
-BAND_SLACK = 1.02
-#: Profile upsampling of the analytic kernels (only ``optimal``'s profiles are deapodized).
-UPSAMPLE_ANALYTIC = 4.0
 #: Storage of the polar sub-images: float32 halves their memory and traffic; its rounding (6e-8
 #: relative) is far below any interpolation error the knobs allow. Arithmetic stays float64.
 _STORE = np.float32
 #: Pulses whose range profiles are held at once in stage 0.
 _PROFILE_BLOCK = 64
-#: Polar sub-images (bytes) formed at once: the last level's sub-images are formed and imaged in
-#: groups whose subtrees fit this (:func:`_subtree_groups`), so memory does not grow with the pulses.
-SUBTREE_BYTES = 256 * 2 ** 20
-
-
-# ---------------------------------------------------------------------------------------------
-# polar grids
-# ---------------------------------------------------------------------------------------------
-@dataclass
-class FfbpPlan:
-    """The stages FFBP will run: sizes, operation counts and the predicted error."""
-
-    levels: list
-    dq: float
-    kref: float
-    n_final: int
-    ops: dict = field(default_factory=dict)
-    knobs: dict = field(default_factory=dict)
-    predicted_error: float = float("nan")
-    #: whether the range profiles' kernel is deapodized, whether the polar grids' range kernel is
-    #: (:func:`plan_stages`), and the error the latter's frequency mismatch is predicted to cost
-    profiles_deapodized: bool = False
-    range_deapodized: bool = False
-    range_mismatch: float = 0.0
-    #: and each pulse's tones on every level (cycles per sample per unit wavenumber, [levels, P],
-    #: and the range tones' offset; :func:`sarcli.formers._ffbp_grids.decide_deapodization`);
-    #: the same for the polar grids' angular kernel
-    range_rates: np.ndarray | None = None
-    range_offset: float = 0.0
-    angle_deapodized: bool = False
-    angle_mismatch: float = 0.0
-    angle_rates: np.ndarray | None = None
-    #: factors (range, angle) by which the grids' bands were widened to hold every pulse's tones
-    band_scale: tuple = (1.0, 1.0)
-
-    @property
-    def n_stages(self) -> int:
-        """Interpolation stages after stage 0: merges plus the final stage."""
-        return len(self.levels)
-
-
-def _split(n, size, merge=None):
-    """``ceil(n / size)`` consecutive groups of ``n`` items, as equal as possible: (first, count).
-
-    Equal groups give sub-apertures of equal length, hence equal angular spacings; a short last
-    group would have a coarse spacing that sets every grid's extension (the grids share a shape).
-    With ``merge`` (the base sub-apertures), the number of groups is rounded up, by at most a
-    quarter, to ``r·merge^a`` (``r < 2·merge``), so that every merge stage groups them evenly too.
-    """
-    k = -(-int(n) // int(size))
-    if merge is not None:
-        m, cands = int(merge), []
-        while m <= 2 * k:
-            cand = m * -(-k // m)
-            if cand // m < 2 * int(merge) and cand <= min(1.25 * k, n):
-                cands.append(cand)
-            m *= int(merge)
-        k = min(cands, default=k)
-    edges = (np.arange(k + 1) * int(n)) // k
-    return edges[:-1], np.diff(edges)
-
-
-def plan_stages(antenna_position_m, freq_hz, grid: Grid, *, base=None, merge=None, os_range=None,
-                os_angle=None, interp=None, upsample=None, final=None, receive_position_m=None) -> FfbpPlan:
-    """The FFBP stages for a geometry (no data needed): levels, operation counts, predicted error
-    (:func:`_plan_stages`). ``os_range=None`` with ``optimal`` kernels: :data:`OS_RANGE_DEAPODIZED`
-    where the range kernel is deapodized and its range error (aliases plus frequency mismatch) is
-    no larger than the minimax stencil's at the default, else the default; ``os_angle=None``
-    likewise with :data:`OS_ANGLE_DEAPODIZED` and the angular kernel. ``upsample=None``:
-    :func:`default_upsample` for ``optimal`` (deapodized profiles), :data:`UPSAMPLE_ANALYTIC` for
-    the others.
-    ``receive_position_m``: separate receive positions (``antenna_position_m`` then transmits)."""
-    kw = dict(base=base, merge=merge, interp=interp, final=final, upsample=upsample,
-              receive_position_m=receive_position_m)
-    auto = interp in (None, "optimal")
-    r_try = (OS_RANGE_DEAPODIZED, None) if os_range is None and auto else (os_range,)
-    a_try = (OS_ANGLE_DEAPODIZED, None) if os_angle is None and auto else (os_angle,)
-
-    def pays(plan, deapodized, mismatch, os_fine, default):
-        # the coarse sampling tried first is kept where its kernel is deapodized and errs no more
-        # than the minimax stencil at the default
-        n = len(plan.levels)
-        return deapodized and n * deapodized_error(os_fine) + mismatch <= n * interp_error("optimal", default)
-
-    for o_r in r_try:
-        for o_a in a_try:
-            plan = _plan_stages(antenna_position_m, freq_hz, grid, os_range=o_r, os_angle=o_a, **kw)
-            if ((o_r is not OS_RANGE_DEAPODIZED
-                 or pays(plan, plan.range_deapodized, plan.range_mismatch, o_r, DEFAULTS["os_range"]))
-                    and (o_a is not OS_ANGLE_DEAPODIZED
-                         or pays(plan, plan.angle_deapodized, plan.angle_mismatch, o_a, DEFAULTS["os_angle"]))):
-                return plan
-    return plan
-
-
-def _plan_stages(antenna_position_m, freq_hz, grid: Grid, *, base=None, merge=None, os_range=None,
-                 os_angle=None, interp=None, upsample=None, final=None, receive_position_m=None,
-                 _band=None) -> FfbpPlan:
-    """:func:`plan_stages` for given knobs (``None``: :data:`DEFAULTS`).
-
-    Parameters as for :func:`ffbp`. ``ops`` holds the multiply-add counts of stage 0
-    (pulse × node × taps), the merges (node × child × 2 taps: two 1-D passes) and the final stage
-    (pixel × child × taps²), the stage-0 nodes and the (node or pixel, child) pairs of the merges
-    and the final stage (each with its own coordinates and carrier), from which
-    :mod:`sarcli.formers.planner` predicts the time, and
-    ``grid_bytes``, the peak bytes of polar grids (two adjacent levels of one depth-first group).
-
-    ``final``: merge until at most that many sub-images remain (default: while a merge costs less
-    than it saves in the final stage).
-
-    Level ℓ must be accurate wherever level ℓ+1's (or the final stage's) stencils reach, so its
-    grid extends beyond the image by the stencil half-widths of every later level, in its own
-    samples (range spacing is common; angular spacings shrink by ``merge`` per level).
-    """
-    k = {**DEFAULTS, **{n: v for n, v in dict(base=base, merge=merge, os_range=os_range, os_angle=os_angle,
-                                               interp=interp, upsample=upsample).items() if v is not None}}
-    if upsample is None:
-        k["upsample"] = default_upsample(float(k["os_range"])) if k["interp"] == "optimal" else UPSAMPLE_ANALYTIC
-    base, merge = int(k["base"]), int(k["merge"])
-    if base < 1 or merge < 2:
-        raise SarcliInputError(f"ffbp needs base >= 1 and merge >= 2, got base={base}, merge={merge}")
-    if not (k["os_range"] >= 1 and k["os_angle"] >= 1 and k["upsample"] >= 1):
-        raise SarcliInputError("ffbp oversampling factors (os_range, os_angle, upsample) must be >= 1")
-    if k["interp"] not in INTERPOLATORS:
-        raise SarcliInputError(f"unknown interpolation {k['interp']!r}; choose one of {sorted(INTERPOLATORS)}")
-    t = np.asarray(antenna_position_m, dtype=np.float64)
-    r = t if receive_position_m is None else np.asarray(receive_position_m, dtype=np.float64)
-    pos = t if r is t else 0.5 * (t + r)
-    f = np.asarray(freq_hz, dtype=np.float64)
-    fmin, fmax = float(f.min()), float(f.max())
-    if not fmax > fmin:
-        raise SarcliInputError("ffbp needs a bandwidth (more than one frequency)")
-    kband = 4 * np.pi * (fmax - fmin) / C
-    kmax = 4 * np.pi * fmax / C
-    kref = 2 * np.pi * (fmax + fmin) / C
-    bq, bu = _band or (1.0, 1.0)
-    dq = np.pi / (kband / 2 * bq) / k["os_range"]
-    ntap = _NTAPS[INTERPOLATORS[k["interp"]]]
-    half = ntap // 2   # a stencil reaches ntap/2 samples past its point
-    n_pix = grid.nx * grid.ny
-    P = pos.shape[0]
-    margin = 2 * max(grid.dx, grid.dy)
-    first, count = _split(P, base, merge)
-    frames = [_frame(pos, first, count, grid, kmax, k["os_angle"], margin, bu)]
-    children = [None]
-    est = [_level(frames[0], dq, 2 * half, 2 * half)]
-    while frames[-1]["first"].size > 1:   # merge while it costs less than it saves in the final stage
-        cur = frames[-1]
-        n_cur = cur["first"].size
-        pf, pc = _split(n_cur, merge)
-        pcount = np.array([cur["count"][i:i + m].sum() for i, m in zip(pf, pc)])
-        nxt = _frame(pos, cur["first"][pf], pcount, grid, kmax, k["os_angle"], margin, bu)
-        lv = _level(nxt, dq, 2 * half, 2 * half)
-        if final is not None:
-            if n_cur <= int(final):
-                break
-        elif float(lv.n) * lv.nt * lv.nq * merge + float(n_pix) * lv.n >= float(n_pix) * n_cur:
-            break
-        frames.append(nxt)
-        children.append((pf, pc))
-        est.append(lv)
-    # extensions: level l must hold the stencils of levels l+1 .. L and of the final stage
-    n_lev = len(frames)
-    levels = []
-    for l, fr in enumerate(frames):
-        # angular reach in τ of the stencils of this level and of every later one, per sub-aperture:
-        # each later level counted at the spacing of the sub-aperture's own ancestor there
-        reach = fr["dtau"].copy()
-        anc = np.arange(fr["first"].size)
-        for j in range(l + 1, n_lev):
-            anc = np.searchsorted(children[j][0], anc, side="right") - 1
-            reach += frames[j]["dtau"][anc]
-        # exactly the stencils' reach, plus one sample (measured on GOTCHA: the image edges lose
-        # nothing down to 0.7 of this reach, and break at 0.5)
-        ext_q = int(math.ceil(half * (n_lev - l))) + 1
-        ext_t = np.ceil(half * reach / fr["dtau"]
-                        + 0.2 * ext_q * dq / (fr["metres_per_tau"] * fr["dtau"])).astype(np.int64) + 1
-        lv = _level(fr, dq, ext_q, ext_t)
-        lv.children = children[l]
-        levels.append(lv)
-    ops = {"stage0": float(P) * levels[0].nt * levels[0].nq * ntap, "merge": 0.0,
-           "final": float(n_pix) * levels[-1].n * ntap * ntap,
-           "nodes": float(max(lv.n * lv.nt * lv.nq for lv in levels)),
-           "stage0_nodes": float(levels[0].n) * levels[0].nt * levels[0].nq, "pairs": float(n_pix) * levels[-1].n}
-    for lv in levels[1:]:
-        ops["merge"] += float(lv.n) * lv.nt * lv.nq * merge * 2 * ntap
-        ops["pairs"] += float(lv.n) * lv.nt * lv.nq * merge
-    # every pulse's tones on every level's grid: where they overflow the bands the grids were
-    # sampled for (a receiver far from the transmitter, a wide baseline), sample that much finer
-    parents = [np.searchsorted(children[l + 1][0], np.arange(fr["first"].size), side="right") - 1
-               for l, fr in enumerate(frames[:-1])] + [None]
-    rates = tone_rates(t, r, frames, parents, grid, margin)
-    excess = band_excess(rates, frames, 4 * np.pi * fmin / C, kmax, kref, k["os_angle"])
-    if _band is None and max(excess) > BAND_SLACK:
-        return _plan_stages(antenna_position_m, freq_hz, grid, base=base, merge=merge, os_range=k["os_range"],
-                            os_angle=k["os_angle"], interp=k["interp"], upsample=k["upsample"], final=final,
-                            receive_position_m=receive_position_m,
-                            _band=tuple(max(e, 1.0) * BAND_SLACK for e in excess))
-    plan = FfbpPlan(levels, dq, kref, levels[-1].n, ops, {**k, "base": base, "merge": merge})
-    plan.band_scale = (bq, bu)
-    if k["interp"] == "optimal":
-        # the profiles' kernel is deapodized exactly, but near upsample 1 its Ψ vanishes at the
-        # band edge (1.8e-3 at β = 1) and the minimax stencil errs less
-        plan.profiles_deapodized = bool(deapodized_edge_error(float(k["upsample"]))
-                                        < interp_error("optimal", float(k["upsample"])))
-        dec = decide_deapodization(rates, frames, kmax, kref, dq, k["os_range"], k["os_angle"])
-        plan.range_deapodized, plan.range_mismatch, plan.range_rates, plan.range_offset = dec["range"]
-        plan.angle_deapodized, plan.angle_mismatch, plan.angle_rates = dec["angle"]
-    # peak bytes of polar grids (float32 pairs): two adjacent levels of one depth-first group
-    lv_bytes = [lv.nbytes for lv in levels]
-    pair = max([a + b for a, b in zip(lv_bytes, lv_bytes[1:])] or lv_bytes)
-    a0, b0 = _subtree_groups(plan)[0]
-    ops["grid_bytes"] = pair * (b0 - a0) / levels[-1].n
-    plan.predicted_error = predict_error([(int(fr["count"].max()), fr["beta"]) for fr in frames],
-                                         interp=k["interp"], os_range=k["os_range"], os_angle=k["os_angle"],
-                                         upsample=k["upsample"], profiles_deapodized=plan.profiles_deapodized,
-                                         range_deapodized=plan.range_deapodized,
-                                         range_mismatch=plan.range_mismatch, angle_deapodized=plan.angle_deapodized,
-                                         angle_mismatch=plan.angle_mismatch) + frequency_error(f, pos, grid)
-    return plan
 
 
 # ---------------------------------------------------------------------------------------------
 # range profiles
 # ---------------------------------------------------------------------------------------------
+def _subtree_groups(plan):
+    """The depth-first groups of the last level's sub-images
+    (:func:`sarcli.formers._ffbp_plan.subtree_groups`) whose subtrees fit :data:`SUBTREE_BYTES`."""
+    return subtree_groups(plan, SUBTREE_BYTES)
+
+
 def _descend(levels, a, b):
     """Index ranges ``[(lo, hi)]`` per level of the subtree below sub-images ``a .. b-1`` of the
     last level (the sub-apertures of every level are consecutive runs of their children)."""
@@ -321,16 +143,6 @@ def _descend(levels, a, b):
         a, b = int(pf[a]), int(pf[b - 1] + pc[b - 1])
         out.append((a, b))
     return out[::-1]
-
-
-def _subtree_groups(plan):
-    """Groups ``(a, b)`` of the last level's sub-images whose subtrees (every level's polar grids
-    below them, float32) fit :data:`SUBTREE_BYTES` together; at least one sub-image a group."""
-    levels = plan.levels
-    n_last = levels[-1].n
-    per = sum(lv.nbytes for lv in levels) / n_last
-    g = max(1, min(n_last, int(SUBTREE_BYTES // per)))
-    return [(a, min(n_last, a + g)) for a in range(0, n_last, g)]
 
 
 # ---------------------------------------------------------------------------------------------
@@ -360,8 +172,9 @@ def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weigh
         Oversampling of the polar grids over the Nyquist rate in range and angle (not given: 1.5
         where that axis's kernel can be deapodized, else 2; :func:`plan_stages`).
     interp : {'linear', 'cubic', 'lanczos', 'optimal'}, default 'optimal'
-        Interpolator of the range profiles and the polar grids (``optimal``: least-squares 6-tap
-        kernels designed for each grid's oversampling, :func:`optimal_kernel`).
+        Interpolator of the range profiles and the polar grids (``optimal``: minimax 6-tap
+        kernels designed for each grid's oversampling, :func:`optimal_kernel`, deapodized where
+        the plan finds it pays: module docstring).
     upsample : float, optional
         Range-profile oversampling (the IFFT length is ``upsample·M``); default: ``os_range``
         (at least 1.5: :func:`default_upsample`) for ``optimal``, 4 for the analytic kernels.
@@ -369,7 +182,7 @@ def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weigh
         Merge until at most this many sub-images remain (default: as long as a merge pays).
     nthreads : int, optional
     receive_position_m : array_like, shape (P, 3), optional
-        Separate receive positions (range ``(|t − x| + |q − x|)/2 − r0``).
+        Separate receive positions ``r`` (range ``(|t − x| + |r − x|)/2 − r0``).
     return_plan : bool
         Also return the :class:`FfbpPlan` (stages, predicted error).
 
@@ -389,8 +202,8 @@ def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weigh
         raise SarcliInputError("ffbp needs at least two frequencies per pulse; use method 'direct'")
     t = np.asarray(antenna_position_m, dtype=np.float64)
     r0 = np.asarray(range_to_center_m, dtype=np.float64)
-    q = t if receive_position_m is None else np.asarray(receive_position_m, dtype=np.float64)
-    if t.shape != (P, 3) or q.shape != (P, 3) or r0.shape != (P,):
+    rcv = t if receive_position_m is None else np.asarray(receive_position_m, dtype=np.float64)
+    if t.shape != (P, 3) or rcv.shape != (P, 3) or r0.shape != (P,):
         raise SarcliInputError(f"antenna positions {t.shape} / ranges {r0.shape} do not match {P} pulses")
     # one row when every pulse has the same frequencies: the checks cost O(M), not O(P M)
     f = np.asarray(freq_hz, dtype=np.float64)
@@ -406,27 +219,27 @@ def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weigh
         total = float(w.sum())
         if not total > 0:
             raise SarcliInputError("window weights sum to zero")
-    bistatic = receive_position_m is not None and not np.array_equal(t, q)
+    bistatic = receive_position_m is not None and not np.array_equal(t, rcv)
     plan = plan_stages(t, f, grid, base=base, merge=merge, os_range=os_range, os_angle=os_angle, interp=interp,
-                       upsample=upsample, final=final, receive_position_m=q if bistatic else None)
-    k = plan.knobs
-    kind = INTERPOLATORS[k["interp"]]
-    n_len = profile_length(M, k["upsample"])
+                       upsample=upsample, final=final, receive_position_m=rcv if bistatic else None)
+    knobs = plan.knobs
+    kind = INTERPOLATORS[knobs["interp"]]
+    n_len = profile_length(M, knobs["upsample"])
     bin_m = C / (2.0 * dalpha * n_len)
     inv_bin = 1.0 / bin_m
     kc = range_wavenumbers(alpha_ref)
     lev = plan.levels[0]
-    dlt, series = _series_inputs(t, q, r0, lev, plan.dq, 4.0 * np.pi * float(f.max()) / C)
-    pulses = pulse_table(_pulse_geometry(t, q, r0), dlt, inv_bin, kc)
+    dlt, series = _series_inputs(t, rcv, r0, lev, plan.dq, 4.0 * np.pi * float(f.max()) / C)
+    pulses = pulse_table(_pulse_geometry(t, rcv, r0), dlt, inv_bin, kc)
     deapodize = plan.profiles_deapodized or plan.range_deapodized or plan.angle_deapodized
-    tab_p = deapodized_kernel(float(k["upsample"])) if plan.profiles_deapodized else \
-        _coefficients(k["interp"], k["upsample"])
-    tab_q = deapodized_kernel(float(k["os_range"])) if plan.range_deapodized else \
-        _coefficients(k["interp"], k["os_range"])
-    tab_t = deapodized_kernel(float(k["os_angle"])) if plan.angle_deapodized else \
-        _coefficients(k["interp"], k["os_angle"])
+    # each interpolation's weight polynomials (profiles, range, angle): the deapodized kernel where
+    # the plan says, else the minimax one for ``optimal``; the analytic kernels read none
+    tab_p, tab_q, tab_t = (deapodized_kernel(float(knobs[name])) if on else
+                           optimal_kernel(float(knobs[name])) if knobs["interp"] == "optimal" else None
+                           for on, name in ((plan.profiles_deapodized, "upsample"), (plan.range_deapodized, "os_range"),
+                                            (plan.angle_deapodized, "os_angle")))
     # the polar grids' deapodized kernels: 1/Ψ at each pulse's tones on every level (_tone_weights)
-    tones = [(rates, off, deapodized_inverse(float(k[os]))) for on, rates, off, os in
+    tones = [(rates, off, deapodized_inverse(float(knobs[os]))) for on, rates, off, os in
              ((plan.range_deapodized, plan.range_rates, plan.range_offset, "os_range"),
               (plan.angle_deapodized, plan.angle_rates, 0.0, "os_angle")) if on]
     k_all = range_wavenumbers(f)
@@ -439,8 +252,8 @@ def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weigh
         for a0, b0 in _subtree_groups(plan):
             rng = _descend(levels, a0, b0)
             lo, hi = rng[0]
-            cur_re = np.empty((hi - lo, lev.nt, lev.nq), dtype=_STORE)
-            cur_im = np.empty((hi - lo, lev.nt, lev.nq), dtype=_STORE)
+            cur_re = np.empty((hi - lo, lev.n_u, lev.n_q), dtype=_STORE)
+            cur_im = np.empty((hi - lo, lev.n_u, lev.n_q), dtype=_STORE)
             # stage 0 in blocks of sub-apertures (bounded profile memory)
             per = max(1, _PROFILE_BLOCK // int(lev.count.max()))
             for s0 in range(lo, hi, per):
@@ -451,9 +264,9 @@ def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weigh
                     wb = deap if wb is None else wb * deap
                     if tones:   # per pulse: a [pulses, M] block of its own
                         wb = np.array(np.broadcast_to(wb, (p1 - p0, M)), order="C")
-                    for rates, off, (h_t, inv_t) in tones:
+                    for rates, off, (h_psi, inv_psi) in tones:
                         _tone_weights(k_all if k_all.shape[0] == 1 else k_all[p0:p1], rates[:, p0:p1], off,
-                                     1.0 / h_t, inv_t, wb)
+                                     1.0 / h_psi, inv_psi, wb)
                 pre, pim = range_profiles(d[p0:p1], wb, total, n_len, nthr, dtype=np.complex64)
                 stage0(pre, pim, lev.first[s0:s1] - p0, lev.count[s0:s1], np.ascontiguousarray(pulses[:, p0:p1]),
                        series[s0:s1], kern.frame(lev, s0, s1), tab_p, kind, bistatic, n_len // 2, n_len, _PAD,
@@ -463,8 +276,8 @@ def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weigh
                 child, parent = levels[l - 1], levels[l]
                 (c0, c1), (u0, u1) = rng[l - 1], rng[l]
                 pf, pc = parent.children
-                nxt_re = np.empty((u1 - u0, parent.nt, parent.nq), dtype=_STORE)
-                nxt_im = np.empty((u1 - u0, parent.nt, parent.nq), dtype=_STORE)
+                nxt_re = np.empty((u1 - u0, parent.n_u, parent.n_q), dtype=_STORE)
+                nxt_im = np.empty((u1 - u0, parent.n_u, parent.n_q), dtype=_STORE)
                 kern.merge(cur_re, cur_im, kern.frame(child, c0, c1), kern.frame(parent, u0, u1), pf[u0:u1] - c0,
                            pc[u0:u1], kind, tab_q, tab_t, plan.dq, plan.kref, nxt_re, nxt_im)
                 cur_re, cur_im = nxt_re, nxt_im
@@ -481,10 +294,10 @@ def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weigh
 def ffbp_image(data, freq_hz, antenna_position_m, range_to_center_m, grid, weights=None, **knobs):
     """:func:`ffbp` for :func:`sarcli.formers.formation.form_image`: the image and the settings
     to record (every knob, the stages and the predicted error). ``None`` knobs take :data:`DEFAULTS`."""
-    knobs = {k: v for k, v in knobs.items() if v is not None}
+    knobs = {name: v for name, v in knobs.items() if v is not None}
     img, plan = ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid, weights, return_plan=True,
                      **knobs)
-    params = {k: plan.knobs[k] for k in ("base", "merge", "os_range", "os_angle", "interp", "upsample")}
-    params["ffbp_stages"] = [[int(lv.n), int(lv.nt), int(lv.nq)] for lv in plan.levels]
+    params = {name: plan.knobs[name] for name in ("base", "merge", "os_range", "os_angle", "interp", "upsample")}
+    params["ffbp_stages"] = [[int(lv.n), int(lv.n_u), int(lv.n_q)] for lv in plan.levels]
     params["predicted_error"] = plan.predicted_error
     return img, params

@@ -1,8 +1,10 @@
 """Interpolation kernels of fast factorised backprojection and its error model.
 
-:func:`optimal_kernel` designs least-squares interpolators for a given oversampling;
-:func:`interp_error` is the RMS error of one interpolation of an oversampled signal;
-:func:`predict_error` adds them up over the stages of :mod:`sarcli.formers.ffbp`.
+:func:`optimal_kernel` designs the minimax interpolator (``optimal``) for a given oversampling;
+:func:`deapodized_kernel` the exponential-of-semicircle kernel whose mean response is divided out
+of the data (deapodization, :mod:`sarcli.formers.ffbp`); :func:`interp_error` is the RMS error of
+one interpolation of an oversampled signal; :func:`predict_error` adds them up over the stages of
+:mod:`sarcli.formers.ffbp`.
 """
 
 from __future__ import annotations
@@ -14,23 +16,38 @@ import numpy as np
 
 from ..core import sampling
 
-__all__ = ["INTERPOLATORS", "NTAPS", "optimal_kernel", "optimal_weights", "interp_error", "predict_error",
-           "coefficients", "deapodized_kernel", "deapodized_response", "deapodized_error", "deapodized_slope",
+__all__ = ["INTERPOLATORS", "NTAPS", "optimal_kernel", "optimal_weights", "interp_error", "angle_interp_error",
+           "predict_error", "deapodized_kernel", "deapodized_response", "deapodized_error", "deapodized_slope",
            "deapodized_inverse", "deapodized_edge_error", "profile_alias_error", "default_upsample"]
 
-#: Interpolators (codes 0-2 shared with backprojection's kernels) and their taps. ``optimal``: the
-#: 6-tap kernel with the least mean-square error over the band of a signal oversampled as much as
-#: the grid it reads (designed per grid by least squares, its weights polynomials in the fraction).
+#: Interpolator codes and taps (:data:`sarcli.core.sampling.INTERPOLATORS`). ``optimal``: the
+#: 6-tap minimax kernel for the band of a signal oversampled as much as the grid it reads
+#: (:func:`optimal_weights`, designed per oversampling, its weights polynomials in the fraction).
 INTERPOLATORS = {name: i.code for name, i in sampling.INTERPOLATORS.items()}
 NTAPS = {i.code: i.taps for i in sampling.INTERPOLATORS.values()}
 #: Degree of the polynomials that give the ``optimal`` kernel's weights as functions of the fraction.
-#: Degree 7 matches the least-squares weights to 1e-6 at β = 1 and 4e-8 at β = 2, far below the
-#: kernel's own error; eight fused multiply-adds per tap vectorise, where a table look-up would not.
+#: Degree 7 matches the weights to 1e-6 at β = 1 and 4e-8 at β = 2, far below the kernel's own
+#: error; eight fused multiply-adds per tap vectorise, where a table look-up would not.
 DEGREE = 7
 
 
-#: Iterations of Lawson's reweighting that turn the least-squares weights into (near) minimax ones.
+#: Iterations of Lawson's reweighting that turn the least-squares starting weights into (near)
+#: minimax ones.
 LAWSON_ITERATIONS = 40
+#: A sub-aperture of fewer pulses than this is an angular spectrum of that many lines
+#: (:func:`interp_error`'s ``tones``); of more, a flat band.
+MAX_TONE_LINES = 64
+#: Decimals an angular oversampling is rounded to before its error is looked up (the look-ups are
+#: cached; nearby frames share them).
+BETA_DECIMALS = 3
+#: Frequencies across the band on which the minimax weights are designed and the alias errors taken
+#: (the band's edges included).
+BAND_POINTS = 129
+#: Chebyshev points the weight polynomials are fitted at (:func:`_poly_fit`).
+FIT_POINTS = 32
+#: Fractions and frequencies :func:`interp_error` averages over (midpoints of equal cells).
+ERROR_FRACTIONS = 64
+ERROR_FREQUENCIES = 128
 
 
 def optimal_weights(beta: float, t, taps: int = 6) -> np.ndarray:
@@ -47,7 +64,7 @@ def optimal_weights(beta: float, t, taps: int = 6) -> np.ndarray:
     (2.3e-3 at β = 2, 1.7e-4 at β = 3) for 1.2× the band average.
     """
     offs = np.arange(-(taps // 2 - 1), taps // 2 + 1)
-    nu = np.linspace(-0.5, 0.5, 129) / float(beta)
+    nu = np.linspace(-0.5, 0.5, BAND_POINTS) / float(beta)
     t = np.atleast_1d(np.asarray(t, dtype=np.float64))
     a = np.exp(2j * np.pi * nu[None, :, None] * (offs[None, None, :] - t[:, None, None]))   # [t, ν, tap]
     m = np.concatenate([a.real, a.imag], axis=1)                                        # [t, 2ν, tap]
@@ -70,7 +87,7 @@ def optimal_weights(beta: float, t, taps: int = 6) -> np.ndarray:
 def optimal_kernel(beta: float, taps: int = 6) -> np.ndarray:
     """The ``optimal`` kernel for oversampling ``beta``: coefficients ``[tap, power]`` of
     polynomials of degree :data:`DEGREE` in ``x = 2t − 1`` (lowest power first) whose values at a
-    fraction ``t ∈ [0, 1]`` are the :func:`optimal_weights` (fitted at 32 Chebyshev points).
+    fraction ``t ∈ [0, 1]`` are the :func:`optimal_weights` (fitted at :data:`FIT_POINTS` Chebyshev points).
     Shipped precomputed for :data:`TABLE_BETAS` (6 taps)."""
     if taps == 6:
         return _tabled("optimal", beta, lambda: _poly_fit(lambda t: optimal_weights(beta, t, 6)))
@@ -169,8 +186,8 @@ def _es_weights(t, beta_es, taps=6):
 
 def _poly_fit(w_of_t):
     """Coefficients ``[tap, power]`` of degree-:data:`DEGREE` polynomials in ``x = 2t − 1`` through
-    the weights ``w_of_t(t) [len(t), taps]`` at 32 Chebyshev points."""
-    x = np.cos(np.pi * (np.arange(32) + 0.5) / 32)
+    the weights ``w_of_t(t) [len(t), taps]`` at :data:`FIT_POINTS` Chebyshev points."""
+    x = np.cos(np.pi * (np.arange(FIT_POINTS) + 0.5) / FIT_POINTS)
     cheb = np.polynomial.chebyshev.chebfit(x, w_of_t(0.5 * (x + 1.0)), DEGREE)     # [DEGREE+1, taps]
     coef = np.ascontiguousarray(np.stack([np.polynomial.chebyshev.cheb2poly(cheb[:, j])
                                           for j in range(cheb.shape[1])]))
@@ -192,7 +209,7 @@ def _stencil_response(offs, w, nu, t):
     return np.exp(-2j * np.pi * nu[:, None] * t[None, :]) * ((np.cos(arg) @ wt) + 1j * (np.sin(arg) @ wt))
 
 
-def _alias_rms(coef, beta, n_nu=129, n_t=256):
+def _alias_rms(coef, beta, n_nu=BAND_POINTS, n_t=256):
     """``(ν, e(ν))`` over the band ``|ν| ≤ 1/(2β)``: the rms over fractions of ``H(ν, t) − H̄(ν)``,
     relative to ``H̄(ν)``: what is left of an interpolation once its mean response ``H̄`` is
     divided out."""
@@ -202,7 +219,7 @@ def _alias_rms(coef, beta, n_nu=129, n_t=256):
     return nu, np.sqrt(np.mean(np.abs(h - hm[:, None]) ** 2, axis=1)) / np.abs(hm)
 
 
-def _fluctuation(coef, beta, n_nu=129, n_t=256, rms=False):
+def _fluctuation(coef, beta, n_nu=BAND_POINTS, n_t=256, rms=False):
     """Largest (``rms``: the rms) over the band of :func:`_alias_rms`."""
     e = _alias_rms(coef, beta, n_nu, n_t)[1]
     return float(np.sqrt(np.mean(e * e)) if rms else np.max(e))
@@ -329,7 +346,7 @@ def profile_alias_error(upsample: float, os_range: float, n_levels: int) -> floa
     aliases for the worst fold ``m`` (measured on the 2048² circle, four levels at os_range 1.5:
     3.6e-3 at upsample 2 against 9.6e-4 at upsample 1.5)."""
     up, os_r = float(upsample), float(os_range)
-    nu_p, fluct = np.linspace(-0.5, 0.5, 129) / up, _deapodized_alias(up)
+    nu_p, fluct = np.linspace(-0.5, 0.5, BAND_POINTS) / up, _deapodized_alias(up)
     nu = nu_p * up / os_r
     worst = float(np.sqrt(np.mean(fluct * fluct)))
     for m in (1, -1, 2, -2):
@@ -348,12 +365,6 @@ def default_upsample(os_range: float) -> float:
     return float(os_range) * float(np.ceil(1.5 / float(os_range) - 1e-9))
 
 
-def coefficients(interp: str, beta: float) -> np.ndarray:
-    """The weight polynomials a kernel gets (:func:`optimal_kernel`; a dummy for the analytic
-    interpolators)."""
-    return optimal_kernel(float(beta)) if interp == "optimal" else np.zeros((6, DEGREE + 1))
-
-
 @functools.lru_cache(maxsize=1024)
 def interp_error(interp: str, beta: float, tones: int = 0, design_beta: float | None = None) -> float:
     """RMS relative error of interpolating a signal oversampled ``beta`` times.
@@ -366,9 +377,9 @@ def interp_error(interp: str, beta: float, tones: int = 0, design_beta: float | 
     kernel was designed for (default ``beta``).
     """
     kind = INTERPOLATORS[interp]
-    t = (np.arange(64) + 0.5) / 64
+    t = (np.arange(ERROR_FRACTIONS) + 0.5) / ERROR_FRACTIONS
     if tones <= 0:
-        nu = (np.arange(128) + 0.5) / 128 - 0.5
+        nu = (np.arange(ERROR_FREQUENCIES) + 0.5) / ERROR_FREQUENCIES - 0.5
     elif tones == 1:
         nu = np.zeros(1)
     else:
@@ -377,6 +388,14 @@ def interp_error(interp: str, beta: float, tones: int = 0, design_beta: float | 
     offs, w = _kernel_weights(kind, t, beta if design_beta is None else design_beta)   # [T, taps]
     resp = _stencil_response(offs, w, nu, t)                  # [V, T]
     return float(np.sqrt(np.mean(np.abs(1.0 - resp) ** 2)))
+
+
+def angle_interp_error(interp: str, beta: float, n_pulses: int, os_angle: float) -> float:
+    """:func:`interp_error` of a level's angular interpolation: a sub-aperture of ``n_pulses``
+    (its spectrum: that many lines, or a flat band from :data:`MAX_TONE_LINES` on) sampled at
+    oversampling ``beta``, by the kernel designed for ``os_angle``."""
+    n = int(n_pulses)
+    return interp_error(interp, float(round(beta, BETA_DECIMALS)), n if n < MAX_TONE_LINES else 0, float(os_angle))
 
 
 def predict_error(levels, *, interp="cubic", os_range=2.0, os_angle=2.0, upsample=4.0, profiles_deapodized=False,
@@ -404,7 +423,7 @@ def predict_error(levels, *, interp="cubic", os_range=2.0, os_angle=2.0, upsampl
     for n_pulses, beta in levels:
         total += e_range
         total += deapodized_error(float(os_angle)) if angle_deapodized else \
-            interp_error(interp, float(round(beta, 3)), int(n_pulses) if n_pulses < 64 else 0, float(os_angle))
+            angle_interp_error(interp, beta, n_pulses, os_angle)
     return float(total)
 
 

@@ -20,6 +20,7 @@ arrays.
 
 from __future__ import annotations
 
+import functools
 import math
 import subprocess
 import sys
@@ -36,6 +37,8 @@ from .calibration import DEFAULT_COSTS, STARTUP_IMPORTS, load_cost_model, save_c
 
 __all__ = ["Candidate", "candidates", "recommend", "ffbp_knobs", "command_seconds", "load_cost_model", "calibrate"]
 
+#: Profile upsamplings tried for backprojection, smallest first.
+_BP_UPSAMPLES = (2, 4, 8, 16, 32)
 _NUFFT = ("nufft", "subimage")
 #: A candidate "meets" TOL when its predicted error is at most TOL / SAFETY: the error models are
 #: within 3x of measured, mostly above it, but measured ran up to 1.4x above prediction (ffbp,
@@ -80,6 +83,10 @@ def _nufft_width(eps: float) -> int:
     return int(min(16, max(2, math.ceil(-math.log10(eps)) + 1)))
 
 
+def _n_tiles(grid, tile) -> int:
+    return math.ceil(grid.nx / tile) * math.ceil(grid.ny / tile)
+
+
 def _nufft_seconds(c, n_samples, ny, nx, eps, threads=1):
     w = _nufft_width(eps)
     n_fft = 4.0 * nx * ny
@@ -93,10 +100,9 @@ def candidates(ph, grid: Grid, tolerance: float, *, costs=None, nthreads=None, p
     "Meets" means a predicted error at most ``tolerance / SAFETY`` (:data:`SAFETY`). ``prune``:
     leave out candidates that cannot change :func:`recommend`'s pick (what it passes).
     ``methods``: only these formers (``direct`` is always listed)."""
-    from . import ffbp as fb
     from .backprojection import profile_length
-    from .ffbp_model import deapodized_error, default_upsample, frequency_error, interp_error
-    from .subimage import choose_tile
+    from .ffbp_model import frequency_error, interp_error
+    from .subimage import choose_tile, tile_sizes
 
     if not (0 < tolerance < 1):
         raise SarcliInputError(f"--tolerance must lie in (0, 1), got {tolerance}")
@@ -119,66 +125,151 @@ def candidates(ph, grid: Grid, tolerance: float, *, costs=None, nthreads=None, p
         pos, rcv, _ = acq.range_geometry()
         rcv = rcv if acq.is_bistatic else None
         f = acq.frequency_hz
-        # backprojection: the profile interpolation (and unequal frequency spacing) is its error
         e_freq = frequency_error(f, pos, grid)
+        # ffbp: a small sweep of its knobs (first: with ``prune`` the slower formers are measured
+        # against its pick)
+        ff = []
+        if wanted("ffbp"):
+            e_ffbp = e_freq if rcv is None else frequency_error(f, 0.5 * (pos + rcv), grid)
+            ff = _ffbp_sweep(pos, rcv, f, grid, target, e_ffbp, c, P, M, thr, keep_unmet=not prune)
+        best_ffbp = min((x.seconds for x in ff if x.predicted_error <= target), default=math.inf)
+        # backprojection: the profile interpolation (and unequal frequency spacing) is its error;
+        # with ``prune`` not looked at where even its shortest profiles are slower than ffbp's pick
         for interp in ("cubic", "lanczos", "linear") if wanted("backprojection") else ():
-            for up in (2, 4, 8, 16, 32):
+            def seconds(up):
+                L = profile_length(M, up)
+                return (c["bp"] * P * npix * sampling.INTERPOLATORS[interp].taps / 4 + c["bp_fft"] * P * L * math.log2(L)) / thr
+            if prune and seconds(_BP_UPSAMPLES[0]) > best_ffbp:
+                continue
+            for up in _BP_UPSAMPLES:
                 e = interp_error(interp, float(up)) + e_freq
-                if e <= target or up == 32:
-                    L = profile_length(M, up)
-                    t = (c["bp"] * P * npix * sampling.INTERPOLATORS[interp].taps / 4 + c["bp_fft"] * P * L * math.log2(L)) / thr
-                    out.append(Candidate("backprojection", {"upsample": up, "interp": interp}, e, t,
-                                         16 * (P * M + 32 * L + 2 * npix)))
+                if e <= target or up == _BP_UPSAMPLES[-1]:
+                    out.append(Candidate("backprojection", {"upsample": up, "interp": interp}, e, seconds(up),
+                                         16 * (P * M + 32 * profile_length(M, up) + 2 * npix)))
                     break
-        # ffbp: a small sweep of its knobs
-        best = {}
-        # (os_range, os_angle), in order of cost: the polar kernels are deapodized where the plan
-        # finds it pays. Two pairs past the first that meets the target are enough (the costs
-        # grow with the oversampling), so auto's planning stays well below a small image's time
-        met_at = None
-        for i, (os_r, os_) in enumerate(((1.5, 1.5), (1.5, 2.0), (2.0, 2.0), (1.5, 2.5), (2.0, 2.5), (1.5, 3.0),
-                                         (3.0, 3.0), (4.0, 4.0), (6.0, 6.0))):
-            if not wanted("ffbp") or (met_at is not None and i > met_at + 2):
-                break
-            # profiles: a multiple of os_range (their aliases then land on their own tones) whose
-            # deapodized error is well inside the target
-            up = default_upsample(os_r)
-            while deapodized_error(up) > target / 8 and up < 16 * os_r:
-                up *= 2
-            for base in (8, 16, 32):
-                try:
-                    plan = fb.plan_stages(pos, f, grid, base=base, os_range=os_r, os_angle=os_, upsample=up,
-                                          interp="optimal", receive_position_m=rcv)
-                except SarcliInputError:
-                    continue
-                o = plan.ops
-                t = ffbp_seconds(c, o, P, profile_length(M, up), thr)
-                cand = Candidate("ffbp", {"base": base, "merge": fb.DEFAULTS["merge"], "os_range": os_r, "os_angle": os_,
-                                          "interp": "optimal", "upsample": up}, plan.predicted_error, t,
-                                 o["grid_bytes"] + 16 * (P * M + npix), f"{plan.n_stages} stages")
-                key = cand.predicted_error <= target
-                if key and met_at is None:
-                    met_at = i
-                if key and (key not in best or t < best[key].seconds):
-                    best[key] = cand
-                elif not key and (key not in best or cand.predicted_error < best[key].predicted_error):
-                    best[key] = cand
-        out += list(best.values())
-        # subimage NUFFT, unless even one tile could not beat the cheapest ffbp that meets the
-        # target while that ffbp is also the cheapest candidate (then it cannot change the pick)
-        one_tile = c["subimage_point"] * P * M * _nufft_width(eps) ** 2 / thr
+        out += ff
+        # subimage NUFFT: with ``prune``, where ffbp's pick is the cheapest candidate that meets
+        # the target, only tiles large enough to beat it are of use (and none if one tile cannot)
+        def sub_seconds(tile):
+            return _n_tiles(grid, tile) * c["subimage_point"] * P * M * _nufft_width(eps) ** 2 / thr
         met = [x for x in out if x.predicted_error <= target]
-        best_fast = min((x.seconds for x in met if x.method == "ffbp"), default=math.inf)
-        if wanted("subimage") and not (prune and one_tile >= best_fast and best_fast <= min(x.seconds for x in met)):
-            tile, pred = choose_tile(pos, rcv, acq.range_to_center_m, f, grid, target, eps=eps)
+        min_tile = None
+        if prune and best_ffbp <= min(x.seconds for x in met):
+            min_tile = min((s for s in tile_sizes(grid) if sub_seconds(s) < best_ffbp), default=math.inf)
+        if wanted("subimage") and min_tile != math.inf:
+            tile, pred = choose_tile(pos, rcv, acq.range_to_center_m, f, grid, target, eps=eps, min_tile=min_tile)
             if tile is not None:
-                n_tiles = math.ceil(grid.nx / tile) * math.ceil(grid.ny / tile)
-                t = n_tiles * c["subimage_point"] * P * M * _nufft_width(eps) ** 2 / thr
-                out.append(Candidate("subimage", {"tile": int(tile), "tolerance": tolerance}, pred, t,
-                                     16 * (4 * P * M * thr + 2 * npix), f"{n_tiles} tiles"))
+                out.append(Candidate("subimage", {"tile": int(tile), "tolerance": tolerance}, pred, sub_seconds(tile),
+                                     16 * (4 * P * M * thr + 2 * npix), f"{_n_tiles(grid, tile)} tiles"))
     for cand in out:
         cand.meets = cand.predicted_error <= target
     return sorted(out, key=lambda x: (not x.meets, x.seconds))
+
+
+#: ffbp's polar-grid oversamplings ``(os_range, os_angle)`` the planner tries, in order of cost (the
+#: polar kernels are deapodized where the plan finds it pays), and its base sub-apertures.
+FFBP_OVERSAMPLINGS = ((1.5, 1.5), (1.5, 2.0), (2.0, 2.0), (1.5, 2.5), (2.0, 2.5), (1.5, 3.0), (3.0, 3.0), (4.0, 4.0),
+                      (6.0, 6.0))
+FFBP_BASES = (8, 16, 32)
+#: Oversampling pairs tried past the first at which some base meets the target: the costs grow with
+#: the oversampling, so a few are enough, and auto's planning stays well below a small image's time.
+FFBP_PAIRS_PAST_MET = 2
+#: :meth:`sarcli.formers.ffbp.StageLayout.error_floor` is trusted to this relative margin (its sums
+#: are taken in another order than the plan's).
+_FLOOR_MARGIN = 1e-9
+
+
+def _ffbp_sweep(pos, rcv, f, grid, target, e_freq, c, P, M, thr, *, keep_unmet):
+    """ffbp's candidates: the cheapest setting predicted to meet ``target`` among
+    :data:`FFBP_BASES` × :data:`FFBP_OVERSAMPLINGS` (the pairs up to :data:`FFBP_PAIRS_PAST_MET`
+    past the first at which one meets), and with ``keep_unmet`` the most accurate one that does
+    not (ties: the earlier in the sweep's order).
+
+    The same as planning every setting of those pairs fully, with less work. Every setting is laid
+    out (:func:`sarcli.formers.ffbp.layout_stages`: its sub-apertures and polar frames), which bounds
+    its error from below (:meth:`~sarcli.formers.ffbp.StageLayout.error_floor`); only where that
+    floor meets the target are its grids sized (its time), and only where it may be the answer is
+    its error model completed. The pair at which one first meets is found in order, the cheapest
+    setting of each pair first; then the settings of the pairs tried are completed in order of
+    time until one meets: that one is the cheapest."""
+    from . import ffbp as fb
+    from .backprojection import profile_length
+    from .ffbp_model import deapodized_error, default_upsample
+
+    class Setting:
+        def __init__(self, order, lay):
+            self.order, self.lay = order, lay
+
+        @functools.cached_property
+        def seconds(self):
+            return ffbp_seconds(c, self.lay.ops, P, profile_length(M, self.lay.knobs["upsample"]), thr)
+
+        @functools.cached_property
+        def rough_floor(self):   # the floor short of the angular kernel's error
+            return self.lay.error_floor(e_freq, above=-math.inf) * (1 - _FLOOR_MARGIN)
+
+        @functools.cached_property
+        def floor(self):
+            return self.lay.error_floor(e_freq) * (1 - _FLOOR_MARGIN)
+
+        @functools.cached_property
+        def plan(self):
+            return self.lay.plan(e_freq)
+
+        def may_meet(self):
+            return self.rough_floor <= target and self.floor <= target
+
+        def meets(self):
+            return self.may_meet() and self.plan.predicted_error <= target
+
+    settings, met_at = [], None
+    for i, (os_r, os_a) in enumerate(FFBP_OVERSAMPLINGS):
+        if met_at is not None and i > met_at + FFBP_PAIRS_PAST_MET:
+            break
+        # profiles: a multiple of os_range (their aliases then land on their own tones) whose
+        # deapodized error is well inside the target
+        up = default_upsample(os_r)
+        while deapodized_error(up) > target / 8 and up < 16 * os_r:
+            up *= 2
+        pair = []
+        for j, base in enumerate(FFBP_BASES):
+            try:
+                pair.append(Setting((i, j), fb.layout_stages(pos, f, grid, base=base, os_range=os_r, os_angle=os_a,
+                                                               upsample=up, interp="optimal", receive_position_m=rcv)))
+            except SarcliInputError:
+                continue
+        settings += pair
+        if met_at is None and any(x.meets() for x in _by_time([x for x in pair if x.rough_floor <= target])):
+            met_at = i
+    best = next((x for x in _by_time([x for x in settings if x.rough_floor <= target]) if x.meets()), None)
+    out = [] if best is None else [_ffbp_candidate(best.lay, best.plan, best.seconds, c, P, M)]
+    if keep_unmet:   # the most accurate that misses: in order of floor, until the floor passes it
+        miss = None
+        for x in sorted(settings, key=lambda x: (x.floor, x.order)):
+            if miss is not None and (x.floor, x.order) > (miss.plan.predicted_error, miss.order):
+                break
+            e = x.plan.predicted_error
+            if e > target and (miss is None or (e, x.order) < (miss.plan.predicted_error, miss.order)):
+                miss = x
+        if miss is not None:
+            out.append(_ffbp_candidate(miss.lay, miss.plan, miss.seconds, c, P, M))
+    return out
+
+
+def _by_time(settings) -> list:
+    """``settings`` in order of time, ties in the sweep's order."""
+    return sorted(settings, key=lambda x: (x.seconds, x.order))
+
+
+def _ffbp_candidate(lay, plan, seconds, c, P, M) -> Candidate:
+    from . import ffbp as fb
+
+    knobs = plan.knobs
+    npix = float(lay.grid.nx) * lay.grid.ny
+    return Candidate("ffbp", {"base": knobs["base"], "merge": fb.DEFAULTS["merge"], "os_range": knobs["os_range"],
+                              "os_angle": knobs["os_angle"], "interp": "optimal", "upsample": knobs["upsample"]},
+                     plan.predicted_error, seconds, plan.ops["grid_bytes"] + 16 * (P * M + npix),
+                     f"{plan.n_stages} stages")
 
 
 def recommend(ph, grid: Grid, tolerance: float, *, nthreads=None, costs=None) -> Candidate:

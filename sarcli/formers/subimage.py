@@ -128,32 +128,52 @@ def predict_tile_error(t, q, r0, freq, grid: Grid, tile: int, *, eps=1e-9) -> fl
     return float(_tile_errors(t, q, r0, freq, grid, [int(tile)], eps)[0])
 
 
-def choose_tile(t, q, r0, freq, grid: Grid, tolerance: float, *, eps=None):
+def tile_sizes(grid: Grid) -> list:
+    """The tile sizes :func:`choose_tile` considers, largest first: the grid's larger side, then
+    every smaller one of :data:`TILE_SIZES`."""
+    side = max(grid.nx, grid.ny)
+    return [side] + [s for s in TILE_SIZES if s < side]
+
+
+def choose_tile(t, q, r0, freq, grid: Grid, tolerance: float, *, eps=None, min_tile=None):
     """Largest tile of :data:`TILE_SIZES` (capped at the grid) predicted to meet ``tolerance``.
 
     Returns ``(tile, predicted_error)``, or ``(None, error of the smallest tile)`` when none does.
     The error grows with the tile (the residual of the linearised range grows with the distance
     from the tile's centre), so the sizes are bisected: four or five predictions, not one a size.
+    ``min_tile``: a tile smaller than this is of no use to the caller; ``(None, nan)`` as soon as
+    the answer is known to be one (or none), else the same answer.
     """
     eps = tolerance / 10 if eps is None else eps
-    side = max(grid.nx, grid.ny)
-    sizes = [side] + [s for s in TILE_SIZES if s < side]     # largest first
+    sizes = tile_sizes(grid)
+    known = {}
 
     def err(i):
-        return float(_tile_errors(t, q, r0, freq, grid, [sizes[i]], eps)[0])
+        if i not in known:
+            known[i] = float(_tile_errors(t, q, r0, freq, grid, [sizes[i]], eps)[0])
+        return known[i]
 
     lo, hi = 0, len(sizes) - 1
-    e_hi = err(hi)
-    if e_hi > tolerance:
-        return None, e_hi
-    while lo < hi:                    # sizes[hi] meets; find the largest that does
+    if min_tile is None:
+        e_hi = err(hi)
+        if e_hi > tolerance:
+            return None, e_hi
+    # sizes[hi] meets (with min_tile: is taken to, and checked only if the answer is of use)
+    while lo < hi:                    # find the largest that meets
+        if min_tile is not None and sizes[lo] < min_tile:
+            return None, math.nan     # the answer is at most sizes[lo]
         mid = (lo + hi) // 2
         e_mid = err(mid)
         if e_mid <= tolerance:
-            hi, e_hi = mid, e_mid
+            hi = mid
         else:
             lo = mid + 1
-    return sizes[hi], e_hi
+    if min_tile is not None:
+        if sizes[hi] < min_tile:
+            return None, math.nan
+        if err(len(sizes) - 1) > tolerance:
+            return None, err(len(sizes) - 1)
+    return sizes[hi], err(hi)
 
 
 def subimage_nufft(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weights=None, *,
