@@ -79,11 +79,11 @@ def _build(ph: PhaseHistory, grid: Grid, operator: str, eps: float):
     return op, normal_equations(op, ph.data, form=operator)
 
 
-def scale_problem(normal, *, power_iters: int = 30):
+def scale_problem(normal, *, power_iters: int = 30, callback=None):
     """Normalise ``‖A‖₂ = 1`` and ``max |Âᴴ b̂| = 1`` (module docstring).
 
     ``power_iters`` power iterations on ``AᴴA`` estimate ``‖A‖₂`` (from below; 30 give a few
-    digits, 10 within a few per cent, which is all a scaling needs).
+    digits, 10 within a few per cent, which is all a scaling needs); ``callback(i)`` after each.
 
     Returns
     -------
@@ -92,7 +92,7 @@ def scale_problem(normal, *, power_iters: int = 30):
     s_a, s_b : float
         The scalings; an image ``u`` of the scaled problem is ``f = u s_b / s_a``.
     """
-    s_a = float(np.sqrt(gram_eigmax(normal.gram, iters=power_iters)))
+    s_a = float(np.sqrt(gram_eigmax(normal.gram, iters=power_iters, callback=callback)))
     s_b = float(np.max(np.abs(normal.atb))) / s_a if s_a > 0 else 0.0
     if s_b == 0.0 or not np.isfinite(s_b):
         return None, s_a, s_b
@@ -310,15 +310,42 @@ def regularize(ph: PhaseHistory, *, prior: str = "ptv", order: int = 1, lam: flo
     # the spherical AᴴA is two backprojections: fewer power iterations (the far-field forms share 30
     # so that 'nufft' and 'toeplitz' scale identically)
     power_iters = 10 if operator == "spherical" else 30
+    path_budget = 2 * PATH_ITERS * len(SELECT_PATH) if auto else 0  # two solvers per path iteration
+    if progress is not None:
+        progress.reset(total=power_iters + path_budget + int(iters))
+        progress.set_description(f"regularize {prior}: scaling")
+
+    def tick(k):
+        if progress is not None:
+            progress.update(k)
+
+    estimate = {}
     t_scale = time.perf_counter()
-    scaled, s_a, s_b = scale_problem(normal, power_iters=power_iters)
-    gram_s = (time.perf_counter() - t_scale) / power_iters  # one AᴴA application, measured
+
+    def on_power(i):
+        # the first AᴴA product, timed, predicts the run; a long one is announced before it goes on
+        tick(1)
+        if i != 1:
+            return
+        gram_s = time.perf_counter() - t_scale
+        predicted = gram_s * (power_iters + path_budget + int(iters))
+        estimate.update(predicted_s=predicted)
+        if notice is not None and predicted > LONG_RUN_S:
+            faster = [f"give --lam (skips the lam path, about {gram_s * int(iters):.0f} s)"] if auto else []
+            faster += ["fewer --iters", "a coarser --pixel-size or a smaller --extent"]
+            if operator == "spherical":
+                faster.append("--operator toeplitz (far-field; may defocus)")
+            path = f"a lam path of up to {path_budget} and " if auto else ""
+            notice(f"regularize {prior}: up to {predicted:.0f} s predicted ({path}{int(iters)} iterations at "
+                   f"{gram_s:.2g} s); faster: {', '.join(faster)}")
+
+    scaled, s_a, s_b = scale_problem(normal, power_iters=power_iters, callback=on_power)
     params = {"prior": prior, "order": int(order), "lam": lam, "beta": beta, "iters": int(iters),
               "tol": float(tol), "operator": operator, "isotropic": bool(isotropic),
               "inner_iters": int(inner_iters), "reestimate_every": int(reestimate_every), "eps": eps,
               "grid": grid.as_dict(), "init": init is not None, "scale_operator": s_a,
               "scale_data": s_b, "scale_power_iterations": power_iters,
-              "farfield_phase_error_rad": phase_err, "model": ph.model,
+              "farfield_phase_error_rad": phase_err, "model": ph.model, **estimate,
               "normalisation": "pixel-model reflectivity f = u * scale_data / scale_operator: a unit point "
                                "at a pixel centre recovered exactly is 1, the matched filter's peak"}
     if scaled is None:
@@ -330,25 +357,8 @@ def regularize(ph: PhaseHistory, *, prior: str = "ptv", order: int = 1, lam: flo
     f0 = init if init is not None else mf
     T = None if D is not None else sparsifying_operator(prior, grid.shape, order=order,
                                                         f0=f0 if prior == "ptv" else None)
-    path_budget = 2 * PATH_ITERS * len(SELECT_PATH) if auto else 0  # two solvers per path iteration
     if progress is not None:
-        progress.reset(total=path_budget + int(iters))
         progress.set_description(f"regularize {prior}" + (": lam path" if auto else ""))
-
-    def tick(k):
-        if progress is not None:
-            progress.update(k)
-
-    predicted = gram_s * (path_budget + int(iters))
-    params["predicted_s"] = predicted
-    if notice is not None and predicted > LONG_RUN_S:
-        faster = [f"give --lam (skips the lam path, about {gram_s * int(iters):.0f} s)"] if auto else []
-        faster += ["fewer --iters", "a coarser --pixel-size or a smaller --extent"]
-        if operator == "spherical":
-            faster.append("--operator toeplitz (far-field; may defocus)")
-        path = f"a lam path of up to {path_budget} and " if auto else ""
-        notice(f"regularize {prior}: up to {predicted:.0f} s predicted ({path}{int(iters)} iterations at "
-               f"{gram_s:.2g} s); faster: {', '.join(faster)}")
     if auto:
         lam, beta, u0 = _auto(ph, grid, op, scaled, s_a, s_b, D, T, prior, beta_ratio, isotropic, u0, iters,
                               params, tick)

@@ -263,11 +263,20 @@ def test_progress_and_notice_cover_the_path_and_the_final_solve(disk, monkeypatc
     ph, _, _ = disk
     bar, notes = Bar(), []
     monkeypatch.setattr(R, "LONG_RUN_S", 0.0)
-    img, _ = _quiet(regularize, ph, prior="tv", iters=40, progress=bar, notice=notes.append)
+    ticks_at_notice = []
+
+    def note(line):
+        notes.append(line)
+        ticks_at_notice.append(bar.n)
+
+    img, _ = _quiet(regularize, ph, prior="tv", iters=40, progress=bar, notice=note)
     sel = img.parameters["lam_selection"]
-    assert bar.n == 2 * sum(sel["path_iterations"]) + img.parameters["iterations"] <= bar.total
+    power = img.parameters["scale_power_iterations"]
+    assert bar.n == power + 2 * sum(sel["path_iterations"]) + img.parameters["iterations"] <= bar.total
     assert "lam=" in bar.desc
     assert len(notes) == 1 and "predicted" in notes[0] and "--lam" in notes[0]
+    assert ticks_at_notice == [1]  # announced after the first AᴴA product, before the rest of the scaling
+    assert img.parameters["predicted_s"] > 0
     notes.clear()
     _quiet(regularize, ph, prior="tv", iters=5, lam=0.1, notice=notes.append)
     assert len(notes) == 1 and "--lam" not in notes[0]
