@@ -252,11 +252,12 @@ def regularize(ph: PhaseHistory, *, prior: str = "ptv", order: int = 1, lam: flo
     eps : float
         NUFFT tolerance.
     progress : tqdm-like, optional
-        A bar (``reset(total=)``, ``update(n)``, ``set_description(s)``) advanced once per
-        iteration of the λ path (both of its solvers) and of the final solve.
+        A bar (``reset(total=)``, ``update(n)``, ``set_description(s)``) advanced once per power
+        iteration of the scaling, per iteration of the λ path (both of its solvers) and of the
+        final solve.
     notice : callable, optional
-        ``notice(line)`` once, before a run predicted to last longer than :data:`LONG_RUN_S`,
-        with the estimate and what would shorten it.
+        ``notice(line)`` once, right after the first (timed) AᴴA product, when the run is predicted
+        to last longer than :data:`LONG_RUN_S`: the estimate and what would shorten it.
 
     Returns
     -------
