@@ -1,4 +1,4 @@
-"""Automatic λ (:mod:`sarcli.regparam`): noise estimate, Monte-Carlo degrees of freedom, GCV, SURE and
+"""Automatic λ (:mod:`sarcli.regularize.regparam`): noise estimate, Monte-Carlo degrees of freedom, GCV, SURE and
 the discrepancy path against closed forms, ``regularize(lam='auto')`` on scenes with and without
 range bins outside the scene (every prior, both operators, noiseless data), and ``sar regularize``."""
 
@@ -16,9 +16,10 @@ from click.testing import CliRunner
 from sarcli.cli.main import cli
 from sarcli.errors import AliasingWarning, ConvergenceWarning, SarcliWarning
 from sarcli.io.hdf5 import read_image, write_phase_history
-from sarcli.regparam import (GCV_GAMMA, LAM_PATH, STOP_AFTER, discrepancy_lambda, estimate_noise_power, gcv_score,
-                             mc_dof, noise_power, select_lambda, sure_score)
-from sarcli.regularize import PATH_ITERS, PRIORS, matched_filter, regularize
+from sarcli.regularize import PRIORS, matched_filter, regularize
+from sarcli.regularize.driver import PATH_ITERS
+from sarcli.regularize.regparam import (GCV_GAMMA, LAM_PATH, STOP_AFTER, discrepancy_lambda, estimate_noise_power,
+                                        gcv_score, mc_dof, noise_power, select_lambda, sure_score)
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "bench"))
 from bench_lam import disk_scene, gain_error, mag_error, scene  # noqa: E402
@@ -246,7 +247,7 @@ def test_noiseless_data_get_a_small_lambda_and_no_warning():
 
 
 def test_progress_and_notice_cover_the_path_and_the_final_solve(disk, monkeypatch):
-    import sarcli.regularize as R
+    import sarcli.regularize.driver as R
 
     class Bar:
         n, total, desc = 0, None, ""

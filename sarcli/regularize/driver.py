@@ -31,16 +31,16 @@ import warnings
 
 import numpy as np
 
-from .core import geometry
-from .errors import ConvergenceWarning, DefocusWarning, SarcliInputError, SarcliWarning
-from .core.grid import Grid, resolve_grid
-from .core.types import Image, PhaseHistory
-from .linops import (NufftOperator, SphericalOperator, gram_eigmax, normal_equations,
+from ..core import geometry
+from ..errors import ConvergenceWarning, DefocusWarning, SarcliInputError, SarcliWarning
+from ..core.grid import Grid, resolve_grid
+from ..core.types import Image, PhaseHistory
+from ..linops import (NufftOperator, SphericalOperator, gram_eigmax, normal_equations,
                      sparsifying_operator)
-from .linops.toeplitz import NormalEquations
-from .linops.finite_diff import FiniteDifference
+from ..linops.toeplitz import NormalEquations
+from ..linops.finite_diff import FiniteDifference
 from .regparam import SELECT_PATH
-from .solvers import ADMM, tikhonov
+from ..solvers import ADMM, tikhonov
 
 __all__ = ["regularize", "PRIORS", "OPERATORS", "DEFAULT_LAM", "DEFAULT_BETA_RATIO",
            "matched_filter", "scale_problem"]
@@ -123,11 +123,11 @@ LONG_RUN_S = 60.0
 
 
 class _PathSolver:
-    """``solve(lam) -> (u, ‖Âu − b̂‖², dof)`` for :func:`sarcli.regparam.select_lambda`.
+    """``solve(lam) -> (u, ‖Âu − b̂‖², dof)`` for :func:`sarcli.regularize.regparam.select_lambda`.
 
     Two solvers run iteration for iteration: one on the scaled data b̂, one on ``b̂ + δε`` (ε a
     seeded complex circular probe); both warm-start from their own previous path solution, so the
-    Monte-Carlo degrees of freedom (:func:`sarcli.regparam.mc_dof`) are those of the path's map
+    Monte-Carlo degrees of freedom (:func:`sarcli.regularize.regparam.mc_dof`) are those of the path's map
     from data to image. ``Âᴴε`` is computed once; no forward application of A is needed.
     """
 
@@ -177,7 +177,7 @@ class _PathSolver:
 
 
 def _auto(ph, grid, op, scaled, s_a, s_b, D, T, prior, beta_ratio, isotropic, u0, iters, params, tick):
-    """λ by SURE (noise power known) or modified GCV (:func:`sarcli.regparam.select_lambda`);
+    """λ by SURE (noise power known) or modified GCV (:func:`sarcli.regularize.regparam.select_lambda`);
     records the choice in ``params['lam_selection']``. Returns ``(lam, beta, warm start)``."""
     from . import regparam
 
@@ -222,7 +222,7 @@ def regularize(ph: PhaseHistory, *, prior: str = "ptv", order: int = 1, lam: flo
         λ in the normalised units of the module docstring. 'auto' (default): chosen on a short
         warm-started path by SURE when the noise power is known (file attribute, or the range
         bins outside the scene) and by modified generalised cross-validation otherwise, with
-        Monte-Carlo degrees of freedom (:mod:`sarcli.regparam`); the choice, the noise estimate
+        Monte-Carlo degrees of freedom (:mod:`sarcli.regularize.regparam`); the choice, the noise estimate
         and its source, the criterion and the path are recorded in
         ``parameters['lam_selection']``. None: :data:`DEFAULT_LAM`.
     beta : float, optional

@@ -3,7 +3,7 @@
 Criteria
 --------
 Along a short decreasing path ``SELECT_PATH`` (six values from 0.3 to 0.001, ratio 3.13, in the normalised
-units of :mod:`sarcli.regularize`), each solve warm-started from the previous one, the residual
+units of :mod:`sarcli.regularize.driver`), each solve warm-started from the previous one, the residual
 ``‖A f_λ − b‖²`` and the degrees of freedom of the fit ``dof(λ) = tr ∂(A f_λ)/∂b`` are measured;
 the degrees of freedom by one Monte-Carlo probe (Ramani, Blu & Unser 2008): the same solver,
 iteration for iteration, on ``b + δε``, and ``dof ≈ Re εᴴ A (f(b + δε) − f(b)) / δ``.
@@ -54,7 +54,7 @@ __all__ = ["LAM_PATH", "SELECT_PATH", "GCV_GAMMA", "STOP_AFTER", "DISCREPANCY_TA
            "noise_power", "discrepancy_lambda", "select_lambda", "gcv_score", "sure_score", "mc_dof",
            "blackman_harris"]
 
-#: Decreasing λ path (normalised units of :mod:`sarcli.regularize`; ℓ1 zeroes the image at λ ≥ 2).
+#: Decreasing λ path (normalised units of :mod:`sarcli.regularize.driver`; ℓ1 zeroes the image at λ ≥ 2).
 LAM_PATH = tuple(float(v) for v in np.geomspace(1.0, 1e-3, 13))
 #: Classical discrepancy factor τ: ‖Af − b‖² = τ n_b σ² (used when kappa is None).
 DISCREPANCY_TAU = 1.0
@@ -240,7 +240,7 @@ def discrepancy_lambda(solve: Callable, residual2: Callable, noise_energy: float
 # -- criteria that need no noise level (or use an estimated one), on a short warm-started path ------
 
 #: Path of the generalised cross-validation / SURE selection: 0.3 down to 1e-3, six values, ratio 3.13
-#: (normalised units of :mod:`sarcli.regularize`); it stops early once the criterion has risen
+#: (normalised units of :mod:`sarcli.regularize.driver`); it stops early once the criterion has risen
 #: ``STOP_AFTER`` times in a row past its minimum.
 SELECT_PATH = tuple(float(v) for v in np.geomspace(0.3, 1e-3, 6))
 #: Modified GCV weight γ of the degrees of freedom (Kim & Gu's γ = 1.4; γ = 1 is Wahba's GCV).
