@@ -11,7 +11,8 @@ from __future__ import annotations
 import numpy as np
 
 __all__ = ["WINDOW_KINDS", "window_weights", "window_1d", "check_taylor", "IRW_FACTOR_UNIFORM",
-           "TAYLOR_NBAR", "TAYLOR_SLL_DB", "TAYLOR_NBAR_RANGE", "TAYLOR_SLL_DB_RANGE"]
+           "TAYLOR_NBAR", "TAYLOR_SLL_DB", "TAYLOR_NBAR_RANGE", "TAYLOR_SLL_DB_RANGE", "blackman_harris",
+           "BLACKMAN_HARRIS_MAINLOBE_BINS"]
 
 #: The window kinds :func:`window_weights` understands.
 WINDOW_KINDS = ("none", "hann", "hamming", "taylor")
@@ -129,3 +130,19 @@ def window_weights(n_pulses: int, n_freqs: int, kind: str = "none", *, nbar: int
     w_cr = window_1d(n_pulses, kind, nbar=nbar, sll_db=sll_db)
     w_r = window_1d(n_freqs, kind, nbar=nbar, sll_db=sll_db)
     return np.outer(w_cr, w_r)
+
+
+# -- a low-sidelobe analysis window (not an image-forming taper) ----------------------------------
+
+_BH = (0.35875, 0.48829, 0.14128, 0.01168)
+#: Half-width of the Blackman-Harris main lobe, in bins of the unpadded DFT.
+BLACKMAN_HARRIS_MAINLOBE_BINS = 4
+
+
+def blackman_harris(m: int) -> np.ndarray:
+    """The 4-term Blackman-Harris window (-92 dB sidelobes), symmetric, length ``m``: the range
+    window of the noise estimate of :func:`sarcli.regularize.regparam.estimate_noise_power`."""
+    if m < 2:
+        return np.ones(m)
+    t = 2 * np.pi * np.arange(m) / (m - 1)
+    return _BH[0] - _BH[1] * np.cos(t) + _BH[2] * np.cos(2 * t) - _BH[3] * np.cos(3 * t)

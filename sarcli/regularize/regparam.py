@@ -49,10 +49,11 @@ from typing import Callable
 
 import numpy as np
 
+from ..core.windows import BLACKMAN_HARRIS_MAINLOBE_BINS, blackman_harris
+
 __all__ = ["LAM_PATH", "SELECT_PATH", "GCV_GAMMA", "STOP_AFTER", "DISCREPANCY_TAU", "DISCREPANCY_KAPPA",
            "FLOOR_MARGIN", "UNFITTABLE_RATIO", "LamChoice", "PathChoice", "estimate_noise_power",
-           "noise_power", "discrepancy_lambda", "select_lambda", "gcv_score", "sure_score", "mc_dof",
-           "blackman_harris"]
+           "noise_power", "discrepancy_lambda", "select_lambda", "gcv_score", "sure_score", "mc_dof"]
 
 #: Decreasing λ path (normalised units of :mod:`sarcli.regularize.driver`; ℓ1 zeroes the image at λ ≥ 2).
 LAM_PATH = tuple(float(v) for v in np.geomspace(1.0, 1e-3, 13))
@@ -67,16 +68,7 @@ FLOOR_MARGIN = 0.1
 #: r_min above this: the data cannot be fitted to the noise level (clutter outside the image,
 #: noiseless data, model error); no λ is chosen (status 'above at the smallest λ').
 UNFITTABLE_RATIO = 1.5
-_BH = (0.35875, 0.48829, 0.14128, 0.01168)
-_BH_MAINLOBE_BINS = 4  # half-width of the Blackman-Harris main lobe, in bins of the unpadded DFT
-
-
-def blackman_harris(m: int) -> np.ndarray:
-    """The 4-term Blackman-Harris window (-92 dB sidelobes), symmetric, length ``m``."""
-    if m < 2:
-        return np.ones(m)
-    t = 2 * np.pi * np.arange(m) / (m - 1)
-    return _BH[0] - _BH[1] * np.cos(t) + _BH[2] * np.cos(2 * t) - _BH[3] * np.cos(3 * t)
+_BH_MAINLOBE_BINS = BLACKMAN_HARRIS_MAINLOBE_BINS
 
 
 def estimate_noise_power(data, frequency_hz, scene_radius_m: float, *, margin_bins: int = 2):
