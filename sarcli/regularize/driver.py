@@ -252,9 +252,9 @@ def regularize(ph: PhaseHistory, *, prior: str = "ptv", order: int = 1, lam: flo
     eps : float
         NUFFT tolerance.
     progress : tqdm-like, optional
-        A bar (``reset(total=)``, ``update(n)``, ``set_description(s)``) advanced once per power
-        iteration of the scaling, per iteration of the λ path (both of its solvers) and of the
-        final solve.
+        A bar (``reset(total=)``, ``update(n)``, ``set_description(s)``, attributes ``n`` and
+        ``total``) advanced once per power iteration of the scaling, per iteration of the λ path
+        (both of its solvers) and of the final solve.
     notice : callable, optional
         ``notice(line)`` once, right after the first (timed) AᴴA product, when the run is predicted
         to last longer than :data:`LONG_RUN_S`: the estimate and what would shorten it.
@@ -364,9 +364,9 @@ def regularize(ph: PhaseHistory, *, prior: str = "ptv", order: int = 1, lam: flo
         lam, beta, u0 = _auto(ph, grid, op, scaled, s_a, s_b, D, T, prior, beta_ratio, isotropic, u0, iters,
                               params, tick)
         if progress is not None:
-            done = getattr(progress, "n", 0)
-            progress.reset(total=done + int(iters))
-            progress.update(done)
+            # the path stopped early: the total shrinks to what is left (not reset, so the bar's rate
+            # and time estimate carry on)
+            progress.total = getattr(progress, "n", 0) + int(iters)
             progress.set_description(f"regularize {prior} lam={lam:.3g}")
     if prior == "tikhonov":
         def cg_cb(i, obj):
