@@ -8,12 +8,14 @@ Public API (function-first; the ``sar`` CLI only calls these):
 - :func:`read_image`, :func:`write_image` — the HDF5 image contract
 - :func:`open_input` — any file sarcli reads, recognised by its content
 - :func:`form_image` — phase history -> :class:`Image` (direct, nufft, pfa, backprojection)
-- :func:`regularize` — phase history -> regularised :class:`Image` (TV, HOTV, ℓ1, ptv, Tikhonov)
+- :func:`sarcli.regularize.regularize` — phase history -> regularised :class:`Image` (TV, HOTV, ℓ1,
+  ptv, Tikhonov; λ chosen automatically by default)
 
 The layers, bottom up: :mod:`sarcli.core` (geometry, acquisition, grid, windows, data types; no
 I/O), :mod:`sarcli.io` (every file format), :mod:`sarcli.simulation`, :mod:`sarcli.formers`,
-:mod:`sarcli.linops` / :mod:`sarcli.solvers` / :mod:`sarcli.regularize`, :mod:`sarcli.analysis`,
-:mod:`sarcli.viz` (every figure), :mod:`sarcli.batch` and :mod:`sarcli.cli`.
+:mod:`sarcli.linops` < :mod:`sarcli.solvers` < :mod:`sarcli.regularize` (the driver and the choice
+of λ) and :mod:`sarcli.autofocus`, :mod:`sarcli.analysis`, :mod:`sarcli.viz` (every figure),
+:mod:`sarcli.batch` and :mod:`sarcli.cli`.
 
 Names and subpackages are imported lazily so ``import sarcli`` stays cheap.
 """
@@ -44,8 +46,8 @@ _LAZY = {
     "regrid": "formers.formation",
 }
 
-_SUBPACKAGES = ("core", "io", "simulation", "formers", "linops", "solvers", "analysis", "batch", "cli",
-                "viz", "errors")
+_SUBPACKAGES = ("core", "io", "simulation", "formers", "linops", "solvers", "regularize", "analysis", "batch",
+                "cli", "viz", "errors")
 
 __all__ = ["__version__", *_LAZY]
 

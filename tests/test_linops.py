@@ -207,3 +207,26 @@ def test_single_precision_toeplitz_at_loose_eps():
     out = gram.forward(f)
     assert out.dtype == np.complex128
     assert np.linalg.norm(out - ref) / np.linalg.norm(ref) < 1e-5
+
+
+def test_spherical_operator_draws_no_bar_of_its_own(monkeypatch):
+    # an operator applied inside an iteration with its own bar must not start a backprojection bar
+    import sarcli.formers.backprojection as bp
+    from sarcli._util.progress import is_quiet
+
+    seen = []
+    real = bp.progress
+
+    def spy(*args, **kwargs):
+        seen.append(is_quiet())
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(bp, "progress", spy)
+    op = _operators()["spherical"]
+    y = op.forward(_crandn(GRID.shape))
+    op.adjoint(y)
+    assert seen and all(seen)
+    assert not is_quiet()  # restored afterwards
+    seen.clear()
+    bp.backproject(y, op.freq_hz, op.antenna_position_m, op.range_to_center_m, GRID)
+    assert seen == [False]  # a former called on its own keeps its bar

@@ -1,4 +1,4 @@
-"""Automatic λ (:mod:`sarcli.regparam`): noise estimate, Monte-Carlo degrees of freedom, GCV, SURE and
+"""Automatic λ (:mod:`sarcli.regularize.regparam`): noise estimate, Monte-Carlo degrees of freedom, GCV, SURE and
 the discrepancy path against closed forms, ``regularize(lam='auto')`` on scenes with and without
 range bins outside the scene (every prior, both operators, noiseless data), and ``sar regularize``."""
 
@@ -16,9 +16,10 @@ from click.testing import CliRunner
 from sarcli.cli.main import cli
 from sarcli.errors import AliasingWarning, ConvergenceWarning, SarcliWarning
 from sarcli.io.hdf5 import read_image, write_phase_history
-from sarcli.regparam import (GCV_GAMMA, LAM_PATH, STOP_AFTER, discrepancy_lambda, estimate_noise_power, gcv_score,
-                             mc_dof, noise_power, select_lambda, sure_score)
-from sarcli.regularize import PATH_ITERS, PRIORS, matched_filter, regularize
+from sarcli.regularize import PRIORS, matched_filter, regularize
+from sarcli.regularize.driver import PATH_ITERS
+from sarcli.regularize.regparam import (GCV_GAMMA, LAM_PATH, STOP_AFTER, discrepancy_lambda, estimate_noise_power,
+                                        gcv_score, mc_dof, noise_power, select_lambda, sure_score)
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "bench"))
 from bench_lam import disk_scene, gain_error, mag_error, scene  # noqa: E402
@@ -246,7 +247,7 @@ def test_noiseless_data_get_a_small_lambda_and_no_warning():
 
 
 def test_progress_and_notice_cover_the_path_and_the_final_solve(disk, monkeypatch):
-    import sarcli.regularize as R
+    import sarcli.regularize.driver as R
 
     class Bar:
         n, total, desc = 0, None, ""
@@ -263,11 +264,20 @@ def test_progress_and_notice_cover_the_path_and_the_final_solve(disk, monkeypatc
     ph, _, _ = disk
     bar, notes = Bar(), []
     monkeypatch.setattr(R, "LONG_RUN_S", 0.0)
-    img, _ = _quiet(regularize, ph, prior="tv", iters=40, progress=bar, notice=notes.append)
+    ticks_at_notice = []
+
+    def note(line):
+        notes.append(line)
+        ticks_at_notice.append(bar.n)
+
+    img, _ = _quiet(regularize, ph, prior="tv", iters=40, progress=bar, notice=note)
     sel = img.parameters["lam_selection"]
-    assert bar.n == 2 * sum(sel["path_iterations"]) + img.parameters["iterations"] <= bar.total
+    power = img.parameters["scale_power_iterations"]
+    assert bar.n == power + 2 * sum(sel["path_iterations"]) + img.parameters["iterations"] <= bar.total
     assert "lam=" in bar.desc
     assert len(notes) == 1 and "predicted" in notes[0] and "--lam" in notes[0]
+    assert ticks_at_notice == [1]  # announced after the first AᴴA product, before the rest of the scaling
+    assert img.parameters["predicted_s"] > 0
     notes.clear()
     _quiet(regularize, ph, prior="tv", iters=5, lam=0.1, notice=notes.append)
     assert len(notes) == 1 and "--lam" not in notes[0]

@@ -67,3 +67,17 @@ def test_unit_point_keeps_peak_one(kind):
     row, col = grid.index_of(1.5, -0.75)
     assert np.unravel_index(np.argmax(np.abs(image)), image.shape) == (row, col)
     assert abs(image[row, col]) == pytest.approx(1.0, abs=1e-12)
+
+
+def test_blackman_harris_closed_form_and_sidelobes():
+    from sarcli.core.windows import BLACKMAN_HARRIS_MAINLOBE_BINS, blackman_harris
+
+    w = blackman_harris(65)
+    np.testing.assert_allclose(w, w[::-1], atol=1e-15)
+    assert abs(w[32] - 1.0) < 1e-12 and abs(w[0] - 6e-5) < 1e-12  # a0 + a1 + a2 + a3 = 1; a0 - a1 + a2 - a3
+    spec = np.abs(np.fft.fft(w, 65 * 64))
+    spec_db = 20 * np.log10(spec / spec[0] + 1e-300)
+    beyond = np.arange(spec.size) / 64.0  # frequency in bins of the unpadded DFT
+    lobe = (beyond > BLACKMAN_HARRIS_MAINLOBE_BINS) & (beyond < 65 - BLACKMAN_HARRIS_MAINLOBE_BINS)
+    assert spec_db[lobe].max() < -91.0  # the 4-term window's -92 dB sidelobes, outside the main lobe
+    assert blackman_harris(1).tolist() == [1.0]

@@ -8,8 +8,9 @@ never ends up on the same line as a bar.
 from __future__ import annotations
 
 import sys
+from contextlib import contextmanager
 
-__all__ = ["progress", "set_quiet", "is_quiet", "message"]
+__all__ = ["progress", "set_quiet", "is_quiet", "message", "no_bars"]
 
 _QUIET = False
 
@@ -22,6 +23,18 @@ def set_quiet(quiet: bool) -> None:
 
 def is_quiet() -> bool:
     return _QUIET
+
+
+@contextmanager
+def no_bars():
+    """No bars inside: for a step (an operator application) of an iteration that draws its own."""
+    global _QUIET
+    before = _QUIET
+    _QUIET = True
+    try:
+        yield
+    finally:
+        _QUIET = before
 
 
 def progress(iterable=None, *, total=None, desc=None, unit="it", disable=None, **kwargs):

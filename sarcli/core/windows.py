@@ -13,7 +13,8 @@ import functools
 import numpy as np
 
 __all__ = ["WINDOW_KINDS", "window_weights", "window_1d", "check_taylor", "IRW_FACTOR_UNIFORM", "irw_factor",
-           "TAYLOR_NBAR", "TAYLOR_SLL_DB", "TAYLOR_NBAR_RANGE", "TAYLOR_SLL_DB_RANGE"]
+           "TAYLOR_NBAR", "TAYLOR_SLL_DB", "TAYLOR_NBAR_RANGE", "TAYLOR_SLL_DB_RANGE", "blackman_harris",
+           "BLACKMAN_HARRIS_MAINLOBE_BINS"]
 
 #: The window kinds :func:`window_weights` understands.
 WINDOW_KINDS = ("none", "hann", "hamming", "taylor")
@@ -154,3 +155,19 @@ def irw_factor(kind: str = "none", *, nbar: int = TAYLOR_NBAR, sll_db: float = T
     i = int(np.argmax(amp < np.sqrt(0.5)))                               # first sample below half power
     frac = (amp[i - 1] - np.sqrt(0.5)) / (amp[i - 1] - amp[i])
     return float(2.0 * (i - 1 + frac) / pad)
+
+
+# -- a low-sidelobe analysis window (not an image-forming taper) ----------------------------------
+
+_BH = (0.35875, 0.48829, 0.14128, 0.01168)
+#: Half-width of the Blackman-Harris main lobe, in bins of the unpadded DFT.
+BLACKMAN_HARRIS_MAINLOBE_BINS = 4
+
+
+def blackman_harris(m: int) -> np.ndarray:
+    """The 4-term Blackman-Harris window (-92 dB sidelobes), symmetric, length ``m``: the range
+    window of the noise estimate of :func:`sarcli.regularize.regparam.estimate_noise_power`."""
+    if m < 2:
+        return np.ones(m)
+    t = 2 * np.pi * np.arange(m) / (m - 1)
+    return _BH[0] - _BH[1] * np.cos(t) + _BH[2] * np.cos(2 * t) - _BH[3] * np.cos(3 * t)

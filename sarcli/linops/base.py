@@ -231,18 +231,21 @@ class MatrixLinop(Linop):
         return (self.matrix.conj().T @ y.reshape(-1)).reshape(self.ishape)
 
 
-def gram_eigmax(gram: Linop, *, iters: int = 30, seed: int = 0) -> float:
+def gram_eigmax(gram: Linop, *, iters: int = 30, seed: int = 0, callback=None) -> float:
     """Largest eigenvalue of a Hermitian positive semi-definite operator (power iteration).
 
     Deterministic (fixed seed); 30 iterations give a few digits, which is all a scaling needs.
+    ``callback(i)`` is called after each application of ``gram`` (i = 1, 2, ...).
     """
     rng = np.random.default_rng(seed)
     x = rng.standard_normal(gram.ishape) + 1j * rng.standard_normal(gram.ishape)
     x /= np.sqrt(norm2(x))
     lam = 0.0
-    for _ in range(iters):
+    for i in range(iters):
         y = gram.forward(x)
         lam = float(np.sqrt(norm2(y)))
+        if callback is not None:
+            callback(i + 1)
         if lam == 0.0 or not np.isfinite(lam):
             return lam
         x = y / lam

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .._util.progress import no_bars
 from ..core.grid import Grid
 from .base import Linop
 
@@ -50,14 +51,18 @@ class SphericalOperator(Linop):
         return cls(acq.frequency_hz, acq.antenna_position_m, acq.range_to_center_m,
                    acq.grid if grid is None else grid, **kwargs)
 
+    # the kernels draw no bar of their own here: an operator is applied inside an iteration that has one
+
     def _forward(self, x):
         from ..formers.backprojection import reproject
 
-        return self.total_weight * reproject(x, self.freq_hz, self.antenna_position_m,
-                                             self.range_to_center_m, self.grid, **self.kwargs)
+        with no_bars():
+            return self.total_weight * reproject(x, self.freq_hz, self.antenna_position_m,
+                                                 self.range_to_center_m, self.grid, **self.kwargs)
 
     def _adjoint(self, y):
         from ..formers.backprojection import backproject
 
-        return self.total_weight * backproject(y, self.freq_hz, self.antenna_position_m,
-                                               self.range_to_center_m, self.grid, **self.kwargs)
+        with no_bars():
+            return self.total_weight * backproject(y, self.freq_hz, self.antenna_position_m,
+                                                   self.range_to_center_m, self.grid, **self.kwargs)

@@ -31,16 +31,16 @@ import warnings
 
 import numpy as np
 
-from .core import geometry
-from .errors import ConvergenceWarning, DefocusWarning, SarcliInputError, SarcliWarning
-from .core.grid import Grid, resolve_grid
-from .core.types import Image, PhaseHistory
-from .linops import (NufftOperator, SphericalOperator, gram_eigmax, normal_equations,
+from ..core import geometry
+from ..errors import ConvergenceWarning, DefocusWarning, SarcliInputError
+from ..core.grid import Grid, resolve_grid
+from ..core.types import Image, PhaseHistory
+from ..linops import (NufftOperator, SphericalOperator, gram_eigmax, normal_equations,
                      sparsifying_operator)
-from .linops.toeplitz import NormalEquations
-from .linops.finite_diff import FiniteDifference
+from ..linops.toeplitz import NormalEquations
+from ..linops.finite_diff import FiniteDifference
 from .regparam import SELECT_PATH
-from .solvers import ADMM, tikhonov
+from ..solvers import ADMM, tikhonov
 
 __all__ = ["regularize", "PRIORS", "OPERATORS", "DEFAULT_LAM", "DEFAULT_BETA_RATIO",
            "matched_filter", "scale_problem"]
@@ -79,11 +79,11 @@ def _build(ph: PhaseHistory, grid: Grid, operator: str, eps: float):
     return op, normal_equations(op, ph.data, form=operator)
 
 
-def scale_problem(normal, *, power_iters: int = 30):
+def scale_problem(normal, *, power_iters: int = 30, callback=None):
     """Normalise ``‖A‖₂ = 1`` and ``max |Âᴴ b̂| = 1`` (module docstring).
 
     ``power_iters`` power iterations on ``AᴴA`` estimate ``‖A‖₂`` (from below; 30 give a few
-    digits, 10 within a few per cent, which is all a scaling needs).
+    digits, 10 within a few per cent, which is all a scaling needs); ``callback(i)`` after each.
 
     Returns
     -------
@@ -92,7 +92,7 @@ def scale_problem(normal, *, power_iters: int = 30):
     s_a, s_b : float
         The scalings; an image ``u`` of the scaled problem is ``f = u s_b / s_a``.
     """
-    s_a = float(np.sqrt(gram_eigmax(normal.gram, iters=power_iters)))
+    s_a = float(np.sqrt(gram_eigmax(normal.gram, iters=power_iters, callback=callback)))
     s_b = float(np.max(np.abs(normal.atb))) / s_a if s_a > 0 else 0.0
     if s_b == 0.0 or not np.isfinite(s_b):
         return None, s_a, s_b
@@ -123,11 +123,11 @@ LONG_RUN_S = 60.0
 
 
 class _PathSolver:
-    """``solve(lam) -> (u, ‖Âu − b̂‖², dof)`` for :func:`sarcli.regparam.select_lambda`.
+    """``solve(lam) -> (u, ‖Âu − b̂‖², dof)`` for :func:`sarcli.regularize.regparam.select_lambda`.
 
     Two solvers run iteration for iteration: one on the scaled data b̂, one on ``b̂ + δε`` (ε a
     seeded complex circular probe); both warm-start from their own previous path solution, so the
-    Monte-Carlo degrees of freedom (:func:`sarcli.regparam.mc_dof`) are those of the path's map
+    Monte-Carlo degrees of freedom (:func:`sarcli.regularize.regparam.mc_dof`) are those of the path's map
     from data to image. ``Âᴴε`` is computed once; no forward application of A is needed.
     """
 
@@ -177,7 +177,7 @@ class _PathSolver:
 
 
 def _auto(ph, grid, op, scaled, s_a, s_b, D, T, prior, beta_ratio, isotropic, u0, iters, params, tick):
-    """λ by SURE (noise power known) or modified GCV (:func:`sarcli.regparam.select_lambda`);
+    """λ by SURE (noise power known) or modified GCV (:func:`sarcli.regularize.regparam.select_lambda`);
     records the choice in ``params['lam_selection']``. Returns ``(lam, beta, warm start)``."""
     from . import regparam
 
@@ -222,7 +222,7 @@ def regularize(ph: PhaseHistory, *, prior: str = "ptv", order: int = 1, lam: flo
         λ in the normalised units of the module docstring. 'auto' (default): chosen on a short
         warm-started path by SURE when the noise power is known (file attribute, or the range
         bins outside the scene) and by modified generalised cross-validation otherwise, with
-        Monte-Carlo degrees of freedom (:mod:`sarcli.regparam`); the choice, the noise estimate
+        Monte-Carlo degrees of freedom (:mod:`sarcli.regularize.regparam`); the choice, the noise estimate
         and its source, the criterion and the path are recorded in
         ``parameters['lam_selection']``. None: :data:`DEFAULT_LAM`.
     beta : float, optional
@@ -252,11 +252,12 @@ def regularize(ph: PhaseHistory, *, prior: str = "ptv", order: int = 1, lam: flo
     eps : float
         NUFFT tolerance.
     progress : tqdm-like, optional
-        A bar (``reset(total=)``, ``update(n)``, ``set_description(s)``) advanced once per
-        iteration of the λ path (both of its solvers) and of the final solve.
+        A bar (``reset(total=)``, ``update(n)``, ``set_description(s)``, attributes ``n`` and
+        ``total``) advanced once per power iteration of the scaling, per iteration of the λ path
+        (both of its solvers) and of the final solve.
     notice : callable, optional
-        ``notice(line)`` once, before a run predicted to last longer than :data:`LONG_RUN_S`,
-        with the estimate and what would shorten it.
+        ``notice(line)`` once, right after the first (timed) AᴴA product, when the run is predicted
+        to last longer than :data:`LONG_RUN_S`: the estimate and what would shorten it.
 
     Returns
     -------
@@ -310,15 +311,42 @@ def regularize(ph: PhaseHistory, *, prior: str = "ptv", order: int = 1, lam: flo
     # the spherical AᴴA is two backprojections: fewer power iterations (the far-field forms share 30
     # so that 'nufft' and 'toeplitz' scale identically)
     power_iters = 10 if operator == "spherical" else 30
+    path_budget = 2 * PATH_ITERS * len(SELECT_PATH) if auto else 0  # two solvers per path iteration
+    if progress is not None:
+        progress.reset(total=power_iters + path_budget + int(iters))
+        progress.set_description(f"regularize {prior}: scaling")
+
+    def tick(k):
+        if progress is not None:
+            progress.update(k)
+
+    estimate = {}
     t_scale = time.perf_counter()
-    scaled, s_a, s_b = scale_problem(normal, power_iters=power_iters)
-    gram_s = (time.perf_counter() - t_scale) / power_iters  # one AᴴA application, measured
+
+    def on_power(i):
+        # the first AᴴA product, timed, predicts the run; a long one is announced before it goes on
+        tick(1)
+        if i != 1:
+            return
+        gram_s = time.perf_counter() - t_scale
+        predicted = gram_s * (power_iters + path_budget + int(iters))
+        estimate.update(predicted_s=predicted)
+        if notice is not None and predicted > LONG_RUN_S:
+            faster = [f"give --lam (skips the lam path, about {gram_s * int(iters):.0f} s)"] if auto else []
+            faster += ["fewer --iters", "a coarser --pixel-size or a smaller --extent"]
+            if operator == "spherical":
+                faster.append("--operator toeplitz (far-field; may defocus)")
+            path = f"a lam path of up to {path_budget} and " if auto else ""
+            notice(f"regularize {prior}: up to {predicted:.0f} s predicted ({path}{int(iters)} iterations at "
+                   f"{gram_s:.2g} s); faster: {', '.join(faster)}")
+
+    scaled, s_a, s_b = scale_problem(normal, power_iters=power_iters, callback=on_power)
     params = {"prior": prior, "order": int(order), "lam": lam, "beta": beta, "iters": int(iters),
               "tol": float(tol), "operator": operator, "isotropic": bool(isotropic),
               "inner_iters": int(inner_iters), "reestimate_every": int(reestimate_every), "eps": eps,
               "grid": grid.as_dict(), "init": init is not None, "scale_operator": s_a,
               "scale_data": s_b, "scale_power_iterations": power_iters,
-              "farfield_phase_error_rad": phase_err, "model": ph.model,
+              "farfield_phase_error_rad": phase_err, "model": ph.model, **estimate,
               "normalisation": "pixel-model reflectivity f = u * scale_data / scale_operator: a unit point "
                                "at a pixel centre recovered exactly is 1, the matched filter's peak"}
     if scaled is None:
@@ -330,32 +358,15 @@ def regularize(ph: PhaseHistory, *, prior: str = "ptv", order: int = 1, lam: flo
     f0 = init if init is not None else mf
     T = None if D is not None else sparsifying_operator(prior, grid.shape, order=order,
                                                         f0=f0 if prior == "ptv" else None)
-    path_budget = 2 * PATH_ITERS * len(SELECT_PATH) if auto else 0  # two solvers per path iteration
     if progress is not None:
-        progress.reset(total=path_budget + int(iters))
         progress.set_description(f"regularize {prior}" + (": lam path" if auto else ""))
-
-    def tick(k):
-        if progress is not None:
-            progress.update(k)
-
-    predicted = gram_s * (path_budget + int(iters))
-    params["predicted_s"] = predicted
-    if notice is not None and predicted > LONG_RUN_S:
-        faster = [f"give --lam (skips the lam path, about {gram_s * int(iters):.0f} s)"] if auto else []
-        faster += ["fewer --iters", "a coarser --pixel-size or a smaller --extent"]
-        if operator == "spherical":
-            faster.append("--operator toeplitz (far-field; may defocus)")
-        path = f"a lam path of up to {path_budget} and " if auto else ""
-        notice(f"regularize {prior}: up to {predicted:.0f} s predicted ({path}{int(iters)} iterations at "
-               f"{gram_s:.2g} s); faster: {', '.join(faster)}")
     if auto:
         lam, beta, u0 = _auto(ph, grid, op, scaled, s_a, s_b, D, T, prior, beta_ratio, isotropic, u0, iters,
                               params, tick)
         if progress is not None:
-            done = getattr(progress, "n", 0)
-            progress.reset(total=done + int(iters))
-            progress.update(done)
+            # the path stopped early: the total shrinks to what is left (not reset, so the bar's rate
+            # and time estimate carry on)
+            progress.total = getattr(progress, "n", 0) + int(iters)
             progress.set_description(f"regularize {prior} lam={lam:.3g}")
     if prior == "tikhonov":
         def cg_cb(i, obj):

@@ -3,7 +3,7 @@
 Criteria
 --------
 Along a short decreasing path ``SELECT_PATH`` (six values from 0.3 to 0.001, ratio 3.13, in the normalised
-units of :mod:`sarcli.regularize`), each solve warm-started from the previous one, the residual
+units of :mod:`sarcli.regularize.driver`), each solve warm-started from the previous one, the residual
 ``‖A f_λ − b‖²`` and the degrees of freedom of the fit ``dof(λ) = tr ∂(A f_λ)/∂b`` are measured;
 the degrees of freedom by one Monte-Carlo probe (Ramani, Blu & Unser 2008): the same solver,
 iteration for iteration, on ``b + δε``, and ``dof ≈ Re εᴴ A (f(b + δε) − f(b)) / δ``.
@@ -49,16 +49,16 @@ from typing import Callable
 
 import numpy as np
 
-from .core import sampling
-from .core.geometry import C
-from .errors import SarcliInputError
+from ..core import sampling
+from ..core.geometry import C
+from ..core.windows import BLACKMAN_HARRIS_MAINLOBE_BINS, blackman_harris
+from ..errors import SarcliInputError
 
 __all__ = ["LAM_PATH", "SELECT_PATH", "GCV_GAMMA", "STOP_AFTER", "DISCREPANCY_TAU", "DISCREPANCY_KAPPA",
            "FLOOR_MARGIN", "UNFITTABLE_RATIO", "LamChoice", "PathChoice", "estimate_noise_power",
-           "noise_power", "discrepancy_lambda", "select_lambda", "gcv_score", "sure_score", "mc_dof",
-           "blackman_harris"]
+           "noise_power", "discrepancy_lambda", "select_lambda", "gcv_score", "sure_score", "mc_dof"]
 
-#: Decreasing λ path (normalised units of :mod:`sarcli.regularize`; ℓ1 zeroes the image at λ ≥ 2).
+#: Decreasing λ path (normalised units of :mod:`sarcli.regularize.driver`; ℓ1 zeroes the image at λ ≥ 2).
 LAM_PATH = tuple(float(v) for v in np.geomspace(1.0, 1e-3, 13))
 #: Classical discrepancy factor τ: ‖Af − b‖² = τ n_b σ² (used when kappa is None).
 DISCREPANCY_TAU = 1.0
@@ -71,16 +71,6 @@ FLOOR_MARGIN = 0.1
 #: r_min above this: the data cannot be fitted to the noise level (clutter outside the image,
 #: noiseless data, model error); no λ is chosen (status 'above at the smallest λ').
 UNFITTABLE_RATIO = 1.5
-_BH = (0.35875, 0.48829, 0.14128, 0.01168)
-_BH_MAINLOBE_BINS = 4  # half-width of the Blackman-Harris main lobe, in bins of the unpadded DFT
-
-
-def blackman_harris(m: int) -> np.ndarray:
-    """The 4-term Blackman-Harris window (-92 dB sidelobes), symmetric, length ``m``."""
-    if m < 2:
-        return np.ones(m)
-    t = 2 * np.pi * np.arange(m) / (m - 1)
-    return _BH[0] - _BH[1] * np.cos(t) + _BH[2] * np.cos(2 * t) - _BH[3] * np.cos(3 * t)
 
 
 def estimate_noise_power(data, frequency_hz, scene_radius_m: float, *, margin_bins: int = 2):
@@ -113,7 +103,7 @@ def estimate_noise_power(data, frequency_hz, scene_radius_m: float, *, margin_bi
     step = float(np.median(np.abs(dalpha)))
     m = d.shape[1]
     r_bin = C / (2.0 * step * m)  # range per bin (m); the window is m bins
-    guard = int(np.ceil(scene_radius_m / r_bin)) + _BH_MAINLOBE_BINS + int(margin_bins)
+    guard = int(np.ceil(scene_radius_m / r_bin)) + BLACKMAN_HARRIS_MAINLOBE_BINS + int(margin_bins)
     idx = np.abs(np.fft.fftfreq(m) * m)  # |bin| from the reference range, both signs
     noise_bins = idx > guard
     if not noise_bins.any():
@@ -243,7 +233,7 @@ def discrepancy_lambda(solve: Callable, residual2: Callable, noise_energy: float
 # -- criteria that need no noise level (or use an estimated one), on a short warm-started path ------
 
 #: Path of the generalised cross-validation / SURE selection: 0.3 down to 1e-3, six values, ratio 3.13
-#: (normalised units of :mod:`sarcli.regularize`); it stops early once the criterion has risen
+#: (normalised units of :mod:`sarcli.regularize.driver`); it stops early once the criterion has risen
 #: ``STOP_AFTER`` times in a row past its minimum.
 SELECT_PATH = tuple(float(v) for v in np.geomspace(0.3, 1e-3, 6))
 #: Modified GCV weight γ of the degrees of freedom (Kim & Gu's γ = 1.4; γ = 1 is Wahba's GCV).
