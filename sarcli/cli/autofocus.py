@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import click
 
+from ..autofocus import DEFAULT_METHOD, METHODS
 from .options import echo_info, grid_options, handle_errors, parse_pair, prepare_outputs, wrote
 
 
@@ -11,7 +12,7 @@ from .options import echo_info, grid_options, handle_errors, parse_pair, prepare
 @click.argument("input_path", metavar="PH.h5", type=click.Path(dir_okay=False))
 @click.option("-o", "--output", required=True, type=click.Path(dir_okay=False),
               help="Corrected phase-history file to write (.h5).")
-@click.option("--method", type=click.Choice(["pga", "min-entropy"]), default="min-entropy", show_default=True,
+@click.option("--method", type=click.Choice(METHODS), default=DEFAULT_METHOD, show_default=True,
               help="Minimum entropy, coarse to fine, cross-validated between halves of the scene; or "
                    "phase gradient autofocus.")
 @grid_options
