@@ -308,17 +308,18 @@ def test_cli_method_choices_are_the_library_list():
     assert tuple(af.type.choices) == METHODS == tuple(fi.type.choices) and af.default == DEFAULT_METHOD
 
 
-def points_scene(kind, seed=0, P=128, M=64, n=6):
+def points_scene(kind, seed=0, P=128, M=64, n=6, size=96):
     """``n`` points on the far-field model (no flight path), or seen by a bistatic pair: the
     transmitter on the 8 km circle of :func:`scene`, the receiver on a 12 km circle 25° further
-    round and 20° up."""
+    round and 20° up; ``size`` × ``size`` pixels of 0.25 m."""
     rng = np.random.default_rng(seed)
     f = 9.6e9 + np.arange(M) * 4e6
     az = np.radians(np.linspace(-1.5, 1.5, P)) + 0.3
     el = np.full(P, np.radians(30.0))
-    pts = np.column_stack([rng.uniform(-9, 9, n), rng.uniform(-9, 9, n), np.zeros(n)])
+    half = 0.375 * size * 0.25
+    pts = np.column_stack([rng.uniform(-half, half, n), rng.uniform(-half, half, n), np.zeros(n)])
     amp = rng.uniform(0.5, 1, n) * np.exp(2j * np.pi * rng.random(n))
-    grid = Grid(96, 96, 0.25, 0.25)
+    grid = Grid(size, size, 0.25, 0.25)
     if kind == "farfield":
         acq = Acquisition(f, az, el, grid, model="farfield")
         return PhaseHistory(np.exp(-1j * geometry.signal_phase(f, az, el, pts)) @ amp, acq)
