@@ -31,21 +31,33 @@ The entropy is measured on the whole image grid, at full resolution up to
 (:func:`~sarcli.autofocus._common.guarded_grid`: on a window that just holds a point scene a phase
 error can lower the entropy by pushing sidelobes out of the window).
 
+The metric. The entropy minimised is Rényi's of order ``α``, ``H_α = ln(Σ q^α)/(1 - α)``
+(Shannon's at ``α = 1``): lower orders weigh the dim pixels more, and their minimum lies closer to
+the true phase among clutter and farther from it on a scene of isolated points. By default
+(``order='auto'``) each half of the scene (below) is searched with ``α = 1`` and, from its smooth
+level on, with ``α = 1/2``; the order whose two halves agree more on the detail of the finest
+level (correlation of the last level's increments) is used from there on: what a metric fits to
+one half's own clutter or sidelobes is not found in the other half.
+
 The decision: cross-validation on disjoint halves of the scene. The grid is split across range
 (near and far halves, each holding whole cross-range lines, with a band between them: a phase
 error moves energy only in cross-range) and the same coarse-to-fine search is run on each half
 alone, from zero. Each level's estimate from one half is applied to the *other* half: a real
 phase error is common to the whole scene and lowers the entropy of the half it was not estimated
 on, whereas what an estimate fits to one half's own clutter and noise is independent of the
-other half and, applied there, blurs it. The level kept is the one with the largest held-out
-entropy gain among those that lower the entropy of both halves; none, no correction. The whole
-grid is then searched at that level only, from the mean of the halves' estimates there. No
-threshold is involved: a held-out gain above zero is evidence against noise-fitting whatever its
-size. One phase per pulse beyond the sub-apertures is searched on each half (exact backprojection
-pair) and kept when each half's increment lowers the other half's entropy; the whole grid's
-estimate is then its sub-aperture estimate plus the mean of the halves' increments. Finally the
-estimate is applied only if it leaves the image no less sharp (entropy not up, peak-to-mean not
-down).
+other half and, applied there, blurs it. A level passes when both held-out gains are positive
+*and* the two halves' estimates correlate beyond chance (:func:`agreement_threshold`, ``2/√dof``):
+on sparse scenes either can happen alone (a point's sidelobes pushed out of both halves' windows
+give well-correlated estimates that blur the other half; a large held-out gain on one half can
+come with a loss on the other). The level kept is the passing one with the largest total
+held-out gain; a finer passing level is then taken when the detail the halves add to it
+correlates above ``max(1/3, 2/√dof)`` (:data:`REFINE_CORRELATION`). None passes: no correction.
+The whole grid is then searched at that level only, from the mean of the halves' estimates
+there. One phase per pulse beyond the sub-apertures is searched on each half (exact
+backprojection pair) and kept when each half's increment lowers the other half's entropy and
+the increments agree (same test); the whole grid's estimate is then its sub-aperture estimate
+plus the mean of the halves' increments. Finally the estimate is applied only if it leaves the
+image no less sharp (Shannon entropy not up, peak-to-mean not down).
 """
 
 
@@ -204,7 +216,7 @@ def _corr(a, b) -> float:
 
 
 #: Orders of the Rényi entropy tried by ``order='auto'``: Shannon's first (all levels), then 1/2
-#: (the finest level only).
+#: (the levels after the smooth one).
 ORDERS = (1.0, 0.5)
 
 
@@ -289,10 +301,10 @@ def min_entropy(ph, *, grid: Grid | None = None, start="zero", levels=LEVELS, ma
     order : 'auto' or float
         Order of the Rényi entropy minimised (:func:`~sarcli.autofocus._imager.entropy_of`; 1 is
         Shannon's). Orders below 1 weigh dim pixels more: their minimum lies closer to the true
-        phase among clutter and farther from it on scenes of isolated points. ``'auto'``: the
-        levels run with Shannon's entropy, then the finest level is searched again on each half
-        with order ``1/2`` (:data:`ORDERS`), and the order whose halves agree more on the detail
-        of that level is used from there on (module docstring). The sharpness guard measures
+        phase among clutter and farther from it on scenes of isolated points. ``'auto'``: each
+        half's search runs with Shannon's entropy, then again with order ``1/2`` (:data:`ORDERS`)
+        from its smooth level on, and the order whose halves agree more on the detail of the
+        finest level is used from there on (module docstring). The sharpness guard measures
         Shannon's entropy whatever the order.
 
     Returns
@@ -358,7 +370,9 @@ def _min_entropy(ph, grid, start, levels, max_iter, pulse_iter, full_pulse_iter,
 
         agree = {orders[0]: detail(paths)}
         for o in orders[1:]:
-            alt = [coarse_to_fine(im.with_order(o), zero, gauge, coarse, max_iter) for im in halves]
+            alt = [p[:1] + coarse_to_fine(im.with_order(o), p[0], gauge, coarse[1:], max_iter)
+                   for im, p in zip(halves, paths)] if len(coarse) > 2 else \
+                  [coarse_to_fine(im.with_order(o), zero, gauge, coarse, max_iter) for im in halves]
             agree[o] = detail(alt)
             if agree[o] > agree[chosen]:
                 chosen, paths = o, alt
