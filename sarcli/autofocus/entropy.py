@@ -34,8 +34,8 @@ error can lower the entropy by pushing sidelobes out of the window).
 The metric. The entropy minimised is Rényi's of order ``α``, ``H_α = ln(Σ q^α)/(1 - α)``
 (Shannon's at ``α = 1``): lower orders weigh the dim pixels more, and their minimum lies closer to
 the true phase among clutter and farther from it on a scene of isolated points. By default
-(``order='auto'``) each half of the scene (below) is searched with ``α = 1`` and, from its smooth
-level on, with ``α = 1/2``; the order whose two halves agree more on the detail of the finest
+(``order='auto'``) each half of the scene (below) is searched with ``α = 1`` and, again from
+zero, with ``α = 1/2``; the order whose two halves agree more on the detail of the finest
 level (correlation of the last level's increments) is used from there on: what a metric fits to
 one half's own clutter or sidelobes is not found in the other half.
 
@@ -215,8 +215,7 @@ def _corr(a, b) -> float:
     return float(np.dot(a, b) / (na * nb)) if na > 0 and nb > 0 else 0.0
 
 
-#: Orders of the Rényi entropy tried by ``order='auto'``: Shannon's first (all levels), then 1/2
-#: (the levels after the smooth one).
+#: Orders of the Rényi entropy tried by ``order='auto'``, each on all levels of both halves.
 ORDERS = (1.0, 0.5)
 
 
@@ -302,9 +301,9 @@ def min_entropy(ph, *, grid: Grid | None = None, start="zero", levels=LEVELS, ma
         Order of the Rényi entropy minimised (:func:`~sarcli.autofocus._imager.entropy_of`; 1 is
         Shannon's). Orders below 1 weigh dim pixels more: their minimum lies closer to the true
         phase among clutter and farther from it on scenes of isolated points. ``'auto'``: each
-        half's search runs with Shannon's entropy, then again with order ``1/2`` (:data:`ORDERS`)
-        from its smooth level on, and the order whose halves agree more on the detail of the
-        finest level is used from there on (module docstring). The sharpness guard measures
+        half's search runs with Shannon's entropy, then again with order ``1/2`` (:data:`ORDERS`),
+        and the order whose halves agree more on the detail of the finest level is used from
+        there on (module docstring). The sharpness guard measures
         Shannon's entropy whatever the order.
 
     Returns
@@ -370,9 +369,7 @@ def _min_entropy(ph, grid, start, levels, max_iter, pulse_iter, full_pulse_iter,
 
         agree = {orders[0]: detail(paths)}
         for o in orders[1:]:
-            alt = [p[:1] + coarse_to_fine(im.with_order(o), p[0], gauge, coarse[1:], max_iter)
-                   for im, p in zip(halves, paths)] if len(coarse) > 2 else \
-                  [coarse_to_fine(im.with_order(o), zero, gauge, coarse, max_iter) for im in halves]
+            alt = [coarse_to_fine(im.with_order(o), zero, gauge, coarse, max_iter) for im in halves]
             agree[o] = detail(alt)
             if agree[o] > agree[chosen]:
                 chosen, paths = o, alt
