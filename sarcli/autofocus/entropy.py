@@ -421,6 +421,11 @@ def _min_entropy(ph, grid, start, levels, max_iter, pulse_iter, full_pulse_iter,
                             f"chance {agreement_threshold(dofs[first]):.2f})")
         if refined:
             hist["decision"] += "; refined to level " + ", then ".join(refined)
+    if validate and len(orders) > 1:
+        agree = hist["order_agreement"]
+        hist["decision"] = (f"Rényi entropy of order {chosen:g} (the halves' finest detail correlates "
+                            + ", ".join(f"{v:.2f} with order {k.rstrip('0').rstrip('.')}" for k, v in agree.items())
+                            + "); " + hist["decision"])
     judge, fine_imagers = full, []  # the images the estimate is exact for
     if kept and K > 1 and pulse_iter > 0 and any(lv != "smooth" and int(lv) < K for lv in levels) \
             and best == len(coarse) - 1:
