@@ -25,9 +25,9 @@ def command(ctx, input_path, output, method, center, extent, pixel_size):
     /autofocus/phase_rad with the method. Constant and linear phase (a cross-range shift) are not
     observable and are left out of the estimate. The grid options choose the scene part the
     estimate is made on (default the file's grid). No correction is applied when none makes the
-    image sharper (entropy and peak-to-mean) or, for min-entropy, when the estimate from each half
-    of the scene does not sharpen the other half. What was decided and why is stored in the
-    file's attribute autofocus_decision and printed with -v.
+    image sharper (entropy and peak-to-mean) or, for min-entropy, when the estimates from two
+    halves of the scene do not both sharpen the other half and agree beyond chance. What was
+    decided and why is stored in the file's attribute autofocus_decision and printed with -v.
     """
     import numpy as np
 
