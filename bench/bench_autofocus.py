@@ -3,8 +3,10 @@
 
 For the four files on the default grid (400 × 400 at 0.25 m):
 
-1. whole-process wall time of ``sar form-image`` (default method) and of ``sar autofocus``
-   (default method), and their ratio (target ≤ 5);
+1. whole-process wall and CPU time of ``sar form-image`` (default method) and of
+   ``sar autofocus`` (default method), run alternately ``--repeats`` times each (A B A B: on
+   shared cores neighbouring runs see the same load), and the range of their ratios run for run
+   (target ≤ 5);
 2. raw data: entropy of the autofocused image over the raw image's (target ≤ 0.99);
 3. raw data with an injected error (:func:`sarcli.autofocus._common.synthetic_phase_error`:
    quadratic 4 rad at the aperture ends + smooth ~1 rad + jitter 0.15 rad rms; seeds
@@ -15,7 +17,7 @@ For the four files on the default grid (400 × 400 at 0.25 m):
 
 Entropies are of backprojected images (:func:`sarcli.autofocus._common.form`) on the full grid.
 
-Usage: ``python bench/bench_autofocus.py [--seeds 0,1,2] [--files DIR]`` (says it skipped, and exits 0,
+Usage: ``python bench/bench_autofocus.py [--seeds 0,1,2] [--repeats 3] [--files DIR]`` (says it skipped, and exits 0,
 when the files are absent).
 """
 
@@ -23,6 +25,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import resource
 import subprocess
 import sys
 import tempfile
@@ -38,10 +41,18 @@ SAR = [sys.executable, "-m", "sarcli.cli.main"] if not (Path(sys.executable).par
     [str(Path(sys.executable).parent / "sar")]
 
 
-def _run(*args) -> tuple[float, str]:
-    t = time.perf_counter()
+def _cpu() -> float:
+    r = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return r.ru_utime + r.ru_stime
+
+
+def _run(*args, cpu=False):
+    """Wall time (and, with ``cpu``, the child's CPU time) of one ``sar`` command, and its output."""
+    c, t = _cpu(), time.perf_counter()
     out = subprocess.run([*SAR, *map(str, args)], capture_output=True, text=True, check=True)
-    return time.perf_counter() - t, out.stdout.strip() + out.stderr.strip()
+    wall, used = time.perf_counter() - t, _cpu() - c
+    text = out.stdout.strip() + out.stderr.strip()
+    return (wall, used, text) if cpu else (wall, text)
 
 
 def main():
@@ -53,6 +64,7 @@ def main():
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", default="0,1,2")
+    ap.add_argument("--repeats", type=int, default=3, help="alternating runs of form-image and autofocus")
     ap.add_argument("--files", default=str(GOTCHA_DIR))
     a = ap.parse_args()
     files = gotcha_files(a.files)
@@ -65,8 +77,13 @@ def main():
         _run("import", "gotcha", *files, "-o", raw_h5)
         ph = read_phase_history(raw_h5)
         grid, az, P = ph.acquisition.grid, ph.acquisition.azimuth_rad, ph.data.shape[0]
-        t_form, _ = _run("form-image", raw_h5, "-o", tmp / "img.h5")
-        t_af, msg = _run("-v", "autofocus", raw_h5, "-o", tmp / "af.h5")
+        pairs = []
+        for _ in range(max(1, a.repeats)):  # A B A B
+            pairs.append((_run("form-image", raw_h5, "-o", tmp / "img.h5", cpu=True),
+                          _run("-v", "autofocus", raw_h5, "-o", tmp / "af.h5", cpu=True)))
+        wall = [b[0] / f[0] for f, b in pairs]
+        cpu = [b[1] / f[1] for f, b in pairs]
+        t_form, t_af, msg = pairs[-1][0][0], pairs[-1][1][0], pairs[-1][1][2]
         af_raw = read_phase_history(tmp / "af.h5")
         est_raw = np.asarray(af_raw.attrs.get("autofocus_phase_rad", np.zeros(P)))
         h_raw = image_entropy(form(ph, grid))
@@ -95,7 +112,13 @@ def main():
             print(f"| injected, seed {seed} | {t:.1f} | {t / t_form:.2f} | {image_entropy(img) / h_raw:.4f} | "
                   f"{mag:.4f} | {left:.3f} |", flush=True)
             print(f"<!-- {msg} -->")
-        print(f"\nsar form-image (default method): {t_form:.1f} s whole process")
+        print(f"\nsar autofocus / sar form-image, whole process, {len(pairs)} alternating pairs: wall "
+              f"{min(wall):.2f}-{max(wall):.2f}x, CPU {min(cpu):.2f}-{max(cpu):.2f}x (form-image "
+              f"{min(f[0] for f, _ in pairs):.1f}-{max(f[0] for f, _ in pairs):.1f} s wall, "
+              f"{min(f[1] for f, _ in pairs):.1f}-{max(f[1] for f, _ in pairs):.1f} s CPU; autofocus "
+              f"{min(b[0] for _, b in pairs):.1f}-{max(b[0] for _, b in pairs):.1f} s wall, "
+              f"{min(b[1] for _, b in pairs):.1f}-{max(b[1] for _, b in pairs):.1f} s CPU; load average "
+              f"{os.getloadavg()[0]:.1f})")
 
 
 if __name__ == "__main__":

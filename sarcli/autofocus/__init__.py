@@ -22,8 +22,9 @@ Methods
     (and a bistatic one) works.
 ``min-entropy`` (the default)
     Minimum image entropy (:mod:`sarcli.autofocus.entropy`), coarse to fine on sub-aperture
-    images with the entropy's exact gradient; the level of detail kept is chosen by
-    cross-validation between two disjoint halves of the scene.
+    images with the entropy's exact gradient; the entropy's order (Shannon's or Rényi's of
+    order 1/2) and the level of detail kept are chosen by cross-validation between two
+    disjoint halves of the scene (their estimates must sharpen each other and agree).
 
 Both never return a correction that leaves the image less sharp than it was: the result is kept
 only when the image entropy does not rise and the peak-to-mean ratio does not fall (measured on

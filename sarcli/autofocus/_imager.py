@@ -77,17 +77,31 @@ class single_threaded_blas:
         return False
 
 
-def entropy_of(image) -> tuple[float, np.ndarray, np.ndarray]:
-    """``H``, the normalised intensity ``q`` and the gradient weights ``w`` of an image."""
+def entropy_of(image, order: float = 1.0) -> tuple[float, np.ndarray, np.ndarray]:
+    """The Rényi entropy ``H_α`` of order ``α = order`` of an image's normalised intensity ``q``, ``q``
+    itself, and the gradient weights ``w_s = ∂H_α/∂|f_s|²``.
+
+    ``H_1 = -Σ q ln q`` (Shannon), ``w = -(ln q + H_1)/E``; for ``α ≠ 1``
+    ``H_α = ln(Σ q^α)/(1 - α)`` and ``w = α (q^{α-1} - S)/((1 - α) S E)`` with ``S = Σ q^α`` and
+    ``E = Σ|f|²``; pixels with ``q = 0`` get ``w = 0``. Orders below 1 weigh the dim pixels more:
+    on a scene of points in clutter the minimum of ``H_{1/2}`` lies closer to the true phase than
+    that of ``H_1`` (``docs/autofocus.md``).
+    """
     f = np.asarray(image)
     inten = f.real.astype(np.float64) ** 2 + f.imag.astype(np.float64) ** 2
     total = float(inten.sum())
     if total <= 0.0:
         return 0.0, inten, np.zeros_like(inten)
     q = inten / total
-    logq = np.log(np.where(q > 0, q, 1.0))
-    h = float(-np.sum(q * logq))
-    return h, q, -(logq + h) / total
+    pos = q > 0
+    if order == 1.0:
+        logq = np.log(np.where(pos, q, 1.0))
+        h = float(-np.sum(q * logq))
+        return h, q, -(logq + h) / total
+    qm1 = np.where(pos, np.where(pos, q, 1.0) ** (order - 1.0), 0.0)  # q^(α-1), 0 where q = 0
+    S = float(np.sum(q * qm1))
+    h = float(np.log(S) / (1.0 - order))
+    return h, q, np.where(pos, order * (qm1 - S) / ((1.0 - order) * S * total), 0.0)
 
 
 class Imager:
@@ -97,10 +111,13 @@ class Imager:
     ----------
     ph : PhaseHistory
     grid : Grid
+    order : float
+        Order of the Rényi entropy (:func:`entropy_of`).
     """
 
-    def __init__(self, ph, grid: Grid):
+    def __init__(self, ph, grid: Grid, order: float = 1.0):
         self.grid = grid
+        self.order = float(order)
         self.data = np.asarray(ph.data, dtype=np.complex128)
         acq = ph.acquisition
         self.stack = None
@@ -151,14 +168,14 @@ class Imager:
 
     def entropy(self, phi) -> float:
         """``H(f(φ))``."""
-        return entropy_of(self.image(phi))[0]
+        return entropy_of(self.image(phi), self.order)[0]
 
     def entropy_and_gradient(self, phi) -> tuple[float, np.ndarray]:
         """``H(φ)`` and ``∂H/∂φ_p`` (module docstring): one image and one adjoint."""
         phi = np.asarray(phi, np.float64)
         self.evaluations += 1
         f = self.image(phi)
-        h, _, w = entropy_of(f)
+        h, _, w = entropy_of(f, self.order)
         v = self._contract(w * np.conj(f))
         return h, 2.0 * np.imag(np.exp(-1j * phi) * v)
 
@@ -221,11 +238,14 @@ class BlockImager:
         Pulses per sub-aperture.
     axis : int
         The axis the halves split (:func:`split_grid`).
+    order : float
+        Order of the Rényi entropy (:func:`entropy_of`).
     """
 
-    def __init__(self, ph, grid: Grid, block: int, axis: int = 1, *, _parts=None, _bounds=None,
-                 _counter=None):
+    def __init__(self, ph, grid: Grid, block: int, axis: int = 1, *, order: float = 1.0, _parts=None,
+                 _bounds=None, _counter=None):
         self.grid = grid
+        self.order = float(order)
         self.axis = axis
         self._evaluations, self._counter = 0, _counter
         if _parts is None:
@@ -289,13 +309,21 @@ class BlockImager:
         if m not in cache:
             starts = np.arange(0, len(self.bounds) - 1, m)
             parts = [np.add.reduceat(part, starts, axis=0) for part in self.parts]
-            cache[m] = BlockImager(None, self.grid, 0, self.axis, _parts=parts,
+            cache[m] = BlockImager(None, self.grid, 0, self.axis, order=self.order, _parts=parts,
                                    _bounds=np.append(self.bounds[starts], self.bounds[-1]), _counter=self)
         return cache[m]
 
+    def with_order(self, order: float) -> "BlockImager":
+        """The same images measured by the Rényi entropy of another ``order`` (no copy; its
+        evaluations are counted on this imager)."""
+        if float(order) == self.order:
+            return self
+        return BlockImager(None, self.grid, 0, self.axis, order=order, _parts=self.parts, _bounds=self.bounds,
+                           _counter=self)
+
     def halves(self) -> tuple["BlockImager", "BlockImager"]:
         """The imagers of the two halves of :func:`split_grid` (this stack's own parts, no copy)."""
-        return tuple(BlockImager(None, g, 0, self.axis, _parts=[part], _bounds=self.bounds)
+        return tuple(BlockImager(None, g, 0, self.axis, order=self.order, _parts=[part], _bounds=self.bounds)
                      for g, part in zip(split_grid(self.grid, self.axis, SPLIT_GAP)[:2], self.parts))
 
     @property
@@ -324,14 +352,14 @@ class BlockImager:
         return self._image(np.exp(-1j * self._theta(phi)))
 
     def entropy(self, phi) -> float:
-        return entropy_of(self.image(phi))[0]
+        return entropy_of(self.image(phi), self.order)[0]
 
     def entropy_and_gradient(self, phi) -> tuple[float, np.ndarray]:
         """``H`` and its per-pulse gradient (class docstring)."""
         self._count()
         e = np.exp(-1j * self._theta(phi))
         f = self._image(e)
-        h, _, w = entropy_of(f)
+        h, _, w = entropy_of(f, self.order)
         g = (w * np.conj(f)).astype(np.complex64)
         v, k = 0.0, 0
         for part in self.parts:

@@ -31,21 +31,33 @@ The entropy is measured on the whole image grid, at full resolution up to
 (:func:`~sarcli.autofocus._common.guarded_grid`: on a window that just holds a point scene a phase
 error can lower the entropy by pushing sidelobes out of the window).
 
+The metric. The entropy minimised is Rényi's of order ``α``, ``H_α = ln(Σ q^α)/(1 - α)``
+(Shannon's at ``α = 1``): lower orders weigh the dim pixels more, and their minimum lies closer to
+the true phase among clutter and farther from it on a scene of isolated points. By default
+(``order='auto'``) each half of the scene (below) is searched with ``α = 1`` and, again from
+zero, with ``α = 1/2``; the order whose two halves agree more on the detail of the finest
+level (correlation of the last level's increments) is used from there on: what a metric fits to
+one half's own clutter or sidelobes is not found in the other half.
+
 The decision: cross-validation on disjoint halves of the scene. The grid is split across range
 (near and far halves, each holding whole cross-range lines, with a band between them: a phase
 error moves energy only in cross-range) and the same coarse-to-fine search is run on each half
 alone, from zero. Each level's estimate from one half is applied to the *other* half: a real
 phase error is common to the whole scene and lowers the entropy of the half it was not estimated
 on, whereas what an estimate fits to one half's own clutter and noise is independent of the
-other half and, applied there, blurs it. The level kept is the one with the largest held-out
-entropy gain among those that lower the entropy of both halves; none, no correction. The whole
-grid is then searched at that level only, from the mean of the halves' estimates there. No
-threshold is involved: a held-out gain above zero is evidence against noise-fitting whatever its
-size. One phase per pulse beyond the sub-apertures is searched on each half (exact backprojection
-pair) and kept when each half's increment lowers the other half's entropy; the whole grid's
-estimate is then its sub-aperture estimate plus the mean of the halves' increments. Finally the
-estimate is applied only if it leaves the image no less sharp (entropy not up, peak-to-mean not
-down).
+other half and, applied there, blurs it. A level passes when both held-out gains are positive
+*and* the two halves' estimates correlate beyond chance (:func:`agreement_threshold`, ``2/√dof``):
+on sparse scenes either can happen alone (a point's sidelobes pushed out of both halves' windows
+give well-correlated estimates that blur the other half; a large held-out gain on one half can
+come with a loss on the other). The level kept is the passing one with the largest total
+held-out gain; a finer passing level is then taken when the detail the halves add to it
+correlates above ``max(1/3, 2/√dof)`` (:data:`REFINE_CORRELATION`). None passes: no correction.
+The whole grid is then searched at that level only, from the mean of the halves' estimates
+there. One phase per pulse beyond the sub-apertures is searched on each half (exact
+backprojection pair) and kept when each half's increment lowers the other half's entropy and
+the increments agree (same test); the whole grid's estimate is then its sub-aperture estimate
+plus the mean of the halves' increments. Finally the estimate is applied only if it leaves the
+image no less sharp (Shannon entropy not up, peak-to-mean not down).
 """
 
 
@@ -56,6 +68,7 @@ import warnings
 import numpy as np
 
 from ..core.grid import Grid
+from ..errors import SarcliInputError
 from ._common import (MAX_GUARDED_PIXELS, AutofocusResult, AutofocusWarning, estimation_grid, guarded_grid,
                       sharpness)
 from ._imager import SPLIT_GAP, BlockImager, Imager, range_axis, single_threaded_blas, split_grid
@@ -202,6 +215,10 @@ def _corr(a, b) -> float:
     return float(np.dot(a, b) / (na * nb)) if na > 0 and nb > 0 else 0.0
 
 
+#: Orders of the Rényi entropy tried by ``order='auto'``, each on all levels of both halves.
+ORDERS = (1.0, 0.5)
+
+
 #: Most pixels of the grid the entropy is estimated on: larger grids are cut to a central window
 #: of full-resolution pixels (:func:`~sarcli.autofocus._common.estimation_grid`).
 MAX_ENTROPY_PIXELS = 400 * 400
@@ -220,10 +237,34 @@ def _crossvalidate(halves, paths):
     return gains, [_corr(a, b) for a, b in zip(*paths)]
 
 
+def _dof(level, P: int, gauge) -> int:
+    """Free parameters of a level: its basis' columns (or ``P``) less the unobservable ones."""
+    A = level_basis(level, P, gauge)
+    return max(1, (P if A is None else A.shape[1]) - gauge.shape[1])
+
+
+def agreement_threshold(dof: int) -> float:
+    """The correlation two independent estimates with ``dof`` free parameters exceed by chance
+    with probability about 2 % (two standard deviations, ``2/√dof``).
+
+    Two halves of a scene with no common phase error give estimates whose correlation is
+    about normal with variance ``1/dof``; a correlation above this is evidence of an error
+    common to the scene.
+    """
+    return 2.0 / np.sqrt(dof)
+
+
+#: Least correlation of the detail two halves add at a finer level for that level to be taken:
+#: with ``ρ = s/(s + n)`` (``s`` the common detail's power, ``n`` one half's estimation noise),
+#: the whole scene's estimate (noise about ``n/2``) gains from the detail when ``s > n/2``, i.e.
+#: ``ρ > 1/3``.
+REFINE_CORRELATION = 1.0 / 3.0
+
+
 def min_entropy(ph, *, grid: Grid | None = None, start="zero", levels=LEVELS, max_iter: int = 15,
                 pulse_iter: int = 3, full_pulse_iter: int = 0, max_blocks: int = 128,
                 max_stack_mib: float = 128.0, validate: bool = True, guard: bool = True,
-                pga_options=None) -> AutofocusResult:
+                pga_options=None, order="auto") -> AutofocusResult:
     """Minimum-entropy autofocus: coarse to fine to one phase per pulse, cross-validated.
 
     Parameters
@@ -256,6 +297,14 @@ def min_entropy(ph, *, grid: Grid | None = None, start="zero", levels=LEVELS, ma
         finest level is taken.
     guard : bool
         Keep the estimate only when it leaves the image no less sharp.
+    order : 'auto' or float
+        Order of the Rényi entropy minimised (:func:`~sarcli.autofocus._imager.entropy_of`; 1 is
+        Shannon's). Orders below 1 weigh dim pixels more: their minimum lies closer to the true
+        phase among clutter and farther from it on scenes of isolated points. ``'auto'``: each
+        half's search runs with Shannon's entropy, then again with order ``1/2`` (:data:`ORDERS`),
+        and the order whose halves agree more on the detail of the finest level is used from
+        there on (module docstring). The sharpness guard measures
+        Shannon's entropy whatever the order.
 
     Returns
     -------
@@ -266,11 +315,20 @@ def min_entropy(ph, *, grid: Grid | None = None, start="zero", levels=LEVELS, ma
     """
     with single_threaded_blas():  # the sub-aperture products (class docstring)
         return _min_entropy(ph, grid, start, levels, max_iter, pulse_iter, full_pulse_iter, max_blocks,
-                            max_stack_mib, validate, guard, pga_options)
+                            max_stack_mib, validate, guard, pga_options, order)
 
 
 def _min_entropy(ph, grid, start, levels, max_iter, pulse_iter, full_pulse_iter, max_blocks, max_stack_mib,
-                 validate, guard, pga_options):
+                 validate, guard, pga_options, order):
+    if order == "auto":
+        orders = ORDERS
+    else:
+        try:
+            orders = (float(order),)
+        except (TypeError, ValueError):
+            orders = (float("nan"),)
+        if not orders[0] > 0:
+            raise SarcliInputError(f"entropy order must be 'auto' or a positive number, got {order!r}")
     acq = ph.acquisition
     est = estimation_grid(grid or acq.grid, MAX_ENTROPY_PIXELS)
     P = ph.data.shape[0]
@@ -282,7 +340,7 @@ def _min_entropy(ph, grid, start, levels, max_iter, pulse_iter, full_pulse_iter,
     if any(lv != "smooth" and int(lv) <= K for lv in levels):
         coarse += (K,)
     axis = range_axis(acq)
-    full = BlockImager(ph, g_est, K, axis)
+    full = BlockImager(ph, g_est, K, axis, order=orders[0])
     halves = full.halves()
     hist: dict = {"levels": [str(lv) for lv in coarse], "block_pulses": K,
                   "estimation_grid": [est.ny, est.nx], "guarded_grid": [full.grid.ny, full.grid.nx]}
@@ -301,12 +359,42 @@ def _min_entropy(ph, grid, start, levels, max_iter, pulse_iter, full_pulse_iter,
         phi0 = np.asarray(start, np.float64)
         phi0, hist["start"] = phi0 - gauge @ (gauge.T @ phi0), "given"
     paths = [coarse_to_fine(im, zero, gauge, coarse, max_iter) for im in halves]
+    chosen, hist["order"] = orders[0], orders[0]
+    if len(orders) > 1:
+        # the search again with the other order: the order whose halves agree more on the
+        # detail of the finest level is the one less drawn to what is particular to each half
+        # (clutter, or the sidelobes of a few points)
+        def detail(ps):
+            return _corr(*(p[-1] - (p[-2] if len(p) > 1 else 0.0) for p in ps))
+
+        agree = {orders[0]: detail(paths)}
+        for o in orders[1:]:
+            alt = [coarse_to_fine(im.with_order(o), zero, gauge, coarse, max_iter) for im in halves]
+            agree[o] = detail(alt)
+            if agree[o] > agree[chosen]:
+                chosen, paths = o, alt
+        halves = [im.with_order(chosen) for im in halves]
+        hist["order"], hist["order_agreement"] = chosen, {str(k): v for k, v in agree.items()}
+    full = full.with_order(chosen)
     gains, corrs = _crossvalidate(halves, paths)
     names = [str(lv) for lv in coarse]
-    # cross-validated choice of the level: the largest total held-out gain, both halves gaining
-    score = [sum(g) if min(g) > 0 else -np.inf for g in gains]
+    dofs = [_dof(lv, P, gauge) for lv in coarse]
+    # a level passes when each half's estimate lowers the other half's entropy and the two
+    # halves' estimates agree beyond chance; the one kept has the largest total held-out gain
+    passed = [min(g) > 0 and c > agreement_threshold(n) for g, c, n in zip(gains, corrs, dofs)]
+    score = [sum(g) if ok else -np.inf for g, ok in zip(gains, passed)]
     best = int(np.argmax(score)) if validate else len(coarse) - 1
     kept = validate is False or np.isfinite(score[best])
+    refined = []
+    if validate and kept:
+        # a finer level that passes is taken when the detail each half adds to the level kept
+        # agrees between the halves: a half's held-out gain undervalues it (the whole scene
+        # estimates that detail with half a half's noise, REFINE_CORRELATION)
+        for j in range(best + 1, len(coarse)):
+            rho = _corr(paths[0][j] - paths[0][best], paths[1][j] - paths[1][best])
+            if passed[j] and rho > max(REFINE_CORRELATION, agreement_threshold(dofs[j])):
+                best = j
+                refined.append(f"{names[j]} (the detail it adds correlates {rho:.2f} between the halves)")
     phi = zero
     if kept and np.any(phi0):
         phi = coarse_to_fine(full, phi0, gauge, coarse[:best + 1], max_iter)[-1]
@@ -317,23 +405,34 @@ def _min_entropy(ph, grid, start, levels, max_iter, pulse_iter, full_pulse_iter,
                              max_iter, max_fun=max_iter)[-1]
     hist.update(entropy_start=full.entropy(phi0),
                 entropy_levels=[full.entropy(0.5 * (a + b)) for a, b in zip(*paths)],
-                heldout_gain=gains, halves_correlation=corrs, level=names[best] if kept else None)
+                heldout_gain=gains, halves_correlation=corrs, level=names[best] if kept else None,
+                detail_correlation=[_corr(*(p[j] - (p[j - 1] if j else 0.0) for p in paths))
+                                    for j in range(len(coarse))])
     if not validate:
         hist["decision"] = f"finest level {names[-1]} (not cross-validated)"
     elif not kept:
-        hist["decision"] = ("no error common to the scene: at no level did the estimate from each half of "
-                            "the scene, applied to the other half, lower its entropy")
+        hist["decision"] = ("no error common to the scene: at no level did the estimates from the two halves "
+                            "of the scene both lower the other half's entropy and agree beyond chance")
     else:
-        hist["decision"] = (f"level {names[best]}: its estimates from each half of the scene lower the "
-                            f"entropy of the other half the most (held-out gains {gains[best][0]:.4f}, "
-                            f"{gains[best][1]:.4f} nats; halves' estimates correlate {corrs[best]:.2f})")
+        first = int(np.argmax(score))
+        hist["decision"] = (f"level {names[first]}: its estimates from each half of the scene lower the "
+                            f"entropy of the other half the most (held-out gains {gains[first][0]:.4f}, "
+                            f"{gains[first][1]:.4f} nats; halves' estimates correlate {corrs[first]:.2f}, "
+                            f"chance {agreement_threshold(dofs[first]):.2f})")
+        if refined:
+            hist["decision"] += "; refined to level " + ", then ".join(refined)
+    if validate and len(orders) > 1:
+        agree = hist["order_agreement"]
+        hist["decision"] = (f"Rényi entropy of order {chosen:g} (the halves' finest detail correlates "
+                            + ", ".join(f"{v:.2f} with order {k.rstrip('0').rstrip('.')}" for k, v in agree.items())
+                            + "); " + hist["decision"])
     judge, fine_imagers = full, []  # the images the estimate is exact for
     if kept and K > 1 and pulse_iter > 0 and any(lv != "smooth" and int(lv) < K for lv in levels) \
             and best == len(coarse) - 1:
         # one phase per pulse, beyond the sub-apertures, on the exact backprojection pair (no
         # stack): each half refines its own sub-aperture estimate, and the level is kept when
         # each half's per-pulse increment lowers the other half's entropy
-        sides = [Imager(ph, g) for g in split_grid(full.grid, axis, SPLIT_GAP)[:2]]
+        sides = [Imager(ph, g, chosen) for g in split_grid(full.grid, axis, SPLIT_GAP)[:2]]
         ends = [coarse_to_fine(im, p[best], gauge, (1,), pulse_iter)[-1] for im, p in zip(sides, paths)]
         # the other half's sub-aperture estimate is constant over the blocks: the half's stack
         # gives its image exactly (the same sum of the same backprojections), no new image needed
@@ -345,10 +444,10 @@ def _min_entropy(ph, grid, start, levels, max_iter, pulse_iter, full_pulse_iter,
         hist["heldout_gain"] = gains + [g1]
         hist["halves_correlation"] = corrs + [c1]
         hist["levels"] = names + ["1"]
-        if min(g1) > 0:
+        if min(g1) > 0 and c1 > max(REFINE_CORRELATION, agreement_threshold(P - gauge.shape[1])):
             # the whole grid: from its sub-aperture estimate plus the mean of the halves'
             # per-pulse increments, a few more iterations on all of it
-            exact = Imager(ph, full.grid)
+            exact = Imager(ph, full.grid, chosen)
             fine_imagers.append(exact)
             start1 = phi + 0.5 * (steps[0] + steps[1])
             start1 = start1 - gauge @ (gauge.T @ start1)
@@ -358,8 +457,9 @@ def _min_entropy(ph, grid, start, levels, max_iter, pulse_iter, full_pulse_iter,
             hist["decision"] += (f"; then one phase per pulse: each half's per-pulse increment lowers the "
                                  f"other half's entropy ({g1[0]:.4f}, {g1[1]:.4f} nats; correlation {c1:.2f})")
         else:
-            hist["decision"] += ("; one phase per pulse not kept: a half's per-pulse increment did not lower "
-                                 "the other half's entropy")
+            hist["decision"] += (f"; one phase per pulse not kept: the halves' per-pulse increments "
+                                 f"(held-out gains {g1[0]:.4f}, {g1[1]:.4f} nats; correlation {c1:.2f}) do not "
+                                 f"both lower the other half's entropy and agree")
     hist["evaluations"] = evals = full.evaluations + sum(im.evaluations for im in [*halves, *fine_imagers])
     res = AutofocusResult(phi, "min-entropy", iterations=evals, history=hist)
     # the uncorrected image from the stack (exact for a zero phase; sharpness ignores pixel order)

@@ -34,10 +34,20 @@ import numpy as np
 
 from ..analysis.speckle import image_entropy
 from ..core.grid import Grid
+from ..errors import SarcliInputError
 from ._common import (AutofocusResult, estimation_grid, form, keep_if_sharper, pulse_signals,
                       remove_linear_phase)
 
-__all__ = ["pga", "select_scatterers", "phase_gradient_estimate", "principal_vector"]
+__all__ = ["pga", "select_scatterers", "phase_gradient_estimate", "principal_vector", "ESTIMATORS"]
+
+#: Phase estimators of one PGA step: maximum likelihood (principal eigenvector) or the classic
+#: phase-difference estimate.
+ESTIMATORS = ("eigen", "gradient")
+
+
+def _check_estimator(estimator) -> None:
+    if estimator not in ESTIMATORS:
+        raise SarcliInputError(f"unknown PGA estimator {estimator!r}; choose one of {', '.join(ESTIMATORS)}")
 
 
 def select_scatterers(image, n: int, separation: int):
@@ -74,6 +84,7 @@ def phase_gradient_estimate(signals, window_db=-10.0, min_window=4, full=False, 
     width : float
         The window width used, in resolution cells (bins of the unpadded FFT).
     """
+    _check_estimator(estimator)
     z = np.asarray(signals, dtype=np.complex128)
     P, K = z.shape
     L = oversample * P
@@ -151,11 +162,15 @@ def pga(ph, *, grid: Grid | None = None, n_scatterers: int | None = None, separa
         Keep the estimate only when it sharpens the image (:func:`keep_if_sharper`).
     start : array_like, optional
         Initial phase estimate (rad, per pulse).
+    estimator : {'eigen', 'gradient'}
+        Maximum likelihood (default) or the classic phase-difference estimate
+        (:func:`phase_gradient_estimate`); anything else is a :class:`~sarcli.errors.SarcliInputError`.
 
     Returns
     -------
     AutofocusResult
     """
+    _check_estimator(estimator)
     acq = ph.acquisition
     grid = estimation_grid(grid or acq.grid)
     P = ph.data.shape[0]

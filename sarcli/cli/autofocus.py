@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import click
 
+from ..autofocus import DEFAULT_METHOD, METHODS
 from .options import echo_info, grid_options, handle_errors, parse_pair, prepare_outputs, wrote
 
 
@@ -11,7 +12,7 @@ from .options import echo_info, grid_options, handle_errors, parse_pair, prepare
 @click.argument("input_path", metavar="PH.h5", type=click.Path(dir_okay=False))
 @click.option("-o", "--output", required=True, type=click.Path(dir_okay=False),
               help="Corrected phase-history file to write (.h5).")
-@click.option("--method", type=click.Choice(["pga", "min-entropy"]), default="min-entropy", show_default=True,
+@click.option("--method", type=click.Choice(METHODS), default=DEFAULT_METHOD, show_default=True,
               help="Minimum entropy, coarse to fine, cross-validated between halves of the scene; or "
                    "phase gradient autofocus.")
 @grid_options
@@ -24,9 +25,9 @@ def command(ctx, input_path, output, method, center, extent, pixel_size):
     /autofocus/phase_rad with the method. Constant and linear phase (a cross-range shift) are not
     observable and are left out of the estimate. The grid options choose the scene part the
     estimate is made on (default the file's grid). No correction is applied when none makes the
-    image sharper (entropy and peak-to-mean) or, for min-entropy, when the estimate from each half
-    of the scene does not sharpen the other half. What was decided and why is stored in the
-    file's attribute autofocus_decision and printed with -v.
+    image sharper (entropy and peak-to-mean) or, for min-entropy, when the estimates from two
+    halves of the scene do not both sharpen the other half and agree beyond chance. What was
+    decided and why is stored in the file's attribute autofocus_decision and printed with -v.
     """
     import numpy as np
 

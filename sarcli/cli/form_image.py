@@ -5,6 +5,7 @@ from __future__ import annotations
 import click
 from click.core import ParameterSource
 
+from ..autofocus import METHODS as AUTOFOCUS_METHODS
 from ..formers import cost as _cost
 from ..formers.formation import METHODS
 from .options import (export_options, grid_options, handle_errors, parse_pair, prepare_outputs,
@@ -45,7 +46,7 @@ _METHOD_KNOBS = ("eps", "kernel", "oversample", "width", "upsample", "interp", "
               help="subimage: tile side in pixels (default: the largest predicted to meet --tolerance).")
 @click.option("--tolerance", type=click.FloatRange(min=1e-12, max=0.5), default=None,
               help="Target relative error against the exact matched filter (auto, and ffbp given no ffbp knob: default 1e-3; subimage: 1e-2).")
-@click.option("--autofocus", "autofocus_method", type=click.Choice(["pga", "min-entropy"]), default=None,
+@click.option("--autofocus", "autofocus_method", type=click.Choice(AUTOFOCUS_METHODS), default=None,
               help="First estimate and remove per-pulse phase errors on the image grid (see sar autofocus).")
 @threads_option
 @export_options
