@@ -7,7 +7,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..core import geometry
+from ..core import geometry, sampling
 from ..core.grid import Grid
 from ..core.types import PhaseHistory
 from ..errors import SarcliInputError, SarcliWarning
@@ -133,7 +133,7 @@ def _phases(acq, pts):
     if acq.model == "spherical":
         t, q, r0 = acq.range_geometry()
         dr = geometry.bistatic_differential_range(t, q, r0, pts)
-        return (4.0 * np.pi / geometry.C) * acq.frequencies_2d[:, :, None] * dr[:, None, :]
+        return sampling.range_wavenumbers(acq.frequencies_2d)[:, :, None] * dr[:, None, :]
     return geometry.signal_phase(acq.frequency_hz, acq.azimuth_rad, acq.elevation_rad, pts)
 
 

@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..core.geometry import C
+from ..core.sampling import range_wavenumbers
 from ..core.grid import Grid
 from ..errors import SarcliInputError
 from .ffbp_model import INTERPOLATORS, NTAPS as _NTAPS, angle_interp_error, deapodized_edge_error, deapodized_error
@@ -265,9 +265,9 @@ def layout_stages(antenna_position_m, freq_hz, grid: Grid, *, base=None, merge=N
     fmin, fmax = float(f.min()), float(f.max())
     if not fmax > fmin:
         raise SarcliInputError("ffbp needs a bandwidth (more than one frequency)")
-    kband = 4 * np.pi * (fmax - fmin) / C
-    kmax = 4 * np.pi * fmax / C
-    kref = 2 * np.pi * (fmax + fmin) / C
+    kband = range_wavenumbers(fmax - fmin)
+    kmax = range_wavenumbers(fmax)
+    kref = range_wavenumbers(0.5 * (fmax + fmin))
     bq, bu = _band or (1.0, 1.0)
     dq = np.pi / (kband / 2 * bq) / knobs["os_range"]
     half = _NTAPS[INTERPOLATORS[knobs["interp"]]] // 2   # a stencil reaches ntap/2 samples past its point
@@ -290,7 +290,7 @@ def layout_stages(antenna_position_m, freq_hz, grid: Grid, *, base=None, merge=N
     # every pulse's tones on every level's grid: where they overflow the bands the grids were
     # sampled for (a receiver far from the transmitter, a wide baseline), sample that much finer
     n_lev = len(frames)
-    excess = band_excess([ap.tone_reach(l, l == n_lev - 1) for l in range(n_lev)], frames, 4 * np.pi * fmin / C,
+    excess = band_excess([ap.tone_reach(l, l == n_lev - 1) for l in range(n_lev)], frames, range_wavenumbers(fmin),
                          kmax, kref, knobs["os_angle"])
     if _band is None and max(excess) > BAND_SLACK:
         return layout_stages(antenna_position_m, freq_hz, grid, base=base, merge=merge, os_range=knobs["os_range"],
