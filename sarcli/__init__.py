@@ -11,11 +11,13 @@ Public API (function-first; the ``sar`` CLI only calls these):
 - :func:`sarcli.regularize.regularize` — phase history -> regularised :class:`Image` (TV, HOTV, ℓ1,
   ptv, Tikhonov; λ chosen automatically by default)
 
-The layers, bottom up: :mod:`sarcli.core` (geometry, acquisition, grid, windows, data types; no
-I/O), :mod:`sarcli.io` (every file format), :mod:`sarcli.simulation`, :mod:`sarcli.formers`,
-:mod:`sarcli.linops` < :mod:`sarcli.solvers` < :mod:`sarcli.regularize` (the driver and the choice
-of λ) and :mod:`sarcli.autofocus`, :mod:`sarcli.analysis`, :mod:`sarcli.viz` (every figure),
-:mod:`sarcli.batch` and :mod:`sarcli.cli`.
+The layers, bottom up (each imports only those below it; ``tests/test_architecture.py`` holds
+the ranks and fails on any upward import): :mod:`sarcli.core` (geometry, sampling, acquisition,
+grid, windows, data types; no I/O) < :mod:`sarcli.io` (every file format) <
+:mod:`sarcli.simulation` < :mod:`sarcli.formers` < :mod:`sarcli.linops` < :mod:`sarcli.solvers` <
+:mod:`sarcli.analysis` (measurements of images) < :mod:`sarcli.regularize` (the driver and the
+choice of λ) and :mod:`sarcli.autofocus` < :mod:`sarcli.viz` (every figure) < :mod:`sarcli.batch`
+(many formations: dask batches, ``sar bench``) < :mod:`sarcli.cli`.
 
 Names and subpackages are imported lazily so ``import sarcli`` stays cheap.
 """
