@@ -156,9 +156,10 @@ sar export out/three-points-ptv.h5 -o out/three-points-ptv.png
 | ![ptv](tutorial/three-points-ptv.png) | ![history](tutorial/three-points-ptv-history.png) |
 
 The regulariser ran {iters} iterations (to a relative change of 1e-3) with {lam_text}{f' ({how})' if how else ''}.
-The demo's data are noiseless, so λ is given: the default `--lam auto` picks λ by the discrepancy
-principle from the noise level (the file's or one estimated from the data; see
-[regularize.md](regularize.md)), and without noise it would fall back to this value with a warning.
+The demo's data are noiseless, so λ is given: the default `--lam auto` picks λ by SURE from the
+noise level (the file's, or one estimated from the data) or, with none, by generalised
+cross-validation (see [regularize.md](regularize.md)); on noiseless data it goes to a small λ
+(the data fitted as closely as its path allows), not to this one.
 It works on a 10 cm grid
 (about three pixels per resolution cell): on the 2 cm grid a point's energy is spread over the ~200
 pixels of its resolution cell and first-order ADMM needs thousands of iterations to concentrate it.
