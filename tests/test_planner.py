@@ -76,6 +76,20 @@ def test_bad_tolerance_is_a_user_error(sph):
         recommend(sph[0], GRID, 2.0)
 
 
+def test_ffbp_fit_recovers_constants_and_keeps_a_floor():
+    """The fit of ffbp's four constants: exact where the settings separate the terms; where the
+    timings would send a term to 0, it keeps FFBP_FLOOR of its default-ratio share instead."""
+    from sarcli.formers.calibration import DEFAULT_COSTS
+    from sarcli.formers.planner import _FFBP_TERMS, FFBP_FLOOR, _fit_ffbp
+
+    d = np.array([DEFAULT_COSTS[name] for name, _ in _FFBP_TERMS])
+    rows = np.random.default_rng(0).uniform(1e6, 1e8, (6, 4))
+    true = d * np.array([2.0, 0.5, 1.0, 3.0])
+    np.testing.assert_allclose(_fit_ffbp(rows, rows @ true), true, rtol=1e-9)
+    got = _fit_ffbp(rows, rows @ (d * np.array([1.0, 0.0, 0.0, 1.0])))
+    assert np.all(got > 0) and np.all(got[1:3] <= 2 * FFBP_FLOOR * d[1:3])
+
+
 def test_cost_model_has_every_constant():
     """Every former's constants are positive; ffbp's four (fitted by non-negative least squares,
     so one may be 0 where another term absorbs it) give a positive time for a plan."""

@@ -339,6 +339,23 @@ def _command_costs(repeat) -> dict:
     return {"startup": startup, "read_per_byte": r / a.nbytes, "write_per_byte": w / a.nbytes}
 
 
+#: Least share of its default-ratio value each of ffbp's fitted constants keeps (every term costs
+#: something; six settings do not always separate four terms).
+FFBP_FLOOR = 0.1
+
+
+def _fit_ffbp(rows, rhs) -> np.ndarray:
+    """ffbp's constants (:data:`_FFBP_TERMS`) from operation counts ``rows`` [settings, terms] and
+    measured seconds ``rhs``: non-negative least squares above a floor of :data:`FFBP_FLOOR` times
+    the default constants scaled to the first setting's time, so no constant is 0."""
+    from scipy.optimize import nnls
+
+    default = np.array([DEFAULT_COSTS[name] for name, _ in _FFBP_TERMS])
+    floor = FFBP_FLOOR * default * rhs[0] / float(rows[0] @ default)
+    scale = np.max(rows, axis=0)
+    return floor + nnls(rows / scale, np.maximum(rhs - rows @ floor, 0.0))[0] / scale
+
+
 def calibrate(path=None, *, repeat: int = 3) -> dict:
     """Measure the constants on this machine and write them to ``path`` (default: this machine's
     file in the user's cache, :func:`sarcli.formers.calibration.user_cost_model_path`; the shipped
@@ -347,7 +364,7 @@ def calibrate(path=None, *, repeat: int = 3) -> dict:
     Small instances of every former (a few seconds in all); each constant is its measured time
     (best of ``repeat``) divided by its operation count, except ffbp's four
     (:data:`_FFBP_TERMS`), fitted by non-negative least squares to six settings with
-    different shares of each; then the whole command's start-up, planning, reading and writing.
+    different shares of each (:func:`_fit_ffbp`); then the whole command's start-up, planning, reading and writing.
     """
     from ..core import geometry
     from . import ffbp as fb
@@ -383,15 +400,7 @@ def calibrate(path=None, *, repeat: int = 3) -> dict:
         t = best(lambda: fb.ffbp(d, freq, a, r0, grid, **knobs)) * thr
         rows.append(_ffbp_counts(plan.ops))
         rhs.append(max(t - c["bp_fft"] * P * lf * math.log2(lf), 0.0))
-    from scipy.optimize import nnls
-    scale = np.max(np.array(rows), axis=0)
-    sol = nnls(np.array(rows) / scale, np.array(rhs))[0] / scale
-    if not np.any(sol > 0):
-        # ill-posed on this machine's timings: split the default setting's time in the default ratio
-        o = rows[0]
-        ref = sum(DEFAULT_COSTS[name] * n for (name, _), n in zip(_FFBP_TERMS, o))
-        sol = [DEFAULT_COSTS[name] * rhs[0] / ref for name, _ in _FFBP_TERMS]
-    for (name, _), v in zip(_FFBP_TERMS, sol):
+    for name, v in zip((name for name, _ in _FFBP_TERMS), _fit_ffbp(np.array(rows), np.array(rhs))):
         c[name] = float(v)
     kx, ky = geometry.kspace_coordinates(freq, az, np.radians(30))
     w = _nufft_width(1e-6)
