@@ -81,7 +81,7 @@ def test_foreign_and_missing_files_are_one_line(tmp_path):
 
 
 def test_open_input_expect_refuses_the_wrong_kind(files):
-    with pytest.raises(InputFileError, match="is a image file; expected phase-history"):
+    with pytest.raises(InputFileError, match="is an image file; expected phase-history"):
         open_input(files["image"], expect="phase-history")
     fmt, ph = open_input(files["phase-history"], expect=("phase-history", "cphd"))
     assert fmt == "phase-history" and isinstance(ph, sarcli.PhaseHistory)

@@ -52,7 +52,8 @@ def _parse_lam(text):
 def command(ctx, input_path, output, prior, order, lam, beta, iters, tol, operator, anisotropic,
             reestimate_every, init_path, center, extent, pixel_size, history_png, png_path, tif_path):
     """Regularised image of a phase history: min ‖Af − b‖² + λ‖Tf‖₁ (ADMM) or Tikhonov (CG)."""
-    from ..io.hdf5 import read_image, read_phase_history, write_image
+    from ..io import open_input
+    from ..io.hdf5 import write_image
     from .._util.progress import message, progress
     from ..viz import plot_history
     from ..regularize import regularize
@@ -64,11 +65,11 @@ def command(ctx, input_path, output, prior, order, lam, beta, iters, tol, operat
     prepare_outputs([("input", input_path), ("--init", init_path)],
                     [("output", output), ("--png", png_path), ("--geotiff", tif_path), ("--history-png", history_png)])
     lam = _parse_lam(lam)
-    ph = read_phase_history(input_path, truth=False)
+    _, ph = open_input(input_path, expect=("phase-history", "gotcha", "cphd"), truth=False)
     check_regularize(ph, resolve_grid(ph.acquisition.grid, center=parse_pair(center, "--center"),
                                       extent=parse_pair(extent, "--extent"), pixel_size=pixel_size),
                      iters=iters, operator=operator)
-    init = read_image(init_path) if init_path else None
+    init = open_input(init_path, expect=("image", "sicd"))[1] if init_path else None
     bar = progress(total=iters, desc=f"regularize {prior}", unit="it")
     quiet = bool((ctx.find_root().obj or {}).get("quiet"))
 

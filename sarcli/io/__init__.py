@@ -160,7 +160,8 @@ def open_input(path, *, expect=None, truth=True, lazy=False):
     if expect is not None:
         allowed = (expect,) if isinstance(expect, str) else tuple(expect)
         if fmt not in allowed:
-            raise InputFileError(path, f"is a {fmt} file; expected {' or '.join(allowed)}")
+            article = "an" if fmt[0] in "aeio" else "a"
+            raise InputFileError(path, f"is {article} {fmt} file; expected {' or '.join(allowed)}")
     module, reader = FORMATS[fmt]
     read = getattr(importlib.import_module(f".{module}", __name__), reader)
     if fmt == "gotcha":
