@@ -548,9 +548,21 @@ void stage0_row(const Stage0& A, std::size_t s, std::size_t it, Scratch0& W) {
   }
 }
 
+// Stage 0's scalar settings (Python: Stage0Options(kind=, bistatic=, half_len=, n_len=, pad=, dq=, kref=)).
+struct Stage0Options {
+  int kind = 3;             // interpolation kernel of the profiles (kTaps)
+  bool bistatic = false;    // separate receive positions in the pulse table
+  double half_len = 0.0;    // L // 2: the profile bin of zero range
+  double n_len = 0.0;       // L, the profile length
+  int pad = 0;              // bins of padding on each side of the profiles
+  double dq = 0.0;          // range spacing of the polar grids
+  double kref = 0.0;        // reference wavenumber of the demodulation
+};
+
 void stage0(in<float, 2> pre, in<float, 2> pim, in<i64, 1> first, in<i64, 1> count, in<double, 2> pulses,
-            in<bool, 1> series, in<double, 2> frame, in<float, 2> tab, int kind, bool bistatic, double half_len,
-            double n_len, int pad, double dq, double kref, out<float, 3> out_re, out<float, 3> out_im) {
+            in<bool, 1> series, in<double, 2> frame, in<float, 2> tab, const Stage0Options& o, out<float, 3> out_re,
+            out<float, 3> out_im) {
+  const int kind = o.kind;
   const std::size_t S = out_re.shape(0), nt = out_re.shape(1), nq = out_re.shape(2), B = pre.shape(0);
   if (kind < 0 || kind > 3) throw nb::value_error("stage0: unknown interpolation kind");
   if (pim.shape(0) != B || pim.shape(1) != pre.shape(1) || pulses.shape(0) != kPulseRows || pulses.shape(1) != B ||
@@ -563,9 +575,9 @@ void stage0(in<float, 2> pre, in<float, 2> pim, in<i64, 1> first, in<i64, 1> cou
       throw nb::value_error("stage0: sub-aperture pulses out of range");
   const int ntap = kTaps[kind];
   const Stage0 A{pre.data(), pim.data(), pre.shape(1), first.data(), count.data(), pulses.data(), B,
-                 series.data(), frame.data(), S, nt, nq, tab.data(), kind, weight_mode(kind, tab.data()), bistatic,
-                 half_len, n_len,
-                 static_cast<double>(pad - (ntap / 2 - 1)), dq, kref, out_re.data(), out_im.data()};
+                 series.data(), frame.data(), S, nt, nq, tab.data(), kind, weight_mode(kind, tab.data()), o.bistatic,
+                 o.half_len, o.n_len, static_cast<double>(o.pad - (ntap / 2 - 1)), o.dq, o.kref, out_re.data(),
+                 out_im.data()};
   nb::gil_scoped_release nogil;
   const long jobs = static_cast<long>(S * nt);
 #pragma omp parallel
@@ -1042,8 +1054,21 @@ NB_MODULE(_ffbp, m) {
   m.attr("FRAME_ROWS") = static_cast<int>(s::kFrameRows);
   m.attr("PULSE_ROWS") = static_cast<int>(s::kPulseRows);
   // outputs are written in place: never an implicit (converted) copy
+  nb::class_<s::Stage0Options>(m, "Stage0Options", "Stage 0's scalar settings.")
+      .def(nb::init<>())
+      .def("__init__",
+           [](s::Stage0Options* o, int kind, bool bistatic, double half_len, double n_len, int pad, double dq,
+              double kref) { new (o) s::Stage0Options{kind, bistatic, half_len, n_len, pad, dq, kref}; },
+           nb::kw_only(), "kind"_a, "bistatic"_a, "half_len"_a, "n_len"_a, "pad"_a, "dq"_a, "kref"_a)
+      .def_rw("kind", &s::Stage0Options::kind)
+      .def_rw("bistatic", &s::Stage0Options::bistatic)
+      .def_rw("half_len", &s::Stage0Options::half_len)
+      .def_rw("n_len", &s::Stage0Options::n_len)
+      .def_rw("pad", &s::Stage0Options::pad)
+      .def_rw("dq", &s::Stage0Options::dq)
+      .def_rw("kref", &s::Stage0Options::kref);
   m.def("stage0", &s::stage0, "pre"_a, "pim"_a, "first"_a, "count"_a, "pulses"_a, "series"_a, "frame"_a, "tab"_a,
-        "kind"_a, "bistatic"_a, "half_len"_a, "n_len"_a, "pad"_a, "dq"_a, "kref"_a, nb::arg("out_re").noconvert(), nb::arg("out_im").noconvert(),
+        "options"_a, nb::arg("out_re").noconvert(), nb::arg("out_im").noconvert(),
         "Backproject each sub-aperture's pulses (first[s] .. +count[s]) onto its polar grid (out[s]).");
   m.def("merge", &s::merge, "cre"_a, "cim"_a, "cframe"_a, "pframe"_a, "first"_a, "count"_a, "tab_q"_a, "tab_t"_a,
         "kind"_a, "dq"_a, "kref"_a, nb::arg("out_re").noconvert(), nb::arg("out_im").noconvert(),
