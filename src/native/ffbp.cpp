@@ -167,7 +167,7 @@ struct Stage0 {
 
 // Stage 0 takes its nodes in blocks of kBlock0 (one AVX-512 vector of float32) and models range
 // and phase along a row over tiles of about kTile0 nodes (stage0_row).
-constexpr std::size_t kBlock0 = 16, kTile0 = 64;
+constexpr std::size_t kBlock0 = 16, kTile0 = 32;
 // Largest phase (radians) and profile position (bins) a tile's quadratic model may miss by at the
 // check points before its nodes are evaluated exactly.
 constexpr double kFitPhase = 1e-6, kFitBin = 1e-5;
@@ -328,12 +328,13 @@ SARCLI_INLINE double exact_dr(const Stage0& A, const double* g, bool series, con
 }
 
 // A tile's model of a node's profile position (relative to the whole bin jb) and demodulated
-// carrier phase ψ = k_c Δr − k_ref q (reduced to [−π, π] at the tile's first node): the quadratics
-// through its first, middle and last nodes, in the node's offset j from the first.
+// carrier phase ψ = k_c Δr − k_ref q (reduced to [−π, π] at the tile's middle node jm): the
+// quadratics through its first, middle and last nodes, in the node's offset j from the first,
+// taken about the middle so that float32 rounds them at half a tile's reach, not a whole one's.
 struct TileFit {
   double jb, p0, p1, p2, s0, s1, s2, jm;
-  SARCLI_INLINE double pos(double j) const { return p0 + j * (p1 + (j - jm) * p2); }
-  SARCLI_INLINE double psi(double j) const { return s0 + j * (s1 + (j - jm) * s2); }
+  SARCLI_INLINE double pos(double j) const { return p0 + (j - jm) * (p1 + j * p2); }
+  SARCLI_INLINE double psi(double j) const { return s0 + (j - jm) * (s1 + j * s2); }
 };
 
 SARCLI_INLINE TileFit fit_tile(const Stage0& A, const double* g, bool series, const Scratch0& W, std::size_t k0,
@@ -347,18 +348,17 @@ SARCLI_INLINE TileFit fit_tile(const Stage0& A, const double* g, bool series, co
     pv[i] = d * ib + A.half_len;
     sv[i] = kc * d - A.kref * W.qq[k0 + js[i]];
   }
-  TileFit f;
+  TileFit f;   // Newton's form on the nodes jm, 0, je
   f.jm = static_cast<double>(jm);
-  f.jb = std::floor(pv[0]);
+  f.jb = std::floor(pv[1]);
   const double tw = 6.283185307179586;
-  const double turns = std::nearbyint(sv[0] / tw);
   const double dm = f.jm, de = static_cast<double>(je);
-  f.p0 = pv[0] - f.jb;
+  f.p0 = pv[1] - f.jb;
   f.p1 = (pv[1] - pv[0]) / dm;
-  f.p2 = ((pv[2] - pv[1]) / (de - dm) - f.p1) / de;
-  f.s0 = sv[0] - turns * tw;
+  f.p2 = ((pv[2] - pv[0]) / de - f.p1) / (de - dm);
+  f.s0 = sv[1] - std::nearbyint(sv[1] / tw) * tw;
   f.s1 = (sv[1] - sv[0]) / dm;
-  f.s2 = ((sv[2] - sv[1]) / (de - dm) - f.s1) / de;
+  f.s2 = ((sv[2] - sv[0]) / de - f.s1) / (de - dm);
   return f;
 }
 
@@ -426,7 +426,7 @@ SARCLI_INLINE void tap6_block(const float* sre, const float* sim, std::size_t le
 
 // One row (angle it) of sub-aperture s's polar grid. Along the row, each pulse's range and phase
 // are smooth in the node: they are evaluated exactly (float64) at three nodes of every tile of
-// about kTile0 nodes and by the quadratic through them (float32, relative to the tile's first
+// about kTile0 nodes and by the quadratic through them (float32, relative to the tile's middle
 // node) at the others. The quadratic is checked at two more nodes of each tile for the
 // sub-aperture's first, middle and last pulses; a tile it misses by more than kFitPhase or kFitBin
 // there is evaluated exactly at every node. The phase is demodulated as it is formed
@@ -507,11 +507,11 @@ void stage0_row(const Stage0& A, std::size_t s, std::size_t it, Scratch0& W) {
       emit0(n_len, static_cast<float>(f.jb), off + static_cast<i32>(f.jb), k0, m,
             [=](i32 j) SARCLI_LAMBDA_INLINE {
               const float jf = static_cast<float>(j);
-              return p0f + jf * (p1f + (jf - jmf) * p2f);
+              return p0f + (jf - jmf) * (p1f + jf * p2f);
             },
             [=](i32 j) SARCLI_LAMBDA_INLINE {
               const float jf = static_cast<float>(j);
-              return s0f + jf * (s1f + (jf - jmf) * s2f);
+              return s0f + (jf - jmf) * (s1f + jf * s2f);
             },
             idx, frac, cr, ci);
     }
