@@ -67,9 +67,10 @@ def stage0(pre, pim, first, count, pulses, series, frame, tab, kind, bistatic, h
     out_re, out_im : ndarray, shape (S, n_u, n_q), float32
         The sub-images (written).
     """
+    opts = native().Stage0Options(kind=int(kind), bistatic=bool(bistatic), half_len=float(half_len),
+                                  n_len=float(n_len), pad=int(pad), dq=float(dq), kref=float(kref))
     native().stage0(pre, pim, np.ascontiguousarray(first, np.int64), np.ascontiguousarray(count, np.int64), pulses,
-                    np.ascontiguousarray(series, np.bool_), frame, table(tab), int(kind), bool(bistatic),
-                    float(half_len), float(n_len), int(pad), float(dq), float(kref), out_re, out_im)
+                    np.ascontiguousarray(series, np.bool_), frame, table(tab), opts, out_re, out_im)
 
 
 def pulse_table(geo, dlt, inv_bin, kc):

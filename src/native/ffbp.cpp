@@ -13,6 +13,7 @@
 #include <cmath>
 #include <cstdint>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include <omp.h>
@@ -158,27 +159,79 @@ struct Stage0 {
   const double* frame;      // [kFrameRows, S]
   std::size_t S, nt, nq;
   const float* tab;
-  int kind;
+  int kind, wmode;          // wmode: WeightMode of the 6-tap kernels
   bool bistatic;
   double half_len, n_len, off, dq, kref;
   float *out_re, *out_im;
 };
 
+// Stage 0 takes its nodes in blocks of kBlock0 (one AVX-512 vector of float32) and models range
+// and phase along a row over tiles of about kTile0 nodes (stage0_row).
+constexpr std::size_t kBlock0 = 16, kTile0 = 32;
+// Largest phase (radians) and profile position (bins) a tile's quadratic model may miss by at the
+// check points before its nodes are evaluated exactly.
+constexpr double kFitPhase = 1e-6, kFitBin = 1e-5;
+
 struct Scratch0 {
-  std::vector<double> xs, ys, ax, ay, az, ir2, rr, qq, dr;
-  std::vector<i32> idx, brk;
+  std::vector<double> xs, ys, ax, ay, az, ir2, rr, qq, xpos, xpsi;   // xpos, xpsi: an exact tile's positions and phases
+  std::vector<i32> idx;
   std::vector<float> frac, cr, ci, w, acc_re, acc_im;
-  explicit Scratch0(std::size_t n)
-      : xs(n), ys(n), ax(n), ay(n), az(n), ir2(n), rr(n), qq(n), dr(n), idx(n), brk(n), frac(n), cr(n), ci(n),
-        w(6 * n), acc_re(n), acc_im(n) {}
+  std::vector<unsigned char> exact;   // per tile: evaluate every node exactly
+  std::size_t n;                        // nodes rounded up to whole blocks
+  explicit Scratch0(std::size_t nq)
+      : xs(nq), ys(nq), ax(nq), ay(nq), az(nq), ir2(nq), rr(nq), qq(nq), xpos(nq), xpsi(nq),
+        idx((nq + kBlock0 - 1) / kBlock0 * kBlock0), frac(idx.size()), cr(idx.size()), ci(idx.size()),
+        w(6 * idx.size()), acc_re(idx.size()), acc_im(idx.size()), exact(nq / kTile0 + 1), n(idx.size()) {}
 };
 
+// How weights6 forms the six weights of a 6-tap kernel: read precomputed ones, evaluate the
+// polynomials, or evaluate the polynomials of a symmetric kernel (w_{5−b}(x) = w_b(−x)) as their
+// even and odd parts, which gives two weights for little more than the price of one.
+enum WeightMode { kWeightsRead = 0, kWeightsPoly = 1, kWeightsSymmetric = 2 };
+
+// Whether the polynomials tab[6][8] (in x = 2·frac − 1) are a symmetric kernel's: tab[5 − b][k] =
+// (−1)^k tab[b][k] (the optimal and deapodized kernels are, to rounding).
+inline bool symmetric6(const float* tab) {
+  float top = 0.0f;
+  for (int i = 0; i < 48; ++i) top = std::max(top, std::abs(tab[i]));
+  for (int b = 0; b < 3; ++b)
+    for (int k = 0; k < 8; ++k)
+      if (std::abs(tab[8 * (5 - b) + k] - ((k & 1) ? -tab[8 * b + k] : tab[8 * b + k])) > 1e-6f * top) return false;
+  return true;
+}
+
+inline int weight_mode(int kind, const float* tab) {
+  return kind != 3 ? kWeightsRead : symmetric6(tab) ? kWeightsSymmetric : kWeightsPoly;
+}
+
+// f(std::integral_constant<int, mode>{}): a kernel instantiated for each weight mode.
+template <typename F>
+SARCLI_INLINE void by_mode(int mode, F&& f) {
+  if (mode == kWeightsSymmetric) f(std::integral_constant<int, kWeightsSymmetric>{});
+  else if (mode == kWeightsPoly) f(std::integral_constant<int, kWeightsPoly>{});
+  else f(std::integral_constant<int, kWeightsRead>{});
+}
+
 // The six weights of a 6-tap kernel at fraction index k: the polynomials of tab ([6][8], degree 7
-// in 2·frac − 1) evaluated in place (Poly), or read from w[tap * ws + k].
-template <bool Poly>
+// in 2·frac − 1) evaluated in place, or read from w[tap * ws + k] (WeightMode).
+template <int Mode>
 SARCLI_INLINE void weights6(const float* frac, const float* tab, const float* w, std::size_t ws, std::size_t k,
                             float& v0, float& v1, float& v2, float& v3, float& v4, float& v5) {
-  if constexpr (Poly) {
+  if constexpr (Mode == kWeightsSymmetric) {
+    const float x = 2.0f * frac[k] - 1.0f, y = x * x;
+    const float* c = tab;
+    const float e0 = ((c[6] * y + c[4]) * y + c[2]) * y + c[0], o0 = (((c[7] * y + c[5]) * y + c[3]) * y + c[1]) * x;
+    c = tab + 8;
+    const float e1 = ((c[6] * y + c[4]) * y + c[2]) * y + c[0], o1 = (((c[7] * y + c[5]) * y + c[3]) * y + c[1]) * x;
+    c = tab + 16;
+    const float e2 = ((c[6] * y + c[4]) * y + c[2]) * y + c[0], o2 = (((c[7] * y + c[5]) * y + c[3]) * y + c[1]) * x;
+    v0 = e0 + o0;
+    v5 = e0 - o0;
+    v1 = e1 + o1;
+    v4 = e1 - o1;
+    v2 = e2 + o2;
+    v3 = e2 - o2;
+  } else if constexpr (Mode == kWeightsPoly) {
     const float x = 2.0f * frac[k] - 1.0f;
     v0 = poly7(tab, x);
     v1 = poly7(tab + 8, x);
@@ -199,7 +252,7 @@ SARCLI_INLINE void weights6(const float* frac, const float* tab, const float* w,
 // acc[k] += (cr + i ci)[k] Σ_b w_b[k] src[k + off + b] for k in [k0, k1): a run of points whose
 // stencils start at consecutive samples (contiguous loads), float32 throughout; the weights are
 // formed in the same pass (weights6).
-template <bool Poly>
+template <int Mode>
 SARCLI_INLINE void tap6_run(const float* sre, const float* sim, std::ptrdiff_t off, const float* frac,
                             const float* tab, const float* w, std::size_t ws, const float* cr, const float* ci,
                             float* acc_re, float* acc_im, std::size_t k0, std::size_t k1) {
@@ -207,7 +260,7 @@ SARCLI_INLINE void tap6_run(const float* sre, const float* sim, std::ptrdiff_t o
 #pragma omp simd
   for (std::size_t k = k0; k < k1; ++k) {
     float v0, v1, v2, v3, v4, v5;
-    weights6<Poly>(frac, tab, w, ws, k, v0, v1, v2, v3, v4, v5);
+    weights6<Mode>(frac, tab, w, ws, k, v0, v1, v2, v3, v4, v5);
     const float vr = v0 * r[k] + v1 * r[k + 1] + v2 * r[k + 2] + v3 * r[k + 3] + v4 * r[k + 4] + v5 * r[k + 5];
     const float vi = v0 * m[k] + v1 * m[k + 1] + v2 * m[k + 2] + v3 * m[k + 3] + v4 * m[k + 4] + v5 * m[k + 5];
     acc_re[k] += vr * cr[k] - vi * ci[k];
@@ -216,13 +269,13 @@ SARCLI_INLINE void tap6_run(const float* sre, const float* sim, std::ptrdiff_t o
 }
 
 // tap6_run for points whose stencils start anywhere (src + idx[k]): gathers.
-template <bool Poly>
+template <int Mode>
 SARCLI_INLINE void tap6_gather(const float* sre, const float* sim, const i32* idx, const float* frac,
                                const float* tab, const float* w, std::size_t ws, const float* cr, const float* ci,
                                float* acc_re, float* acc_im, std::size_t n) {
   for (std::size_t k = 0; k < n; ++k) {
     float v0, v1, v2, v3, v4, v5;
-    weights6<Poly>(frac, tab, w, ws, k, v0, v1, v2, v3, v4, v5);
+    weights6<Mode>(frac, tab, w, ws, k, v0, v1, v2, v3, v4, v5);
     const float *r = sre + idx[k], *m = sim + idx[k];
     const float vr = v0 * r[0] + v1 * r[1] + v2 * r[2] + v3 * r[3] + v4 * r[4] + v5 * r[5];
     const float vi = v0 * m[0] + v1 * m[1] + v2 * m[2] + v3 * m[3] + v4 * m[4] + v5 * m[5];
@@ -254,14 +307,137 @@ SARCLI_INLINE bool for_runs(const i32* idx, std::size_t k0, std::size_t k1, std:
   return true;
 }
 
+// Exact differential range of pulse g (row r of the pulse table at g[r * B]) at node iq: the
+// series about the sub-aperture centre or the square root (stage 0's two forms).
+SARCLI_INLINE double exact_dr(const Stage0& A, const double* g, bool series, const Scratch0& W, std::size_t iq) {
+  const std::size_t B = A.B;
+  if (series) {
+    const double e = W.ax[iq] * g[kDlt * B] + W.ay[iq] * g[(kDlt + 1) * B] + W.az[iq] * g[(kDlt + 2) * B] +
+                     g[(kDlt + 3) * B] * W.ir2[iq];
+    double s = sqrt_series(e);
+    if (A.bistatic) {
+      const double eb = W.ax[iq] * g[(kDlt + 4) * B] + W.ay[iq] * g[(kDlt + 5) * B] +
+                        W.az[iq] * g[(kDlt + 6) * B] + g[(kDlt + 7) * B] * W.ir2[iq];
+      s = 0.5 * (s + sqrt_series(eb));
+    }
+    return W.qq[iq] + W.rr[iq] * s + g[(kDlt + 8) * B];
+  }
+  double d = one_way(W.xs[iq], W.ys[iq], g[0], g[B], g[2 * B], g[3 * B]);
+  if (A.bistatic) d = 0.5 * (d + one_way(W.xs[iq], W.ys[iq], g[4 * B], g[5 * B], g[6 * B], g[7 * B]));
+  return d + g[8 * B];
+}
+
+// A tile's model of a node's profile position (relative to the whole bin jb) and demodulated
+// carrier phase ψ = k_c Δr − k_ref q (reduced to [−π, π] at the tile's middle node jm): the
+// quadratics through its first, middle and last nodes, in the node's offset j from the first,
+// taken about the middle so that float32 rounds them at half a tile's reach, not a whole one's.
+struct TileFit {
+  double jb, p0, p1, p2, s0, s1, s2, jm;
+  SARCLI_INLINE double pos(double j) const { return p0 + (j - jm) * (p1 + j * p2); }
+  SARCLI_INLINE double psi(double j) const { return s0 + (j - jm) * (s1 + j * s2); }
+};
+
+SARCLI_INLINE TileFit fit_tile(const Stage0& A, const double* g, bool series, const Scratch0& W, std::size_t k0,
+                               std::size_t n) {
+  const double ib = g[kInvBin * A.B], kc = g[kKc * A.B];
+  const std::size_t jm = (n - 1) / 2, je = n - 1;
+  double pv[3], sv[3];
+  const std::size_t js[3] = {0, jm, je};
+  for (int i = 0; i < 3; ++i) {
+    const double d = exact_dr(A, g, series, W, k0 + js[i]);
+    pv[i] = d * ib + A.half_len;
+    sv[i] = kc * d - A.kref * W.qq[k0 + js[i]];
+  }
+  TileFit f;   // Newton's form on the nodes jm, 0, je
+  f.jm = static_cast<double>(jm);
+  f.jb = std::floor(pv[1]);
+  const double tw = 6.283185307179586;
+  const double dm = f.jm, de = static_cast<double>(je);
+  f.p0 = pv[1] - f.jb;
+  f.p1 = (pv[1] - pv[0]) / dm;
+  f.p2 = ((pv[2] - pv[0]) / de - f.p1) / (de - dm);
+  f.s0 = sv[1] - std::nearbyint(sv[1] / tw) * tw;
+  f.s1 = (sv[1] - sv[0]) / dm;
+  f.s2 = ((sv[2] - sv[0]) / de - f.s1) / (de - dm);
+  return f;
+}
+
+// Profile index, fraction and masked carrier of nodes k0 .. k0+n-1 from their positions f relative
+// to the whole bin jb and their phases ph (float32; f within a tile's reach of jb). Position(j)
+// and Phase(j) give them for the node's offset j.
+template <typename Position, typename Phase>
+SARCLI_INLINE void emit0(float n_len, float jb, i32 ioff, std::size_t k0, std::size_t n, Position pos, Phase phase,
+                         i32* __restrict idx, float* __restrict frac, float* __restrict cr, float* __restrict ci) {
+  const float lo = -jb, hi = n_len - jb, top = hi - 1.0f;
+#pragma omp simd
+  for (i32 j = 0; j < static_cast<i32>(n); ++j) {   // int32 j: a vector conversion to float on AVX2 too
+    const float f = pos(j);
+    const float m = (f >= lo) & (f < hi) ? 1.0f : 0.0f;
+    const float fc = std::min(std::max(f, lo), top);
+    const i32 it = static_cast<i32>(fc);   // floor by truncation (a vector conversion everywhere)
+    const i32 fi = it - static_cast<i32>(static_cast<float>(it) > fc);
+    idx[k0 + j] = ioff + fi;
+    frac[k0 + j] = fc - static_cast<float>(fi);
+    float c, sn;
+    carrier::sincos_f32(phase(j), c, sn);
+    cr[k0 + j] = m * c;
+    ci[k0 + j] = m * sn;
+  }
+}
+
+// acc[k] += (cr + i ci)[k] Σ_b w_b[k] src[idx[k] + b] for the block of kBlock0 nodes at k0. Where
+// the block's stencil starts idx[k] − k take at most two neighbouring values (node spacing within a
+// bin of the profiles'), each node reads seven contiguous samples from the block's common start
+// with its six weights shifted by 0 or 1 (blends instead of gathers); otherwise gathers.
+template <int Mode>
+SARCLI_INLINE void tap6_block(const float* sre, const float* sim, std::size_t len, const i32* idx, const float* frac,
+                              const float* __restrict tab, const float* __restrict w, std::size_t ws,
+                              const float* __restrict cr, const float* __restrict ci, float* __restrict acc_re,
+                              float* __restrict acc_im, std::size_t k0) {
+  i32 smin = idx[k0], smax = idx[k0];
+#pragma omp simd reduction(min : smin) reduction(max : smax)
+  for (std::size_t i = 1; i < kBlock0; ++i) {
+    const i32 s = idx[k0 + i] - static_cast<i32>(i);
+    smin = std::min(smin, s);
+    smax = std::max(smax, s);
+  }
+  if (smax - smin <= 1 && smin >= 0 && static_cast<std::size_t>(smin) + kBlock0 + 6 <= len) {
+    const float *r = sre + smin, *m = sim + smin;
+#pragma omp simd
+    for (std::size_t i = 0; i < kBlock0; ++i) {
+      const std::size_t k = k0 + i;
+      float v0, v1, v2, v3, v4, v5;
+      weights6<Mode>(frac, tab, w, ws, k, v0, v1, v2, v3, v4, v5);
+      const bool sh = idx[k] - static_cast<i32>(i) != smin;
+      const float u0 = sh ? 0.0f : v0, u1 = sh ? v0 : v1, u2 = sh ? v1 : v2, u3 = sh ? v2 : v3;
+      const float u4 = sh ? v3 : v4, u5 = sh ? v4 : v5, u6 = sh ? v5 : 0.0f;
+      const float vr = u0 * r[i] + u1 * r[i + 1] + u2 * r[i + 2] + u3 * r[i + 3] + u4 * r[i + 4] + u5 * r[i + 5] +
+                       u6 * r[i + 6];
+      const float vi = u0 * m[i] + u1 * m[i + 1] + u2 * m[i + 2] + u3 * m[i + 3] + u4 * m[i + 4] + u5 * m[i + 5] +
+                       u6 * m[i + 6];
+      acc_re[k] += vr * cr[k] - vi * ci[k];
+      acc_im[k] += vr * ci[k] + vi * cr[k];
+    }
+    return;
+  }
+  tap6_gather<Mode>(sre, sim, idx + k0, frac + k0, tab, w + k0, ws, cr + k0, ci + k0, acc_re + k0, acc_im + k0,
+                    kBlock0);
+}
+
+// One row (angle it) of sub-aperture s's polar grid. Along the row, each pulse's range and phase
+// are smooth in the node: they are evaluated exactly (float64) at three nodes of every tile of
+// about kTile0 nodes and by the quadratic through them (float32, relative to the tile's middle
+// node) at the others. The quadratic is checked at two more nodes of each tile for the
+// sub-aperture's first, middle and last pulses; a tile it misses by more than kFitPhase or kFitBin
+// there is evaluated exactly at every node. The phase is demodulated as it is formed
+// (ψ = k_c Δr − k_ref q), so the sums are the stored sub-image.
 SARCLI_CLONES
 void stage0_row(const Stage0& A, std::size_t s, std::size_t it, Scratch0& W) {
-  const std::size_t nq = A.nq;
+  const std::size_t nq = A.nq, n = W.n;
   const Frame F = frame_at(A.frame, A.S, s);
   const double tau = F.u0 + static_cast<double>(it) * F.du;
   const int ntap = kTaps[A.kind];
-  double *xs = W.xs.data(), *ys = W.ys.data(), *ax = W.ax.data(), *ay = W.ay.data(), *az = W.az.data();
-  double *ir2 = W.ir2.data(), *rr = W.rr.data(), *qq = W.qq.data(), *dr = W.dr.data();
+  const bool series = A.series[s];
   i32* idx = W.idx.data();
   float *frac = W.frac.data(), *cr = W.cr.data(), *ci = W.ci.data(), *w = W.w.data();
   float *acc_re = W.acc_re.data(), *acc_im = W.acc_im.data();
@@ -270,75 +446,87 @@ void stage0_row(const Stage0& A, std::size_t s, std::size_t it, Scratch0& W) {
     double x, y;
     node(q, tau, F, x, y);
     const double r = F.cn + q, i2 = 1.0 / (r * r);
-    xs[iq] = x; ys[iq] = y;
-    ax[iq] = 2.0 * (F.cx - x) * i2;
-    ay[iq] = 2.0 * (F.cy - y) * i2;
-    az[iq] = 2.0 * F.cz * i2;
-    ir2[iq] = i2; rr[iq] = r; qq[iq] = q;
-    acc_re[iq] = 0.0f; acc_im[iq] = 0.0f;
+    W.xs[iq] = x; W.ys[iq] = y;
+    W.ax[iq] = 2.0 * (F.cx - x) * i2;
+    W.ay[iq] = 2.0 * (F.cy - y) * i2;
+    W.az[iq] = 2.0 * F.cz * i2;
+    W.ir2[iq] = i2; W.rr[iq] = r; W.qq[iq] = q;
   }
-  const std::size_t B = A.B;
-  const double top = A.n_len - 1.0;
+  for (std::size_t k = 0; k < n; ++k) { acc_re[k] = 0.0f; acc_im[k] = 0.0f; }
+  const std::size_t ntile = std::max<std::size_t>(1, (nq + kTile0 / 2) / kTile0);
   const i64 p0 = A.first[s], p1 = A.first[s] + A.count[s];
+  for (std::size_t t = 0; t < ntile; ++t) {   // which tiles the quadratic serves
+    const std::size_t k0 = t * nq / ntile, m = (t + 1) * nq / ntile - k0;
+    bool ok = m >= 3;
+    if (ok && p1 > p0) {
+      const std::size_t jm = (m - 1) / 2;
+      const std::size_t jc[2] = {jm / 2, (jm + m - 1) / 2};
+      for (i64 p : {p0, p0 + (p1 - p0 - 1) / 2, p1 - 1}) {
+        const double* g = A.pul + p;
+        const TileFit f = fit_tile(A, g, series, W, k0, m);
+        const double ib = g[kInvBin * A.B], kc = g[kKc * A.B];
+        for (std::size_t j : jc) {
+          const double d = exact_dr(A, g, series, W, k0 + j);
+          const double pe = d * ib + A.half_len - f.jb, se = kc * d - A.kref * W.qq[k0 + j];
+          const double ds = se - f.psi(static_cast<double>(j));
+          ok = ok && std::abs(pe - f.pos(static_cast<double>(j))) <= kFitBin &&
+               std::abs(ds - 6.283185307179586 * std::nearbyint(ds / 6.283185307179586)) <= kFitPhase;
+        }
+      }
+    }
+    W.exact[t] = !ok;
+  }
+  const i32 off = static_cast<i32>(A.off);
+  const float n_len = static_cast<float>(A.n_len);
   for (i64 p = p0; p < p1; ++p) {
     const float* rp = A.pre + p * A.plen;
     const float* ip = A.pim + p * A.plen;
     const double* g = A.pul + p;   // row r at g[r * B]
-    const double ib = g[kInvBin * B], kcp = g[kKc * B];
-    if (A.series[s]) {
-      const double tx = g[(kDlt + 0) * B], ty = g[(kDlt + 1) * B], tz = g[(kDlt + 2) * B], t2 = g[(kDlt + 3) * B];
-      const double offp = g[(kDlt + 8) * B];
-      if (A.bistatic) {
-        const double bx = g[(kDlt + 4) * B], by = g[(kDlt + 5) * B], bz = g[(kDlt + 6) * B], b2 = g[(kDlt + 7) * B];
-        for (std::size_t iq = 0; iq < nq; ++iq) {
-          const double et = ax[iq] * tx + ay[iq] * ty + az[iq] * tz + t2 * ir2[iq];
-          const double eb = ax[iq] * bx + ay[iq] * by + az[iq] * bz + b2 * ir2[iq];
-          dr[iq] = qq[iq] + 0.5 * rr[iq] * (sqrt_series(et) + sqrt_series(eb)) + offp;
+    for (std::size_t t = 0; t < ntile; ++t) {
+      const std::size_t k0 = t * nq / ntile, m = (t + 1) * nq / ntile - k0;
+      if (W.exact[t]) {   // every node exactly (float64), relative to the first node's bin
+        const double ib = g[kInvBin * A.B], kc = g[kKc * A.B];
+        const double jb = std::floor(exact_dr(A, g, series, W, k0) * ib + A.half_len);
+        for (std::size_t j = 0; j < m; ++j) {
+          const std::size_t k = k0 + j;
+          const double d = exact_dr(A, g, series, W, k);
+          const double ph = kc * d - A.kref * W.qq[k];
+          W.xpos[k] = d * ib + A.half_len - jb;
+          W.xpsi[k] = ph - 6.283185307179586 * std::nearbyint(ph / 6.283185307179586);
         }
-      } else {
-        for (std::size_t iq = 0; iq < nq; ++iq) {
-          const double e = ax[iq] * tx + ay[iq] * ty + az[iq] * tz + t2 * ir2[iq];
-          dr[iq] = qq[iq] + rr[iq] * sqrt_series(e) + offp;
-        }
+        const double *pr = W.xpos.data(), *ps = W.xpsi.data();
+        emit0(n_len, static_cast<float>(jb), off + static_cast<i32>(jb), k0, m,
+              [&](i32 j) SARCLI_LAMBDA_INLINE { return static_cast<float>(pr[k0 + j]); },
+              [&](i32 j) SARCLI_LAMBDA_INLINE { return static_cast<float>(ps[k0 + j]); }, idx, frac, cr, ci);
+        continue;
       }
-    } else {
-      const double g0 = g[0], g1 = g[B], g2 = g[2 * B], g3 = g[3 * B], g4 = g[4 * B], g5 = g[5 * B];
-      const double g6 = g[6 * B], g7 = g[7 * B], g8 = g[8 * B];
-      for (std::size_t iq = 0; iq < nq; ++iq) {
-        double d = one_way(xs[iq], ys[iq], g0, g1, g2, g3);
-        if (A.bistatic) d = 0.5 * (d + one_way(xs[iq], ys[iq], g4, g5, g6, g7));
-        dr[iq] = d + g8;
-      }
+      const TileFit f = fit_tile(A, g, series, W, k0, m);
+      const float p0f = static_cast<float>(f.p0), p1f = static_cast<float>(f.p1), p2f = static_cast<float>(f.p2);
+      const float s0f = static_cast<float>(f.s0), s1f = static_cast<float>(f.s1), s2f = static_cast<float>(f.s2);
+      const float jmf = static_cast<float>(f.jm);
+      emit0(n_len, static_cast<float>(f.jb), off + static_cast<i32>(f.jb), k0, m,
+            [=](i32 j) SARCLI_LAMBDA_INLINE {
+              const float jf = static_cast<float>(j);
+              return p0f + (jf - jmf) * (p1f + jf * p2f);
+            },
+            [=](i32 j) SARCLI_LAMBDA_INLINE {
+              const float jf = static_cast<float>(j);
+              return s0f + (jf - jmf) * (s1f + jf * s2f);
+            },
+            idx, frac, cr, ci);
     }
-    const double hk = 0.5 * kcp;   // the carrier's half phase per metre
-    for (std::size_t iq = 0; iq < nq; ++iq) {
-      const double d = dr[iq];
-      double pos = d * ib + A.half_len;
-      const bool inside = (pos >= 0.0) & (pos < A.n_len);
-      pos = std::min(std::max(pos, 0.0), top);
-      const double fl = std::floor(pos);
-      idx[iq] = static_cast<i32>(fl + A.off);
-      frac[iq] = static_cast<float>(pos - fl);
-      float c, sn;
-      carrier::sincos_half_f32(hk * d, c, sn);
-      const float m = inside ? 1.0f : 0.0f;
-      cr[iq] = m * c;
-      ci[iq] = m * sn;
+    for (std::size_t k = nq; k < n; ++k) {   // the last block's spare nodes: no contribution
+      idx[k] = idx[nq - 1];
+      frac[k] = 0.0f;
+      cr[k] = 0.0f;
+      ci[k] = 0.0f;
     }
     if (ntap == 6) {
-      // where a node's stencil starts as many bins after the previous node's as it is nodes after
-      // it (node spacing ≈ one bin: the default upsample = os_range), runs of nodes read
-      // contiguous bins: vector loads instead of gathers
-      const bool poly = A.kind == 3;
-      if (!poly) row_weights<float>(A.kind, frac, nq, w, nq, A.tab);
-      const bool runs = for_runs(idx, 0, nq, nq / 8, W.brk.data(), [&](std::size_t k0, std::size_t k1, std::ptrdiff_t off) SARCLI_LAMBDA_INLINE {
-        if (poly) tap6_run<true>(rp, ip, off, frac, A.tab, w, nq, cr, ci, acc_re, acc_im, k0, k1);
-        else tap6_run<false>(rp, ip, off, frac, A.tab, w, nq, cr, ci, acc_re, acc_im, k0, k1);
+      if (A.wmode == kWeightsRead) row_weights<float>(A.kind, frac, n, w, n, A.tab);
+      by_mode(A.wmode, [&](auto mode) SARCLI_LAMBDA_INLINE {
+        for (std::size_t k0 = 0; k0 < n; k0 += kBlock0)
+          tap6_block<decltype(mode)::value>(rp, ip, A.plen, idx, frac, A.tab, w, n, cr, ci, acc_re, acc_im, k0);
       });
-      if (!runs) {
-        if (poly) tap6_gather<true>(rp, ip, idx, frac, A.tab, w, nq, cr, ci, acc_re, acc_im, nq);
-        else tap6_gather<false>(rp, ip, idx, frac, A.tab, w, nq, cr, ci, acc_re, acc_im, nq);
-      }
       continue;
     }
     row_weights<float>(A.kind, frac, nq, w, nq, A.tab);
@@ -354,18 +542,27 @@ void stage0_row(const Stage0& A, std::size_t s, std::size_t it, Scratch0& W) {
   }
   float* ore = A.out_re + (s * A.nt + it) * nq;
   float* oim = A.out_im + (s * A.nt + it) * nq;
-  for (std::size_t iq = 0; iq < nq; ++iq) {   // demodulate: e^{−i k_ref q}
-    double c, sn;
-    carrier::sincos(-A.kref * (F.q0 + static_cast<double>(iq) * A.dq), c, sn);
-    const double ar = acc_re[iq], ai = acc_im[iq];
-    ore[iq] = static_cast<float>(ar * c - ai * sn);
-    oim[iq] = static_cast<float>(ar * sn + ai * c);
+  for (std::size_t iq = 0; iq < nq; ++iq) {
+    ore[iq] = acc_re[iq];
+    oim[iq] = acc_im[iq];
   }
 }
 
+// Stage 0's scalar settings (Python: Stage0Options(kind=, bistatic=, half_len=, n_len=, pad=, dq=, kref=)).
+struct Stage0Options {
+  int kind = 3;             // interpolation kernel of the profiles (kTaps)
+  bool bistatic = false;    // separate receive positions in the pulse table
+  double half_len = 0.0;    // L // 2: the profile bin of zero range
+  double n_len = 0.0;       // L, the profile length
+  int pad = 0;              // bins of padding on each side of the profiles
+  double dq = 0.0;          // range spacing of the polar grids
+  double kref = 0.0;        // reference wavenumber of the demodulation
+};
+
 void stage0(in<float, 2> pre, in<float, 2> pim, in<i64, 1> first, in<i64, 1> count, in<double, 2> pulses,
-            in<bool, 1> series, in<double, 2> frame, in<float, 2> tab, int kind, bool bistatic, double half_len,
-            double n_len, int pad, double dq, double kref, out<float, 3> out_re, out<float, 3> out_im) {
+            in<bool, 1> series, in<double, 2> frame, in<float, 2> tab, const Stage0Options& o, out<float, 3> out_re,
+            out<float, 3> out_im) {
+  const int kind = o.kind;
   const std::size_t S = out_re.shape(0), nt = out_re.shape(1), nq = out_re.shape(2), B = pre.shape(0);
   if (kind < 0 || kind > 3) throw nb::value_error("stage0: unknown interpolation kind");
   if (pim.shape(0) != B || pim.shape(1) != pre.shape(1) || pulses.shape(0) != kPulseRows || pulses.shape(1) != B ||
@@ -378,8 +575,9 @@ void stage0(in<float, 2> pre, in<float, 2> pim, in<i64, 1> first, in<i64, 1> cou
       throw nb::value_error("stage0: sub-aperture pulses out of range");
   const int ntap = kTaps[kind];
   const Stage0 A{pre.data(), pim.data(), pre.shape(1), first.data(), count.data(), pulses.data(), B,
-                 series.data(), frame.data(), S, nt, nq, tab.data(), kind, bistatic, half_len, n_len,
-                 static_cast<double>(pad - (ntap / 2 - 1)), dq, kref, out_re.data(), out_im.data()};
+                 series.data(), frame.data(), S, nt, nq, tab.data(), kind, weight_mode(kind, tab.data()), o.bistatic,
+                 o.half_len, o.n_len, static_cast<double>(o.pad - (ntap / 2 - 1)), o.dq, o.kref, out_re.data(),
+                 out_im.data()};
   nb::gil_scoped_release nogil;
   const long jobs = static_cast<long>(S * nt);
 #pragma omp parallel
@@ -519,7 +717,7 @@ SARCLI_INLINE void polar_row(const Child& C, double dq, double kref, const doubl
 
 // g[jj] = okc[jj] Σ_a w_a[jj] F[st + a][jlo + jj] for the columns jj in [j0, j1) that share the
 // stencil rows st .. st+5 (contiguous loads); weights formed in the same pass (weights6).
-template <bool Poly>
+template <int Mode>
 SARCLI_INLINE void col_run(const float* re, const float* im, std::size_t cq, std::size_t st, std::size_t jlo,
                            const float* frac, const float* tab, const float* w, std::size_t ws, const float* okc,
                            float* gre, float* gim, std::size_t j0, std::size_t j1) {
@@ -530,7 +728,7 @@ SARCLI_INLINE void col_run(const float* re, const float* im, std::size_t cq, std
 #pragma omp simd
   for (std::size_t jj = j0; jj < j1; ++jj) {
     float v0, v1, v2, v3, v4, v5;
-    weights6<Poly>(frac, tab, w, ws, jj, v0, v1, v2, v3, v4, v5);
+    weights6<Mode>(frac, tab, w, ws, jj, v0, v1, v2, v3, v4, v5);
     const float m = okc[jj];
     gre[jj] = m * (v0 * r0[jj] + v1 * r1[jj] + v2 * r2[jj] + v3 * r3[jj] + v4 * r4[jj] + v5 * r5[jj]);
     gim[jj] = m * (v0 * m0[jj] + v1 * m1[jj] + v2 * m2[jj] + v3 * m3[jj] + v4 * m4[jj] + v5 * m5[jj]);
@@ -545,8 +743,8 @@ SARCLI_INLINE void col_run(const float* re, const float* im, std::size_t cq, std
 // Both passes walk runs of points that share a stencil row (pass 1) or a stencil shift (pass 2),
 // so their loads are contiguous; float32 like the stored sub-images.
 SARCLI_INLINE void separable_row(const Child& C, double dq, double kref, const double* qs, const double* ts,
-                                 const double* qref, int kind, const float* tab_q, const float* tab_t, std::size_t n,
-                                 RowScratch& W) {
+                                 const double* qref, int kind, const float* tab_q, const float* tab_t, int mode_q,
+                                 int mode_t, std::size_t n, RowScratch& W) {
   const int ntap = kTaps[kind];
   const double lo = -(ntap / 2 - 1), nt = static_cast<double>(C.nt), nq = static_cast<double>(C.nq);
   const double inv_dq = 1.0 / dq, inv_dt = 1.0 / C.f.du, hk = 0.5 * kref;
@@ -600,9 +798,8 @@ SARCLI_INLINE void separable_row(const Child& C, double dq, double kref, const d
     okc[jj] = okt ? 1.0f : 0.0f;
   }
   const std::size_t cq = C.nq;
-  const bool poly = kind == 3;
   if (ntap == 6) {   // runs of columns reading the same six child rows: contiguous loads
-    if (!poly) row_weights<float>(kind, ft32, ncol, wt, ncol, tab_t);
+    if (mode_t == kWeightsRead) row_weights<float>(kind, ft32, ncol, wt, ncol, tab_t);
     i32* brk = W.seg.data();   // the columns where the stencil row changes, listed without branches
     std::size_t nb = 0;
     for (std::size_t jj = 1; jj < ncol; ++jj) {
@@ -613,18 +810,20 @@ SARCLI_INLINE void separable_row(const Child& C, double dq, double kref, const d
     for (std::size_t b = 0; b <= nb; ++b) {
       const std::size_t j1 = b < nb ? static_cast<std::size_t>(brk[b]) : ncol;
       const std::size_t st = static_cast<std::size_t>(idx_c[j0]);
-      if (poly) col_run<true>(C.re, C.im, cq, st, jlo, ft32, tab_t, wt, ncol, okc, gre, gim, j0, j1);
-      else col_run<false>(C.re, C.im, cq, st, jlo, ft32, tab_t, wt, ncol, okc, gre, gim, j0, j1);
+      by_mode(mode_t, [&](auto mode) SARCLI_LAMBDA_INLINE {
+        col_run<decltype(mode)::value>(C.re, C.im, cq, st, jlo, ft32, tab_t, wt, ncol, okc, gre, gim, j0, j1);
+      });
       j0 = j1;
     }
     // pass 2 over the points inside (the others have a zero carrier): runs of points whose
     // stencil starts advance with them
-    if (!poly) row_weights<float>(kind, fq, n, wq, n, tab_q);
+    if (mode_q == kWeightsRead) row_weights<float>(kind, fq, n, wq, n, tab_q);
     for (std::size_t i = i0; i <= i1; ++i) idx_q[i] -= jlo;
     const bool runs = for_runs(idx_q, i0, i1 + 1, n, W.brk.data(), [&](std::size_t k0, std::size_t k1, std::ptrdiff_t off)
                                                             SARCLI_LAMBDA_INLINE {
-      if (poly) tap6_run<true>(gre, gim, off, fq, tab_q, wq, n, cr, ci, acc_re, acc_im, k0, k1);
-      else tap6_run<false>(gre, gim, off, fq, tab_q, wq, n, cr, ci, acc_re, acc_im, k0, k1);
+      by_mode(mode_q, [&](auto mode) SARCLI_LAMBDA_INLINE {
+        tap6_run<decltype(mode)::value>(gre, gim, off, fq, tab_q, wq, n, cr, ci, acc_re, acc_im, k0, k1);
+      });
     });
     (void)runs;
     return;
@@ -664,6 +863,7 @@ struct Merge {
   const float *tab_q, *tab_t;
   double dq, kref;
   float *out_re, *out_im;
+  int mode_q, mode_t;   // WeightMode of the range and angular kernels
 };
 
 SARCLI_CLONES
@@ -695,7 +895,7 @@ void merge_row(const Merge& A, std::size_t s, std::size_t it, RowScratch& W) {
     std::size_t falls = 0;   // points whose child range does not increase
     for (std::size_t iq = 1; iq < nq; ++iq) falls += qs[iq] <= qs[iq - 1];
     if (nq >= 2 && falls == 0)
-      separable_row(ch, A.dq, A.kref, qs, ts, qp, A.kind, A.tab_q, A.tab_t, nq, W);
+      separable_row(ch, A.dq, A.kref, qs, ts, qp, A.kind, A.tab_q, A.tab_t, A.mode_q, A.mode_t, nq, W);
     else
       polar_row(ch, A.dq, A.kref, qs, ts, qp, A.kind, A.tab_q, A.tab_t, nq, W);
   }
@@ -729,7 +929,7 @@ void merge(in<float, 3> cre, in<float, 3> cim, in<double, 2> cframe, in<double, 
   if (cre.shape(1) < 6 || cre.shape(2) < 6) throw nb::value_error("merge: child grids need at least 6 x 6 nodes");
   const Merge A{cre.data(), cim.data(), C, cre.shape(1), cre.shape(2), cframe.data(), pframe.data(), P, nt, nq,
                 first.data(), count.data(), kind, tab_q.data(), tab_t.data(), dq, kref, out_re.data(),
-                out_im.data()};
+                out_im.data(), weight_mode(kind, tab_q.data()), weight_mode(kind, tab_t.data())};
   const std::size_t ncmax = std::max(cre.shape(2), nq) + 6;
   nb::gil_scoped_release nogil;
   const long jobs = static_cast<long>(P * nt);
@@ -854,8 +1054,21 @@ NB_MODULE(_ffbp, m) {
   m.attr("FRAME_ROWS") = static_cast<int>(s::kFrameRows);
   m.attr("PULSE_ROWS") = static_cast<int>(s::kPulseRows);
   // outputs are written in place: never an implicit (converted) copy
+  nb::class_<s::Stage0Options>(m, "Stage0Options", "Stage 0's scalar settings.")
+      .def(nb::init<>())
+      .def("__init__",
+           [](s::Stage0Options* o, int kind, bool bistatic, double half_len, double n_len, int pad, double dq,
+              double kref) { new (o) s::Stage0Options{kind, bistatic, half_len, n_len, pad, dq, kref}; },
+           nb::kw_only(), "kind"_a, "bistatic"_a, "half_len"_a, "n_len"_a, "pad"_a, "dq"_a, "kref"_a)
+      .def_rw("kind", &s::Stage0Options::kind)
+      .def_rw("bistatic", &s::Stage0Options::bistatic)
+      .def_rw("half_len", &s::Stage0Options::half_len)
+      .def_rw("n_len", &s::Stage0Options::n_len)
+      .def_rw("pad", &s::Stage0Options::pad)
+      .def_rw("dq", &s::Stage0Options::dq)
+      .def_rw("kref", &s::Stage0Options::kref);
   m.def("stage0", &s::stage0, "pre"_a, "pim"_a, "first"_a, "count"_a, "pulses"_a, "series"_a, "frame"_a, "tab"_a,
-        "kind"_a, "bistatic"_a, "half_len"_a, "n_len"_a, "pad"_a, "dq"_a, "kref"_a, nb::arg("out_re").noconvert(), nb::arg("out_im").noconvert(),
+        "options"_a, nb::arg("out_re").noconvert(), nb::arg("out_im").noconvert(),
         "Backproject each sub-aperture's pulses (first[s] .. +count[s]) onto its polar grid (out[s]).");
   m.def("merge", &s::merge, "cre"_a, "cim"_a, "cframe"_a, "pframe"_a, "first"_a, "count"_a, "tab_q"_a, "tab_t"_a,
         "kind"_a, "dq"_a, "kref"_a, nb::arg("out_re").noconvert(), nb::arg("out_im").noconvert(),

@@ -61,5 +61,21 @@ inline __attribute__((always_inline)) void sincos_half_f32(double hp, float& c, 
   s = 2.0f * sh * ch;
 }
 
+// (cos, sin) of a float32 phase of moderate size (|ph| up to ~1e4: k·2π_hi stays exact): a float32
+// Cody-Waite reduction to [−π, π], then the float32 half-angle polynomials. For phases already
+// reduced in float64 and carried a few radians further in float32 (stage 0 of ffbp).
+constexpr float kTwoPiHi32 = 6.28125f, kTwoPiLo32 = 0x1.fb5444p-10f;   // hi + lo = 2π (hi: 9 bits)
+inline __attribute__((always_inline)) void sincos_f32(float ph, float& c, float& s) {
+  constexpr float kRound = 12582912.0f;   // 1.5·2^23: adding and subtracting it rounds to an integer
+  const float k = (ph * 0.159154943f + kRound) - kRound;
+  const float h = 0.5f * ((ph - k * kTwoPiHi32) - k * kTwoPiLo32);
+  const float h2 = h * h;
+  const float ps = kS32[0] + h2 * (kS32[1] + h2 * (kS32[2] + h2 * kS32[3]));
+  const float pc = kC32[0] + h2 * (kC32[1] + h2 * (kC32[2] + h2 * kC32[3]));
+  const float sh = h * (1.0f + h2 * ps), ch = 1.0f + h2 * pc;
+  c = ch * ch - sh * sh;
+  s = 2.0f * sh * ch;
+}
+
 }  // namespace carrier
 }  // namespace sarcli
