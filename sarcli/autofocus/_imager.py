@@ -351,19 +351,59 @@ class BlockImager:
         """``f(φ)`` with ``φ`` averaged over each block (the halves' pixels one after the other)."""
         return self._image(np.exp(-1j * self._theta(phi)))
 
+    def _sums(self, e, grad: bool):
+        """One fused pass over the stack (``sarcli._native._autofocus.entropy_sums``, per part):
+        ``E = Σ|f|²``, ``T`` (``Σ I ln I``, or ``Σ I^α``) and, with ``grad``, the per-block
+        ``X_b = Σ_s F_bs conj(f_s) a_s`` and ``Y_b = Σ_s F_bs conj(f_s)`` (``a = ln I`` or ``I^(α-1)``)."""
+        from .._native import load, using_threads
+
+        kern, nb = load("autofocus"), len(self.bounds) - 1
+        e = np.ascontiguousarray(e, np.complex64)
+        E = T = 0.0
+        X = np.zeros(nb, np.complex128) if grad else None
+        Y = np.zeros(nb, np.complex128) if grad else None
+        x = np.empty(nb, np.complex128) if grad else None
+        y = np.empty(nb, np.complex128) if grad else None
+        # one thread: a pass is memory-bound and a few milliseconds long; on cores shared with
+        # other jobs a second thread's waits cost more CPU time than it saves (docs/autofocus.md)
+        with using_threads(1):
+            for part in self.parts:
+                dE, dT = kern.entropy_sums(part, e, self.order, x, y)
+                E, T = E + dE, T + dT
+                if grad:
+                    X += x
+                    Y += y
+        return E, T, X, Y
+
+    def _entropy_from(self, E, T) -> float:
+        if E <= 0.0:
+            return 0.0
+        if self.order == 1.0:
+            return float(np.log(E) - T / E)
+        return float(np.log(T / E ** self.order) / (1.0 - self.order))
+
     def entropy(self, phi) -> float:
-        return entropy_of(self.image(phi), self.order)[0]
+        """``H(f(φ))`` (:func:`entropy_of`), from one pass over the stack without the image."""
+        E, T, _, _ = self._sums(np.exp(-1j * self._theta(phi)), False)
+        return self._entropy_from(E, T)
 
     def entropy_and_gradient(self, phi) -> tuple[float, np.ndarray]:
-        """``H`` and its per-pulse gradient (class docstring)."""
+        """``H`` and its per-pulse gradient (class docstring), from one pass over the stack.
+
+        With ``v_b = Σ_s w_s conj(f_s) F_bs`` (``w`` of :func:`entropy_of`): Shannon's
+        ``w = -(ln I - ln E + H)/E`` gives ``v = -(X - (T/E) Y)/E``; order ``α`` gives
+        ``v = α (E^{1-α} X - S Y)/((1-α) S E)``, ``S = T/E^α``.
+        """
         self._count()
         e = np.exp(-1j * self._theta(phi))
-        f = self._image(e)
-        h, _, w = entropy_of(f, self.order)
-        g = (w * np.conj(f)).astype(np.complex64)
-        v, k = 0.0, 0
-        for part in self.parts:
-            n = part.shape[1]
-            v = v + part @ g[k:k + n]
-            k += n
+        E, T, X, Y = self._sums(e, True)
+        h = self._entropy_from(E, T)
+        if E <= 0.0:
+            v = np.zeros_like(X)
+        elif self.order == 1.0:
+            v = -(X - (T / E) * Y) / E
+        else:
+            a = self.order
+            S = T / E ** a
+            v = a * (E ** (1.0 - a) * X - S * Y) / ((1.0 - a) * S * E)
         return h, np.repeat(2.0 * np.imag(e * v) / self._sizes, np.diff(self.bounds))
