@@ -88,3 +88,25 @@ def test_lbfgs_evaluates_the_points_scipy_minimize_does(n, max_iter, max_fun):
     for seed in range(2):
         a, b = _recorded(scipy_driver, n, seed, max_iter, max_fun), _recorded(ours, n, seed, max_iter, max_fun)
         assert len(a) == len(b) and all(np.array_equal(u, v) for u, v in zip(a, b))
+
+
+@pytest.mark.parametrize("kw", [dict(upsample=4, interp="linear", precision="float32"),
+                                dict(upsample=8, interp="cubic", precision="float64")])
+def test_pulse_contractions_are_the_reprojection_formula(kw):
+    from sarcli.core import geometry
+    from sarcli.core.grid import Grid
+    from sarcli.formers.backprojection import backproject, pulse_contractions, reproject
+
+    rng = np.random.default_rng(3)
+    freq = 9.8e9 + 5e6 * np.arange(48)
+    az = np.radians(np.linspace(-1.5, 1.5, 37))
+    a = geometry.antenna_positions_circle(az, np.radians(30), 10e3)
+    r0 = np.linalg.norm(a, axis=1)
+    d = rng.normal(size=(37, 48)) + 1j * rng.normal(size=(37, 48))
+    grid = Grid(45, 38, 0.25, 0.25)
+    g = rng.normal(size=grid.shape) * np.conj(backproject(d, freq, a, r0, grid, **kw))
+    ref = np.sum(np.conj(reproject(np.conj(g), freq, a, r0, grid, **kw)) * d, axis=1)
+    tol = 1e-5 if kw["precision"] == "float32" else 1e-12
+    v1 = pulse_contractions(d, g, freq, a, r0, grid, **kw, nthreads=1)
+    assert np.max(np.abs(v1 - ref)) < tol * np.max(np.abs(ref))
+    assert np.array_equal(v1, pulse_contractions(d, g, freq, a, r0, grid, **kw, nthreads=2))

@@ -16,8 +16,10 @@ with ``B`` the backprojection (``B_p`` its part for pulse ``p``). The entropy
     \\qquad w_s = -\\frac{\\ln q_s + H}{E}, \\quad R = B^{H} (w \\odot f),
 
 because ``Σ_s g_s (B_p d_p)_s = ⟨B_p^H \\bar g, d_p⟩``. So one backprojection gives ``H`` and one
-reprojection (:func:`sarcli.formers.backprojection.reproject`, the exact adjoint) gives all
-``P`` partial derivatives: two images of memory, none per pulse. Collections the backprojector
+pass of the same size gives all ``P`` partial derivatives: two images of memory, none per pulse.
+That pass (:func:`sarcli.formers.backprojection.pulse_contractions`) gathers ``Σ_s g_s (B_p d_p)_s``
+from each pulse's profile as the backprojection does, the same numbers as the reprojection
+formula (:func:`~sarcli.formers.backprojection.reproject`, the exact adjoint) without its scatter. Collections the backprojector
 does not take (far-field model, unequally spaced frequencies) use the stack of single-pulse
 images instead (:func:`~sarcli.autofocus._common.pulse_images`; small cases only).
 """
@@ -151,12 +153,11 @@ class Imager:
         """``v_p = Σ_s g_s b_ps`` for an image-shaped ``g``."""
         if self.stack is not None:
             return self.stack @ g.ravel().astype(self.stack.dtype)
-        from ..formers.backprojection import reproject
+        from ..formers.backprojection import pulse_contractions
 
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", SarcliWarning)
-            r = reproject(np.conj(g), *self._args, **self._kw)
-        return np.sum(np.conj(r) * self.data, axis=1)
+            return pulse_contractions(self.data, g, *self._args, **self._kw)
 
     def blockwise(self, phi) -> np.ndarray:
         """``φ`` itself (this imager is exact for any per-pulse phase)."""

@@ -70,7 +70,7 @@ from .._util.progress import progress
 from ._bp_kernels import GEO_ROWS, kernels, min_range, next_fast_len, tile_width
 from ._samples import is_lazy
 
-__all__ = ["backproject", "reproject", "profile_length", "INTERPOLATORS", "DEFAULT_UPSAMPLE", "DEFAULT_PRECISION",
+__all__ = ["backproject", "reproject", "pulse_contractions", "profile_length", "INTERPOLATORS", "DEFAULT_UPSAMPLE", "DEFAULT_PRECISION",
            "DEFAULT_INTERP"]
 
 #: Interpolation kernels for the range profiles and their codes in the compiled kernels.
@@ -349,6 +349,39 @@ def backproject(data, freq_hz, antenna_position_m, range_to_center_m, grid, weig
     img.real = out_re
     img.imag = out_im
     return img
+
+
+def pulse_contractions(data, g, freq_hz, antenna_position_m, range_to_center_m, grid, weights=None, *,
+                       upsample=DEFAULT_UPSAMPLE, interp=DEFAULT_INTERP, precision="float64",
+                       nthreads=None, receive_position_m=None) -> np.ndarray:
+    """``v_p = Σ_s g_s (B_p d_p)_s``: each pulse's backprojection (:func:`backproject` of that pulse
+    alone, same normalisation) contracted with an image-shaped ``g``, shape (P,), complex128.
+
+    The same numbers as ``np.sum(np.conj(reproject(np.conj(g), ...)) * data, axis=1)`` (the
+    per-pulse derivative of an image functional whose gradient is ``g``), computed by gathering
+    from each pulse's profile as the forward kernel does rather than scattering onto it.
+    Arguments as for :func:`backproject`; ``g`` has the grid's shape.
+    """
+    d = _check_data(data)
+    gg = np.asarray(g)
+    if gg.shape != grid.shape:
+        raise SarcliInputError(f"g shape {gg.shape} does not match the grid {grid.shape}")
+    st = _Setup(d.shape, freq_hz, antenna_position_m, range_to_center_m, grid, weights,
+                upsample, interp, precision, receive_position_m)
+    cdt = np.complex64 if st.dtype == np.float32 else np.complex128
+    gre = np.ascontiguousarray(gg.real, dtype=st.dtype)
+    gim = np.ascontiguousarray(gg.imag, dtype=st.dtype) if np.iscomplexobj(gg) else np.zeros_like(gre)
+    out = np.empty(st.n_pulses, dtype=np.complex128)
+    kern = kernels()
+    with using_threads(nthreads):
+        for sl in st.blocks():
+            prof = _profiles(d[sl], None if st.weights is None else st.weights[sl], st.total_weight,
+                             st.n_len, cdt)
+            acc = np.empty((sl.stop - sl.start, 2))
+            kern.bp_contract(prof.view(st.dtype).reshape(prof.shape + (2,)), gre, gim,
+                             *st.kernel_args(sl), st.cache_block, acc)
+            out[sl] = acc[:, 0] + 1j * acc[:, 1]
+    return out
 
 
 def reproject(image, freq_hz, antenna_position_m, range_to_center_m, grid, weights=None, *,
