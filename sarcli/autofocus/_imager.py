@@ -216,6 +216,17 @@ def split_grid(grid: Grid, axis: int = 1, gap: float = 0.0) -> tuple[Grid, ...]:
     return parts + ((part(half, g),) if g else ())
 
 
+def _merge_rows(part, starts) -> np.ndarray:
+    """``np.add.reduceat(part, starts, axis=0)``, row by row (several times faster on a wide stack)."""
+    out = np.empty((len(starts), part.shape[1]), part.dtype)
+    ends = np.append(starts[1:], part.shape[0])
+    for i, (a, b) in enumerate(zip(starts, ends)):
+        np.copyto(out[i], part[a])
+        for r in range(a + 1, b):
+            out[i] += part[r]
+    return out
+
+
 class BlockImager:
     r"""Images of ``d · exp(-iφ)`` from sub-aperture images of ``K`` consecutive pulses.
 
@@ -306,21 +317,25 @@ class BlockImager:
         m = max(1, int(pulses) // max(K, 1))
         if m == 1 or len(self.bounds) - 1 <= 2 * m:
             return self
+        # the merged stacks are shared with the imagers of the same stack in another order
         cache = self.__dict__.setdefault("_coarse", {})
         if m not in cache:
             starts = np.arange(0, len(self.bounds) - 1, m)
-            parts = [np.add.reduceat(part, starts, axis=0) for part in self.parts]
-            cache[m] = BlockImager(None, self.grid, 0, self.axis, order=self.order, _parts=parts,
-                                   _bounds=np.append(self.bounds[starts], self.bounds[-1]), _counter=self)
-        return cache[m]
+            cache[m] = ([_merge_rows(part, starts) for part in self.parts],
+                        np.append(self.bounds[starts], self.bounds[-1]))
+        parts, bounds = cache[m]
+        return BlockImager(None, self.grid, 0, self.axis, order=self.order, _parts=parts, _bounds=bounds,
+                           _counter=self)
 
     def with_order(self, order: float) -> "BlockImager":
         """The same images measured by the Rényi entropy of another ``order`` (no copy; its
         evaluations are counted on this imager)."""
         if float(order) == self.order:
             return self
-        return BlockImager(None, self.grid, 0, self.axis, order=order, _parts=self.parts, _bounds=self.bounds,
-                           _counter=self)
+        other = BlockImager(None, self.grid, 0, self.axis, order=order, _parts=self.parts, _bounds=self.bounds,
+                            _counter=self)
+        other._coarse = self.__dict__.setdefault("_coarse", {})
+        return other
 
     def halves(self) -> tuple["BlockImager", "BlockImager"]:
         """The imagers of the two halves of :func:`split_grid` (this stack's own parts, no copy)."""
