@@ -49,10 +49,12 @@ SPLIT_GAP = 0.125
 class single_threaded_blas:
     """Context: numpy's matrix products on one thread (threadpoolctl's limit on the BLAS pools).
 
-    The sub-aperture products are memory-bound and short: a second thread saves little wall time,
-    and on cores shared with other jobs its waits between the products cost much CPU time
-    (``docs/autofocus.md``). The limit is process-wide: nested and concurrent uses are counted,
-    and the last one out restores it.
+    The BLAS calls of minimum entropy are short (L-BFGS-B's, the small products of the level
+    bases): a second thread saves no wall time, and OpenBLAS's idle threads spin after each call,
+    which on cores shared with other jobs cost more CPU time than the whole search
+    (``docs/autofocus.md``). threadpoolctl limits only the libraries already loaded, so load them
+    first. The limit is process-wide: nested and concurrent uses are counted, and the last one out
+    restores it.
     """
 
     _lock = threading.Lock()
