@@ -110,3 +110,27 @@ def test_pulse_contractions_are_the_reprojection_formula(kw):
     v1 = pulse_contractions(d, g, freq, a, r0, grid, **kw, nthreads=1)
     assert np.max(np.abs(v1 - ref)) < tol * np.max(np.abs(ref))
     assert np.array_equal(v1, pulse_contractions(d, g, freq, a, r0, grid, **kw, nthreads=2))
+
+
+def test_subaperture_images_add_up_to_the_backprojection():
+    from sarcli.core import geometry
+    from sarcli.core.grid import Grid
+    from sarcli.errors import SarcliInputError
+    from sarcli.formers.backprojection import backproject, subaperture_images
+
+    rng = np.random.default_rng(4)
+    freq = 9.8e9 + 5e6 * np.arange(32)
+    az = np.radians(np.linspace(-1.5, 1.5, 23))
+    a = geometry.antenna_positions_circle(az, np.radians(30), 10e3)
+    r0 = np.linalg.norm(a, axis=1)
+    d = rng.normal(size=(23, 32)) + 1j * rng.normal(size=(23, 32))
+    grid = Grid(30, 26, 0.25, 0.25)
+    bounds = [0, 5, 6, 15, 23]
+    imgs = [img for _, img in subaperture_images(d, bounds, freq, a, r0, grid)]
+    assert len(imgs) == 4
+    one = backproject(d[6:15], freq, a[6:15], r0[6:15], grid) * (9 / 23)
+    assert np.max(np.abs(imgs[2] - one)) < 1e-12 * np.max(np.abs(one))
+    full = backproject(d, freq, a, r0, grid)
+    assert np.max(np.abs(sum(imgs) - full)) < 1e-12 * np.max(np.abs(full))
+    with pytest.raises(SarcliInputError):
+        next(subaperture_images(d, [0, 5, 5, 23], freq, a, r0, grid))

@@ -287,19 +287,16 @@ class BlockImager:
                 part[b] = (img[:, lo:hi] if self.axis == 1 else img[lo:hi]).ravel()
 
         if acq.model == "spherical" and d.shape[1] >= 2:
-            from ..formers.backprojection import backproject
+            from ..formers.backprojection import subaperture_images
 
             t, q, r0 = acq.range_geometry()
-            f = acq.frequencies_2d
             try:
                 with warnings.catch_warnings():
                     warnings.simplefilter("ignore", SarcliWarning)
-                    for b in range(nb):
-                        s = slice(self.bounds[b], self.bounds[b + 1])
-                        # backproject divides by its own pulse count: weigh each block by its share
-                        img = backproject(d[s], f[s], t[s], r0[s], grid, **ESTIMATION_BP,
-                                          receive_position_m=q[s] if acq.is_bistatic else None)
-                        store(b, img * ((s.stop - s.start) / d.shape[0]))
+                    for b, img in subaperture_images(d, self.bounds, acq.frequencies_2d, t, r0, grid,
+                                                     **ESTIMATION_BP,
+                                                     receive_position_m=q if acq.is_bistatic else None):
+                        store(b, img)
                 return parts
             except SarcliInputError:  # unequally spaced frequencies: single-pulse images below
                 pass
