@@ -134,3 +134,14 @@ def test_subaperture_images_add_up_to_the_backprojection():
     assert np.max(np.abs(sum(imgs) - full)) < 1e-12 * np.max(np.abs(full))
     with pytest.raises(SarcliInputError):
         next(subaperture_images(d, [0, 5, 5, 23], freq, a, r0, grid))
+
+
+def test_lbfgs_driver_refuses_a_routine_of_another_interface():
+    from sarcli.autofocus._lbfgs import _setulb, _works
+
+    def wrong_arguments(*args):
+        raise TypeError("setulb() takes 18 arguments")
+
+    assert _setulb() is not None and _works(_setulb())
+    assert not _works(wrong_arguments)
+    assert not _works(lambda *args: None)  # asks for nothing: never reaches the minimum

@@ -6,7 +6,9 @@ GOTCHA grid, and minimum entropy needs only the compiled L-BFGS-B routine. :func
 extension module by itself (it imports nothing from ``scipy.optimize``) and runs the same
 reverse-communication loop as ``scipy.optimize.minimize(method='L-BFGS-B')`` without bounds: the
 same points are evaluated in the same order (``tests/test_autofocus_kernels.py`` checks it). Where the
-module cannot be loaded that way (another scipy layout), ``scipy.optimize.minimize`` runs instead.
+module cannot be loaded that way (another scipy layout) or takes other arguments (older scipy
+releases had the Fortran routine's; a trial on a small quadratic tells), ``scipy.optimize.minimize``
+runs instead.
 """
 
 from __future__ import annotations
@@ -40,10 +42,29 @@ def _setulb():
                         s.loader.exec_module(mod)
                         break
             fn = getattr(mod, "setulb", None)
+            if fn is not None and not _works(fn):
+                fn = None
         except Exception:  # noqa: BLE001 - any failure: scipy.optimize.minimize below
             fn = None
         _SETULB.append(fn)
     return _SETULB[0]
+
+
+def _works(setulb) -> bool:
+    """Whether ``setulb`` takes the arguments of the routine this driver was written for (that of
+    scipy 1.17), tried on a small quadratic."""
+    seen = []
+
+    def quad(x):
+        seen.append(x)
+        r = x - np.array([1.0, -2.0])
+        return float(r @ r), 2.0 * r
+
+    try:
+        _drive(setulb, quad, np.zeros(2), 20, 40, 1e-12, 1e-12, 10, 20)
+    except Exception:  # noqa: BLE001 - another interface
+        return False
+    return bool(seen) and np.allclose(seen[-1], [1.0, -2.0], atol=1e-6)
 
 
 def lbfgs(fun, x0, *, max_iter: int, max_fun: int, ftol: float = 1e-12, gtol: float = 1e-12,
@@ -62,6 +83,12 @@ def lbfgs(fun, x0, *, max_iter: int, max_fun: int, ftol: float = 1e-12, gtol: fl
                  options={"maxiter": max_iter, "maxfun": max_fun, "ftol": ftol, "gtol": gtol,
                           "maxcor": maxcor, "maxls": maxls})
         return
+    _drive(setulb, fun, x, max_iter, max_fun, ftol, gtol, maxcor, maxls)
+
+
+def _drive(setulb, fun, x, max_iter, max_fun, ftol, gtol, maxcor, maxls):
+    """scipy's reverse-communication loop of ``_minimize_lbfgsb`` without bounds (module docstring)."""
+    x = np.array(x, np.float64)
     n = x.size
     m = maxcor
     factr = ftol / np.finfo(float).eps
