@@ -16,8 +16,10 @@ with ``B`` the backprojection (``B_p`` its part for pulse ``p``). The entropy
     \\qquad w_s = -\\frac{\\ln q_s + H}{E}, \\quad R = B^{H} (w \\odot f),
 
 because ``Σ_s g_s (B_p d_p)_s = ⟨B_p^H \\bar g, d_p⟩``. So one backprojection gives ``H`` and one
-reprojection (:func:`sarcli.formers.backprojection.reproject`, the exact adjoint) gives all
-``P`` partial derivatives: two images of memory, none per pulse. Collections the backprojector
+pass of the same size gives all ``P`` partial derivatives: two images of memory, none per pulse.
+That pass (:func:`sarcli.formers.backprojection.pulse_contractions`) gathers ``Σ_s g_s (B_p d_p)_s``
+from each pulse's profile as the backprojection does, the same numbers as the reprojection
+formula (:func:`~sarcli.formers.backprojection.reproject`, the exact adjoint) without its scatter. Collections the backprojector
 does not take (far-field model, unequally spaced frequencies) use the stack of single-pulse
 images instead (:func:`~sarcli.autofocus._common.pulse_images`; small cases only).
 """
@@ -47,10 +49,12 @@ SPLIT_GAP = 0.125
 class single_threaded_blas:
     """Context: numpy's matrix products on one thread (threadpoolctl's limit on the BLAS pools).
 
-    The sub-aperture products are memory-bound and short: a second thread saves little wall time,
-    and on cores shared with other jobs its waits between the products cost much CPU time
-    (``docs/autofocus.md``). The limit is process-wide: nested and concurrent uses are counted,
-    and the last one out restores it.
+    The BLAS calls of minimum entropy are short (L-BFGS-B's, the small products of the level
+    bases): a second thread saves no wall time, and OpenBLAS's idle threads spin after each call,
+    which on cores shared with other jobs cost more CPU time than the whole search
+    (``docs/autofocus.md``). threadpoolctl limits only the libraries already loaded, so load them
+    first. The limit is process-wide: nested and concurrent uses are counted, and the last one out
+    restores it.
     """
 
     _lock = threading.Lock()
@@ -151,12 +155,11 @@ class Imager:
         """``v_p = Σ_s g_s b_ps`` for an image-shaped ``g``."""
         if self.stack is not None:
             return self.stack @ g.ravel().astype(self.stack.dtype)
-        from ..formers.backprojection import reproject
+        from ..formers.backprojection import pulse_contractions
 
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", SarcliWarning)
-            r = reproject(np.conj(g), *self._args, **self._kw)
-        return np.sum(np.conj(r) * self.data, axis=1)
+            return pulse_contractions(self.data, g, *self._args, **self._kw)
 
     def blockwise(self, phi) -> np.ndarray:
         """``φ`` itself (this imager is exact for any per-pulse phase)."""
@@ -213,6 +216,17 @@ def split_grid(grid: Grid, axis: int = 1, gap: float = 0.0) -> tuple[Grid, ...]:
 
     parts = (part(0, half), part(half + g, n - half - g))
     return parts + ((part(half, g),) if g else ())
+
+
+def _merge_rows(part, starts) -> np.ndarray:
+    """``np.add.reduceat(part, starts, axis=0)``, row by row (several times faster on a wide stack)."""
+    out = np.empty((len(starts), part.shape[1]), part.dtype)
+    ends = np.append(starts[1:], part.shape[0])
+    for i, (a, b) in enumerate(zip(starts, ends)):
+        np.copyto(out[i], part[a])
+        for r in range(a + 1, b):
+            out[i] += part[r]
+    return out
 
 
 class BlockImager:
@@ -273,19 +287,16 @@ class BlockImager:
                 part[b] = (img[:, lo:hi] if self.axis == 1 else img[lo:hi]).ravel()
 
         if acq.model == "spherical" and d.shape[1] >= 2:
-            from ..formers.backprojection import backproject
+            from ..formers.backprojection import subaperture_images
 
             t, q, r0 = acq.range_geometry()
-            f = acq.frequencies_2d
             try:
                 with warnings.catch_warnings():
                     warnings.simplefilter("ignore", SarcliWarning)
-                    for b in range(nb):
-                        s = slice(self.bounds[b], self.bounds[b + 1])
-                        # backproject divides by its own pulse count: weigh each block by its share
-                        img = backproject(d[s], f[s], t[s], r0[s], grid, **ESTIMATION_BP,
-                                          receive_position_m=q[s] if acq.is_bistatic else None)
-                        store(b, img * ((s.stop - s.start) / d.shape[0]))
+                    for b, img in subaperture_images(d, self.bounds, acq.frequencies_2d, t, r0, grid,
+                                                     **ESTIMATION_BP,
+                                                     receive_position_m=q if acq.is_bistatic else None):
+                        store(b, img)
                 return parts
             except SarcliInputError:  # unequally spaced frequencies: single-pulse images below
                 pass
@@ -305,21 +316,25 @@ class BlockImager:
         m = max(1, int(pulses) // max(K, 1))
         if m == 1 or len(self.bounds) - 1 <= 2 * m:
             return self
+        # the merged stacks are shared with the imagers of the same stack in another order
         cache = self.__dict__.setdefault("_coarse", {})
         if m not in cache:
             starts = np.arange(0, len(self.bounds) - 1, m)
-            parts = [np.add.reduceat(part, starts, axis=0) for part in self.parts]
-            cache[m] = BlockImager(None, self.grid, 0, self.axis, order=self.order, _parts=parts,
-                                   _bounds=np.append(self.bounds[starts], self.bounds[-1]), _counter=self)
-        return cache[m]
+            cache[m] = ([_merge_rows(part, starts) for part in self.parts],
+                        np.append(self.bounds[starts], self.bounds[-1]))
+        parts, bounds = cache[m]
+        return BlockImager(None, self.grid, 0, self.axis, order=self.order, _parts=parts, _bounds=bounds,
+                           _counter=self)
 
     def with_order(self, order: float) -> "BlockImager":
         """The same images measured by the Rényi entropy of another ``order`` (no copy; its
         evaluations are counted on this imager)."""
         if float(order) == self.order:
             return self
-        return BlockImager(None, self.grid, 0, self.axis, order=order, _parts=self.parts, _bounds=self.bounds,
-                           _counter=self)
+        other = BlockImager(None, self.grid, 0, self.axis, order=order, _parts=self.parts, _bounds=self.bounds,
+                            _counter=self)
+        other._coarse = self.__dict__.setdefault("_coarse", {})
+        return other
 
     def halves(self) -> tuple["BlockImager", "BlockImager"]:
         """The imagers of the two halves of :func:`split_grid` (this stack's own parts, no copy)."""
@@ -351,19 +366,59 @@ class BlockImager:
         """``f(φ)`` with ``φ`` averaged over each block (the halves' pixels one after the other)."""
         return self._image(np.exp(-1j * self._theta(phi)))
 
+    def _sums(self, e, grad: bool):
+        """One fused pass over the stack (``sarcli._native._autofocus.entropy_sums``, per part):
+        ``E = Σ|f|²``, ``T`` (``Σ I ln I``, or ``Σ I^α``) and, with ``grad``, the per-block
+        ``X_b = Σ_s F_bs conj(f_s) a_s`` and ``Y_b = Σ_s F_bs conj(f_s)`` (``a = ln I`` or ``I^(α-1)``)."""
+        from .._native import load, using_threads
+
+        kern, nb = load("autofocus"), len(self.bounds) - 1
+        e = np.ascontiguousarray(e, np.complex64)
+        E = T = 0.0
+        X = np.zeros(nb, np.complex128) if grad else None
+        Y = np.zeros(nb, np.complex128) if grad else None
+        x = np.empty(nb, np.complex128) if grad else None
+        y = np.empty(nb, np.complex128) if grad else None
+        # one thread: a pass is memory-bound and a few milliseconds long; on cores shared with
+        # other jobs a second thread's waits cost more CPU time than it saves (docs/autofocus.md)
+        with using_threads(1):
+            for part in self.parts:
+                dE, dT = kern.entropy_sums(part, e, self.order, x, y)
+                E, T = E + dE, T + dT
+                if grad:
+                    X += x
+                    Y += y
+        return E, T, X, Y
+
+    def _entropy_from(self, E, T) -> float:
+        if E <= 0.0:
+            return 0.0
+        if self.order == 1.0:
+            return float(np.log(E) - T / E)
+        return float(np.log(T / E ** self.order) / (1.0 - self.order))
+
     def entropy(self, phi) -> float:
-        return entropy_of(self.image(phi), self.order)[0]
+        """``H(f(φ))`` (:func:`entropy_of`), from one pass over the stack without the image."""
+        E, T, _, _ = self._sums(np.exp(-1j * self._theta(phi)), False)
+        return self._entropy_from(E, T)
 
     def entropy_and_gradient(self, phi) -> tuple[float, np.ndarray]:
-        """``H`` and its per-pulse gradient (class docstring)."""
+        """``H`` and its per-pulse gradient (class docstring), from one pass over the stack.
+
+        With ``v_b = Σ_s w_s conj(f_s) F_bs`` (``w`` of :func:`entropy_of`): Shannon's
+        ``w = -(ln I - ln E + H)/E`` gives ``v = -(X - (T/E) Y)/E``; order ``α`` gives
+        ``v = α (E^{1-α} X - S Y)/((1-α) S E)``, ``S = T/E^α``.
+        """
         self._count()
         e = np.exp(-1j * self._theta(phi))
-        f = self._image(e)
-        h, _, w = entropy_of(f, self.order)
-        g = (w * np.conj(f)).astype(np.complex64)
-        v, k = 0.0, 0
-        for part in self.parts:
-            n = part.shape[1]
-            v = v + part @ g[k:k + n]
-            k += n
+        E, T, X, Y = self._sums(e, True)
+        h = self._entropy_from(E, T)
+        if E <= 0.0:
+            v = np.zeros_like(X)
+        elif self.order == 1.0:
+            v = -(X - (T / E) * Y) / E
+        else:
+            a = self.order
+            S = T / E ** a
+            v = a * (E ** (1.0 - a) * X - S * Y) / ((1.0 - a) * S * E)
         return h, np.repeat(2.0 * np.imag(e * v) / self._sizes, np.diff(self.bounds))

@@ -144,10 +144,11 @@ class _Spent(Exception):
 
 
 def _minimize(fun, n: int, max_iter: int, max_fun: int | None) -> np.ndarray:
-    """L-BFGS (scipy's L-BFGS-B) on ``fun`` (value and gradient) from zero, at most ``max_iter``
-    iterations and ``max_fun`` evaluations (default ``2 max_iter``; line searches included, which
-    scipy's own ``maxfun`` checks only between iterations); the best point evaluated."""
-    from scipy.optimize import minimize
+    """L-BFGS (scipy's L-BFGS-B routine, :func:`~sarcli.autofocus._lbfgs.lbfgs`) on ``fun`` (value
+    and gradient) from zero, at most ``max_iter`` iterations and ``max_fun`` evaluations (default
+    ``2 max_iter``; line searches included, which scipy's own ``maxfun`` checks only between
+    iterations); the best point evaluated."""
+    from ._lbfgs import lbfgs
 
     max_fun = 2 * max_iter if max_fun is None else max_fun
     best = [np.inf, np.zeros(n), 0]
@@ -162,8 +163,7 @@ def _minimize(fun, n: int, max_iter: int, max_fun: int | None) -> np.ndarray:
         return h, g
 
     try:
-        minimize(counted, np.zeros(n), jac=True, method="L-BFGS-B",
-                 options={"maxiter": max_iter, "maxfun": max_fun, "ftol": 1e-12, "gtol": 1e-12})
+        lbfgs(counted, np.zeros(n), max_iter=max_iter, max_fun=max_fun, ftol=1e-12, gtol=1e-12)
     except _Spent:
         pass
     return best[1]
@@ -313,7 +313,12 @@ def min_entropy(ph, *, grid: Grid | None = None, start="zero", levels=LEVELS, ma
         estimates per level, the held-out gains and the correlation between the halves per level,
         the level kept and why (``'decision'``).
     """
-    with single_threaded_blas():  # the sub-aperture products (class docstring)
+    from ._lbfgs import _setulb
+
+    # L-BFGS-B's BLAS (scipy's own OpenBLAS) is loaded first, so that the one-thread limit reaches
+    # it too: its idle threads spin after every call, on cores shared with other jobs
+    _setulb()
+    with single_threaded_blas():
         return _min_entropy(ph, grid, start, levels, max_iter, pulse_iter, full_pulse_iter, max_blocks,
                             max_stack_mib, validate, guard, pga_options, order)
 

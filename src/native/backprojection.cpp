@@ -509,6 +509,60 @@ SARCLI_INLINE void bp_row(const Args& A, const PT* prof, long row, long p0, long
   }
 }
 
+// Contraction: acc[2p], acc[2p + 1] += Σ over image row `row` of g · (pulse p's backprojection),
+// for the pulses [p0, p1): the per-pulse derivative of an image functional with gradient g, as a
+// gather from each profile where the adjoint (rp_pulse) scatters onto it.
+template <typename PT, int K, int ISA>
+SARCLI_INLINE void bp_contract_row(const Args& A, const PT* prof, const PT* gre, const PT* gim,
+                                   long row, long p0, long p1, Anchors& an, double* acc) {
+  const double y = A.y[row];
+  float uf[kGroups][kLanes];
+  double ud[kGroups][kLanes];
+  PT wr[kGroups][kLanes], wi[kGroups][kLanes];
+  Lanes<K> L;
+  for (long c0 = 0; c0 < A.nx; c0 += A.width) {
+    double xc, he;
+    const long wv = tile_lanes(A, c0, uf, ud, xc, he);
+    const long ng = (wv + kLanes - 1) / kLanes;
+    for (long c = 0; c < ng * kLanes; ++c) {  // lanes beyond the tile weigh nothing
+      wr[c / kLanes][c % kLanes] = c < wv ? gre[row * A.nx + c0 + c] : PT(0);
+      wi[c / kLanes][c % kLanes] = c < wv ? gim[row * A.nx + c0 + c] : PT(0);
+    }
+    anchors(A, p0, p1, xc, y, he, an);
+    for (long p = p0; p < p1; ++p) {
+      const Anchor a = an.get(p - p0);
+      const PT* pp = prof + 2 * p * A.lp;
+      PT sr[kLanes] = {}, si[kLanes] = {};
+      for (long g = 0; g < ng; ++g) {
+        eval_lanes<K>(a, uf[g], ud[g], A.pad, L);
+        PT tp[2 * Kernel<K>::taps][kLanes];
+        Taps<PT, K, ISA>::load(pp, L.idx, tp);
+        const PT* __restrict gr = wr[g];
+        const PT* __restrict gi = wi[g];
+#pragma omp simd
+        for (int i = 0; i < kLanes; ++i) {
+          PT vr = 0, vi = 0;
+          for (int k = 0; k < Kernel<K>::taps; ++k) {
+            vr += static_cast<PT>(L.w[k][i]) * tp[2 * k][i];
+            vi += static_cast<PT>(L.w[k][i]) * tp[2 * k + 1][i];
+          }
+          const PT c = L.c[i], s = L.s[i];
+          const PT ur = vr * c - vi * s, ui = vr * s + vi * c;
+          sr[i] += gr[i] * ur - gi[i] * ui;
+          si[i] += gr[i] * ui + gi[i] * ur;
+        }
+      }
+      double tr = 0.0, ti = 0.0;
+      for (int i = 0; i < kLanes; ++i) {
+        tr += static_cast<double>(sr[i]);
+        ti += static_cast<double>(si[i]);
+      }
+      acc[2 * p] += tr;
+      acc[2 * p + 1] += ti;
+    }
+  }
+}
+
 // Adjoint: every pixel of the image scattered onto pulse p's profile.
 template <typename PT, int K>
 SARCLI_INLINE void rp_pulse(const Args& A, const PT* fre, const PT* fim, long p, PT* h) {
@@ -557,6 +611,10 @@ SARCLI_INLINE void rp_pulse(const Args& A, const PT* fre, const PT* fim, long p,
   }                                                                                             \
   ATTR void rp_pulse_##SUF(const Args& A, const PT* fre, const PT* fim, long p, PT* h) {        \
     rp_pulse<PT, K>(A, fre, fim, p, h);                                                         \
+  }                                                                                             \
+  ATTR void bp_contract_row_##SUF(const Args& A, const PT* prof, const PT* gre, const PT* gim,  \
+                                  long row, long p0, long p1, Anchors& an, double* acc) {       \
+    bp_contract_row<PT, K, ISA>(A, prof, gre, gim, row, p0, p1, an, acc);                       \
   }
 #define SARCLI_BP_ISA(SUF, ATTR, ISA)              \
   SARCLI_BP_WORKER(float, 0, f0_##SUF, ATTR, ISA)  \
@@ -604,6 +662,15 @@ template <>
 PulseFn<float> pulse_fn<float>(int kind) { const int level = isa_level(); return SARCLI_PICK(rp_pulse, f); }
 template <>
 PulseFn<double> pulse_fn<double>(int kind) { const int level = isa_level(); return SARCLI_PICK(rp_pulse, d); }
+template <typename PT>
+using ContractFn = void (*)(const Args&, const PT*, const PT*, const PT*, long, long, long, Anchors&,
+                            double*);
+template <typename PT>
+ContractFn<PT> contract_fn(int kind);
+template <>
+ContractFn<float> contract_fn<float>(int kind) { const int level = isa_level(); return SARCLI_PICK(bp_contract_row, f); }
+template <>
+ContractFn<double> contract_fn<double>(int kind) { const int level = isa_level(); return SARCLI_PICK(bp_contract_row, d); }
 #undef SARCLI_PICK
 
 Args make_args(in<double, 1> x, in<double, 1> y, in<double, 2> geo, long lp, long n_len, long pad,
@@ -671,6 +738,39 @@ void rp_tiles(in<PT, 2> fre, in<PT, 2> fim, in<double, 1> x, in<double, 1> y, in
   for (long p = 0; p < A.B; ++p) fn(A, f_r, f_i, p, hp + 2 * p * A.lp);
 }
 
+template <typename PT>
+void bp_contract(in<PT, 3> prof, in<PT, 2> gre, in<PT, 2> gim, in<double, 1> x, in<double, 1> y,
+                 in<double, 2> geo, long n_len, long pad, int kind, bool bist, long width, long block,
+                 out<double, 2> acc) {
+  Args A = make_args(x, y, geo, static_cast<long>(prof.shape(1)), n_len, pad, width, bist);
+  if (prof.shape(0) != static_cast<size_t>(A.B) || prof.shape(2) != 2 ||
+      gre.shape(0) != static_cast<size_t>(A.ny) || gre.shape(1) != static_cast<size_t>(A.nx) ||
+      gim.shape(0) != gre.shape(0) || gim.shape(1) != gre.shape(1) ||
+      acc.shape(0) != static_cast<size_t>(A.B) || acc.shape(1) != 2 || kind < 0 || kind > 2)
+    throw nb::value_error("bp_contract: inconsistent shapes or options");
+  const long nb_ = std::max<long>(1, block);
+  const PT* pr = prof.data();
+  const PT *g_r = gre.data(), *g_i = gim.data();
+  const ContractFn<PT> fn = contract_fn<PT>(kind);
+  // one row of sums per image row, added in row order: the result does not depend on the threads
+  std::vector<double> rows(static_cast<size_t>(A.ny) * 2 * A.B, 0.0);
+  {
+    nb::gil_scoped_release nogil;
+#pragma omp parallel
+    {
+      Anchors an(static_cast<size_t>(nb_));
+#pragma omp for schedule(static)
+      for (long row = 0; row < A.ny; ++row)
+        for (long p0 = 0; p0 < A.B; p0 += nb_)
+          fn(A, pr, g_r, g_i, row, p0, std::min(A.B, p0 + nb_), an, rows.data() + row * 2 * A.B);
+    }
+  }
+  double* o = acc.data();
+  for (long k = 0; k < 2 * A.B; ++k) o[k] = 0.0;
+  for (long row = 0; row < A.ny; ++row)
+    for (long k = 0; k < 2 * A.B; ++k) o[k] += rows[row * 2 * A.B + k];
+}
+
 // The carrier and interpolation weights as the kernels evaluate them (for tests).
 void carrier_values(in<double, 1> ph, out<float, 1> c, out<float, 1> s) {
   const size_t n = ph.shape(0);
@@ -714,6 +814,13 @@ NB_MODULE(_backprojection, m) {
         "kind"_a, "bist"_a, "width"_a, "h"_a, rp_doc);
   m.def("rp_tiles", &rp_tiles<double>, "fre"_a, "fim"_a, "x"_a, "y"_a, "geo"_a, "n_len"_a, "pad"_a,
         "kind"_a, "bist"_a, "width"_a, "h"_a, rp_doc);
+  const char* ct_doc =
+      "acc[p] = sum over pixels of g · (pulse p's part of bp_tiles), (re, im): the per-pulse "
+      "derivative of an image functional with gradient g, by gathering from the profiles.";
+  m.def("bp_contract", &bp_contract<float>, "profiles"_a, "gre"_a, "gim"_a, "x"_a, "y"_a, "geo"_a,
+        "n_len"_a, "pad"_a, "kind"_a, "bist"_a, "width"_a, "block"_a, "acc"_a.noconvert(), ct_doc);
+  m.def("bp_contract", &bp_contract<double>, "profiles"_a, "gre"_a, "gim"_a, "x"_a, "y"_a, "geo"_a,
+        "n_len"_a, "pad"_a, "kind"_a, "bist"_a, "width"_a, "block"_a, "acc"_a.noconvert(), ct_doc);
   m.def("isa_level", &isa_level, "The kernels' instruction set here: 2 AVX-512, 1 AVX2, 0 baseline.");
   m.def("carrier_values", &carrier_values, "phase"_a, "cos"_a, "sin"_a,
         "(cos, sin) of float64 phases as the kernels evaluate them (float32).");

@@ -1,0 +1,147 @@
+"""The pieces min-entropy autofocus runs on: the fused stack pass and the L-BFGS driver."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from sarcli.autofocus._imager import BlockImager, entropy_of
+from sarcli.autofocus._lbfgs import lbfgs
+
+
+def _stack_imager(order, nb=7, pixels=(3600, 33), seed=0):
+    """A BlockImager over a random stack in two parts (the first spans two pixel tiles of the pass)."""
+    from sarcli.core.grid import Grid
+
+    rng = np.random.default_rng(seed)
+    parts = [(rng.normal(size=(nb, n)) + 1j * rng.normal(size=(nb, n))).astype(np.complex64) for n in pixels]
+    parts[0][:, :5] = 0  # pixels with no energy
+    bounds = np.array([0, 3, 5, 9, 10, 14, 15, 19][:nb + 1])
+    return BlockImager(None, Grid(4, 4, 1.0, 1.0), 0, 1, order=order, _parts=parts, _bounds=bounds)
+
+
+def _reference(im, phi):
+    """Entropy and per-pulse gradient from the image and entropy_of's weights (numpy)."""
+    e = np.exp(-1j * im._theta(phi))
+    f = np.concatenate([e.astype(np.complex128) @ p for p in im.parts])
+    h, _, w = entropy_of(f, im.order)
+    g = w * np.conj(f)
+    v, k = 0.0, 0
+    for p in im.parts:
+        v = v + p.astype(np.complex128) @ g[k:k + p.shape[1]]
+        k += p.shape[1]
+    return h, np.repeat(2.0 * np.imag(e * v) / im._sizes, np.diff(im.bounds))
+
+
+@pytest.mark.parametrize("order", [1.0, 0.5, 2.0])
+def test_fused_stack_pass_matches_the_image_and_its_weights(order):
+    im = _stack_imager(order)
+    phi = np.random.default_rng(1).normal(0, 1.0, im.bounds[-1])
+    h_ref, g_ref = _reference(im, phi)
+    h, g = im.entropy_and_gradient(phi)
+    assert abs(h - h_ref) < 1e-5 * abs(h_ref)
+    assert abs(im.entropy(phi) - h) < 1e-12
+    assert np.max(np.abs(g - g_ref)) < 1e-4 * np.max(np.abs(g_ref))
+
+
+def test_fused_stack_pass_of_an_empty_image():
+    im = _stack_imager(1.0)
+    im.parts = [np.zeros_like(p) for p in im.parts]
+    h, g = im.entropy_and_gradient(np.zeros(im.bounds[-1]))
+    assert h == 0.0 and not np.any(g)
+
+
+class _Stop(Exception):
+    pass
+
+
+def _recorded(driver, n, seed, max_iter, max_fun):
+    rng = np.random.default_rng(seed)
+    A, b = rng.normal(size=(n, n)), rng.normal(size=n)
+    xs = []
+
+    def f(c):
+        if len(xs) >= max_fun:
+            raise _Stop
+        xs.append(np.array(c))
+        z = A @ c - b
+        return np.sum(np.log1p(z ** 2)) + 0.1 * np.sum(c ** 4), A.T @ (2 * z / (1 + z ** 2)) + 0.4 * c ** 3
+
+    try:
+        driver(f, n, max_iter, max_fun)
+    except _Stop:
+        pass
+    return xs
+
+
+@pytest.mark.parametrize("n, max_iter, max_fun", [(3, 15, 30), (40, 3, 6), (40, 30, 60), (95, 15, 15)])
+def test_lbfgs_evaluates_the_points_scipy_minimize_does(n, max_iter, max_fun):
+    from scipy.optimize import minimize
+
+    def scipy_driver(f, n, mi, mf):
+        minimize(f, np.zeros(n), jac=True, method="L-BFGS-B",
+                 options={"maxiter": mi, "maxfun": mf, "ftol": 1e-12, "gtol": 1e-12})
+
+    def ours(f, n, mi, mf):
+        lbfgs(f, np.zeros(n), max_iter=mi, max_fun=mf, ftol=1e-12, gtol=1e-12)
+
+    for seed in range(2):
+        a, b = _recorded(scipy_driver, n, seed, max_iter, max_fun), _recorded(ours, n, seed, max_iter, max_fun)
+        assert len(a) == len(b) and all(np.array_equal(u, v) for u, v in zip(a, b))
+
+
+@pytest.mark.parametrize("kw", [dict(upsample=4, interp="linear", precision="float32"),
+                                dict(upsample=8, interp="cubic", precision="float64")])
+def test_pulse_contractions_are_the_reprojection_formula(kw):
+    from sarcli.core import geometry
+    from sarcli.core.grid import Grid
+    from sarcli.formers.backprojection import backproject, pulse_contractions, reproject
+
+    rng = np.random.default_rng(3)
+    freq = 9.8e9 + 5e6 * np.arange(48)
+    az = np.radians(np.linspace(-1.5, 1.5, 37))
+    a = geometry.antenna_positions_circle(az, np.radians(30), 10e3)
+    r0 = np.linalg.norm(a, axis=1)
+    d = rng.normal(size=(37, 48)) + 1j * rng.normal(size=(37, 48))
+    grid = Grid(45, 38, 0.25, 0.25)
+    g = rng.normal(size=grid.shape) * np.conj(backproject(d, freq, a, r0, grid, **kw))
+    ref = np.sum(np.conj(reproject(np.conj(g), freq, a, r0, grid, **kw)) * d, axis=1)
+    tol = 1e-5 if kw["precision"] == "float32" else 1e-12
+    v1 = pulse_contractions(d, g, freq, a, r0, grid, **kw, nthreads=1)
+    assert np.max(np.abs(v1 - ref)) < tol * np.max(np.abs(ref))
+    assert np.array_equal(v1, pulse_contractions(d, g, freq, a, r0, grid, **kw, nthreads=2))
+
+
+def test_subaperture_images_add_up_to_the_backprojection():
+    from sarcli.core import geometry
+    from sarcli.core.grid import Grid
+    from sarcli.errors import SarcliInputError
+    from sarcli.formers.backprojection import backproject, subaperture_images
+
+    rng = np.random.default_rng(4)
+    freq = 9.8e9 + 5e6 * np.arange(32)
+    az = np.radians(np.linspace(-1.5, 1.5, 23))
+    a = geometry.antenna_positions_circle(az, np.radians(30), 10e3)
+    r0 = np.linalg.norm(a, axis=1)
+    d = rng.normal(size=(23, 32)) + 1j * rng.normal(size=(23, 32))
+    grid = Grid(30, 26, 0.25, 0.25)
+    bounds = [0, 5, 6, 15, 23]
+    imgs = [img for _, img in subaperture_images(d, bounds, freq, a, r0, grid)]
+    assert len(imgs) == 4
+    one = backproject(d[6:15], freq, a[6:15], r0[6:15], grid) * (9 / 23)
+    assert np.max(np.abs(imgs[2] - one)) < 1e-12 * np.max(np.abs(one))
+    full = backproject(d, freq, a, r0, grid)
+    assert np.max(np.abs(sum(imgs) - full)) < 1e-12 * np.max(np.abs(full))
+    with pytest.raises(SarcliInputError):
+        next(subaperture_images(d, [0, 5, 5, 23], freq, a, r0, grid))
+
+
+def test_lbfgs_driver_refuses_a_routine_of_another_interface():
+    from sarcli.autofocus._lbfgs import _setulb, _works
+
+    def wrong_arguments(*args):
+        raise TypeError("setulb() takes 18 arguments")
+
+    assert _setulb() is not None and _works(_setulb())
+    assert not _works(wrong_arguments)
+    assert not _works(lambda *args: None)  # asks for nothing: never reaches the minimum
