@@ -111,7 +111,7 @@ def test_random_phase_extended_spherical_matches_farfield_limit(write_config):
     assert np.array_equal(sph.truth.scene, ff.truth.scene)
     ph_ = np.angle(sph.truth.scene[sph.truth.magnitude > 0.2])
     assert abs(np.mean(np.exp(1j * ph_))) < 0.1 and ph_.size > 200  # phases really uniform
-    assert np.linalg.norm(sph.data - ff.data) / np.linalg.norm(ff.data) < 1e-2
+    assert np.linalg.norm(sph.data - ff.data) / np.linalg.norm(ff.data) < 5e-4   # measured 7.2e-5 at 10,000 km
 
 
 def test_failing_simulate_leaves_no_file(write_config, tmp_path):
