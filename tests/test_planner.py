@@ -239,8 +239,8 @@ def _ffbp_picks_planned_fully(ph, grid, tol, costs):
     from sarcli.formers.planner import FFBP_BASES, FFBP_OVERSAMPLINGS, FFBP_PAIRS_PAST_MET, SAFETY, ffbp_seconds
 
     acq, target = ph.acquisition, tol / SAFETY
-    rcv = acq.receive_position_m if acq.is_bistatic else None
-    pos = acq.transmit_position_m if rcv is not None else acq.antenna_position_m
+    pos, rcv, _ = acq.range_geometry()
+    rcv = rcv if acq.is_bistatic else None
     P, M = ph.data.shape
     met, miss, met_at = None, None, None
     for i, (os_r, os_a) in enumerate(FFBP_OVERSAMPLINGS):
