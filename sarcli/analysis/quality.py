@@ -66,9 +66,11 @@ def _targets(at, truth, x, y, acq):
     pos = np.asarray(truth.point_position_m, dtype=np.float64).reshape(-1, 3)
     amp = np.asarray(truth.point_amplitude).reshape(-1)
     spherical = acq.model == "spherical" and acq.has_positions
-    rcv = acq.receive_position_m if spherical and acq.is_bistatic else None
-    focus = image_plane_position(pos, model="spherical" if spherical else "farfield",
-                                 antenna_position_m=acq.transmit_position_m if rcv is not None else acq.antenna_position_m,
+    tx, rcv = (None, None)
+    if spherical:
+        tx, rcv, _ = acq.range_geometry()
+        rcv = rcv if acq.is_bistatic else None
+    focus = image_plane_position(pos, model="spherical" if spherical else "farfield", antenna_position_m=tx,
                                  range_to_center_m=acq.range_to_center_m, receive_position_m=rcv)
     out = []
     for i, (p, f, a) in enumerate(zip(pos, focus, amp)):
