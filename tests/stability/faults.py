@@ -337,7 +337,9 @@ def _interrupt(key, case, ws, args, out, sig, *, after=2.0, expect=None, tolerat
     lines = [ln for ln in err.splitlines() if ln.strip() and not ln.startswith("warning")]
     # another process's lines (multiprocessing's resource tracker) may land anywhere in the stream
     extra = [ln for ln in lines if tolerate and re.search(tolerate, ln)]
-    lines = [ln for ln in lines if ln not in extra]
+    # a long regularize announces its predicted time (and what would make it faster) before the signal
+    announced = [ln for ln in lines if re.match(r"regularize \S+: up to \d+ s predicted", ln)]
+    lines = [ln for ln in lines if ln not in extra and ln not in announced]
     untouched = out.read_bytes() == b"previous output"
     temps = _temps(ws.tmp) + _temps(out.parent)
     ok = p.returncode == code and lines == ["interrupted"] and dt < 1.0 and untouched and not temps
@@ -345,6 +347,7 @@ def _interrupt(key, case, ws, args, out, sig, *, after=2.0, expect=None, tolerat
                  f"exit {code} within 1 s, one line 'interrupted', previous output untouched, no temporary",
                  f"exit {p.returncode} after {dt:.2f} s, stderr {lines}, previous output "
                  f"{'untouched' if untouched else 'CHANGED'}, temporaries left: {len(temps)}"
+                 + ("; before the signal, the run's one line announcing its predicted time" if announced else "")
                  + (f"; then {len(extra)} lines from multiprocessing's resource tracker (a separate process) about "
                     "semaphores of the stopped workers" if extra else ""), bool(ok),
                  "the resource tracker's warning comes from another process after sar has exited" if extra else "")
