@@ -297,6 +297,17 @@ def test_pga_estimator_typo_is_an_error():
     assert not np.allclose(a, b)
 
 
+def test_unknown_option_is_an_input_error():
+    """A misspelled option of either method is one line naming it and the options there are."""
+    from sarcli.errors import SarcliInputError
+
+    ph = scene(seed=3, P=24, M=32)
+    with pytest.raises(SarcliInputError, match=r"unknown pga option 'max_iters'; choose from .*max_iter"):
+        autofocus(ph, "pga", max_iters=3)
+    with pytest.raises(SarcliInputError, match=r"unknown min-entropy option 'level'; choose from .*levels"):
+        autofocus(ph, "min-entropy", level=2)
+
+
 def test_cli_method_choices_are_the_library_list():
     import click
 

@@ -72,13 +72,17 @@ def autofocus(ph, method: str = DEFAULT_METHOD, *, grid=None, **options):
     if method not in METHODS:
         raise SarcliInputError(f"unknown autofocus method {method!r}; choose one of {', '.join(METHODS)}")
     if method == "pga":
-        from .pga import pga
-
-        res = pga(ph, grid=grid, **options)
+        from .pga import pga as estimate
     else:
-        from .entropy import min_entropy
+        from .entropy import min_entropy as estimate
+    import inspect
 
-        res = min_entropy(ph, grid=grid, **options)
+    known = [n for n, p in inspect.signature(estimate).parameters.items()
+             if p.kind == p.KEYWORD_ONLY and n != "grid"]
+    unknown = sorted(set(options) - set(known))
+    if unknown:
+        raise SarcliInputError(f"unknown {method} option {unknown[0]!r}; choose from {', '.join(known)}")
+    res = estimate(ph, grid=grid, **options)
     import logging
 
     decision = res.describe()
