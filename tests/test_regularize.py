@@ -114,9 +114,9 @@ def test_scaling_makes_lambda_unit_free(scene):
         warnings.simplefilter("ignore", ConvergenceWarning)
         a = regularize(ph, prior="tv", iters=30)
         b = regularize(ph2, prior="tv", iters=30)
-    assert np.linalg.norm(b.image / 1e6 - a.image) / np.linalg.norm(a.image) < 5e-13   # measured 5.7e-14
-    # measured 1.0e-13
-    assert np.allclose(a.history["objective"], b.history["objective"], rtol=5e-13, atol=0)
+    assert np.linalg.norm(b.image / 1e6 - a.image) / np.linalg.norm(a.image) < 1e-12   # measured 1.2e-13 at most (FINUFFT's threads)
+    # measured 4.7e-13 at most over 33 runs (FINUFFT's threaded spreading is not bitwise repeatable)
+    assert np.allclose(a.history["objective"], b.history["objective"], rtol=3e-12, atol=0)
 
 
 @pytest.mark.parametrize("prior", PRIORS)
@@ -132,7 +132,7 @@ def test_noise_only_extreme_lambda_stays_finite(prior, lam):
     assert np.all(np.isfinite(img.image))
     assert all(np.all(np.isfinite(v)) for v in img.history.values())
     if lam == 1e12 and prior == "l1":
-        assert np.max(np.abs(img.image)) < 5e-34   # measured 7.5e-35
+        assert np.max(np.abs(img.image)) < 5e-34   # measured 7.4e-35 to 8.9e-35 over 6 runs
 
 
 def test_zero_data_gives_zero_image():
