@@ -33,7 +33,7 @@ def test_farfield_equals_triple_sum():
     ref /= w.sum()
     for chunk in (None, 1, 3):
         image = direct_farfield(data, kx, ky, grid, w, chunk=chunk)
-        assert np.abs(image - ref).max() < 1e-12 * np.abs(ref).max()
+        assert np.abs(image - ref).max() < 1e-13 * np.abs(ref).max()   # measured 2.2e-14
 
 
 def test_spherical_equals_triple_sum():
@@ -52,11 +52,11 @@ def test_spherical_equals_triple_sum():
     ref /= w.sum()
     for chunk in (None, 1, 2):
         image = direct_spherical(data, freq, ant, r0, grid, w, chunk=chunk)
-        assert np.abs(image - ref).max() < 1e-12 * np.abs(ref).max()
+        assert np.abs(image - ref).max() < 2e-13 * np.abs(ref).max()   # measured 4.4e-14
     # per-pulse frequencies give the same result as a shared vector
     freq2 = np.broadcast_to(freq, data.shape).copy()
     image2 = direct_spherical(data, freq2, ant, r0, grid, w)
-    assert np.abs(image2 - ref).max() < 1e-12 * np.abs(ref).max()
+    assert np.abs(image2 - ref).max() < 2e-13 * np.abs(ref).max()   # measured 4.0e-14
 
 
 def _point_data(point, model, r0=1.0e4):
@@ -83,7 +83,7 @@ def test_unit_point_peak_one(model):
         image = direct_spherical(data, freq, ant, rr, grid)
     row, col = grid.index_of(point[0], point[1])
     assert np.unravel_index(np.argmax(np.abs(image)), image.shape) == (row, col)
-    assert abs(image[row, col]) == pytest.approx(1.0, abs=1e-3)
+    assert abs(image[row, col]) == pytest.approx(1.0, abs=1e-12)   # measured exactly 1.0
 
 
 def test_spherical_far_range_approaches_farfield():
@@ -137,4 +137,4 @@ def test_spherical_kernel_matches_numpy(scale):
     out = np.full(n, 1.0 - 2.0j)
     load("direct").accumulate_spherical(out, dr, k4, wd)
     ref = 1.0 - 2.0j + np.einsum("pj,pjn->n", wd, np.exp(1j * k4[:, :, None] * dr[:, None, :]))
-    assert np.max(np.abs(out - ref)) < 1e-13 * np.sqrt(P * M)
+    assert np.max(np.abs(out - ref)) < 5e-15 * np.sqrt(P * M)   # measured 1.5e-14 = 1.0e-15 √(P M)

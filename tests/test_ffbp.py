@@ -62,14 +62,16 @@ def check(data, a, r0, *, rcv=None, tol=1e-2, **knobs):
 @pytest.mark.parametrize("geometry_fn", [circle, climbing_line])
 def test_ffbp_matches_direct_default_knobs(geometry_fn):
     a, r0 = geometry_fn()
-    check(point_data(a, r0), a, r0)
+    # measured 1.3e-4 (circle), 4.3e-4 (climbing line)
+    check(point_data(a, r0), a, r0, tol={circle: 1e-3, climbing_line: 2e-3}[geometry_fn])
 
 
 @pytest.mark.parametrize("knobs", [dict(interp="cubic", os_range=3, os_angle=3, upsample=8, tol=5e-2),
-                                   dict(interp="optimal", os_range=3, os_angle=3, base=4, tol=1e-3),
+                                   dict(interp="optimal", os_range=3, os_angle=3, base=4, tol=2e-5),
                                    dict(interp="linear", os_range=4, os_angle=4, upsample=8, tol=0.2),
-                                   dict(interp="optimal", base=2, merge=3, tol=1e-2),
-                                   dict(interp="optimal", os_range=1.5, upsample=3.0, tol=1e-3)])
+                                   dict(interp="optimal", base=2, merge=3, tol=1e-3),
+                                   dict(interp="optimal", os_range=1.5, upsample=3.0, tol=5e-4)])
+# measured 1.6e-2, 3.6e-6, 5.3e-2, 1.5e-4, 8.4e-5
 def test_ffbp_knobs_and_error_model(knobs):
     """Several stages and kernels: measured within tol, predicted within 3x of measured. Upsample
     3 over os_range 1.5 puts two profile bins between polar nodes, so stage 0 takes its gather
@@ -83,7 +85,7 @@ def test_ffbp_knobs_and_error_model(knobs):
 def test_ffbp_merges_in_stages():
     """A long aperture on a small grid is merged over several stages, still within the model."""
     a, r0 = circle(P=512, aperture_deg=8.0)
-    err, plan = check(point_data(a, r0), a, r0, base=2, final=2, tol=2e-2)
+    err, plan = check(point_data(a, r0), a, r0, base=2, final=2, tol=5e-3)   # measured 9.2e-4
     assert plan.n_stages >= 3
 
 
@@ -91,7 +93,7 @@ def test_ffbp_bistatic_positions():
     a, r0 = circle()
     rcv = a + np.array([0.0, 40.0, 5.0])
     r0b = 0.5 * (np.linalg.norm(a, axis=1) + np.linalg.norm(rcv, axis=1))
-    err, plan = check(point_data(a, r0b, rcv=rcv), a, r0b, rcv=rcv)
+    err, plan = check(point_data(a, r0b, rcv=rcv), a, r0b, rcv=rcv, tol=1e-3)   # measured 1.4e-4
     assert plan.band_scale == (1.0, 1.0)   # a short baseline keeps the tones in the nominal bands
 
 
@@ -119,7 +121,7 @@ def test_ffbp_farfield_through_form_image():
     ref = form_image(ph, "direct").image
     img = form_image(ph, "ffbp")
     err = image_error(img.image, ref)
-    assert err <= 1e-2
+    assert err <= 1e-3   # measured 1.2e-4
     # virtual antennas ~1e9 m away: stage 0's range series would round too much, so it is not used
     import sarcli.formers._ffbp_stage0 as mod
     from sarcli.formers.formation import _positions
@@ -174,7 +176,7 @@ def test_deapodized_kernel_closed_form(beta):
     assert e.max() <= 3.5 * deapodized_error(beta)
     if beta <= 2:
         assert deapodized_error(beta) < 0.02 * interp_error("optimal", beta)
-    assert abs(deapodized_response(beta, 0.0) - 1) < 1e-12
+    assert abs(deapodized_response(beta, 0.0) - 1) < 2e-15   # measured 3.3e-16 (β = 1.5), 0
     nu = np.linspace(0, 0.5 / beta, 7)
     np.testing.assert_allclose(deapodized_response(beta, nu), deapodized_response(beta, -nu), rtol=1e-9)
 
@@ -269,10 +271,11 @@ def test_optimal_kernel_polynomials_match_minimax_weights(beta):
     t = np.random.default_rng(5).random(40)
     coef = optimal_kernel(beta)
     w = _poly_weights(coef, t)
-    assert np.max(np.abs(w - optimal_weights(beta, t))) < 5e-6
+    # measured 2.8e-6, 7.2e-8, 1.9e-8, 9.4e-10 at β = 1, 1.5, 2, 4
+    assert np.max(np.abs(w - optimal_weights(beta, t))) < {1.0: 5e-6, 1.5: 5e-7, 2.0: 1e-7, 4.0: 5e-9}[beta]
     np.testing.assert_allclose(row_weights(3, t, coef).T, w, rtol=0, atol=1e-13)
     # the kernels' float32 evaluation: float32 rounding of the same polynomials
-    np.testing.assert_allclose(row_weights(3, t.astype(np.float32), coef).T, w, rtol=0, atol=2e-6)
+    np.testing.assert_allclose(row_weights(3, t.astype(np.float32), coef).T, w, rtol=0, atol=1e-6)   # measured 1.1e-7
 
 
 @pytest.mark.parametrize("kind", [0, 1, 2])
@@ -291,7 +294,7 @@ def test_analytic_kernel_weights(kind):
     else:
         ref = np.sinc(d) * np.sinc(d / 3)
         ref /= ref.sum(axis=0)
-    np.testing.assert_allclose(row_weights(kind, t), ref, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(row_weights(kind, t), ref, rtol=0, atol=5e-15)   # measured 0, 0, 6.7e-16
     np.testing.assert_allclose(row_weights(kind, t.astype(np.float32)), ref, rtol=0, atol=1e-6)
 
 
@@ -347,7 +350,7 @@ def test_cli_form_image_ffbp(tmp_path):
     assert res.exit_code == 0, res.output
     img = read_image(out)
     assert img.method == "ffbp" and img.parameters["os_angle"] == 3 and img.parameters["base"] == 4
-    assert 0 < img.parameters["predicted_error"] < 1e-2
+    assert 0 < img.parameters["predicted_error"] < 1e-3   # measured 1.0e-4
 
 
 @pytest.mark.parametrize("bistatic", [False, True])
@@ -367,7 +370,7 @@ def test_stage0_range_series_matches_exact_ranges(monkeypatch, bistatic):
     assert series.all()            # 3 km range, short sub-apertures: the series holds everywhere
     monkeypatch.setattr(mod, "SERIES_PHASE", -1.0)   # no tail is small enough: exact everywhere
     exact = ffbp(data, FREQ, a, r0, GRID, receive_position_m=rcv)
-    assert image_error(fast, exact) < 1e-7   # measured 5e-9 (monostatic), 1e-8 (bistatic)
+    assert image_error(fast, exact) < 1e-7   # measured 1.4e-8 (monostatic), 2.7e-8 (bistatic)
 
 
 def test_stage0_range_series_falls_back_in_the_near_field():

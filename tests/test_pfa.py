@@ -59,7 +59,8 @@ def test_spread_matches_numpy(kernel, width, beta):
     g = np.full(shape, 0.5 + 0.5j)
     K.spread(g, u, v, c, kernel, width, beta)
     ref = _reference(shape, u, v, c, kernel, width, beta) + (0.5 + 0.5j)
-    assert np.max(np.abs(g - ref)) < 1e-13 * np.max(np.abs(ref))
+    # measured 6.1e-16, 4.7e-16, 1.2e-15, 2.1e-16 (kaiser 6, 3, 16, linear) of the peak
+    assert np.max(np.abs(g - ref)) < 5e-15 * np.max(np.abs(ref))
 
 
 def test_spread_is_the_same_for_any_thread_count():

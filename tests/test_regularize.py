@@ -86,7 +86,7 @@ def test_nufft_and_toeplitz_operators_agree(scene):
         warnings.simplefilter("ignore", ConvergenceWarning)
         a = regularize(ph, operator="nufft", **kw).image
         b = regularize(ph, operator="toeplitz", **kw).image
-    assert np.linalg.norm(a - b) / np.linalg.norm(a) < 1e-6
+    assert np.linalg.norm(a - b) / np.linalg.norm(a) < 1e-8   # measured 2.1e-9
 
 
 def test_unit_point_reconstructs_to_one():
@@ -97,7 +97,7 @@ def test_unit_point_reconstructs_to_one():
     psi = geometry.signal_phase(acq.frequency_hz, acq.azimuth_rad, acq.elevation_rad, [[x, y, 0.0]])
     ph = PhaseHistory(np.exp(-1j * psi[:, :, 0]), acq)
     mf = matched_filter(ph)
-    assert abs(abs(mf[row, col]) - 1.0) < 1e-8
+    assert abs(abs(mf[row, col]) - 1.0) < 1e-12   # measured 2.0e-13
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", ConvergenceWarning)
         img = regularize(ph, prior="l1", lam=0.01, iters=500, tol=1e-7)
@@ -114,8 +114,9 @@ def test_scaling_makes_lambda_unit_free(scene):
         warnings.simplefilter("ignore", ConvergenceWarning)
         a = regularize(ph, prior="tv", iters=30)
         b = regularize(ph2, prior="tv", iters=30)
-    assert np.linalg.norm(b.image / 1e6 - a.image) / np.linalg.norm(a.image) < 1e-9
-    assert np.allclose(a.history["objective"], b.history["objective"], rtol=1e-9)
+    assert np.linalg.norm(b.image / 1e6 - a.image) / np.linalg.norm(a.image) < 1e-12   # measured 1.2e-13 at most (FINUFFT's threads)
+    # measured 4.7e-13 at most over 33 runs (FINUFFT's threaded spreading is not bitwise repeatable)
+    assert np.allclose(a.history["objective"], b.history["objective"], rtol=3e-12, atol=0)
 
 
 @pytest.mark.parametrize("prior", PRIORS)
@@ -131,7 +132,7 @@ def test_noise_only_extreme_lambda_stays_finite(prior, lam):
     assert np.all(np.isfinite(img.image))
     assert all(np.all(np.isfinite(v)) for v in img.history.values())
     if lam == 1e12 and prior == "l1":
-        assert np.max(np.abs(img.image)) < 1e-9
+        assert np.max(np.abs(img.image)) < 5e-34   # measured 7.4e-35 to 8.9e-35 over 6 runs
 
 
 def test_zero_data_gives_zero_image():
@@ -182,7 +183,7 @@ def test_auto_picks_spherical_pair_and_focuses():
     grid = ph.acquisition.grid
     for p in pts:
         row, col = grid.index_of(p[0], p[1])
-        assert abs(img.image[row, col]) > 0.8  # focused: near the pixel-model value 1
+        assert abs(img.image[row, col]) > 0.95  # focused: near the pixel-model value 1 (measured 0.990)
 
 
 def test_cli_regularize_writes_image_history_and_png(tmp_path, scene):

@@ -36,7 +36,7 @@ def test_entropy_two_levels_closed_form():
 def test_entropy_is_scale_invariant_and_lower_when_sharper():
     rng = np.random.default_rng(1)
     f = rng.standard_normal((32, 32)) + 1j * rng.standard_normal((32, 32))
-    assert image_entropy(7.5 * f) == pytest.approx(image_entropy(f), rel=1e-12)
+    assert image_entropy(7.5 * f) == pytest.approx(image_entropy(f), rel=2e-15)   # measured 2.3e-16
     blurred = np.convolve(np.r_[np.zeros(20), 1.0, np.zeros(20)], np.ones(5) / 5, "same")
     sharp = np.r_[np.zeros(20), 1.0, np.zeros(20)]
     assert image_entropy(sharp) < image_entropy(blurred)
@@ -103,8 +103,8 @@ def test_quality_cli_speckle_section(tmp_path):
     r = CliRunner().invoke(cli, ["quality", str(p), "--speckle", "--region", "0.5,15.5,-16,15.5", "--json"])
     assert r.exit_code == 0, r.output
     m = json.loads(r.output)["speckle"]
-    assert m["enl"] == pytest.approx(16, rel=0.2)            # the 16-look half only
-    assert m["contrast"] == pytest.approx(0.25, rel=0.1)
+    assert m["enl"] == pytest.approx(16, rel=0.02)           # the 16-look half only (measured 15.95, 2.9e-3)
+    assert m["contrast"] == pytest.approx(0.25, rel=0.01)    # measured 0.2504, 1.5e-3
     assert m["region_pixels"] == [64, 31]
     r = CliRunner().invoke(cli, ["quality", str(p), "--speckle"])
     assert r.exit_code == 0 and "ENL" in r.output and "entropy" in r.output

@@ -34,7 +34,8 @@ def test_lazy_and_in_memory_give_the_same_image(ph_file, method):
     assert isinstance(lazy_ph.data, PulseArray)
     lazy = sarcli.form_image(lazy_ph, method)
     # FINUFFT's multithreaded spreading is not bitwise repeatable: two identical calls differ ~1e-11
-    tol = 1e-9 if method == "nufft" else 1e-12
+    # (measured 1.7e-11 of the peak at most over 30 lazy images); the others measured bit-identical
+    tol = 1e-10 if method == "nufft" else 1e-12
     np.testing.assert_allclose(lazy.image, eager.image, rtol=0, atol=tol * np.abs(eager.image).max())
 
 
