@@ -47,18 +47,24 @@ inline __attribute__((always_inline)) void sincos(double ph, double& c, double& 
   sincos_half(0.5 * ph, c, s);
 }
 
-// (cos, sin) of 2·hp in float32 after a float64 reduction: the reduced half angle is exact to
-// float64 rounding whatever |hp|, and the float32 polynomials add ~1e-7 (a float32 carrier for
-// float32 data: the reduction, not the polynomial, is what needs float64 at large phases).
-inline __attribute__((always_inline)) void sincos_half_f32(double hp, float& c, float& s) {
-  const double k = std::nearbyint(hp * kInvPi);
-  const float h = static_cast<float>(((hp - k * kPiHi) - k * kPiMid) - k * kPiLo);
+// (cos, sin) of 2·h for a reduced half angle |h| <= π/2: the float32 half-angle polynomials, then
+// the double-angle formulas.
+inline __attribute__((always_inline)) void double_angle_f32(float h, float& c, float& s) {
   const float h2 = h * h;
   const float ps = kS32[0] + h2 * (kS32[1] + h2 * (kS32[2] + h2 * kS32[3]));
   const float pc = kC32[0] + h2 * (kC32[1] + h2 * (kC32[2] + h2 * kC32[3]));
   const float sh = h * (1.0f + h2 * ps), ch = 1.0f + h2 * pc;
   c = ch * ch - sh * sh;
   s = 2.0f * sh * ch;
+}
+
+// (cos, sin) of 2·hp in float32 after a float64 reduction: the reduced half angle is exact to
+// float64 rounding whatever |hp|, and the float32 polynomials add ~1e-7 (a float32 carrier for
+// float32 data: the reduction, not the polynomial, is what needs float64 at large phases).
+inline __attribute__((always_inline)) void sincos_half_f32(double hp, float& c, float& s) {
+  const double k = std::nearbyint(hp * kInvPi);
+  const float h = static_cast<float>(((hp - k * kPiHi) - k * kPiMid) - k * kPiLo);
+  double_angle_f32(h, c, s);
 }
 
 // (cos, sin) of a float32 phase of moderate size (|ph| up to ~1e4: k·2π_hi stays exact): a float32
@@ -69,12 +75,7 @@ inline __attribute__((always_inline)) void sincos_f32(float ph, float& c, float&
   constexpr float kRound = 12582912.0f;   // 1.5·2^23: adding and subtracting it rounds to an integer
   const float k = (ph * 0.159154943f + kRound) - kRound;
   const float h = 0.5f * ((ph - k * kTwoPiHi32) - k * kTwoPiLo32);
-  const float h2 = h * h;
-  const float ps = kS32[0] + h2 * (kS32[1] + h2 * (kS32[2] + h2 * kS32[3]));
-  const float pc = kC32[0] + h2 * (kC32[1] + h2 * (kC32[2] + h2 * kC32[3]));
-  const float sh = h * (1.0f + h2 * ps), ch = 1.0f + h2 * pc;
-  c = ch * ch - sh * sh;
-  s = 2.0f * sh * ch;
+  double_angle_f32(h, c, s);
 }
 
 }  // namespace carrier
