@@ -310,7 +310,7 @@ def test_ffbp_refuses_nadir_inside_the_grid():
 def test_split_gives_equal_groups_and_an_even_tree(n, size, merge):
     """Sub-apertures differ by at most one pulse, there are at least ceil(n/size) and at most a
     quarter more, and when rounded up the count is r·merge^a so the merges group them evenly."""
-    from sarcli.formers.ffbp import _split
+    from sarcli.formers._ffbp_grids import _split
 
     first, count = _split(n, size, merge)
     k = -(-n // size)

@@ -111,12 +111,13 @@ from ..core.grid import Grid
 from ..errors import SarcliInputError
 from .ffbp_model import INTERPOLATORS, interp_error, optimal_kernel, predict_error
 from .ffbp_model import deapodized_inverse, deapodized_kernel
-from ._ffbp_grids import _split, deapodization as _deapodization
+from ._ffbp_grids import deapodization as _deapodization
 from ._ffbp_plan import (BAND_SLACK, DEFAULTS, OS_ANGLE_DEAPODIZED, OS_RANGE_DEAPODIZED, SUBTREE_BYTES,
                          UPSAMPLE_ANALYTIC, FfbpPlan, StageLayout, layout_stages, plan_stages, subtree_groups)
 
 __all__ = ["ffbp", "ffbp_image", "optimal_kernel", "plan_stages", "layout_stages", "predict_error", "interp_error",
-           "FfbpPlan", "StageLayout", "DEFAULTS"]
+           "FfbpPlan", "StageLayout", "DEFAULTS", "BAND_SLACK", "OS_RANGE_DEAPODIZED", "OS_ANGLE_DEAPODIZED",
+           "UPSAMPLE_ANALYTIC", "SUBTREE_BYTES"]
 
 #: Storage of the polar sub-images: float32 halves their memory and traffic; its rounding (6e-8
 #: relative) is far below any interpolation error the knobs allow. Arithmetic stays float64.
