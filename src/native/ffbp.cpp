@@ -284,19 +284,37 @@ SARCLI_INLINE void tap6_gather(const float* sre, const float* sim, const i32* id
   }
 }
 
+// The points k in (k0, k1) where idx[k] − idx[k − 1] differs from step, listed in brk (returns how
+// many). Such breaks come one to a few a row (where the points' spacing drifts from the samples'),
+// so a block of 16 points without one is passed over after one vectorised test, and the others are
+// listed without branches.
+SARCLI_INLINE std::size_t list_breaks(const i32* idx, std::size_t k0, std::size_t k1, i32 step, i32* brk) {
+  std::size_t nb = 0, k = k0 + 1;
+  for (; k + 16 <= k1; k += 16) {
+    i32 any = 0;
+#pragma omp simd reduction(| : any)
+    for (std::size_t i = k; i < k + 16; ++i) any |= (idx[i] - idx[i - 1]) ^ step;
+    if (any == 0) continue;
+    for (std::size_t i = k; i < k + 16; ++i) {
+      brk[nb] = static_cast<i32>(i);
+      nb += static_cast<std::size_t>(idx[i] - idx[i - 1] != step);
+    }
+  }
+  for (; k < k1; ++k) {
+    brk[nb] = static_cast<i32>(k);
+    nb += static_cast<std::size_t>(idx[k] - idx[k - 1] != step);
+  }
+  return nb;
+}
+
 // Runs of points k whose stencil start idx[k] − k is constant (idx increasing by one a point):
 // calls run(k0, k1, off) for each, and returns false without calling when there are more than
 // max_runs (the points are better served by gathers). The run boundaries are listed first
-// without branches (brk: k1 − k0 entries of scratch), as they come every few points where the
-// points' spacing differs slightly from the samples'.
+// (list_breaks; brk: k1 − k0 entries of scratch).
 template <typename Run>
 SARCLI_INLINE bool for_runs(const i32* idx, std::size_t k0, std::size_t k1, std::size_t max_runs, i32* brk,
                             Run run) {
-  std::size_t nb = 0;
-  for (std::size_t k = k0 + 1; k < k1; ++k) {
-    brk[nb] = static_cast<i32>(k);
-    nb += static_cast<std::size_t>(idx[k] - idx[k - 1] != 1);
-  }
+  const std::size_t nb = list_breaks(idx, k0, k1, 1, brk);
   if (nb + 1 > max_runs) return false;
   std::size_t i = k0;
   for (std::size_t b = 0; b <= nb; ++b) {
@@ -775,19 +793,13 @@ SARCLI_INLINE void separable_row(const Child& C, double dq, double kref, const d
   const std::size_t ncol = static_cast<std::size_t>(idx_q[i1] + ntap - jlo);
   // T at the columns: walk the row, then locate in u
   for (std::size_t i = 0; i + 1 < n; ++i) slope[i] = (ts[i + 1] - ts[i]) / (qs[i + 1] - qs[i]);
-  // segment of each column: the last point k <= n - 2 with qs[k] <= q_j (0 if none), as the
-  // running maximum of each point's first column (no data-dependent branches)
-  const double qc0 = C.f.q0 + static_cast<double>(jlo) * dq, inv_col = 1.0 / dq;
-  i32* seg = W.seg.data();
-  for (std::size_t jj = 0; jj < ncol; ++jj) seg[jj] = 0;
-  for (std::size_t i = 1; i + 1 < n; ++i) {
-    const double c = std::ceil((qs[i] - qc0) * inv_col);   // first column at or past point i
-    if (c < static_cast<double>(ncol)) seg[static_cast<std::size_t>(std::max(c, 0.0))] = static_cast<i32>(i);
-  }
-  for (std::size_t jj = 1; jj < ncol; ++jj) seg[jj] = std::max(seg[jj], seg[jj - 1]);
+  // segment of each column: the last point k <= n - 2 with qs[k] <= q_j (0 if none); columns and
+  // points advance together (the same spacing in q, nearly), so the walk moves about one point a column
+  const i32 top = static_cast<i32>(n) - 2;
+  i32 k = 0;
   for (std::size_t jj = 0; jj < ncol; ++jj) {
-    const std::size_t k = static_cast<std::size_t>(seg[jj]);
     const double qj = C.f.q0 + static_cast<double>(jlo + static_cast<i32>(jj)) * dq;
+    while (k < top && qs[k + 1] <= qj) ++k;
     ft[jj] = ts[k] + (qj - qs[k]) * slope[k];
   }
   for (std::size_t jj = 0; jj < ncol; ++jj) {
@@ -800,12 +812,8 @@ SARCLI_INLINE void separable_row(const Child& C, double dq, double kref, const d
   const std::size_t cq = C.nq;
   if (ntap == 6) {   // runs of columns reading the same six child rows: contiguous loads
     if (mode_t == kWeightsRead) row_weights<float>(kind, ft32, ncol, wt, ncol, tab_t);
-    i32* brk = W.seg.data();   // the columns where the stencil row changes, listed without branches
-    std::size_t nb = 0;
-    for (std::size_t jj = 1; jj < ncol; ++jj) {
-      brk[nb] = static_cast<i32>(jj);
-      nb += static_cast<std::size_t>(idx_c[jj] != idx_c[jj - 1]);
-    }
+    i32* brk = W.seg.data();   // the columns where the stencil row changes
+    const std::size_t nb = list_breaks(idx_c, 0, ncol, 0, brk);
     std::size_t j0 = 0;
     for (std::size_t b = 0; b <= nb; ++b) {
       const std::size_t j1 = b < nb ? static_cast<std::size_t>(brk[b]) : ncol;
