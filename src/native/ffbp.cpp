@@ -647,8 +647,16 @@ SARCLI_INLINE v8f weights8(const v8f* ck, float t) {
   return w;
 }
 
-SARCLI_INLINE float hsum8(v8f v) {
-  return ((v[0] + v[4]) + (v[1] + v[5])) + ((v[2] + v[6]) + (v[3] + v[7]));
+typedef int v8i __attribute__((vector_size(32)));
+
+// The lane sums of a and b, each as ((a0 + a4) + (a1 + a5)) + ((a2 + a6) + (a3 + a7)), from three
+// shuffles and three additions shared by the two.
+SARCLI_INLINE void hsum8x2(v8f a, v8f b, float& sa, float& sb) {
+  const v8f s = __builtin_shuffle(a, b, v8i{0, 1, 2, 3, 8, 9, 10, 11}) + __builtin_shuffle(a, b, v8i{4, 5, 6, 7, 12, 13, 14, 15});
+  const v8f t = s + __builtin_shuffle(s, v8i{1, 0, 3, 2, 5, 4, 7, 6});
+  const v8f u = t + __builtin_shuffle(t, v8i{2, 3, 0, 1, 6, 7, 4, 5});
+  sa = u[0];
+  sb = u[4];
 }
 
 // Add one sub-image, interpolated at the polar coordinates (qs, ts) of n points and re-modulated
@@ -708,7 +716,8 @@ SARCLI_INLINE void polar_row(const Child& C, double dq, double kref, const doubl
           }
         }
       }
-      const float vr = hsum8(sr * w8), vi = hsum8(si * w8);
+      float vr, vi;
+      hsum8x2(sr * w8, si * w8, vr, vi);
       acc_re[i] += vr * cr[i] - vi * ci[i];
       acc_im[i] += vr * ci[i] + vi * cr[i];
     }
