@@ -412,9 +412,9 @@ SARCLI_INLINE void tap6_block(const float* sre, const float* sim, std::size_t le
                               const float* __restrict tab, const float* __restrict w, std::size_t ws,
                               const float* __restrict cr, const float* __restrict ci, float* __restrict acc_re,
                               float* __restrict acc_im, std::size_t k0) {
-  i32 smin = idx[k0], smax = idx[k0];
+  i32 smin = idx[k0], smax = idx[k0];   // over the whole block: one vector of kBlock0 lanes, no remainder
 #pragma omp simd reduction(min : smin) reduction(max : smax)
-  for (std::size_t i = 1; i < kBlock0; ++i) {
+  for (std::size_t i = 0; i < kBlock0; ++i) {
     const i32 s = idx[k0 + i] - static_cast<i32>(i);
     smin = std::min(smin, s);
     smax = std::max(smax, s);
