@@ -172,16 +172,29 @@ constexpr std::size_t kBlock0 = 16, kTile0 = 32;
 // check points before its nodes are evaluated exactly.
 constexpr double kFitPhase = 1e-6, kFitBin = 1e-5;
 
+// The reciprocals of a tile of n nodes' divided differences (fit_tile): 1/jm, 1/je, 1/(je − jm),
+// worked out once a row rather than once a pulse.
+struct TileInv {
+  double m, e, d;
+};
+
+SARCLI_INLINE TileInv tile_inv(std::size_t n) {
+  const double jm = static_cast<double>((n - 1) / 2), je = static_cast<double>(n - 1);
+  return {1.0 / jm, 1.0 / je, 1.0 / (je - jm)};
+}
+
 struct Scratch0 {
   std::vector<double> xs, ys, ax, ay, az, ir2, rr, qq, xpos, xpsi;   // xpos, xpsi: an exact tile's positions and phases
   std::vector<i32> idx;
   std::vector<float> frac, cr, ci, w, acc_re, acc_im;
   std::vector<unsigned char> exact;   // per tile: evaluate every node exactly
+  std::vector<TileInv> inv;           // per tile: tile_inv
   std::size_t n;                        // nodes rounded up to whole blocks
   explicit Scratch0(std::size_t nq)
       : xs(nq), ys(nq), ax(nq), ay(nq), az(nq), ir2(nq), rr(nq), qq(nq), xpos(nq), xpsi(nq),
         idx((nq + kBlock0 - 1) / kBlock0 * kBlock0), frac(idx.size()), cr(idx.size()), ci(idx.size()),
-        w(6 * idx.size()), acc_re(idx.size()), acc_im(idx.size()), exact(nq / kTile0 + 1), n(idx.size()) {}
+        w(6 * idx.size()), acc_re(idx.size()), acc_im(idx.size()), exact(nq / kTile0 + 1), inv(nq / kTile0 + 1),
+        n(idx.size()) {}
 };
 
 // How weights6 forms the six weights of a 6-tap kernel: read precomputed ones, evaluate the
@@ -356,7 +369,7 @@ struct TileFit {
 };
 
 SARCLI_INLINE TileFit fit_tile(const Stage0& A, const double* g, bool series, const Scratch0& W, std::size_t k0,
-                               std::size_t n) {
+                               std::size_t n, const TileInv& inv) {
   const double ib = g[kInvBin * A.B], kc = g[kKc * A.B];
   const std::size_t jm = (n - 1) / 2, je = n - 1;
   double pv[3], sv[3];
@@ -369,14 +382,13 @@ SARCLI_INLINE TileFit fit_tile(const Stage0& A, const double* g, bool series, co
   TileFit f;   // Newton's form on the nodes jm, 0, je
   f.jm = static_cast<double>(jm);
   f.jb = std::floor(pv[1]);
-  const double tw = 6.283185307179586;
-  const double dm = f.jm, de = static_cast<double>(je);
+  constexpr double tw = 6.283185307179586, inv_tw = 0.15915494309189535;
   f.p0 = pv[1] - f.jb;
-  f.p1 = (pv[1] - pv[0]) / dm;
-  f.p2 = ((pv[2] - pv[0]) / de - f.p1) / (de - dm);
-  f.s0 = sv[1] - std::nearbyint(sv[1] / tw) * tw;
-  f.s1 = (sv[1] - sv[0]) / dm;
-  f.s2 = ((sv[2] - sv[0]) / de - f.s1) / (de - dm);
+  f.p1 = (pv[1] - pv[0]) * inv.m;
+  f.p2 = ((pv[2] - pv[0]) * inv.e - f.p1) * inv.d;
+  f.s0 = sv[1] - std::nearbyint(sv[1] * inv_tw) * tw;
+  f.s1 = (sv[1] - sv[0]) * inv.m;
+  f.s2 = ((sv[2] - sv[0]) * inv.e - f.s1) * inv.d;
   return f;
 }
 
@@ -475,13 +487,14 @@ void stage0_row(const Stage0& A, std::size_t s, std::size_t it, Scratch0& W) {
   const i64 p0 = A.first[s], p1 = A.first[s] + A.count[s];
   for (std::size_t t = 0; t < ntile; ++t) {   // which tiles the quadratic serves
     const std::size_t k0 = t * nq / ntile, m = (t + 1) * nq / ntile - k0;
+    W.inv[t] = tile_inv(m);
     bool ok = m >= 3;
     if (ok && p1 > p0) {
       const std::size_t jm = (m - 1) / 2;
       const std::size_t jc[2] = {jm / 2, (jm + m - 1) / 2};
       for (i64 p : {p0, p0 + (p1 - p0 - 1) / 2, p1 - 1}) {
         const double* g = A.pul + p;
-        const TileFit f = fit_tile(A, g, series, W, k0, m);
+        const TileFit f = fit_tile(A, g, series, W, k0, m, W.inv[t]);
         const double ib = g[kInvBin * A.B], kc = g[kKc * A.B];
         for (std::size_t j : jc) {
           const double d = exact_dr(A, g, series, W, k0 + j);
@@ -518,7 +531,7 @@ void stage0_row(const Stage0& A, std::size_t s, std::size_t it, Scratch0& W) {
               [&](i32 j) SARCLI_LAMBDA_INLINE { return static_cast<float>(ps[k0 + j]); }, idx, frac, cr, ci);
         continue;
       }
-      const TileFit f = fit_tile(A, g, series, W, k0, m);
+      const TileFit f = fit_tile(A, g, series, W, k0, m, W.inv[t]);
       const float p0f = static_cast<float>(f.p0), p1f = static_cast<float>(f.p1), p2f = static_cast<float>(f.p2);
       const float s0f = static_cast<float>(f.s0), s1f = static_cast<float>(f.s1), s2f = static_cast<float>(f.s2);
       const float jmf = static_cast<float>(f.jm);
