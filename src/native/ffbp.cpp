@@ -183,18 +183,50 @@ SARCLI_INLINE TileInv tile_inv(std::size_t n) {
   return {1.0 / jm, 1.0 / je, 1.0 / (je - jm)};
 }
 
+// A tile's model of a node's profile position (relative to the whole bin jb) and demodulated
+// carrier phase ψ = k_c Δr − k_ref q (reduced to [−π, π] at the tile's middle node jm): the
+// quadratics through its first, middle and last nodes, in the node's offset j from the first,
+// taken about the middle so that float32 rounds them at half a tile's reach, not a whole one's.
+struct TileFit {
+  double jb, p0, p1, p2, s0, s1, s2, jm;
+  SARCLI_INLINE double pos(double j) const { return p0 + (j - jm) * (p1 + j * p2); }
+  SARCLI_INLINE double psi(double j) const { return s0 + (j - jm) * (s1 + j * s2); }
+};
+
+// The quadratics of a tile from its first, middle and last nodes' profile positions pv and phases
+// sv (jm: the middle node's offset).
+SARCLI_INLINE TileFit fit_from(const double* pv, const double* sv, double jm, const TileInv& inv) {
+  TileFit f;   // Newton's form on the nodes jm, 0, je
+  f.jm = jm;
+  f.jb = std::floor(pv[1]);
+  constexpr double tw = 6.283185307179586, inv_tw = 0.15915494309189535;
+  f.p0 = pv[1] - f.jb;
+  f.p1 = (pv[1] - pv[0]) * inv.m;
+  f.p2 = ((pv[2] - pv[0]) * inv.e - f.p1) * inv.d;
+  f.s0 = sv[1] - std::nearbyint(sv[1] * inv_tw) * tw;
+  f.s1 = (sv[1] - sv[0]) * inv.m;
+  f.s2 = ((sv[2] - sv[0]) * inv.e - f.s1) * inv.d;
+  return f;
+}
+
+
 struct Scratch0 {
   std::vector<double> xs, ys, ax, ay, az, ir2, rr, qq, xpos, xpsi;   // xpos, xpsi: an exact tile's positions and phases
   std::vector<i32> idx;
   std::vector<float> frac, cr, ci, w, acc_re, acc_im;
   std::vector<unsigned char> exact;   // per tile: evaluate every node exactly
   std::vector<TileInv> inv;           // per tile: tile_inv
+  // every tile's three fit nodes (3t, 3t + 1, 3t + 2: its first, middle and last), their node
+  // arrays gathered once a row, and one pulse's exact ranges there
+  std::vector<double> fxs, fys, fax, fay, faz, fir2, frr, fqq, fd;
+  std::vector<TileFit> fit;           // per tile: one pulse's quadratics
   std::size_t n;                        // nodes rounded up to whole blocks
   explicit Scratch0(std::size_t nq)
       : xs(nq), ys(nq), ax(nq), ay(nq), az(nq), ir2(nq), rr(nq), qq(nq), xpos(nq), xpsi(nq),
         idx((nq + kBlock0 - 1) / kBlock0 * kBlock0), frac(idx.size()), cr(idx.size()), ci(idx.size()),
         w(6 * idx.size()), acc_re(idx.size()), acc_im(idx.size()), exact(nq / kTile0 + 1), inv(nq / kTile0 + 1),
-        n(idx.size()) {}
+        fxs(3 * inv.size()), fys(fxs.size()), fax(fxs.size()), fay(fxs.size()), faz(fxs.size()), fir2(fxs.size()),
+        frr(fxs.size()), fqq(fxs.size()), fd(fxs.size()), fit(inv.size()), n(idx.size()) {}
 };
 
 // How weights6 forms the six weights of a 6-tap kernel: read precomputed ones, evaluate the
@@ -338,58 +370,52 @@ SARCLI_INLINE bool for_runs(const i32* idx, std::size_t k0, std::size_t k1, std:
   return true;
 }
 
-// Exact differential range of pulse g (row r of the pulse table at g[r * B]) at node iq: the
+// A row's node arrays as exact_dr reads them: ground points (xs, ys) and the series' factors.
+struct NodeGeo {
+  const double *xs, *ys, *ax, *ay, *az, *ir2, *rr, *qq;
+};
+
+// Exact differential range of pulse g (row r of the pulse table at g[r * B]) at node iq of N: the
 // series about the sub-aperture centre or the square root (stage 0's two forms).
-SARCLI_INLINE double exact_dr(const Stage0& A, const double* g, bool series, const Scratch0& W, std::size_t iq) {
+SARCLI_INLINE double exact_dr(const Stage0& A, const double* g, bool series, const NodeGeo& N, std::size_t iq) {
   const std::size_t B = A.B;
   if (series) {
-    const double e = W.ax[iq] * g[kDlt * B] + W.ay[iq] * g[(kDlt + 1) * B] + W.az[iq] * g[(kDlt + 2) * B] +
-                     g[(kDlt + 3) * B] * W.ir2[iq];
+    const double e = N.ax[iq] * g[kDlt * B] + N.ay[iq] * g[(kDlt + 1) * B] + N.az[iq] * g[(kDlt + 2) * B] +
+                     g[(kDlt + 3) * B] * N.ir2[iq];
     double s = sqrt_series(e);
     if (A.bistatic) {
-      const double eb = W.ax[iq] * g[(kDlt + 4) * B] + W.ay[iq] * g[(kDlt + 5) * B] +
-                        W.az[iq] * g[(kDlt + 6) * B] + g[(kDlt + 7) * B] * W.ir2[iq];
+      const double eb = N.ax[iq] * g[(kDlt + 4) * B] + N.ay[iq] * g[(kDlt + 5) * B] +
+                        N.az[iq] * g[(kDlt + 6) * B] + g[(kDlt + 7) * B] * N.ir2[iq];
       s = 0.5 * (s + sqrt_series(eb));
     }
-    return W.qq[iq] + W.rr[iq] * s + g[(kDlt + 8) * B];
+    return N.qq[iq] + N.rr[iq] * s + g[(kDlt + 8) * B];
   }
-  double d = one_way(W.xs[iq], W.ys[iq], g[0], g[B], g[2 * B], g[3 * B]);
-  if (A.bistatic) d = 0.5 * (d + one_way(W.xs[iq], W.ys[iq], g[4 * B], g[5 * B], g[6 * B], g[7 * B]));
+  double d = one_way(N.xs[iq], N.ys[iq], g[0], g[B], g[2 * B], g[3 * B]);
+  if (A.bistatic) d = 0.5 * (d + one_way(N.xs[iq], N.ys[iq], g[4 * B], g[5 * B], g[6 * B], g[7 * B]));
   return d + g[8 * B];
 }
 
-// A tile's model of a node's profile position (relative to the whole bin jb) and demodulated
-// carrier phase ψ = k_c Δr − k_ref q (reduced to [−π, π] at the tile's middle node jm): the
-// quadratics through its first, middle and last nodes, in the node's offset j from the first,
-// taken about the middle so that float32 rounds them at half a tile's reach, not a whole one's.
-struct TileFit {
-  double jb, p0, p1, p2, s0, s1, s2, jm;
-  SARCLI_INLINE double pos(double j) const { return p0 + (j - jm) * (p1 + j * p2); }
-  SARCLI_INLINE double psi(double j) const { return s0 + (j - jm) * (s1 + j * s2); }
-};
+SARCLI_INLINE NodeGeo row_geo(const Scratch0& W) {
+  return {W.xs.data(), W.ys.data(), W.ax.data(), W.ay.data(), W.az.data(), W.ir2.data(), W.rr.data(), W.qq.data()};
+}
 
-SARCLI_INLINE TileFit fit_tile(const Stage0& A, const double* g, bool series, const Scratch0& W, std::size_t k0,
+SARCLI_INLINE NodeGeo fit_geo(const Scratch0& W) {
+  return {W.fxs.data(), W.fys.data(), W.fax.data(), W.fay.data(), W.faz.data(), W.fir2.data(), W.frr.data(),
+          W.fqq.data()};
+}
+
+SARCLI_INLINE TileFit fit_tile(const Stage0& A, const double* g, bool series, const NodeGeo& N, std::size_t k0,
                                std::size_t n, const TileInv& inv) {
   const double ib = g[kInvBin * A.B], kc = g[kKc * A.B];
   const std::size_t jm = (n - 1) / 2, je = n - 1;
   double pv[3], sv[3];
   const std::size_t js[3] = {0, jm, je};
   for (int i = 0; i < 3; ++i) {
-    const double d = exact_dr(A, g, series, W, k0 + js[i]);
+    const double d = exact_dr(A, g, series, N, k0 + js[i]);
     pv[i] = d * ib + A.half_len;
-    sv[i] = kc * d - A.kref * W.qq[k0 + js[i]];
+    sv[i] = kc * d - A.kref * N.qq[k0 + js[i]];
   }
-  TileFit f;   // Newton's form on the nodes jm, 0, je
-  f.jm = static_cast<double>(jm);
-  f.jb = std::floor(pv[1]);
-  constexpr double tw = 6.283185307179586, inv_tw = 0.15915494309189535;
-  f.p0 = pv[1] - f.jb;
-  f.p1 = (pv[1] - pv[0]) * inv.m;
-  f.p2 = ((pv[2] - pv[0]) * inv.e - f.p1) * inv.d;
-  f.s0 = sv[1] - std::nearbyint(sv[1] * inv_tw) * tw;
-  f.s1 = (sv[1] - sv[0]) * inv.m;
-  f.s2 = ((sv[2] - sv[0]) * inv.e - f.s1) * inv.d;
-  return f;
+  return fit_from(pv, sv, static_cast<double>(jm), inv);
 }
 
 // Profile index, fraction and masked carrier of nodes k0 .. k0+n-1 from their positions f relative
@@ -483,21 +509,28 @@ void stage0_row(const Stage0& A, std::size_t s, std::size_t it, Scratch0& W) {
     W.ir2[iq] = i2; W.rr[iq] = r; W.qq[iq] = q;
   }
   for (std::size_t k = 0; k < n; ++k) { acc_re[k] = 0.0f; acc_im[k] = 0.0f; }
+  const NodeGeo G = row_geo(W), FG = fit_geo(W);
   const std::size_t ntile = std::max<std::size_t>(1, (nq + kTile0 / 2) / kTile0);
   const i64 p0 = A.first[s], p1 = A.first[s] + A.count[s];
   for (std::size_t t = 0; t < ntile; ++t) {   // which tiles the quadratic serves
     const std::size_t k0 = t * nq / ntile, m = (t + 1) * nq / ntile - k0;
     W.inv[t] = tile_inv(m);
+    const std::size_t js[3] = {k0, k0 + (m - 1) / 2, k0 + m - 1};
+    for (std::size_t i = 0; i < 3; ++i) {   // the tile's fit nodes, gathered
+      const std::size_t k = js[i], f = 3 * t + i;
+      W.fxs[f] = W.xs[k]; W.fys[f] = W.ys[k]; W.fax[f] = W.ax[k]; W.fay[f] = W.ay[k]; W.faz[f] = W.az[k];
+      W.fir2[f] = W.ir2[k]; W.frr[f] = W.rr[k]; W.fqq[f] = W.qq[k];
+    }
     bool ok = m >= 3;
     if (ok && p1 > p0) {
       const std::size_t jm = (m - 1) / 2;
       const std::size_t jc[2] = {jm / 2, (jm + m - 1) / 2};
       for (i64 p : {p0, p0 + (p1 - p0 - 1) / 2, p1 - 1}) {
         const double* g = A.pul + p;
-        const TileFit f = fit_tile(A, g, series, W, k0, m, W.inv[t]);
+        const TileFit f = fit_tile(A, g, series, G, k0, m, W.inv[t]);
         const double ib = g[kInvBin * A.B], kc = g[kKc * A.B];
         for (std::size_t j : jc) {
-          const double d = exact_dr(A, g, series, W, k0 + j);
+          const double d = exact_dr(A, g, series, G, k0 + j);
           const double pe = d * ib + A.half_len - f.jb, se = kc * d - A.kref * W.qq[k0 + j];
           const double ds = se - f.psi(static_cast<double>(j));
           ok = ok && std::abs(pe - f.pos(static_cast<double>(j))) <= kFitBin &&
@@ -513,14 +546,31 @@ void stage0_row(const Stage0& A, std::size_t s, std::size_t it, Scratch0& W) {
     const float* rp = A.pre + p * A.plen;
     const float* ip = A.pim + p * A.plen;
     const double* g = A.pul + p;   // row r at g[r * B]
+    {   // every tile's quadratics: the exact ranges at all fit nodes, then the fits, each vectorised
+      const double ib = g[kInvBin * A.B], kc = g[kKc * A.B];
+      double* fd = W.fd.data();
+      TileFit* fit = W.fit.data();
+#pragma omp simd
+      for (std::size_t f = 0; f < 3 * ntile; ++f) fd[f] = exact_dr(A, g, series, FG, f);
+#pragma omp simd
+      for (std::size_t t = 0; t < ntile; ++t) {
+        double pv[3], sv[3];
+        for (std::size_t i = 0; i < 3; ++i) {
+          pv[i] = fd[3 * t + i] * ib + A.half_len;
+          sv[i] = kc * fd[3 * t + i] - A.kref * W.fqq[3 * t + i];
+        }
+        const std::size_t m = (t + 1) * nq / ntile - t * nq / ntile;
+        fit[t] = fit_from(pv, sv, static_cast<double>((m - 1) / 2), W.inv[t]);
+      }
+    }
     for (std::size_t t = 0; t < ntile; ++t) {
       const std::size_t k0 = t * nq / ntile, m = (t + 1) * nq / ntile - k0;
       if (W.exact[t]) {   // every node exactly (float64), relative to the first node's bin
         const double ib = g[kInvBin * A.B], kc = g[kKc * A.B];
-        const double jb = std::floor(exact_dr(A, g, series, W, k0) * ib + A.half_len);
+        const double jb = std::floor(exact_dr(A, g, series, G, k0) * ib + A.half_len);
         for (std::size_t j = 0; j < m; ++j) {
           const std::size_t k = k0 + j;
-          const double d = exact_dr(A, g, series, W, k);
+          const double d = exact_dr(A, g, series, G, k);
           const double ph = kc * d - A.kref * W.qq[k];
           W.xpos[k] = d * ib + A.half_len - jb;
           W.xpsi[k] = ph - 6.283185307179586 * std::nearbyint(ph / 6.283185307179586);
@@ -531,7 +581,7 @@ void stage0_row(const Stage0& A, std::size_t s, std::size_t it, Scratch0& W) {
               [&](i32 j) SARCLI_LAMBDA_INLINE { return static_cast<float>(ps[k0 + j]); }, idx, frac, cr, ci);
         continue;
       }
-      const TileFit f = fit_tile(A, g, series, W, k0, m, W.inv[t]);
+      const TileFit& f = W.fit[t];
       const float p0f = static_cast<float>(f.p0), p1f = static_cast<float>(f.p1), p2f = static_cast<float>(f.p2);
       const float s0f = static_cast<float>(f.s0), s1f = static_cast<float>(f.s1), s2f = static_cast<float>(f.s2);
       const float jmf = static_cast<float>(f.jm);
