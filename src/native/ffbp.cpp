@@ -863,17 +863,35 @@ SARCLI_INLINE void separable_row(const Child& C, double dq, double kref, const d
   while (okc[i1] == 0.0f) --i1;
   const i32 jlo = idx_q[i0];
   const std::size_t ncol = static_cast<std::size_t>(idx_q[i1] + ntap - jlo);
-  // T at the columns: walk the row, then locate in u
+  // T at the columns: linear between the row's points (extrapolated past its ends), then located in u
   for (std::size_t i = 0; i + 1 < n; ++i) slope[i] = (ts[i + 1] - ts[i]) / (qs[i + 1] - qs[i]);
-  // segment of each column: the last point k <= n - 2 with qs[k] <= q_j (0 if none); columns and
-  // points advance together (the same spacing in q, nearly), so the walk moves about one point a column
-  const i32 top = static_cast<i32>(n) - 2;
-  i32 k = 0;
-  for (std::size_t jj = 0; jj < ncol; ++jj) {
-    const double qj = C.f.q0 + static_cast<double>(jlo + static_cast<i32>(jj)) * dq;
-    while (k < top && qs[k + 1] <= qj) ++k;
-    ft[jj] = ts[k] + (qj - qs[k]) * slope[k];
+  // segment of each column: the last point k in [1, n − 2] with qs[k] <= q_j (0 if none). With
+  // c_k the first column at or past point k, that is the last k with c_k <= j. Columns and points share
+  // their spacing in q, so along a run of points whose c_k rises by one a point each column's
+  // segment is its own point (k − c_k constant: contiguous loads), and a column between runs keeps
+  // the last point before it; the runs are few a row (list_breaks).
+  const i32 top = static_cast<i32>(n) - 2, nc = static_cast<i32>(ncol);
+  const double qc0 = C.f.q0 + static_cast<double>(jlo) * dq, inv_col = 1.0 / dq;
+  i32 *cpt = W.idx_t.data(), *brk = W.brk.data();
+  for (std::size_t i = 0; i < n; ++i) cpt[i] = static_cast<i32>(std::ceil((qs[i] - qc0) * inv_col));
+  auto fill = [&](i32 j0, i32 j1, i32 shift, bool run) SARCLI_LAMBDA_INLINE {   // k = j + shift, or shift
+#pragma omp simd
+    for (i32 jj = j0; jj < j1; ++jj) {
+      const std::size_t k = static_cast<std::size_t>(run ? jj + shift : shift);
+      const double qj = C.f.q0 + static_cast<double>(jlo + jj) * dq;
+      ft[jj] = ts[k] + (qj - qs[k]) * slope[k];
+    }
+  };
+  const std::size_t nb = top >= 1 ? list_breaks(cpt, 1, static_cast<std::size_t>(top) + 1, 1, brk) : 0;
+  i32 j = 0;   // columns below j are done
+  for (std::size_t b = 0; top >= 1 && b <= nb; ++b) {   // runs [a, e) of points
+    const i32 a = b == 0 ? 1 : brk[b - 1], e = b < nb ? brk[b] : top + 1;
+    const i32 ca = cpt[a], ce = std::min(cpt[e - 1] + 1, nc);
+    if (j < std::min(ca, nc)) fill(j, std::min(ca, nc), a - 1, false);   // a gap: the point before the run
+    if (std::max(ca, 0) < ce) fill(std::max(ca, 0), ce, a - ca, true);    // later points win a shared column
+    j = std::max(j, ce);
   }
+  if (j < nc) fill(j, nc, std::max(top, 0), false);
   for (std::size_t jj = 0; jj < ncol; ++jj) {
     double tt;
     bool okt;
