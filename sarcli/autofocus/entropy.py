@@ -71,7 +71,9 @@ from ..core.grid import Grid
 from ..errors import SarcliInputError
 from ._common import (MAX_GUARDED_PIXELS, AutofocusResult, AutofocusWarning, estimation_grid, guarded_grid,
                       sharpness)
-from ._imager import SPLIT_GAP, BlockImager, Imager, range_axis, single_threaded_blas, split_grid
+from ._imager import (SPLIT_GAP, BlockImager, Imager, every_nth_line, range_axis, single_threaded_blas,
+                      split_grid)
+from ._lbfgs import minimize
 
 __all__ = ["min_entropy", "coarse_to_fine", "level_basis", "LEVELS"]
 
@@ -139,36 +141,6 @@ def _defocus_search(imager, phi, quad) -> np.ndarray:
     return phi + DEFOCUS_SCAN[int(np.argmin(h))] * q
 
 
-class _Spent(Exception):
-    """The evaluations allowed to one level are spent."""
-
-
-def _minimize(fun, n: int, max_iter: int, max_fun: int | None) -> np.ndarray:
-    """L-BFGS (scipy's L-BFGS-B routine, :func:`~sarcli.autofocus._lbfgs.lbfgs`) on ``fun`` (value
-    and gradient) from zero, at most ``max_iter`` iterations and ``max_fun`` evaluations (default
-    ``2 max_iter``; line searches included, which scipy's own ``maxfun`` checks only between
-    iterations); the best point evaluated."""
-    from ._lbfgs import lbfgs
-
-    max_fun = 2 * max_iter if max_fun is None else max_fun
-    best = [np.inf, np.zeros(n), 0]
-
-    def counted(c):
-        if best[2] >= max_fun:
-            raise _Spent
-        best[2] += 1
-        h, g = fun(c)
-        if h < best[0]:
-            best[:2] = h, np.array(c, np.float64)
-        return h, g
-
-    try:
-        lbfgs(counted, np.zeros(n), max_iter=max_iter, max_fun=max_fun, ftol=1e-12, gtol=1e-12)
-    except _Spent:
-        pass
-    return best[1]
-
-
 def coarse_to_fine(imager: Imager, start, gauge, levels=LEVELS, max_iter: int = 30,
                    max_fun: int | None = None):
     """The minimum-entropy estimate after each level, started from ``start``: at most ``max_iter``
@@ -200,7 +172,7 @@ def coarse_to_fine(imager: Imager, start, gauge, levels=LEVELS, max_iter: int = 
                 h, g = im.entropy_and_gradient(base + A @ c)
                 return h, A.T @ g
             n = A.shape[1]
-        x = _minimize(fun, n, max_iter, max_fun)
+        x = minimize(fun, n, max_iter, max_fun)
         step = x if A is None else A @ x
         # the phase the imager's images are exact for (block means on sub-apertures), constant
         # and linear part removed
@@ -208,6 +180,21 @@ def coarse_to_fine(imager: Imager, start, gauge, levels=LEVELS, max_iter: int = 
         phi = phi - gauge @ (gauge.T @ phi)
         out.append(phi.copy())
     return out
+
+
+def _each(fn, jobs) -> list:
+    """``[fn(j) for j in jobs]``, the jobs side by side on up to ``sarcli._native.threads()``
+    threads (independent searches; each returns what it would alone)."""
+    from .._native import threads
+
+    jobs = list(jobs)
+    workers = min(len(jobs), threads())
+    if workers <= 1:
+        return [fn(j) for j in jobs]
+    from concurrent.futures import ThreadPoolExecutor
+
+    with ThreadPoolExecutor(max_workers=workers) as pool:
+        return list(pool.map(fn, jobs))
 
 
 def _corr(a, b) -> float:
@@ -262,7 +249,7 @@ REFINE_CORRELATION = 1.0 / 3.0
 
 
 def min_entropy(ph, *, grid: Grid | None = None, start="zero", levels=LEVELS, max_iter: int = 15,
-                pulse_iter: int = 3, full_pulse_iter: int = 0, max_blocks: int = 128,
+                pulse_iter: int = 4, pulse_lines: int = 2, full_pulse_iter: int = 0, max_blocks: int = 128,
                 max_stack_mib: float = 128.0, validate: bool = True, guard: bool = True,
                 pga_options=None, order="auto") -> AutofocusResult:
     """Minimum-entropy autofocus: coarse to fine to one phase per pulse, cross-validated.
@@ -285,6 +272,10 @@ def min_entropy(ph, *, grid: Grid | None = None, start="zero", levels=LEVELS, ma
         L-BFGS iterations per level on the sub-apertures, and at one phase per pulse beyond them
         (on each half, on the exact backprojection pair, :class:`~sarcli.autofocus._imager.Imager`:
         two images per evaluation, no stack; 0 skips that level).
+    pulse_lines : int
+        The level of one phase per pulse beyond the sub-apertures runs on every
+        ``pulse_lines``-th range line of each half
+        (:func:`~sarcli.autofocus._imager.every_nth_line`: whole cross-range lines; 1: all).
     full_pulse_iter : int
         L-BFGS iterations at one phase per pulse on the whole grid, from its sub-aperture estimate
         plus the mean of the halves' per-pulse increments (0: that start is the estimate).
@@ -319,12 +310,12 @@ def min_entropy(ph, *, grid: Grid | None = None, start="zero", levels=LEVELS, ma
     # it too: its idle threads spin after every call, on cores shared with other jobs
     _setulb()
     with single_threaded_blas():
-        return _min_entropy(ph, grid, start, levels, max_iter, pulse_iter, full_pulse_iter, max_blocks,
+        return _min_entropy(ph, grid, start, levels, max_iter, pulse_iter, pulse_lines, full_pulse_iter, max_blocks,
                             max_stack_mib, validate, guard, pga_options, order)
 
 
-def _min_entropy(ph, grid, start, levels, max_iter, pulse_iter, full_pulse_iter, max_blocks, max_stack_mib,
-                 validate, guard, pga_options, order):
+def _min_entropy(ph, grid, start, levels, max_iter, pulse_iter, pulse_lines, full_pulse_iter, max_blocks,
+                 max_stack_mib, validate, guard, pga_options, order):
     if order == "auto":
         orders = ORDERS
     else:
@@ -363,23 +354,28 @@ def _min_entropy(ph, grid, start, levels, max_iter, pulse_iter, full_pulse_iter,
     elif not isinstance(start, str):
         phi0 = np.asarray(start, np.float64)
         phi0, hist["start"] = phi0 - gauge @ (gauge.T @ phi0), "given"
-    paths = [coarse_to_fine(im, zero, gauge, coarse, max_iter) for im in halves]
+    # each half with each order, from zero: independent searches, side by side on threads (a
+    # pass over the stack runs on one thread and releases the GIL)
+    for im in halves:  # the merged stacks, built before the threads share them
+        for lv in coarse:
+            im.coarsened(_spacing(lv, P))
+    runs = _each(lambda im: coarse_to_fine(im, zero, gauge, coarse, max_iter),
+                 [im.with_order(o) for o in orders for im in halves])
+    by_order = {o: runs[2 * k:2 * k + 2] for k, o in enumerate(orders)}
     chosen, hist["order"] = orders[0], orders[0]
     if len(orders) > 1:
-        # the search again with the other order: the order whose halves agree more on the
-        # detail of the finest level is the one less drawn to what is particular to each half
-        # (clutter, or the sidelobes of a few points)
+        # the order whose halves agree more on the detail of the finest level is the one less
+        # drawn to what is particular to each half (clutter, or the sidelobes of a few points)
         def detail(ps):
             return _corr(*(p[-1] - (p[-2] if len(p) > 1 else 0.0) for p in ps))
 
-        agree = {orders[0]: detail(paths)}
+        agree = {o: detail(by_order[o]) for o in orders}
         for o in orders[1:]:
-            alt = [coarse_to_fine(im.with_order(o), zero, gauge, coarse, max_iter) for im in halves]
-            agree[o] = detail(alt)
             if agree[o] > agree[chosen]:
-                chosen, paths = o, alt
+                chosen = o
         halves = [im.with_order(chosen) for im in halves]
         hist["order"], hist["order_agreement"] = chosen, {str(k): v for k, v in agree.items()}
+    paths = by_order[chosen]
     full = full.with_order(chosen)
     gains, corrs = _crossvalidate(halves, paths)
     names = [str(lv) for lv in coarse]
@@ -435,14 +431,14 @@ def _min_entropy(ph, grid, start, levels, max_iter, pulse_iter, full_pulse_iter,
     if kept and K > 1 and pulse_iter > 0 and any(lv != "smooth" and int(lv) < K for lv in levels) \
             and best == len(coarse) - 1:
         # one phase per pulse, beyond the sub-apertures, on the exact backprojection pair (no
-        # stack): each half refines its own sub-aperture estimate, and the level is kept when
-        # each half's per-pulse increment lowers the other half's entropy
-        sides = [Imager(ph, g, chosen) for g in split_grid(full.grid, axis, SPLIT_GAP)[:2]]
+        # stack) on every `pulse_lines`-th range line of each half (whole cross-range lines):
+        # each half refines its own sub-aperture estimate, and the level is kept when each
+        # half's per-pulse increment lowers the other half's entropy
+        sides = [Imager(ph, g, chosen) for g in
+                 split_grid(every_nth_line(full.grid, axis, pulse_lines), axis, SPLIT_GAP)[:2]]
         ends = [coarse_to_fine(im, p[best], gauge, (1,), pulse_iter)[-1] for im, p in zip(sides, paths)]
-        # the other half's sub-aperture estimate is constant over the blocks: the half's stack
-        # gives its image exactly (the same sum of the same backprojections), no new image needed
-        g1 = (halves[0].entropy(paths[1][best]) - sides[0].entropy(ends[1]),
-              halves[1].entropy(paths[0][best]) - sides[1].entropy(ends[0]))
+        # on the half's lines, the other half's sub-aperture estimate against its per-pulse one
+        g1 = tuple(side.entropy(paths[1 - i][best]) - side.entropy(ends[1 - i]) for i, side in enumerate(sides))
         steps = [e - p[best] for e, p in zip(ends, paths)]
         c1 = _corr(*steps)
         fine_imagers += sides
