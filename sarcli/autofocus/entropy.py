@@ -130,7 +130,7 @@ def level_basis(level, P: int, gauge: np.ndarray) -> np.ndarray | None:
 
 #: Quadratic phases tried before the smooth level (rad at the aperture ends): a large quadratic
 #: error puts the smooth level's L-BFGS in a local minimum, a scan over it does not.
-DEFOCUS_SCAN = np.arange(-12.0, 12.5, 1.0)
+DEFOCUS_SCAN = np.arange(-12.0, 12.5, 2.0)
 
 
 def _defocus_search(imager, phi, quad) -> np.ndarray:
@@ -249,7 +249,7 @@ REFINE_CORRELATION = 1.0 / 3.0
 
 
 def min_entropy(ph, *, grid: Grid | None = None, start="zero", levels=LEVELS, max_iter: int = 15,
-                pulse_iter: int = 4, pulse_lines: int = 2, full_pulse_iter: int = 0, max_blocks: int = 128,
+                pulse_iter: int = 3, pulse_lines: int = 2, full_pulse_iter: int = 0, max_blocks: int = 128,
                 max_stack_mib: float = 128.0, validate: bool = True, guard: bool = True,
                 pga_options=None, order="auto") -> AutofocusResult:
     """Minimum-entropy autofocus: coarse to fine to one phase per pulse, cross-validated.
