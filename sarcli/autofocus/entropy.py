@@ -21,7 +21,9 @@ previous one ended, by L-BFGS on ``c`` in ``φ = φ_prev + A c`` (gradient ``A�
 
 A level whose phase is nearly constant over several sub-apertures runs on the stack with them
 summed (:meth:`~sarcli.autofocus._imager.BlockImager.coarsened`). Each level gets at most
-``max_iter`` L-BFGS iterations and ``2 max_iter`` evaluations, line searches included.
+``max_iter`` L-BFGS iterations and ``2 max_iter`` evaluations, line searches included, and ends
+when an iteration lowers the entropy by less than
+:data:`~sarcli.autofocus._lbfgs.LEVEL_FTOL` of it.
 
 Every basis is orthogonal to the constant and to the phase linear in look azimuth: those change
 no image magnitude but shift it in cross-range, so they are neither searched nor returned.
@@ -35,9 +37,10 @@ The metric. The entropy minimised is Rényi's of order ``α``, ``H_α = ln(Σ q^
 (Shannon's at ``α = 1``): lower orders weigh the dim pixels more, and their minimum lies closer to
 the true phase among clutter and farther from it on a scene of isolated points. By default
 (``order='auto'``) each half of the scene (below) is searched with ``α = 1`` and, again from
-zero, with ``α = 1/2``; the order whose two halves agree more on the detail of the finest
-level (correlation of the last level's increments) is used from there on: what a metric fits to
-one half's own clutter or sidelobes is not found in the other half.
+zero, with ``α = 1/2`` (the four searches side by side on threads); the order whose two halves
+agree more on the detail of the finest level (correlation of the last level's increments) is
+used from there on: what a metric fits to one half's own clutter or sidelobes is not found in
+the other half.
 
 The decision: cross-validation on disjoint halves of the scene. The grid is split across range
 (near and far halves, each holding whole cross-range lines, with a band between them: a phase
@@ -54,8 +57,9 @@ held-out gain; a finer passing level is then taken when the detail the halves ad
 correlates above ``max(1/3, 2/√dof)`` (:data:`REFINE_CORRELATION`). None passes: no correction.
 The whole grid is then searched at that level only, from the mean of the halves' estimates
 there. One phase per pulse beyond the sub-apertures is searched on each half (exact
-backprojection pair) and kept when each half's increment lowers the other half's entropy and
-the increments agree (same test); the whole grid's estimate is then its sub-aperture estimate
+backprojection pair, on every other range line: whole cross-range lines, half the pixels) and
+kept when each half's increment lowers the other half's entropy and the increments agree (same
+test); the whole grid's estimate is then its sub-aperture estimate
 plus the mean of the halves' increments. Finally the estimate is applied only if it leaves the
 image no less sharp (Shannon entropy not up, peak-to-mean not down).
 """
