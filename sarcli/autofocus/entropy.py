@@ -254,7 +254,7 @@ REFINE_CORRELATION = 1.0 / 3.0
 
 def min_entropy(ph, *, grid: Grid | None = None, start="zero", levels=LEVELS, max_iter: int = 15,
                 pulse_iter: int = 3, pulse_lines: int = 2, full_pulse_iter: int = 0, max_blocks: int = 128,
-                max_stack_mib: float = 128.0, validate: bool = True, guard: bool = True,
+                max_stack_mib: float = 64.0, validate: bool = True, guard: bool = True,
                 pga_options=None, order="auto") -> AutofocusResult:
     """Minimum-entropy autofocus: coarse to fine to one phase per pulse, cross-validated.
 
