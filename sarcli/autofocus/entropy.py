@@ -296,10 +296,10 @@ def min_entropy(ph, *, grid: Grid | None = None, start="zero", levels=LEVELS, ma
         Order of the Rényi entropy minimised (:func:`~sarcli.autofocus._imager.entropy_of`; 1 is
         Shannon's). Orders below 1 weigh dim pixels more: their minimum lies closer to the true
         phase among clutter and farther from it on scenes of isolated points. ``'auto'``: each
-        half's search runs with Shannon's entropy, then again with order ``1/2`` (:data:`ORDERS`),
-        and the order whose halves agree more on the detail of the finest level is used from
-        there on (module docstring). The sharpness guard measures
-        Shannon's entropy whatever the order.
+        half is searched with Shannon's entropy and, again from zero, with order ``1/2``
+        (:data:`ORDERS`; the searches side by side on threads), and the order whose halves agree
+        more on the detail of the finest level is used from there on (module docstring). The
+        sharpness guard measures Shannon's entropy whatever the order.
 
     Returns
     -------
