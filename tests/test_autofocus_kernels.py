@@ -145,3 +145,27 @@ def test_lbfgs_driver_refuses_a_routine_of_another_interface():
     assert _setulb() is not None and _works(_setulb())
     assert not _works(wrong_arguments)
     assert not _works(lambda *args: None)  # asks for nothing: never reaches the minimum
+
+
+def test_level_search_ends_when_an_iteration_gains_little():
+    """minimize stops once an iteration lowers the value by less than LEVEL_FTOL of it, well
+    before its budget on a quadratic bowl, and returns the best point it evaluated."""
+    from sarcli.autofocus._lbfgs import minimize
+
+    rng = np.random.default_rng(3)
+    A = rng.normal(size=(20, 20))
+    H, b = A @ A.T + 20 * np.eye(20), rng.normal(size=20)
+    calls = []
+
+    def value(c):
+        return float(0.5 * c @ H @ c - b @ c + 10.0)
+
+    def fun(c):
+        calls.append(c.copy())
+        return value(c), H @ c - b
+
+    x = minimize(fun, 20, max_iter=200, max_fun=400)
+    assert len(calls) < 50
+    np.testing.assert_array_equal(x, min(calls, key=value))
+    # the value left above the minimum is of the order of the stopping tolerance
+    assert value(x) - value(np.linalg.solve(H, b)) < 1e-4

@@ -35,7 +35,8 @@ from ..core.grid import Grid
 from ..errors import SarcliInputError, SarcliWarning
 from ._common import pulse_images
 
-__all__ = ["Imager", "BlockImager", "entropy_of", "split_grid", "range_axis", "single_threaded_blas"]
+__all__ = ["Imager", "BlockImager", "entropy_of", "split_grid", "every_nth_line", "range_axis",
+           "single_threaded_blas"]
 
 #: Backprojection options of the estimator: the pair backproject/reproject is an exact adjoint
 #: for any of them, and the estimate only needs the image to a few per cent.
@@ -218,6 +219,25 @@ def split_grid(grid: Grid, axis: int = 1, gap: float = 0.0) -> tuple[Grid, ...]:
     return parts + ((part(half, g),) if g else ())
 
 
+def every_nth_line(grid: Grid, axis: int, n: int) -> Grid:
+    """Every ``n``-th line of ``grid`` across ``axis`` (1: columns, 0: rows), each line whole and
+    the lines kept centred in the grid: a grid whose pixels are pixels of ``grid`` (``grid`` itself
+    when ``n <= 1``).
+
+    Across range (``axis`` of :func:`range_axis`) it keeps whole cross-range lines, the lines along
+    which a phase error moves energy.
+    """
+    if n <= 1:
+        return grid
+    size, d, c = (grid.nx, grid.dx, grid.cx) if axis == 1 else (grid.ny, grid.dy, grid.cy)
+    m = (size - 1) // n + 1
+    offset = (size - 1 - (m - 1) * n) // 2
+    centre = c + (offset + (m // 2) * n - size // 2) * d
+    if axis == 1:
+        return Grid(m, grid.ny, d * n, grid.dy, centre, grid.cy)
+    return Grid(grid.nx, m, grid.dx, d * n, grid.cx, centre)
+
+
 def _merge_rows(part, starts) -> np.ndarray:
     """``np.add.reduceat(part, starts, axis=0)``, row by row (several times faster on a wide stack)."""
     out = np.empty((len(starts), part.shape[1]), part.dtype)
@@ -305,6 +325,10 @@ class BlockImager:
             store(b, pulses[self.bounds[b]:self.bounds[b + 1]].sum(axis=0).reshape(grid.shape))
         return parts
 
+    #: Guards the evaluation counts and the merged stacks' cache: imagers of one stack may search
+    #: on several threads.
+    _count_lock = threading.Lock()
+
     def coarsened(self, pulses: int) -> "BlockImager":
         """An imager of sub-apertures of about ``pulses`` pulses: ``m ≥ 1`` consecutive blocks of
         this stack summed (``m`` the most whose blocks stay within ``pulses``; this imager when
@@ -316,13 +340,15 @@ class BlockImager:
         m = max(1, int(pulses) // max(K, 1))
         if m == 1 or len(self.bounds) - 1 <= 2 * m:
             return self
-        # the merged stacks are shared with the imagers of the same stack in another order
-        cache = self.__dict__.setdefault("_coarse", {})
-        if m not in cache:
-            starts = np.arange(0, len(self.bounds) - 1, m)
-            cache[m] = ([_merge_rows(part, starts) for part in self.parts],
-                        np.append(self.bounds[starts], self.bounds[-1]))
-        parts, bounds = cache[m]
+        # the merged stacks are shared with the imagers of the same stack in another order (built
+        # once, also when those search on other threads)
+        with self._count_lock:
+            cache = self.__dict__.setdefault("_coarse", {})
+            if m not in cache:
+                starts = np.arange(0, len(self.bounds) - 1, m)
+                cache[m] = ([_merge_rows(part, starts) for part in self.parts],
+                            np.append(self.bounds[starts], self.bounds[-1]))
+            parts, bounds = cache[m]
         return BlockImager(None, self.grid, 0, self.axis, order=self.order, _parts=parts, _bounds=bounds,
                            _counter=self)
 
@@ -350,7 +376,8 @@ class BlockImager:
         if self._counter is not None:
             self._counter._count()
         else:
-            self._evaluations += 1
+            with self._count_lock:  # imagers of one stack may search on several threads
+                self._evaluations += 1
 
     def _theta(self, phi):
         return np.add.reduceat(np.asarray(phi, np.float64), self.bounds[:-1]) / self._sizes

@@ -8,7 +8,9 @@ reverse-communication loop as ``scipy.optimize.minimize(method='L-BFGS-B')`` wit
 same points are evaluated in the same order (``tests/test_autofocus_kernels.py`` checks it). Where the
 module cannot be loaded that way (another scipy layout) or takes other arguments (older scipy
 releases had the Fortran routine's; a trial on a small quadratic tells), ``scipy.optimize.minimize``
-runs instead.
+runs instead. :func:`minimize` is the search of one level of minimum entropy: L-BFGS from zero within
+a budget of evaluations, ended when an iteration gains less than :data:`LEVEL_FTOL`, returning the
+best point it evaluated.
 """
 
 from __future__ import annotations
@@ -20,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["lbfgs"]
+__all__ = ["lbfgs", "minimize", "LEVEL_FTOL"]
 
 _SETULB = []
 
@@ -84,6 +86,40 @@ def lbfgs(fun, x0, *, max_iter: int, max_fun: int, ftol: float = 1e-12, gtol: fl
                           "maxcor": maxcor, "maxls": maxls})
         return
     _drive(setulb, fun, x, max_iter, max_fun, ftol, gtol, maxcor, maxls)
+
+
+#: A level ends when an L-BFGS iteration lowers the entropy by less than this fraction of it
+#: (L-BFGS-B's ``ftol``): on minimum entropy's levels the later iterations change the entropy by far
+#: less than the held-out gains its decision weighs.
+LEVEL_FTOL = 1e-7
+
+
+class _Spent(Exception):
+    """The evaluations allowed to one level are spent."""
+
+
+def minimize(fun, n: int, max_iter: int, max_fun: int | None) -> np.ndarray:
+    """L-BFGS (scipy's L-BFGS-B routine, :func:`~sarcli.autofocus._lbfgs.lbfgs`) on ``fun`` (value
+    and gradient) from zero, at most ``max_iter`` iterations and ``max_fun`` evaluations (default
+    ``2 max_iter``; line searches included, which scipy's own ``maxfun`` checks only between
+    iterations), ended earlier by :data:`LEVEL_FTOL`; the best point evaluated."""
+    max_fun = 2 * max_iter if max_fun is None else max_fun
+    best = [np.inf, np.zeros(n), 0]
+
+    def counted(c):
+        if best[2] >= max_fun:
+            raise _Spent
+        best[2] += 1
+        h, g = fun(c)
+        if h < best[0]:
+            best[:2] = h, np.array(c, np.float64)
+        return h, g
+
+    try:
+        lbfgs(counted, np.zeros(n), max_iter=max_iter, max_fun=max_fun, ftol=LEVEL_FTOL, gtol=1e-12)
+    except _Spent:
+        pass
+    return best[1]
 
 
 def _drive(setulb, fun, x, max_iter, max_fun, ftol, gtol, maxcor, maxls):

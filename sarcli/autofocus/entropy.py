@@ -21,7 +21,9 @@ previous one ended, by L-BFGS on ``c`` in ``φ = φ_prev + A c`` (gradient ``A�
 
 A level whose phase is nearly constant over several sub-apertures runs on the stack with them
 summed (:meth:`~sarcli.autofocus._imager.BlockImager.coarsened`). Each level gets at most
-``max_iter`` L-BFGS iterations and ``2 max_iter`` evaluations, line searches included.
+``max_iter`` L-BFGS iterations and ``2 max_iter`` evaluations, line searches included, and ends
+when an iteration lowers the entropy by less than
+:data:`~sarcli.autofocus._lbfgs.LEVEL_FTOL` of it.
 
 Every basis is orthogonal to the constant and to the phase linear in look azimuth: those change
 no image magnitude but shift it in cross-range, so they are neither searched nor returned.
@@ -35,9 +37,10 @@ The metric. The entropy minimised is Rényi's of order ``α``, ``H_α = ln(Σ q^
 (Shannon's at ``α = 1``): lower orders weigh the dim pixels more, and their minimum lies closer to
 the true phase among clutter and farther from it on a scene of isolated points. By default
 (``order='auto'``) each half of the scene (below) is searched with ``α = 1`` and, again from
-zero, with ``α = 1/2``; the order whose two halves agree more on the detail of the finest
-level (correlation of the last level's increments) is used from there on: what a metric fits to
-one half's own clutter or sidelobes is not found in the other half.
+zero, with ``α = 1/2`` (the four searches side by side on threads); the order whose two halves
+agree more on the detail of the finest level (correlation of the last level's increments) is
+used from there on: what a metric fits to one half's own clutter or sidelobes is not found in
+the other half.
 
 The decision: cross-validation on disjoint halves of the scene. The grid is split across range
 (near and far halves, each holding whole cross-range lines, with a band between them: a phase
@@ -54,8 +57,9 @@ held-out gain; a finer passing level is then taken when the detail the halves ad
 correlates above ``max(1/3, 2/√dof)`` (:data:`REFINE_CORRELATION`). None passes: no correction.
 The whole grid is then searched at that level only, from the mean of the halves' estimates
 there. One phase per pulse beyond the sub-apertures is searched on each half (exact
-backprojection pair) and kept when each half's increment lowers the other half's entropy and
-the increments agree (same test); the whole grid's estimate is then its sub-aperture estimate
+backprojection pair, on every other range line: whole cross-range lines, half the pixels) and
+kept when each half's increment lowers the other half's entropy and the increments agree (same
+test); the whole grid's estimate is then its sub-aperture estimate
 plus the mean of the halves' increments. Finally the estimate is applied only if it leaves the
 image no less sharp (Shannon entropy not up, peak-to-mean not down).
 """
@@ -71,7 +75,9 @@ from ..core.grid import Grid
 from ..errors import SarcliInputError
 from ._common import (MAX_GUARDED_PIXELS, AutofocusResult, AutofocusWarning, estimation_grid, guarded_grid,
                       sharpness)
-from ._imager import SPLIT_GAP, BlockImager, Imager, range_axis, single_threaded_blas, split_grid
+from ._imager import (SPLIT_GAP, BlockImager, Imager, every_nth_line, range_axis, single_threaded_blas,
+                      split_grid)
+from ._lbfgs import minimize
 
 __all__ = ["min_entropy", "coarse_to_fine", "level_basis", "LEVELS"]
 
@@ -128,7 +134,7 @@ def level_basis(level, P: int, gauge: np.ndarray) -> np.ndarray | None:
 
 #: Quadratic phases tried before the smooth level (rad at the aperture ends): a large quadratic
 #: error puts the smooth level's L-BFGS in a local minimum, a scan over it does not.
-DEFOCUS_SCAN = np.arange(-12.0, 12.5, 1.0)
+DEFOCUS_SCAN = np.arange(-12.0, 12.5, 2.0)
 
 
 def _defocus_search(imager, phi, quad) -> np.ndarray:
@@ -137,36 +143,6 @@ def _defocus_search(imager, phi, quad) -> np.ndarray:
     q = quad / np.max(np.abs(quad))
     h = [imager.entropy(phi + a * q) for a in DEFOCUS_SCAN]
     return phi + DEFOCUS_SCAN[int(np.argmin(h))] * q
-
-
-class _Spent(Exception):
-    """The evaluations allowed to one level are spent."""
-
-
-def _minimize(fun, n: int, max_iter: int, max_fun: int | None) -> np.ndarray:
-    """L-BFGS (scipy's L-BFGS-B routine, :func:`~sarcli.autofocus._lbfgs.lbfgs`) on ``fun`` (value
-    and gradient) from zero, at most ``max_iter`` iterations and ``max_fun`` evaluations (default
-    ``2 max_iter``; line searches included, which scipy's own ``maxfun`` checks only between
-    iterations); the best point evaluated."""
-    from ._lbfgs import lbfgs
-
-    max_fun = 2 * max_iter if max_fun is None else max_fun
-    best = [np.inf, np.zeros(n), 0]
-
-    def counted(c):
-        if best[2] >= max_fun:
-            raise _Spent
-        best[2] += 1
-        h, g = fun(c)
-        if h < best[0]:
-            best[:2] = h, np.array(c, np.float64)
-        return h, g
-
-    try:
-        lbfgs(counted, np.zeros(n), max_iter=max_iter, max_fun=max_fun, ftol=1e-12, gtol=1e-12)
-    except _Spent:
-        pass
-    return best[1]
 
 
 def coarse_to_fine(imager: Imager, start, gauge, levels=LEVELS, max_iter: int = 30,
@@ -200,7 +176,7 @@ def coarse_to_fine(imager: Imager, start, gauge, levels=LEVELS, max_iter: int = 
                 h, g = im.entropy_and_gradient(base + A @ c)
                 return h, A.T @ g
             n = A.shape[1]
-        x = _minimize(fun, n, max_iter, max_fun)
+        x = minimize(fun, n, max_iter, max_fun)
         step = x if A is None else A @ x
         # the phase the imager's images are exact for (block means on sub-apertures), constant
         # and linear part removed
@@ -208,6 +184,21 @@ def coarse_to_fine(imager: Imager, start, gauge, levels=LEVELS, max_iter: int = 
         phi = phi - gauge @ (gauge.T @ phi)
         out.append(phi.copy())
     return out
+
+
+def _each(fn, jobs) -> list:
+    """``[fn(j) for j in jobs]``, the jobs side by side on up to ``sarcli._native.threads()``
+    threads (independent searches; each returns what it would alone)."""
+    from .._native import threads
+
+    jobs = list(jobs)
+    workers = min(len(jobs), threads())
+    if workers <= 1:
+        return [fn(j) for j in jobs]
+    from concurrent.futures import ThreadPoolExecutor
+
+    with ThreadPoolExecutor(max_workers=workers) as pool:
+        return list(pool.map(fn, jobs))
 
 
 def _corr(a, b) -> float:
@@ -262,8 +253,8 @@ REFINE_CORRELATION = 1.0 / 3.0
 
 
 def min_entropy(ph, *, grid: Grid | None = None, start="zero", levels=LEVELS, max_iter: int = 15,
-                pulse_iter: int = 3, full_pulse_iter: int = 0, max_blocks: int = 128,
-                max_stack_mib: float = 128.0, validate: bool = True, guard: bool = True,
+                pulse_iter: int = 3, pulse_lines: int = 2, full_pulse_iter: int = 0, max_blocks: int = 128,
+                max_stack_mib: float = 64.0, validate: bool = True, guard: bool = True,
                 pga_options=None, order="auto") -> AutofocusResult:
     """Minimum-entropy autofocus: coarse to fine to one phase per pulse, cross-validated.
 
@@ -285,6 +276,10 @@ def min_entropy(ph, *, grid: Grid | None = None, start="zero", levels=LEVELS, ma
         L-BFGS iterations per level on the sub-apertures, and at one phase per pulse beyond them
         (on each half, on the exact backprojection pair, :class:`~sarcli.autofocus._imager.Imager`:
         two images per evaluation, no stack; 0 skips that level).
+    pulse_lines : int
+        The level of one phase per pulse beyond the sub-apertures runs on every
+        ``pulse_lines``-th range line of each half
+        (:func:`~sarcli.autofocus._imager.every_nth_line`: whole cross-range lines; 1: all).
     full_pulse_iter : int
         L-BFGS iterations at one phase per pulse on the whole grid, from its sub-aperture estimate
         plus the mean of the halves' per-pulse increments (0: that start is the estimate).
@@ -301,10 +296,10 @@ def min_entropy(ph, *, grid: Grid | None = None, start="zero", levels=LEVELS, ma
         Order of the Rényi entropy minimised (:func:`~sarcli.autofocus._imager.entropy_of`; 1 is
         Shannon's). Orders below 1 weigh dim pixels more: their minimum lies closer to the true
         phase among clutter and farther from it on scenes of isolated points. ``'auto'``: each
-        half's search runs with Shannon's entropy, then again with order ``1/2`` (:data:`ORDERS`),
-        and the order whose halves agree more on the detail of the finest level is used from
-        there on (module docstring). The sharpness guard measures
-        Shannon's entropy whatever the order.
+        half is searched with Shannon's entropy and, again from zero, with order ``1/2``
+        (:data:`ORDERS`; the searches side by side on threads), and the order whose halves agree
+        more on the detail of the finest level is used from there on (module docstring). The
+        sharpness guard measures Shannon's entropy whatever the order.
 
     Returns
     -------
@@ -319,12 +314,12 @@ def min_entropy(ph, *, grid: Grid | None = None, start="zero", levels=LEVELS, ma
     # it too: its idle threads spin after every call, on cores shared with other jobs
     _setulb()
     with single_threaded_blas():
-        return _min_entropy(ph, grid, start, levels, max_iter, pulse_iter, full_pulse_iter, max_blocks,
+        return _min_entropy(ph, grid, start, levels, max_iter, pulse_iter, pulse_lines, full_pulse_iter, max_blocks,
                             max_stack_mib, validate, guard, pga_options, order)
 
 
-def _min_entropy(ph, grid, start, levels, max_iter, pulse_iter, full_pulse_iter, max_blocks, max_stack_mib,
-                 validate, guard, pga_options, order):
+def _min_entropy(ph, grid, start, levels, max_iter, pulse_iter, pulse_lines, full_pulse_iter, max_blocks,
+                 max_stack_mib, validate, guard, pga_options, order):
     if order == "auto":
         orders = ORDERS
     else:
@@ -363,23 +358,28 @@ def _min_entropy(ph, grid, start, levels, max_iter, pulse_iter, full_pulse_iter,
     elif not isinstance(start, str):
         phi0 = np.asarray(start, np.float64)
         phi0, hist["start"] = phi0 - gauge @ (gauge.T @ phi0), "given"
-    paths = [coarse_to_fine(im, zero, gauge, coarse, max_iter) for im in halves]
+    # each half with each order, from zero: independent searches, side by side on threads (a
+    # pass over the stack runs on one thread and releases the GIL)
+    for im in halves:  # the merged stacks, built before the threads share them
+        for lv in coarse:
+            im.coarsened(_spacing(lv, P))
+    runs = _each(lambda im: coarse_to_fine(im, zero, gauge, coarse, max_iter),
+                 [im.with_order(o) for o in orders for im in halves])
+    by_order = {o: runs[2 * k:2 * k + 2] for k, o in enumerate(orders)}
     chosen, hist["order"] = orders[0], orders[0]
     if len(orders) > 1:
-        # the search again with the other order: the order whose halves agree more on the
-        # detail of the finest level is the one less drawn to what is particular to each half
-        # (clutter, or the sidelobes of a few points)
+        # the order whose halves agree more on the detail of the finest level is the one less
+        # drawn to what is particular to each half (clutter, or the sidelobes of a few points)
         def detail(ps):
             return _corr(*(p[-1] - (p[-2] if len(p) > 1 else 0.0) for p in ps))
 
-        agree = {orders[0]: detail(paths)}
+        agree = {o: detail(by_order[o]) for o in orders}
         for o in orders[1:]:
-            alt = [coarse_to_fine(im.with_order(o), zero, gauge, coarse, max_iter) for im in halves]
-            agree[o] = detail(alt)
             if agree[o] > agree[chosen]:
-                chosen, paths = o, alt
+                chosen = o
         halves = [im.with_order(chosen) for im in halves]
         hist["order"], hist["order_agreement"] = chosen, {str(k): v for k, v in agree.items()}
+    paths = by_order[chosen]
     full = full.with_order(chosen)
     gains, corrs = _crossvalidate(halves, paths)
     names = [str(lv) for lv in coarse]
@@ -435,14 +435,14 @@ def _min_entropy(ph, grid, start, levels, max_iter, pulse_iter, full_pulse_iter,
     if kept and K > 1 and pulse_iter > 0 and any(lv != "smooth" and int(lv) < K for lv in levels) \
             and best == len(coarse) - 1:
         # one phase per pulse, beyond the sub-apertures, on the exact backprojection pair (no
-        # stack): each half refines its own sub-aperture estimate, and the level is kept when
-        # each half's per-pulse increment lowers the other half's entropy
-        sides = [Imager(ph, g, chosen) for g in split_grid(full.grid, axis, SPLIT_GAP)[:2]]
+        # stack) on every `pulse_lines`-th range line of each half (whole cross-range lines):
+        # each half refines its own sub-aperture estimate, and the level is kept when each
+        # half's per-pulse increment lowers the other half's entropy
+        sides = [Imager(ph, g, chosen) for g in
+                 split_grid(every_nth_line(full.grid, axis, pulse_lines), axis, SPLIT_GAP)[:2]]
         ends = [coarse_to_fine(im, p[best], gauge, (1,), pulse_iter)[-1] for im, p in zip(sides, paths)]
-        # the other half's sub-aperture estimate is constant over the blocks: the half's stack
-        # gives its image exactly (the same sum of the same backprojections), no new image needed
-        g1 = (halves[0].entropy(paths[1][best]) - sides[0].entropy(ends[1]),
-              halves[1].entropy(paths[0][best]) - sides[1].entropy(ends[0]))
+        # on the half's lines, the other half's sub-aperture estimate against its per-pulse one
+        g1 = tuple(side.entropy(paths[1 - i][best]) - side.entropy(ends[1 - i]) for i, side in enumerate(sides))
         steps = [e - p[best] for e, p in zip(ends, paths)]
         c1 = _corr(*steps)
         fine_imagers += sides
