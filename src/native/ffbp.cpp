@@ -172,16 +172,61 @@ constexpr std::size_t kBlock0 = 16, kTile0 = 32;
 // check points before its nodes are evaluated exactly.
 constexpr double kFitPhase = 1e-6, kFitBin = 1e-5;
 
+// The reciprocals of a tile of n nodes' divided differences (fit_tile): 1/jm, 1/je, 1/(je − jm),
+// worked out once a row rather than once a pulse.
+struct TileInv {
+  double m, e, d;
+};
+
+SARCLI_INLINE TileInv tile_inv(std::size_t n) {
+  const double jm = static_cast<double>((n - 1) / 2), je = static_cast<double>(n - 1);
+  return {1.0 / jm, 1.0 / je, 1.0 / (je - jm)};
+}
+
+// A tile's model of a node's profile position (relative to the whole bin jb) and demodulated
+// carrier phase ψ = k_c Δr − k_ref q (reduced to [−π, π] at the tile's middle node jm): the
+// quadratics through its first, middle and last nodes, in the node's offset j from the first,
+// taken about the middle so that float32 rounds them at half a tile's reach, not a whole one's.
+struct TileFit {
+  double jb, p0, p1, p2, s0, s1, s2, jm;
+  SARCLI_INLINE double pos(double j) const { return p0 + (j - jm) * (p1 + j * p2); }
+  SARCLI_INLINE double psi(double j) const { return s0 + (j - jm) * (s1 + j * s2); }
+};
+
+// The quadratics of a tile from its first, middle and last nodes' profile positions pv and phases
+// sv (jm: the middle node's offset).
+SARCLI_INLINE TileFit fit_from(const double* pv, const double* sv, double jm, const TileInv& inv) {
+  TileFit f;   // Newton's form on the nodes jm, 0, je
+  f.jm = jm;
+  f.jb = std::floor(pv[1]);
+  constexpr double tw = 6.283185307179586, inv_tw = 0.15915494309189535;
+  f.p0 = pv[1] - f.jb;
+  f.p1 = (pv[1] - pv[0]) * inv.m;
+  f.p2 = ((pv[2] - pv[0]) * inv.e - f.p1) * inv.d;
+  f.s0 = sv[1] - std::nearbyint(sv[1] * inv_tw) * tw;
+  f.s1 = (sv[1] - sv[0]) * inv.m;
+  f.s2 = ((sv[2] - sv[0]) * inv.e - f.s1) * inv.d;
+  return f;
+}
+
+
 struct Scratch0 {
   std::vector<double> xs, ys, ax, ay, az, ir2, rr, qq, xpos, xpsi;   // xpos, xpsi: an exact tile's positions and phases
   std::vector<i32> idx;
   std::vector<float> frac, cr, ci, w, acc_re, acc_im;
   std::vector<unsigned char> exact;   // per tile: evaluate every node exactly
+  std::vector<TileInv> inv;           // per tile: tile_inv
+  // every tile's three fit nodes (3t, 3t + 1, 3t + 2: its first, middle and last), their node
+  // arrays gathered once a row, and one pulse's exact ranges there
+  std::vector<double> fxs, fys, fax, fay, faz, fir2, frr, fqq, fd;
+  std::vector<TileFit> fit;           // per tile: one pulse's quadratics
   std::size_t n;                        // nodes rounded up to whole blocks
   explicit Scratch0(std::size_t nq)
       : xs(nq), ys(nq), ax(nq), ay(nq), az(nq), ir2(nq), rr(nq), qq(nq), xpos(nq), xpsi(nq),
         idx((nq + kBlock0 - 1) / kBlock0 * kBlock0), frac(idx.size()), cr(idx.size()), ci(idx.size()),
-        w(6 * idx.size()), acc_re(idx.size()), acc_im(idx.size()), exact(nq / kTile0 + 1), n(idx.size()) {}
+        w(6 * idx.size()), acc_re(idx.size()), acc_im(idx.size()), exact(nq / kTile0 + 1), inv(nq / kTile0 + 1),
+        fxs(3 * inv.size()), fys(fxs.size()), fax(fxs.size()), fay(fxs.size()), faz(fxs.size()), fir2(fxs.size()),
+        frr(fxs.size()), fqq(fxs.size()), fd(fxs.size()), fit(inv.size()), n(idx.size()) {}
 };
 
 // How weights6 forms the six weights of a 6-tap kernel: read precomputed ones, evaluate the
@@ -284,19 +329,37 @@ SARCLI_INLINE void tap6_gather(const float* sre, const float* sim, const i32* id
   }
 }
 
+// The points k in (k0, k1) where idx[k] − idx[k − 1] differs from step, listed in brk (returns how
+// many). Such breaks come one to a few a row (where the points' spacing drifts from the samples'),
+// so a block of 16 points without one is passed over after one vectorised test, and the others are
+// listed without branches.
+SARCLI_INLINE std::size_t list_breaks(const i32* idx, std::size_t k0, std::size_t k1, i32 step, i32* brk) {
+  std::size_t nb = 0, k = k0 + 1;
+  for (; k + 16 <= k1; k += 16) {
+    i32 any = 0;
+#pragma omp simd reduction(| : any)
+    for (std::size_t i = k; i < k + 16; ++i) any |= (idx[i] - idx[i - 1]) ^ step;
+    if (any == 0) continue;
+    for (std::size_t i = k; i < k + 16; ++i) {
+      brk[nb] = static_cast<i32>(i);
+      nb += static_cast<std::size_t>(idx[i] - idx[i - 1] != step);
+    }
+  }
+  for (; k < k1; ++k) {
+    brk[nb] = static_cast<i32>(k);
+    nb += static_cast<std::size_t>(idx[k] - idx[k - 1] != step);
+  }
+  return nb;
+}
+
 // Runs of points k whose stencil start idx[k] − k is constant (idx increasing by one a point):
 // calls run(k0, k1, off) for each, and returns false without calling when there are more than
 // max_runs (the points are better served by gathers). The run boundaries are listed first
-// without branches (brk: k1 − k0 entries of scratch), as they come every few points where the
-// points' spacing differs slightly from the samples'.
+// (list_breaks; brk: k1 − k0 entries of scratch).
 template <typename Run>
 SARCLI_INLINE bool for_runs(const i32* idx, std::size_t k0, std::size_t k1, std::size_t max_runs, i32* brk,
                             Run run) {
-  std::size_t nb = 0;
-  for (std::size_t k = k0 + 1; k < k1; ++k) {
-    brk[nb] = static_cast<i32>(k);
-    nb += static_cast<std::size_t>(idx[k] - idx[k - 1] != 1);
-  }
+  const std::size_t nb = list_breaks(idx, k0, k1, 1, brk);
   if (nb + 1 > max_runs) return false;
   std::size_t i = k0;
   for (std::size_t b = 0; b <= nb; ++b) {
@@ -307,59 +370,52 @@ SARCLI_INLINE bool for_runs(const i32* idx, std::size_t k0, std::size_t k1, std:
   return true;
 }
 
-// Exact differential range of pulse g (row r of the pulse table at g[r * B]) at node iq: the
+// A row's node arrays as exact_dr reads them: ground points (xs, ys) and the series' factors.
+struct NodeGeo {
+  const double *xs, *ys, *ax, *ay, *az, *ir2, *rr, *qq;
+};
+
+// Exact differential range of pulse g (row r of the pulse table at g[r * B]) at node iq of N: the
 // series about the sub-aperture centre or the square root (stage 0's two forms).
-SARCLI_INLINE double exact_dr(const Stage0& A, const double* g, bool series, const Scratch0& W, std::size_t iq) {
+SARCLI_INLINE double exact_dr(const Stage0& A, const double* g, bool series, const NodeGeo& N, std::size_t iq) {
   const std::size_t B = A.B;
   if (series) {
-    const double e = W.ax[iq] * g[kDlt * B] + W.ay[iq] * g[(kDlt + 1) * B] + W.az[iq] * g[(kDlt + 2) * B] +
-                     g[(kDlt + 3) * B] * W.ir2[iq];
+    const double e = N.ax[iq] * g[kDlt * B] + N.ay[iq] * g[(kDlt + 1) * B] + N.az[iq] * g[(kDlt + 2) * B] +
+                     g[(kDlt + 3) * B] * N.ir2[iq];
     double s = sqrt_series(e);
     if (A.bistatic) {
-      const double eb = W.ax[iq] * g[(kDlt + 4) * B] + W.ay[iq] * g[(kDlt + 5) * B] +
-                        W.az[iq] * g[(kDlt + 6) * B] + g[(kDlt + 7) * B] * W.ir2[iq];
+      const double eb = N.ax[iq] * g[(kDlt + 4) * B] + N.ay[iq] * g[(kDlt + 5) * B] +
+                        N.az[iq] * g[(kDlt + 6) * B] + g[(kDlt + 7) * B] * N.ir2[iq];
       s = 0.5 * (s + sqrt_series(eb));
     }
-    return W.qq[iq] + W.rr[iq] * s + g[(kDlt + 8) * B];
+    return N.qq[iq] + N.rr[iq] * s + g[(kDlt + 8) * B];
   }
-  double d = one_way(W.xs[iq], W.ys[iq], g[0], g[B], g[2 * B], g[3 * B]);
-  if (A.bistatic) d = 0.5 * (d + one_way(W.xs[iq], W.ys[iq], g[4 * B], g[5 * B], g[6 * B], g[7 * B]));
+  double d = one_way(N.xs[iq], N.ys[iq], g[0], g[B], g[2 * B], g[3 * B]);
+  if (A.bistatic) d = 0.5 * (d + one_way(N.xs[iq], N.ys[iq], g[4 * B], g[5 * B], g[6 * B], g[7 * B]));
   return d + g[8 * B];
 }
 
-// A tile's model of a node's profile position (relative to the whole bin jb) and demodulated
-// carrier phase ψ = k_c Δr − k_ref q (reduced to [−π, π] at the tile's middle node jm): the
-// quadratics through its first, middle and last nodes, in the node's offset j from the first,
-// taken about the middle so that float32 rounds them at half a tile's reach, not a whole one's.
-struct TileFit {
-  double jb, p0, p1, p2, s0, s1, s2, jm;
-  SARCLI_INLINE double pos(double j) const { return p0 + (j - jm) * (p1 + j * p2); }
-  SARCLI_INLINE double psi(double j) const { return s0 + (j - jm) * (s1 + j * s2); }
-};
+SARCLI_INLINE NodeGeo row_geo(const Scratch0& W) {
+  return {W.xs.data(), W.ys.data(), W.ax.data(), W.ay.data(), W.az.data(), W.ir2.data(), W.rr.data(), W.qq.data()};
+}
 
-SARCLI_INLINE TileFit fit_tile(const Stage0& A, const double* g, bool series, const Scratch0& W, std::size_t k0,
-                               std::size_t n) {
+SARCLI_INLINE NodeGeo fit_geo(const Scratch0& W) {
+  return {W.fxs.data(), W.fys.data(), W.fax.data(), W.fay.data(), W.faz.data(), W.fir2.data(), W.frr.data(),
+          W.fqq.data()};
+}
+
+SARCLI_INLINE TileFit fit_tile(const Stage0& A, const double* g, bool series, const NodeGeo& N, std::size_t k0,
+                               std::size_t n, const TileInv& inv) {
   const double ib = g[kInvBin * A.B], kc = g[kKc * A.B];
   const std::size_t jm = (n - 1) / 2, je = n - 1;
   double pv[3], sv[3];
   const std::size_t js[3] = {0, jm, je};
   for (int i = 0; i < 3; ++i) {
-    const double d = exact_dr(A, g, series, W, k0 + js[i]);
+    const double d = exact_dr(A, g, series, N, k0 + js[i]);
     pv[i] = d * ib + A.half_len;
-    sv[i] = kc * d - A.kref * W.qq[k0 + js[i]];
+    sv[i] = kc * d - A.kref * N.qq[k0 + js[i]];
   }
-  TileFit f;   // Newton's form on the nodes jm, 0, je
-  f.jm = static_cast<double>(jm);
-  f.jb = std::floor(pv[1]);
-  const double tw = 6.283185307179586;
-  const double dm = f.jm, de = static_cast<double>(je);
-  f.p0 = pv[1] - f.jb;
-  f.p1 = (pv[1] - pv[0]) / dm;
-  f.p2 = ((pv[2] - pv[0]) / de - f.p1) / (de - dm);
-  f.s0 = sv[1] - std::nearbyint(sv[1] / tw) * tw;
-  f.s1 = (sv[1] - sv[0]) / dm;
-  f.s2 = ((sv[2] - sv[0]) / de - f.s1) / (de - dm);
-  return f;
+  return fit_from(pv, sv, static_cast<double>(jm), inv);
 }
 
 // Profile index, fraction and masked carrier of nodes k0 .. k0+n-1 from their positions f relative
@@ -394,9 +450,9 @@ SARCLI_INLINE void tap6_block(const float* sre, const float* sim, std::size_t le
                               const float* __restrict tab, const float* __restrict w, std::size_t ws,
                               const float* __restrict cr, const float* __restrict ci, float* __restrict acc_re,
                               float* __restrict acc_im, std::size_t k0) {
-  i32 smin = idx[k0], smax = idx[k0];
+  i32 smin = idx[k0], smax = idx[k0];   // over the whole block: one vector of kBlock0 lanes, no remainder
 #pragma omp simd reduction(min : smin) reduction(max : smax)
-  for (std::size_t i = 1; i < kBlock0; ++i) {
+  for (std::size_t i = 0; i < kBlock0; ++i) {
     const i32 s = idx[k0 + i] - static_cast<i32>(i);
     smin = std::min(smin, s);
     smax = std::max(smax, s);
@@ -453,20 +509,28 @@ void stage0_row(const Stage0& A, std::size_t s, std::size_t it, Scratch0& W) {
     W.ir2[iq] = i2; W.rr[iq] = r; W.qq[iq] = q;
   }
   for (std::size_t k = 0; k < n; ++k) { acc_re[k] = 0.0f; acc_im[k] = 0.0f; }
+  const NodeGeo G = row_geo(W), FG = fit_geo(W);
   const std::size_t ntile = std::max<std::size_t>(1, (nq + kTile0 / 2) / kTile0);
   const i64 p0 = A.first[s], p1 = A.first[s] + A.count[s];
   for (std::size_t t = 0; t < ntile; ++t) {   // which tiles the quadratic serves
     const std::size_t k0 = t * nq / ntile, m = (t + 1) * nq / ntile - k0;
+    W.inv[t] = tile_inv(m);
+    const std::size_t js[3] = {k0, k0 + (m - 1) / 2, k0 + m - 1};
+    for (std::size_t i = 0; i < 3; ++i) {   // the tile's fit nodes, gathered
+      const std::size_t k = js[i], f = 3 * t + i;
+      W.fxs[f] = W.xs[k]; W.fys[f] = W.ys[k]; W.fax[f] = W.ax[k]; W.fay[f] = W.ay[k]; W.faz[f] = W.az[k];
+      W.fir2[f] = W.ir2[k]; W.frr[f] = W.rr[k]; W.fqq[f] = W.qq[k];
+    }
     bool ok = m >= 3;
     if (ok && p1 > p0) {
       const std::size_t jm = (m - 1) / 2;
       const std::size_t jc[2] = {jm / 2, (jm + m - 1) / 2};
       for (i64 p : {p0, p0 + (p1 - p0 - 1) / 2, p1 - 1}) {
         const double* g = A.pul + p;
-        const TileFit f = fit_tile(A, g, series, W, k0, m);
+        const TileFit f = fit_tile(A, g, series, G, k0, m, W.inv[t]);
         const double ib = g[kInvBin * A.B], kc = g[kKc * A.B];
         for (std::size_t j : jc) {
-          const double d = exact_dr(A, g, series, W, k0 + j);
+          const double d = exact_dr(A, g, series, G, k0 + j);
           const double pe = d * ib + A.half_len - f.jb, se = kc * d - A.kref * W.qq[k0 + j];
           const double ds = se - f.psi(static_cast<double>(j));
           ok = ok && std::abs(pe - f.pos(static_cast<double>(j))) <= kFitBin &&
@@ -482,14 +546,31 @@ void stage0_row(const Stage0& A, std::size_t s, std::size_t it, Scratch0& W) {
     const float* rp = A.pre + p * A.plen;
     const float* ip = A.pim + p * A.plen;
     const double* g = A.pul + p;   // row r at g[r * B]
+    {   // every tile's quadratics: the exact ranges at all fit nodes, then the fits, each vectorised
+      const double ib = g[kInvBin * A.B], kc = g[kKc * A.B];
+      double* fd = W.fd.data();
+      TileFit* fit = W.fit.data();
+#pragma omp simd
+      for (std::size_t f = 0; f < 3 * ntile; ++f) fd[f] = exact_dr(A, g, series, FG, f);
+#pragma omp simd
+      for (std::size_t t = 0; t < ntile; ++t) {
+        double pv[3], sv[3];
+        for (std::size_t i = 0; i < 3; ++i) {
+          pv[i] = fd[3 * t + i] * ib + A.half_len;
+          sv[i] = kc * fd[3 * t + i] - A.kref * W.fqq[3 * t + i];
+        }
+        const std::size_t m = (t + 1) * nq / ntile - t * nq / ntile;
+        fit[t] = fit_from(pv, sv, static_cast<double>((m - 1) / 2), W.inv[t]);
+      }
+    }
     for (std::size_t t = 0; t < ntile; ++t) {
       const std::size_t k0 = t * nq / ntile, m = (t + 1) * nq / ntile - k0;
       if (W.exact[t]) {   // every node exactly (float64), relative to the first node's bin
         const double ib = g[kInvBin * A.B], kc = g[kKc * A.B];
-        const double jb = std::floor(exact_dr(A, g, series, W, k0) * ib + A.half_len);
+        const double jb = std::floor(exact_dr(A, g, series, G, k0) * ib + A.half_len);
         for (std::size_t j = 0; j < m; ++j) {
           const std::size_t k = k0 + j;
-          const double d = exact_dr(A, g, series, W, k);
+          const double d = exact_dr(A, g, series, G, k);
           const double ph = kc * d - A.kref * W.qq[k];
           W.xpos[k] = d * ib + A.half_len - jb;
           W.xpsi[k] = ph - 6.283185307179586 * std::nearbyint(ph / 6.283185307179586);
@@ -500,7 +581,7 @@ void stage0_row(const Stage0& A, std::size_t s, std::size_t it, Scratch0& W) {
               [&](i32 j) SARCLI_LAMBDA_INLINE { return static_cast<float>(ps[k0 + j]); }, idx, frac, cr, ci);
         continue;
       }
-      const TileFit f = fit_tile(A, g, series, W, k0, m);
+      const TileFit& f = W.fit[t];
       const float p0f = static_cast<float>(f.p0), p1f = static_cast<float>(f.p1), p2f = static_cast<float>(f.p2);
       const float s0f = static_cast<float>(f.s0), s1f = static_cast<float>(f.s1), s2f = static_cast<float>(f.s2);
       const float jmf = static_cast<float>(f.jm);
@@ -629,8 +710,16 @@ SARCLI_INLINE v8f weights8(const v8f* ck, float t) {
   return w;
 }
 
-SARCLI_INLINE float hsum8(v8f v) {
-  return ((v[0] + v[4]) + (v[1] + v[5])) + ((v[2] + v[6]) + (v[3] + v[7]));
+typedef int v8i __attribute__((vector_size(32)));
+
+// The lane sums of a and b, each as ((a0 + a4) + (a1 + a5)) + ((a2 + a6) + (a3 + a7)), from three
+// shuffles and three additions shared by the two.
+SARCLI_INLINE void hsum8x2(v8f a, v8f b, float& sa, float& sb) {
+  const v8f s = __builtin_shuffle(a, b, v8i{0, 1, 2, 3, 8, 9, 10, 11}) + __builtin_shuffle(a, b, v8i{4, 5, 6, 7, 12, 13, 14, 15});
+  const v8f t = s + __builtin_shuffle(s, v8i{1, 0, 3, 2, 5, 4, 7, 6});
+  const v8f u = t + __builtin_shuffle(t, v8i{2, 3, 0, 1, 6, 7, 4, 5});
+  sa = u[0];
+  sb = u[4];
 }
 
 // Add one sub-image, interpolated at the polar coordinates (qs, ts) of n points and re-modulated
@@ -690,7 +779,8 @@ SARCLI_INLINE void polar_row(const Child& C, double dq, double kref, const doubl
           }
         }
       }
-      const float vr = hsum8(sr * w8), vi = hsum8(si * w8);
+      float vr, vi;
+      hsum8x2(sr * w8, si * w8, vr, vi);
       acc_re[i] += vr * cr[i] - vi * ci[i];
       acc_im[i] += vr * ci[i] + vi * cr[i];
     }
@@ -773,23 +863,35 @@ SARCLI_INLINE void separable_row(const Child& C, double dq, double kref, const d
   while (okc[i1] == 0.0f) --i1;
   const i32 jlo = idx_q[i0];
   const std::size_t ncol = static_cast<std::size_t>(idx_q[i1] + ntap - jlo);
-  // T at the columns: walk the row, then locate in u
+  // T at the columns: linear between the row's points (extrapolated past its ends), then located in u
   for (std::size_t i = 0; i + 1 < n; ++i) slope[i] = (ts[i + 1] - ts[i]) / (qs[i + 1] - qs[i]);
-  // segment of each column: the last point k <= n - 2 with qs[k] <= q_j (0 if none), as the
-  // running maximum of each point's first column (no data-dependent branches)
+  // segment of each column: the last point k in [1, n − 2] with qs[k] <= q_j (0 if none). With
+  // c_k the first column at or past point k, that is the last k with c_k <= j. Columns and points share
+  // their spacing in q, so along a run of points whose c_k rises by one a point each column's
+  // segment is its own point (k − c_k constant: contiguous loads), and a column between runs keeps
+  // the last point before it; the runs are few a row (list_breaks).
+  const i32 top = static_cast<i32>(n) - 2, nc = static_cast<i32>(ncol);
   const double qc0 = C.f.q0 + static_cast<double>(jlo) * dq, inv_col = 1.0 / dq;
-  i32* seg = W.seg.data();
-  for (std::size_t jj = 0; jj < ncol; ++jj) seg[jj] = 0;
-  for (std::size_t i = 1; i + 1 < n; ++i) {
-    const double c = std::ceil((qs[i] - qc0) * inv_col);   // first column at or past point i
-    if (c < static_cast<double>(ncol)) seg[static_cast<std::size_t>(std::max(c, 0.0))] = static_cast<i32>(i);
+  i32 *cpt = W.idx_t.data(), *brk = W.brk.data();
+  for (std::size_t i = 0; i < n; ++i) cpt[i] = static_cast<i32>(std::ceil((qs[i] - qc0) * inv_col));
+  auto fill = [&](i32 j0, i32 j1, i32 shift, bool run) SARCLI_LAMBDA_INLINE {   // k = j + shift, or shift
+#pragma omp simd
+    for (i32 jj = j0; jj < j1; ++jj) {
+      const std::size_t k = static_cast<std::size_t>(run ? jj + shift : shift);
+      const double qj = C.f.q0 + static_cast<double>(jlo + jj) * dq;
+      ft[jj] = ts[k] + (qj - qs[k]) * slope[k];
+    }
+  };
+  const std::size_t nb = top >= 1 ? list_breaks(cpt, 1, static_cast<std::size_t>(top) + 1, 1, brk) : 0;
+  i32 j = 0;   // columns below j are done
+  for (std::size_t b = 0; top >= 1 && b <= nb; ++b) {   // runs [a, e) of points
+    const i32 a = b == 0 ? 1 : brk[b - 1], e = b < nb ? brk[b] : top + 1;
+    const i32 ca = cpt[a], ce = std::min(cpt[e - 1] + 1, nc);
+    if (j < std::min(ca, nc)) fill(j, std::min(ca, nc), a - 1, false);   // a gap: the point before the run
+    if (std::max(ca, 0) < ce) fill(std::max(ca, 0), ce, a - ca, true);    // later points win a shared column
+    j = std::max(j, ce);
   }
-  for (std::size_t jj = 1; jj < ncol; ++jj) seg[jj] = std::max(seg[jj], seg[jj - 1]);
-  for (std::size_t jj = 0; jj < ncol; ++jj) {
-    const std::size_t k = static_cast<std::size_t>(seg[jj]);
-    const double qj = C.f.q0 + static_cast<double>(jlo + static_cast<i32>(jj)) * dq;
-    ft[jj] = ts[k] + (qj - qs[k]) * slope[k];
-  }
+  if (j < nc) fill(j, nc, std::max(top, 0), false);
   for (std::size_t jj = 0; jj < ncol; ++jj) {
     double tt;
     bool okt;
@@ -800,12 +902,8 @@ SARCLI_INLINE void separable_row(const Child& C, double dq, double kref, const d
   const std::size_t cq = C.nq;
   if (ntap == 6) {   // runs of columns reading the same six child rows: contiguous loads
     if (mode_t == kWeightsRead) row_weights<float>(kind, ft32, ncol, wt, ncol, tab_t);
-    i32* brk = W.seg.data();   // the columns where the stencil row changes, listed without branches
-    std::size_t nb = 0;
-    for (std::size_t jj = 1; jj < ncol; ++jj) {
-      brk[nb] = static_cast<i32>(jj);
-      nb += static_cast<std::size_t>(idx_c[jj] != idx_c[jj - 1]);
-    }
+    i32* brk = W.seg.data();   // the columns where the stencil row changes
+    const std::size_t nb = list_breaks(idx_c, 0, ncol, 0, brk);
     std::size_t j0 = 0;
     for (std::size_t b = 0; b <= nb; ++b) {
       const std::size_t j1 = b < nb ? static_cast<std::size_t>(brk[b]) : ncol;
