@@ -171,6 +171,30 @@ def test_calibration_is_kept_per_machine(tmp_path, monkeypatch):
     other = dict(cal.machine(), cpu="another CPU")
     monkeypatch.setattr(cal, "machine", lambda: other)
     assert cal.user_cost_model_path() != mine and not cal.is_calibrated()
+    # nor kernels rebuilt since: the build fingerprint follows the modules' files
+    rebuilt = dict(cal.machine(), kernels="0" * 12)
+    monkeypatch.setattr(cal, "machine", lambda: rebuilt)
+    assert cal.user_cost_model_path() != mine and not cal.is_calibrated()
+
+
+def test_kernel_build_fingerprint_follows_the_module_files(tmp_path, monkeypatch):
+    import os
+    import shutil
+    from pathlib import Path
+
+    import sarcli._native as nat
+
+    real = nat.build_id()
+    for f in Path(nat.load("runtime").__file__).parent.glob("_runtime*.so"):
+        shutil.copy(f, tmp_path / f.name)
+    so = next(tmp_path.glob("_runtime*.so"))
+    monkeypatch.setattr(nat, "load", lambda family: type("M", (), {"__file__": str(so)}))
+    first = nat.build_id()
+    assert first != real   # one module, not all of them
+    assert first == nat.build_id() and len(first) == 12
+    st = so.stat()
+    os.utime(so, ns=(st.st_atime_ns, st.st_mtime_ns + 10 ** 9))
+    assert nat.build_id() != first
 
 
 def test_command_seconds_adds_what_the_command_pays(sph):

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import os
 
-__all__ = ["load", "threads", "using_threads", "simd_level"]
+__all__ = ["load", "threads", "using_threads", "simd_level", "build_id"]
 
 # Threads waiting at a barrier sleep rather than spin: on a machine shared with other work a
 # spinning thread burns the time slice its sibling needs to reach the barrier. Read by OpenMP
@@ -69,3 +69,18 @@ class using_threads:
 def simd_level() -> str:
     """The instruction set the kernels' SIMD clones run on here: avx512, avx2 or baseline."""
     return load("runtime").simd_level()
+
+
+def build_id() -> str:
+    """A fingerprint of the compiled kernel modules installed (names, sizes, modification times):
+    it changes when they are rebuilt, so what was measured of the old kernels is not reused."""
+    import hashlib
+    from pathlib import Path
+
+    h = hashlib.blake2b(digest_size=6)
+    # beside the runtime module (in an editable install not beside this file)
+    for f in sorted(Path(load("runtime").__file__).parent.glob("_*.*")):
+        if f.suffix in (".so", ".pyd", ".dylib"):
+            st = f.stat()
+            h.update(f"{f.name}:{st.st_size}:{st.st_mtime_ns};".encode())
+    return h.hexdigest()

@@ -5,8 +5,9 @@ constants; its ``calibrate`` measures them with small instances of every former 
 and, for the whole command, the start-up (a fresh interpreter importing what ``sar form-image``
 imports), reading and writing. Its result is kept per machine in the user's cache folder
 (``$SARCLI_CACHE_DIR``, else ``$XDG_CACHE_HOME/sarcli``, else ``~/.cache/sarcli``), named by a
-fingerprint of the CPU model, the processors this process may use, the kernels' SIMD level and
-sarcli's version, so a calibration never serves another machine. Until a machine is calibrated
+fingerprint of the CPU model, the processors this process may use, the kernels' SIMD level,
+sarcli's version and the compiled kernels' build (:func:`sarcli._native.build_id`), so a
+calibration never serves another machine, nor kernels rebuilt since. Until a machine is calibrated
 (``sar plan`` calibrates it on first use; ``sar plan --calibrate`` again), the constants are those
 of the reference machine that ship with the package (``cost_model.json`` beside this module,
 written by ``bench/bench_ffbp.py --calibrate``).
@@ -39,9 +40,10 @@ STARTUP_IMPORTS = ("import sarcli.cli.main, sarcli.cli.form_image, sarcli.former
 
 @functools.lru_cache(maxsize=1)
 def machine() -> dict:
-    """What a calibration is valid for: CPU model, usable processors, SIMD level, sarcli version."""
+    """What a calibration is valid for: CPU model, usable processors, SIMD level, sarcli version,
+    kernel build."""
     from .. import __version__
-    from .._native import simd_level
+    from .._native import build_id, simd_level
 
     model = "unknown"
     try:
@@ -53,7 +55,7 @@ def machine() -> dict:
         cpus = len(os.sched_getaffinity(0))
     except AttributeError:
         cpus = os.cpu_count() or 1
-    return {"cpu": model, "cpus": cpus, "simd": simd_level(), "sarcli": __version__}
+    return {"cpu": model, "cpus": cpus, "simd": simd_level(), "sarcli": __version__, "kernels": build_id()}
 
 
 def user_cost_model_path() -> Path:
