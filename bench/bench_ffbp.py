@@ -15,7 +15,7 @@ P pulses; the issue's 2048x2048 takes many minutes per backprojection on a loade
 
 Usage::
 
-    python bench/bench_ffbp.py [--synthetic 512x1024] [--no-gotcha] [--repeat 1] [--calibrate]
+    python bench/bench_ffbp.py [--synthetic 512x1024] [--no-gotcha] [--repeat 1] [--calibrate] [--skip subimage]
 
 ``--calibrate`` first re-measures the planner's reference cost model, the one shipped with the
 package (``sarcli/formers/cost_model.json``; a user's machine measures its own on first `sar plan`).
@@ -79,7 +79,7 @@ def synthetic(n, p, seed=0):
     return PhaseHistory(d, acq), acq.grid
 
 
-def run_case(name, ph, grid, repeat, max_ref_cost):
+def run_case(name, ph, grid, repeat, max_ref_cost, skip=()):
     sub, rs, cs, cost = reference_grid(ph, grid, max_ref_cost)
     t0 = time.perf_counter()
     ref = form_image(ph, "direct", grid=sub).image
@@ -94,7 +94,7 @@ def run_case(name, ph, grid, repeat, max_ref_cost):
                 ("subimage", {"tolerance": 1e-2}),
                 ("auto", {"tolerance": 1e-2}), ("auto", {"tolerance": 1e-3}), ("auto", {"tolerance": 1e-4})]
     t_bp = None
-    for method, knobs in settings:
+    for method, knobs in [s for s in settings if s[0] not in skip]:
         if method == "auto":   # a fall-back to direct is the reference itself (minutes to hours): reported, not run
             from sarcli.formers.planner import recommend
 
@@ -128,7 +128,9 @@ def main(argv=None):
     ap.add_argument("--repeat", type=int, default=1)
     ap.add_argument("--max-reference-cost", type=float, default=5e8)
     ap.add_argument("--calibrate", action="store_true", help="re-measure the planner's cost model first")
+    ap.add_argument("--skip", default="", help="methods not to run, comma-separated (e.g. subimage: minutes on 2048^2)")
     args = ap.parse_args(argv)
+    skip = tuple(m for m in args.skip.split(",") if m)
     from sarcli._native import simd_level, threads
 
     print(f"machine: {os.cpu_count()} cores, kernels on {threads()} threads ({simd_level()}); load average "
@@ -144,12 +146,12 @@ def main(argv=None):
 
         ph = read_gotcha([str(f) for f in files])
         run_case(f"GOTCHA, {len(files)} files, 100 m at 0.125 m", ph, Grid.from_extent(100.0, 0.125), args.repeat,
-                 args.max_reference_cost)
+                 args.max_reference_cost, skip)
     if args.synthetic:
         n, p = (int(v) for v in args.synthetic.lower().split("x"))
         ph, grid = synthetic(n, p)
         run_case(f"simulated circle, r0 = 10 km, {n}^2 from {p} pulses", ph, grid, args.repeat,
-                 args.max_reference_cost)
+                 args.max_reference_cost, skip)
     return 0
 
 
