@@ -118,24 +118,33 @@ class Imager:
     grid : Grid
     order : float
         Order of the Rényi entropy (:func:`entropy_of`).
+    like : Imager, optional
+        An imager of the same ``ph`` on another grid: its prepared backprojector's range profiles
+        are shared (:meth:`sarcli.formers._bp_prepared.Backprojector.on`).
     """
 
-    def __init__(self, ph, grid: Grid, order: float = 1.0):
+    def __init__(self, ph, grid: Grid, order: float = 1.0, *, like: "Imager | None" = None):
         self.grid = grid
         self.order = float(order)
-        self.data = np.asarray(ph.data, dtype=np.complex128)
-        acq = ph.acquisition
-        self.stack = None
+        self.stack = self._bp = None
         self.evaluations = 0
-        if acq.model == "spherical" and self.data.shape[1] >= 2:
+        acq = ph.acquisition
+        if like is not None and like._bp is not None and like._ph is ph:
+            with warnings.catch_warnings():  # as below
+                warnings.simplefilter("ignore", SarcliWarning)
+                self._ph, self._bp = ph, like._bp.on(grid)   # the same data: their range profiles shared
+            return
+        data = np.asarray(ph.data, dtype=np.complex128)
+        self._ph = ph
+        if acq.model == "spherical" and data.shape[1] >= 2:
             t, q, r0 = acq.range_geometry()
-            self._args = (acq.frequencies_2d, t, r0, grid)
-            self._kw = dict(ESTIMATION_BP, receive_position_m=q if acq.is_bistatic else None)
-            try:  # the backprojector's checks, on one pixel
-                from ..formers.backprojection import backproject
+            try:  # the backprojector's checks; its range profiles once for every image and contraction
+                from ..formers._bp_prepared import Backprojector
 
-                backproject(self.data, *self._args[:3], Grid(1, 1, grid.dx, grid.dy, grid.cx, grid.cy),
-                            **self._kw)
+                with warnings.catch_warnings():  # a guard band may reach the unambiguous window: harmless
+                    warnings.simplefilter("ignore", SarcliWarning)
+                    self._bp = Backprojector(data, acq.frequencies_2d, t, r0, grid, **ESTIMATION_BP,
+                                             receive_position_m=q if acq.is_bistatic else None)
                 return
             except SarcliInputError:  # unequally spaced frequencies: the stack below
                 pass
@@ -143,24 +152,16 @@ class Imager:
 
     def image(self, phi) -> np.ndarray:
         """``f(φ)``, shape ``grid.shape``."""
-        e = np.exp(-1j * np.asarray(phi, np.float64))
         if self.stack is not None:
+            e = np.exp(-1j * np.asarray(phi, np.float64))
             return (e.astype(self.stack.dtype) @ self.stack).reshape(self.grid.shape)
-        from ..formers.backprojection import backproject
-
-        with warnings.catch_warnings():  # a guard band may reach the unambiguous window: harmless
-            warnings.simplefilter("ignore", SarcliWarning)
-            return backproject(self.data * e[:, None], *self._args, **self._kw)
+        return self._bp.image(phi)
 
     def _contract(self, g) -> np.ndarray:
         """``v_p = Σ_s g_s b_ps`` for an image-shaped ``g``."""
         if self.stack is not None:
             return self.stack @ g.ravel().astype(self.stack.dtype)
-        from ..formers.backprojection import pulse_contractions
-
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", SarcliWarning)
-            return pulse_contractions(self.data, g, *self._args, **self._kw)
+        return self._bp.contract(g)
 
     def blockwise(self, phi) -> np.ndarray:
         """``φ`` itself (this imager is exact for any per-pulse phase)."""
