@@ -178,7 +178,7 @@ def test_prepared_backprojector_is_backproject_and_pulse_contractions(kw):
     from sarcli.core.grid import Grid
     from sarcli.errors import SarcliInputError
     from sarcli.formers._bp_prepared import Backprojector
-    from sarcli.formers.backprojection import backproject, pulse_contractions
+    from sarcli.formers.backprojection import backproject, pulse_contractions, subaperture_images
 
     rng = np.random.default_rng(5)
     freq = 9.8e9 + 5e6 * np.arange(40)
@@ -201,6 +201,13 @@ def test_prepared_backprojector_is_backproject_and_pulse_contractions(kw):
         v = pulse_contractions(d, h, freq, a, r0, g, w, **kw)
         assert np.max(np.abs(b.contract(h) - v)) < tol * np.max(np.abs(v))
     assert bp.on(other).profiles is bp.profiles
+    bounds = [0, 7, 8, 100, 150]
+    groups = [(b, re.copy(), im.copy()) for b, re, im in bp.group_images(bounds)]
+    for (b, re, im), (b2, ref) in zip(groups, subaperture_images(d, bounds, freq, a, r0, grid, w, **kw)):
+        assert b == b2 and np.max(np.abs(re + 1j * im - ref)) < tol * np.max(np.abs(ref))
+    assert len(groups) == 4
+    with pytest.raises(SarcliInputError):
+        next(bp.group_images([0, 7, 149]))
     with pytest.raises(SarcliInputError):
         bp.image(phi[:-1])
     with pytest.raises(SarcliInputError):

@@ -118,12 +118,12 @@ class Imager:
     grid : Grid
     order : float
         Order of the Rényi entropy (:func:`entropy_of`).
-    like : Imager, optional
+    like : Imager or BlockImager, optional
         An imager of the same ``ph`` on another grid: its prepared backprojector's range profiles
         are shared (:meth:`sarcli.formers._bp_prepared.Backprojector.on`).
     """
 
-    def __init__(self, ph, grid: Grid, order: float = 1.0, *, like: "Imager | None" = None):
+    def __init__(self, ph, grid: Grid, order: float = 1.0, *, like=None):
         self.grid = grid
         self.order = float(order)
         self.stack = self._bp = None
@@ -283,6 +283,7 @@ class BlockImager:
         self.order = float(order)
         self.axis = axis
         self._evaluations, self._counter = 0, _counter
+        self._ph = self._bp = None   # the data and their prepared backprojector, when built here
         if _parts is None:
             P = ph.data.shape[0]
             self.bounds = np.append(np.arange(0, P, block), P)
@@ -296,34 +297,41 @@ class BlockImager:
         (low, high[, band]; in the image: low, band, high along ``axis``)."""
         acq = ph.acquisition
         nb = len(self.bounds) - 1
-        d = np.asarray(ph.data)
         size = [g.nx if self.axis == 1 else g.ny for g in pieces]
         edges = [(0, size[0]), (size[0] + (size[2] if len(size) > 2 else 0), None)]
         if len(size) > 2:
             edges.append((size[0], size[0] + size[2]))
         parts = [np.empty((nb, g.nx * g.ny), dtype=np.complex64) for g in pieces]
 
-        def store(b, img):
-            for part, (lo, hi) in zip(parts, edges):
-                part[b] = (img[:, lo:hi] if self.axis == 1 else img[lo:hi]).ravel()
+        def store(b, re, im):
+            # straight into the parts' real and imaginary parts: no complex image in between
+            for part, g, (lo, hi) in zip(parts, pieces, edges):
+                dst = part[b].reshape(g.ny, g.nx)
+                cut = (slice(None), slice(lo, hi)) if self.axis == 1 else (slice(lo, hi),)
+                np.copyto(dst.real, re[cut])
+                np.copyto(dst.imag, im[cut])
 
-        if acq.model == "spherical" and d.shape[1] >= 2:
-            from ..formers.backprojection import subaperture_images
+        data = np.asarray(ph.data, dtype=np.complex128)
+        if acq.model == "spherical" and data.shape[1] >= 2:
+            from ..formers._bp_prepared import Backprojector
 
             t, q, r0 = acq.range_geometry()
             try:
                 with warnings.catch_warnings():
                     warnings.simplefilter("ignore", SarcliWarning)
-                    for b, img in subaperture_images(d, self.bounds, acq.frequencies_2d, t, r0, grid,
-                                                     **ESTIMATION_BP,
-                                                     receive_position_m=q if acq.is_bistatic else None):
-                        store(b, img)
+                    # the range profiles made once, kept for the exact imagers of the same data
+                    self._ph, self._bp = ph, Backprojector(data, acq.frequencies_2d, t, r0, grid,
+                                                           **ESTIMATION_BP,
+                                                           receive_position_m=q if acq.is_bistatic else None)
+                    for b, re, im in self._bp.group_images(self.bounds):
+                        store(b, re, im)
                 return parts
             except SarcliInputError:  # unequally spaced frequencies: single-pulse images below
-                pass
+                self._bp = None
         pulses = pulse_images(ph, grid)
         for b in range(nb):
-            store(b, pulses[self.bounds[b]:self.bounds[b + 1]].sum(axis=0).reshape(grid.shape))
+            img = pulses[self.bounds[b]:self.bounds[b + 1]].sum(axis=0).reshape(grid.shape)
+            store(b, img.real, img.imag)
         return parts
 
     #: Guards the evaluation counts and the merged stacks' cache: imagers of one stack may search
@@ -361,6 +369,7 @@ class BlockImager:
         other = BlockImager(None, self.grid, 0, self.axis, order=order, _parts=self.parts, _bounds=self.bounds,
                             _counter=self)
         other._coarse = self.__dict__.setdefault("_coarse", {})
+        other._ph, other._bp = self._ph, self._bp
         return other
 
     def halves(self) -> tuple["BlockImager", "BlockImager"]:

@@ -90,3 +90,26 @@ class Backprojector:
             kernels().bp_contract(self._view(self.profiles), gre, gim, *st.kernel_args(slice(0, st.n_pulses)),
                                   st.cache_block, acc)
         return acc[:, 0] + 1j * acc[:, 1]
+
+    def group_images(self, bounds):
+        """The images of consecutive groups of pulses, ``bounds[b] <= p < bounds[b + 1]``, as
+        :func:`~sarcli.formers.backprojection.subaperture_images` gives them (each normalised as its
+        share of the image of all pulses): yields ``(b, real, imag)``, float64 arrays of the grid's
+        shape that are reused for the next group (copy what is kept).
+        """
+        st = self._st
+        bounds = np.asarray(bounds, dtype=np.int64)
+        if bounds.ndim != 1 or bounds.size < 2 or bounds[0] != 0 or bounds[-1] != st.n_pulses \
+                or np.any(np.diff(bounds) < 1):
+            raise SarcliInputError(f"bounds must increase from 0 to the {st.n_pulses} pulses, got {bounds}")
+        out_re = np.empty(st.shape)
+        out_im = np.empty(st.shape)
+        kern = kernels()
+        for b in range(bounds.size - 1):
+            sl = slice(int(bounds[b]), int(bounds[b + 1]))
+            out_re.fill(0.0)
+            out_im.fill(0.0)
+            with using_threads(self._nthreads):
+                kern.bp_tiles(self._view(self.profiles[sl]), *st.kernel_args(sl), st.cache_block, out_re, out_im)
+            yield b, out_re, out_im
+
