@@ -19,8 +19,10 @@ because ``Σ_s g_s (B_p d_p)_s = ⟨B_p^H \\bar g, d_p⟩``. So one backprojecti
 pass of the same size gives all ``P`` partial derivatives: two images of memory, none per pulse.
 That pass (:func:`sarcli.formers.backprojection.pulse_contractions`) gathers ``Σ_s g_s (B_p d_p)_s``
 from each pulse's profile as the backprojection does, the same numbers as the reprojection
-formula (:func:`~sarcli.formers.backprojection.reproject`, the exact adjoint) without its scatter. Collections the backprojector
-does not take (far-field model, unequally spaced frequencies) use the stack of single-pulse
+formula (:func:`~sarcli.formers.backprojection.reproject`, the exact adjoint) without its scatter.
+Both run on a :class:`~sarcli.formers._bp_prepared.Backprojector`: the range profiles of the
+uncorrected data made once, each image multiplying pulse ``p``'s by ``e^{-iφ_p}``. Collections the
+backprojector does not take (far-field model, unequally spaced frequencies) use the stack of single-pulse
 images instead (:func:`~sarcli.autofocus._common.pulse_images`; small cases only).
 """
 
