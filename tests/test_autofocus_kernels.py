@@ -169,3 +169,46 @@ def test_level_search_ends_when_an_iteration_gains_little():
     np.testing.assert_array_equal(x, min(calls, key=value))
     # the value left above the minimum is of the order of the stopping tolerance
     assert value(x) - value(np.linalg.solve(H, b)) < 1e-4
+
+
+@pytest.mark.parametrize("kw", [dict(upsample=4, interp="linear", precision="float32"),
+                                dict(upsample=8, interp="cubic", precision="float64")])
+def test_prepared_backprojector_is_backproject_and_pulse_contractions(kw):
+    from sarcli.core import geometry
+    from sarcli.core.grid import Grid
+    from sarcli.errors import SarcliInputError
+    from sarcli.formers._bp_prepared import Backprojector
+    from sarcli.formers.backprojection import backproject, pulse_contractions, subaperture_images
+
+    rng = np.random.default_rng(5)
+    freq = 9.8e9 + 5e6 * np.arange(40)
+    az = np.radians(np.linspace(-1.5, 1.5, 150))   # more pulses than one profile block
+    a = geometry.antenna_positions_circle(az, np.radians(30), 10e3)
+    r0 = np.linalg.norm(a, axis=1)
+    d = rng.normal(size=(150, 40)) + 1j * rng.normal(size=(150, 40))
+    w = np.hanning(42)[1:-1]
+    grid, other = Grid(45, 38, 0.25, 0.25), Grid(20, 30, 0.5, 0.25, 1.0, -2.0)
+    phi = rng.uniform(-np.pi, np.pi, 150)
+    tol = 2e-6 if kw["precision"] == "float32" else 1e-12
+    bp = Backprojector(d, freq, a, r0, grid, w, **kw)
+    for g, b in ((grid, bp), (other, bp.on(other))):
+        assert b.grid == g
+        ref = backproject(d * np.exp(-1j * phi)[:, None], freq, a, r0, g, w, **kw)
+        assert np.max(np.abs(b.image(phi) - ref)) < tol * np.max(np.abs(ref))
+        ref0 = backproject(d, freq, a, r0, g, w, **kw)
+        assert np.max(np.abs(b.image() - ref0)) < tol * np.max(np.abs(ref0))
+        h = rng.normal(size=g.shape) * np.conj(ref)
+        v = pulse_contractions(d, h, freq, a, r0, g, w, **kw)
+        assert np.max(np.abs(b.contract(h) - v)) < tol * np.max(np.abs(v))
+    assert bp.on(other).profiles is bp.profiles
+    bounds = [0, 7, 8, 100, 150]
+    groups = [(b, re.copy(), im.copy()) for b, re, im in bp.group_images(bounds)]
+    for (b, re, im), (b2, ref) in zip(groups, subaperture_images(d, bounds, freq, a, r0, grid, w, **kw)):
+        assert b == b2 and np.max(np.abs(re + 1j * im - ref)) < tol * np.max(np.abs(ref))
+    assert len(groups) == 4
+    with pytest.raises(SarcliInputError):
+        next(bp.group_images([0, 7, 149]))
+    with pytest.raises(SarcliInputError):
+        bp.image(phi[:-1])
+    with pytest.raises(SarcliInputError):
+        bp.contract(np.ones(other.shape))

@@ -19,8 +19,10 @@ because ``Σ_s g_s (B_p d_p)_s = ⟨B_p^H \\bar g, d_p⟩``. So one backprojecti
 pass of the same size gives all ``P`` partial derivatives: two images of memory, none per pulse.
 That pass (:func:`sarcli.formers.backprojection.pulse_contractions`) gathers ``Σ_s g_s (B_p d_p)_s``
 from each pulse's profile as the backprojection does, the same numbers as the reprojection
-formula (:func:`~sarcli.formers.backprojection.reproject`, the exact adjoint) without its scatter. Collections the backprojector
-does not take (far-field model, unequally spaced frequencies) use the stack of single-pulse
+formula (:func:`~sarcli.formers.backprojection.reproject`, the exact adjoint) without its scatter.
+Both run on a :class:`~sarcli.formers._bp_prepared.Backprojector`: the range profiles of the
+uncorrected data made once, each image multiplying pulse ``p``'s by ``e^{-iφ_p}``. Collections the
+backprojector does not take (far-field model, unequally spaced frequencies) use the stack of single-pulse
 images instead (:func:`~sarcli.autofocus._common.pulse_images`; small cases only).
 """
 
@@ -118,24 +120,33 @@ class Imager:
     grid : Grid
     order : float
         Order of the Rényi entropy (:func:`entropy_of`).
+    like : Imager or BlockImager, optional
+        An imager of the same ``ph`` on another grid: its prepared backprojector's range profiles
+        are shared (:meth:`sarcli.formers._bp_prepared.Backprojector.on`).
     """
 
-    def __init__(self, ph, grid: Grid, order: float = 1.0):
+    def __init__(self, ph, grid: Grid, order: float = 1.0, *, like=None):
         self.grid = grid
         self.order = float(order)
-        self.data = np.asarray(ph.data, dtype=np.complex128)
-        acq = ph.acquisition
-        self.stack = None
+        self.stack = self._bp = None
         self.evaluations = 0
-        if acq.model == "spherical" and self.data.shape[1] >= 2:
+        acq = ph.acquisition
+        if like is not None and like._bp is not None and like._ph is ph:
+            with warnings.catch_warnings():  # as below
+                warnings.simplefilter("ignore", SarcliWarning)
+                self._ph, self._bp = ph, like._bp.on(grid)   # the same data: their range profiles shared
+            return
+        data = np.asarray(ph.data, dtype=np.complex128)
+        self._ph = ph
+        if acq.model == "spherical" and data.shape[1] >= 2:
             t, q, r0 = acq.range_geometry()
-            self._args = (acq.frequencies_2d, t, r0, grid)
-            self._kw = dict(ESTIMATION_BP, receive_position_m=q if acq.is_bistatic else None)
-            try:  # the backprojector's checks, on one pixel
-                from ..formers.backprojection import backproject
+            try:  # the backprojector's checks; its range profiles once for every image and contraction
+                from ..formers._bp_prepared import Backprojector
 
-                backproject(self.data, *self._args[:3], Grid(1, 1, grid.dx, grid.dy, grid.cx, grid.cy),
-                            **self._kw)
+                with warnings.catch_warnings():  # a guard band may reach the unambiguous window: harmless
+                    warnings.simplefilter("ignore", SarcliWarning)
+                    self._bp = Backprojector(data, acq.frequencies_2d, t, r0, grid, **ESTIMATION_BP,
+                                             receive_position_m=q if acq.is_bistatic else None)
                 return
             except SarcliInputError:  # unequally spaced frequencies: the stack below
                 pass
@@ -143,24 +154,16 @@ class Imager:
 
     def image(self, phi) -> np.ndarray:
         """``f(φ)``, shape ``grid.shape``."""
-        e = np.exp(-1j * np.asarray(phi, np.float64))
         if self.stack is not None:
+            e = np.exp(-1j * np.asarray(phi, np.float64))
             return (e.astype(self.stack.dtype) @ self.stack).reshape(self.grid.shape)
-        from ..formers.backprojection import backproject
-
-        with warnings.catch_warnings():  # a guard band may reach the unambiguous window: harmless
-            warnings.simplefilter("ignore", SarcliWarning)
-            return backproject(self.data * e[:, None], *self._args, **self._kw)
+        return self._bp.image(phi)
 
     def _contract(self, g) -> np.ndarray:
         """``v_p = Σ_s g_s b_ps`` for an image-shaped ``g``."""
         if self.stack is not None:
             return self.stack @ g.ravel().astype(self.stack.dtype)
-        from ..formers.backprojection import pulse_contractions
-
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", SarcliWarning)
-            return pulse_contractions(self.data, g, *self._args, **self._kw)
+        return self._bp.contract(g)
 
     def blockwise(self, phi) -> np.ndarray:
         """``φ`` itself (this imager is exact for any per-pulse phase)."""
@@ -282,6 +285,7 @@ class BlockImager:
         self.order = float(order)
         self.axis = axis
         self._evaluations, self._counter = 0, _counter
+        self._ph = self._bp = None   # the data and their prepared backprojector, when built here
         if _parts is None:
             P = ph.data.shape[0]
             self.bounds = np.append(np.arange(0, P, block), P)
@@ -295,34 +299,41 @@ class BlockImager:
         (low, high[, band]; in the image: low, band, high along ``axis``)."""
         acq = ph.acquisition
         nb = len(self.bounds) - 1
-        d = np.asarray(ph.data)
         size = [g.nx if self.axis == 1 else g.ny for g in pieces]
         edges = [(0, size[0]), (size[0] + (size[2] if len(size) > 2 else 0), None)]
         if len(size) > 2:
             edges.append((size[0], size[0] + size[2]))
         parts = [np.empty((nb, g.nx * g.ny), dtype=np.complex64) for g in pieces]
 
-        def store(b, img):
-            for part, (lo, hi) in zip(parts, edges):
-                part[b] = (img[:, lo:hi] if self.axis == 1 else img[lo:hi]).ravel()
+        def store(b, re, im):
+            # straight into the parts' real and imaginary parts: no complex image in between
+            for part, g, (lo, hi) in zip(parts, pieces, edges):
+                dst = part[b].reshape(g.ny, g.nx)
+                cut = (slice(None), slice(lo, hi)) if self.axis == 1 else (slice(lo, hi),)
+                np.copyto(dst.real, re[cut])
+                np.copyto(dst.imag, im[cut])
 
-        if acq.model == "spherical" and d.shape[1] >= 2:
-            from ..formers.backprojection import subaperture_images
+        data = np.asarray(ph.data, dtype=np.complex128)
+        if acq.model == "spherical" and data.shape[1] >= 2:
+            from ..formers._bp_prepared import Backprojector
 
             t, q, r0 = acq.range_geometry()
             try:
                 with warnings.catch_warnings():
                     warnings.simplefilter("ignore", SarcliWarning)
-                    for b, img in subaperture_images(d, self.bounds, acq.frequencies_2d, t, r0, grid,
-                                                     **ESTIMATION_BP,
-                                                     receive_position_m=q if acq.is_bistatic else None):
-                        store(b, img)
+                    # the range profiles made once, kept for the exact imagers of the same data
+                    self._ph, self._bp = ph, Backprojector(data, acq.frequencies_2d, t, r0, grid,
+                                                           **ESTIMATION_BP,
+                                                           receive_position_m=q if acq.is_bistatic else None)
+                    for b, re, im in self._bp.group_images(self.bounds):
+                        store(b, re, im)
                 return parts
             except SarcliInputError:  # unequally spaced frequencies: single-pulse images below
-                pass
+                self._bp = None
         pulses = pulse_images(ph, grid)
         for b in range(nb):
-            store(b, pulses[self.bounds[b]:self.bounds[b + 1]].sum(axis=0).reshape(grid.shape))
+            img = pulses[self.bounds[b]:self.bounds[b + 1]].sum(axis=0).reshape(grid.shape)
+            store(b, img.real, img.imag)
         return parts
 
     #: Guards the evaluation counts and the merged stacks' cache: imagers of one stack may search
@@ -360,6 +371,7 @@ class BlockImager:
         other = BlockImager(None, self.grid, 0, self.axis, order=order, _parts=self.parts, _bounds=self.bounds,
                             _counter=self)
         other._coarse = self.__dict__.setdefault("_coarse", {})
+        other._ph, other._bp = self._ph, self._bp
         return other
 
     def halves(self) -> tuple["BlockImager", "BlockImager"]:

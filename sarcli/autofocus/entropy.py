@@ -438,8 +438,9 @@ def _min_entropy(ph, grid, start, levels, max_iter, pulse_iter, pulse_lines, ful
         # stack) on every `pulse_lines`-th range line of each half (whole cross-range lines):
         # each half refines its own sub-aperture estimate, and the level is kept when each
         # half's per-pulse increment lowers the other half's entropy
-        sides = [Imager(ph, g, chosen) for g in
-                 split_grid(every_nth_line(full.grid, axis, pulse_lines), axis, SPLIT_GAP)[:2]]
+        low, high = split_grid(every_nth_line(full.grid, axis, pulse_lines), axis, SPLIT_GAP)[:2]
+        # the range profiles of the stack's backprojector, made once
+        sides = [Imager(ph, g, chosen, like=full) for g in (low, high)]
         ends = [coarse_to_fine(im, p[best], gauge, (1,), pulse_iter)[-1] for im, p in zip(sides, paths)]
         # on the half's lines, the other half's sub-aperture estimate against its per-pulse one
         g1 = tuple(side.entropy(paths[1 - i][best]) - side.entropy(ends[1 - i]) for i, side in enumerate(sides))
@@ -452,7 +453,7 @@ def _min_entropy(ph, grid, start, levels, max_iter, pulse_iter, pulse_lines, ful
         if min(g1) > 0 and c1 > max(REFINE_CORRELATION, agreement_threshold(P - gauge.shape[1])):
             # the whole grid: from its sub-aperture estimate plus the mean of the halves'
             # per-pulse increments, a few more iterations on all of it
-            exact = Imager(ph, full.grid, chosen)
+            exact = Imager(ph, full.grid, chosen, like=full)
             fine_imagers.append(exact)
             start1 = phi + 0.5 * (steps[0] + steps[1])
             start1 = start1 - gauge @ (gauge.T @ start1)

@@ -149,7 +149,9 @@ struct Anchors {
   int* j0;
   float *f0, *s1, *s2, *lo, *hi, *top;
   double *ph0, *ph1, *ph2;
-  explicit Anchors(size_t n) : store(10 * n) {
+  // the contraction's per-pulse lane sums over a row, [n][2][kLanes] of the working precision
+  std::vector<double> sums;
+  explicit Anchors(size_t n) : store(10 * n), sums(2 * kLanes * n) {
     double* d = store.data();
     ph0 = d; ph1 = d + n; ph2 = d + 2 * n;
     j0 = reinterpret_cast<int*>(d + 3 * n);
@@ -520,6 +522,10 @@ SARCLI_INLINE void bp_contract_row(const Args& A, const PT* prof, const PT* gre,
   double ud[kGroups][kLanes];
   PT wr[kGroups][kLanes], wi[kGroups][kLanes];
   Lanes<K> L;
+  // each pulse's products summed lane by lane over the whole row, then across the lanes once: one
+  // horizontal sum a pulse and row rather than one a pulse and tile
+  PT* sums = reinterpret_cast<PT*>(an.sums.data());
+  std::fill(sums, sums + 2 * kLanes * (p1 - p0), PT(0));
   for (long c0 = 0; c0 < A.nx; c0 += A.width) {
     double xc, he;
     const long wv = tile_lanes(A, c0, uf, ud, xc, he);
@@ -532,7 +538,8 @@ SARCLI_INLINE void bp_contract_row(const Args& A, const PT* prof, const PT* gre,
     for (long p = p0; p < p1; ++p) {
       const Anchor a = an.get(p - p0);
       const PT* pp = prof + 2 * p * A.lp;
-      PT sr[kLanes] = {}, si[kLanes] = {};
+      PT* __restrict sr = sums + 2 * kLanes * (p - p0);
+      PT* __restrict si = sr + kLanes;
       for (long g = 0; g < ng; ++g) {
         eval_lanes<K>(a, uf[g], ud[g], A.pad, L);
         PT tp[2 * Kernel<K>::taps][kLanes];
@@ -552,14 +559,17 @@ SARCLI_INLINE void bp_contract_row(const Args& A, const PT* prof, const PT* gre,
           si[i] += gr[i] * ui + gi[i] * ur;
         }
       }
-      double tr = 0.0, ti = 0.0;
-      for (int i = 0; i < kLanes; ++i) {
-        tr += static_cast<double>(sr[i]);
-        ti += static_cast<double>(si[i]);
-      }
-      acc[2 * p] += tr;
-      acc[2 * p + 1] += ti;
     }
+  }
+  for (long p = p0; p < p1; ++p) {
+    const PT* sr = sums + 2 * kLanes * (p - p0);
+    double tr = 0.0, ti = 0.0;
+    for (int i = 0; i < kLanes; ++i) {
+      tr += static_cast<double>(sr[i]);
+      ti += static_cast<double>(sr[kLanes + i]);
+    }
+    acc[2 * p] += tr;
+    acc[2 * p + 1] += ti;
   }
 }
 

@@ -1,0 +1,115 @@
+"""Backprojection prepared for repeated images and pulse contractions of one phase history on one grid
+(minimum-entropy autofocus: many images of the same data with a different per-pulse phase each).
+
+The maps are those of :mod:`sarcli.formers.backprojection` (its module docstring); what is prepared
+is what does not change between calls: the checks, the per-pulse constants and the range profiles of
+all pulses.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .._native import using_threads
+from ..core.grid import Grid
+from ..errors import SarcliInputError
+from ._bp_kernels import kernels
+from .backprojection import DEFAULT_INTERP, DEFAULT_UPSAMPLE, _check_data, _profiles, _Setup
+
+__all__ = ["Backprojector"]
+
+
+class Backprojector:
+    """:func:`~sarcli.formers.backprojection.backproject` and
+    :func:`~sarcli.formers.backprojection.pulse_contractions` of one phase history on one grid, prepared
+    for repeated calls: the checks and per-pulse constants once, the range profiles of all pulses
+    once (held: ``P × (L + 6)`` complex samples of the working precision).
+
+    An image of the data multiplied per pulse by ``e^{-iφ_p}`` has the profiles
+    ``e^{-iφ_p} · profile_p`` (the profile is linear in its pulse), so :meth:`image` with a
+    ``phase`` multiplies the held profiles; :meth:`contract` uses them as they are. The numbers
+    are those of ``backproject`` and ``pulse_contractions`` of the phase-multiplied data to the
+    working precision's rounding. Arguments as for ``backproject``.
+    """
+
+    def __init__(self, data, freq_hz, antenna_position_m, range_to_center_m, grid, weights=None, *,
+                 upsample=DEFAULT_UPSAMPLE, interp=DEFAULT_INTERP, precision="float64", nthreads=None,
+                 receive_position_m=None, _profiles_of=None):
+        d = _check_data(data)
+        self._setup_args = (freq_hz, antenna_position_m, range_to_center_m)
+        self._options = dict(weights=weights, upsample=upsample, interp=interp, precision=precision,
+                             nthreads=nthreads, receive_position_m=receive_position_m)
+        self._data = d
+        self.grid = grid
+        self._st = st = _Setup(d.shape, freq_hz, antenna_position_m, range_to_center_m, grid, weights,
+                               upsample, interp, precision, receive_position_m)
+        self._nthreads = nthreads
+        self._cdt = np.complex64 if st.dtype == np.float32 else np.complex128
+        if _profiles_of is not None:
+            self.profiles = _profiles_of.profiles
+        else:
+            self.profiles = _profiles(d[0:st.n_pulses], st.weights, st.total_weight, st.n_len, self._cdt)
+
+    def on(self, grid: Grid) -> "Backprojector":
+        """The same data and options on another ``grid``, sharing these profiles."""
+        return Backprojector(self._data, *self._setup_args, grid, _profiles_of=self, **self._options)
+
+    def _view(self, prof):
+        return prof.view(self._st.dtype).reshape(prof.shape + (2,))
+
+    def image(self, phase=None) -> np.ndarray:
+        """``backproject(data · exp(-i phase)[:, None])``, shape ``grid.shape``, complex128
+        (``phase`` per pulse, radians; ``None``: the data as they are)."""
+        st = self._st
+        prof = self.profiles
+        if phase is not None:
+            e = np.exp(-1j * np.asarray(phase, np.float64)).astype(self._cdt)
+            if e.shape != (st.n_pulses,):
+                raise SarcliInputError(f"phase has shape {e.shape}, expected ({st.n_pulses},)")
+            prof = prof * e[:, None]
+        out_re = np.zeros(st.shape)
+        out_im = np.zeros(st.shape)
+        with using_threads(self._nthreads):
+            kernels().bp_tiles(self._view(prof), *st.kernel_args(slice(0, st.n_pulses)), st.cache_block,
+                               out_re, out_im)
+        img = np.empty(st.shape, dtype=np.complex128)
+        img.real = out_re
+        img.imag = out_im
+        return img
+
+    def contract(self, g) -> np.ndarray:
+        """``pulse_contractions`` of the data as they are with an image-shaped ``g``, shape (P,)."""
+        st = self._st
+        gg = np.asarray(g)
+        if gg.shape != st.shape:
+            raise SarcliInputError(f"g shape {gg.shape} does not match the grid {st.shape}")
+        gre = np.ascontiguousarray(gg.real, dtype=st.dtype)
+        gim = np.ascontiguousarray(gg.imag, dtype=st.dtype) if np.iscomplexobj(gg) else np.zeros_like(gre)
+        acc = np.empty((st.n_pulses, 2))
+        with using_threads(self._nthreads):
+            kernels().bp_contract(self._view(self.profiles), gre, gim, *st.kernel_args(slice(0, st.n_pulses)),
+                                  st.cache_block, acc)
+        return acc[:, 0] + 1j * acc[:, 1]
+
+    def group_images(self, bounds):
+        """The images of consecutive groups of pulses, ``bounds[b] <= p < bounds[b + 1]``, as
+        :func:`~sarcli.formers.backprojection.subaperture_images` gives them (each normalised as its
+        share of the image of all pulses): yields ``(b, real, imag)``, float64 arrays of the grid's
+        shape that are reused for the next group (copy what is kept).
+        """
+        st = self._st
+        bounds = np.asarray(bounds, dtype=np.int64)
+        if bounds.ndim != 1 or bounds.size < 2 or bounds[0] != 0 or bounds[-1] != st.n_pulses \
+                or np.any(np.diff(bounds) < 1):
+            raise SarcliInputError(f"bounds must increase from 0 to the {st.n_pulses} pulses, got {bounds}")
+        out_re = np.empty(st.shape)
+        out_im = np.empty(st.shape)
+        kern = kernels()
+        for b in range(bounds.size - 1):
+            sl = slice(int(bounds[b]), int(bounds[b + 1]))
+            out_re.fill(0.0)
+            out_im.fill(0.0)
+            with using_threads(self._nthreads):
+                kern.bp_tiles(self._view(self.profiles[sl]), *st.kernel_args(sl), st.cache_block, out_re, out_im)
+            yield b, out_re, out_im
+
