@@ -1147,17 +1147,19 @@ void final_stage(in<float, 3> cre, in<float, 3> cim, in<double, 2> cframe, in<do
 
 SARCLI_CLONES
 void tone_pulse(const double* k, const double* a, std::size_t L, std::size_t P, std::size_t p, double b,
-                double inv_h, const double* inv_psi, std::size_t top, double* o, std::size_t M) {
-  for (std::size_t j = 0; j < M; ++j) {
-    double acc = 1.0;
-    for (std::size_t l = 0; l < L; ++l) {
-      const double x = std::abs(k[j] * a[l * P + p] + b) * inv_h;
+                double inv_h, const double* inv_psi, std::size_t top, double* o, std::size_t M, double* acc) {
+  for (std::size_t j = 0; j < M; ++j) acc[j] = 1.0;
+  for (std::size_t l = 0; l < L; ++l) {   // level by level, vectorised over the frequencies
+    const double al = a[l * P + p];
+#pragma omp simd
+    for (std::size_t j = 0; j < M; ++j) {
+      const double x = std::abs(k[j] * al + b) * inv_h;
       const std::size_t i = std::min(static_cast<std::size_t>(x), top);
       const double fr = x - static_cast<double>(i);
-      acc *= inv_psi[i] + fr * (inv_psi[i + 1] - inv_psi[i]);
+      acc[j] *= inv_psi[i] + fr * (inv_psi[i + 1] - inv_psi[i]);
     }
-    o[j] *= acc;
   }
+  for (std::size_t j = 0; j < M; ++j) o[j] *= acc[j];
 }
 
 void tone_weights(in<double, 2> k, in<double, 2> a, double b, double inv_h, in<double, 1> inv_psi,
@@ -1170,10 +1172,15 @@ void tone_weights(in<double, 2> k, in<double, 2> a, double b, double inv_h, in<d
   const bool per_pulse = k.shape(0) > 1;
   const std::size_t top = inv_psi.shape(0) - 2;
   nb::gil_scoped_release nogil;
-  // a block of pulses is a few microseconds of work: threads only where it is much more
-#pragma omp parallel for schedule(static) if (P * M * L > (std::size_t(1) << 22))
-  for (long p = 0; p < static_cast<long>(P); ++p)
-    tone_pulse(kp + (per_pulse ? p * M : 0), ap, L, P, p, b, inv_h, psi, top, o + p * M, M);
+  // threads where the work (tens of nanoseconds a pulse, frequency and level) is well above a
+  // parallel region's few microseconds: stage 0's blocks of 64 pulses qualify
+#pragma omp parallel if (P * M * L > (std::size_t(1) << 14))
+  {
+    std::vector<double> acc(M);
+#pragma omp for schedule(static)
+    for (long p = 0; p < static_cast<long>(P); ++p)
+      tone_pulse(kp + (per_pulse ? p * M : 0), ap, L, P, p, b, inv_h, psi, top, o + p * M, M, acc.data());
+  }
 }
 
 template <typename T>
