@@ -373,3 +373,21 @@ def test_candidates_are_planned_once_per_geometry(sph, monkeypatch):
     assert len(calls) == 4
     candidates(moved, GRID, 1e-3)
     assert len(calls) == 5
+
+
+def test_candidates_cache_is_shared_by_threads(sph, monkeypatch):
+    """Threads planning several grids at once through a cache smaller than their number (each
+    call evicts another's entry) each get the candidates of their own grid."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    from sarcli.formers import planner
+
+    ph = sph[0]
+    monkeypatch.setattr(planner, "_CANDIDATE_CACHE_SIZE", 2)
+    planner._CANDIDATE_CACHE.clear()
+    grids = [Grid(n, n, 0.5, 0.5) for n in (32, 40, 48, 56)]
+    want = {g: [(x.method, x.knobs) for x in candidates(ph, g, 1e-3)] for g in grids}
+    with ThreadPoolExecutor(4) as pool:
+        got = list(pool.map(lambda g: (g, [(x.method, x.knobs) for x in candidates(ph, g, 1e-3)]), grids * 6))
+    assert all(cands == want[g] for g, cands in got)
+    assert len(planner._CANDIDATE_CACHE) <= 2

@@ -26,6 +26,7 @@ import json
 import math
 import subprocess
 import sys
+import threading
 import time
 from collections import OrderedDict
 from dataclasses import dataclass, field, replace
@@ -100,6 +101,7 @@ def _nufft_seconds(c, n_samples, ny, nx, eps, threads=1):
 #: and grids: an image formed again, or by several formers, is planned once).
 _CANDIDATE_CACHE: "OrderedDict[tuple, list]" = OrderedDict()
 _CANDIDATE_CACHE_SIZE = 16
+_CANDIDATE_LOCK = threading.Lock()
 
 
 def _digest(*arrays) -> bytes:
@@ -135,13 +137,16 @@ def candidates(ph, grid: Grid, tolerance: float, *, costs=None, nthreads=None, p
     key = (ph.model, tuple(ph.data.shape), grid, float(tolerance), nthreads, bool(prune),
            None if methods is None else tuple(sorted(methods)), acq.is_bistatic if ph.model == "spherical" else None,
            json.dumps(c, sort_keys=True, default=repr), _digest(acq.frequency_hz, *geo))
-    hit = _CANDIDATE_CACHE.get(key)
+    with _CANDIDATE_LOCK:   # images formed in threads (sar batch) share the cache
+        hit = _CANDIDATE_CACHE.get(key)
+        if hit is not None:
+            _CANDIDATE_CACHE.move_to_end(key)
     if hit is None:
         hit = _candidates(ph, grid, tolerance, c, nthreads, prune, methods)
-        _CANDIDATE_CACHE[key] = hit
-        while len(_CANDIDATE_CACHE) > _CANDIDATE_CACHE_SIZE:
-            _CANDIDATE_CACHE.popitem(last=False)
-    _CANDIDATE_CACHE.move_to_end(key)
+        with _CANDIDATE_LOCK:
+            _CANDIDATE_CACHE[key] = hit
+            while len(_CANDIDATE_CACHE) > _CANDIDATE_CACHE_SIZE:
+                _CANDIDATE_CACHE.popitem(last=False)
     return [replace(x, knobs=dict(x.knobs)) for x in hit]
 
 
