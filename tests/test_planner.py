@@ -348,3 +348,46 @@ def test_the_sweep_picks_what_planning_every_setting_picks():
             assert (pick.method, pick.knobs, pick.seconds) == (best.method, best.knobs, best.seconds), (name, tol)
             seen.add((name, want[0] is not None, want[1] is not None))
     assert {s[1] for s in seen} == {True, False} and {s[2] for s in seen} == {True, False}
+
+
+def test_candidates_are_planned_once_per_geometry(sph, monkeypatch):
+    from sarcli.formers import planner
+
+    ph = sph[0]
+    planner._CANDIDATE_CACHE.clear()
+    calls = []
+    real = planner._candidates
+    monkeypatch.setattr(planner, "_candidates", lambda *a: calls.append(1) or real(*a))
+    first = candidates(ph, GRID, 1e-3)
+    first[0].knobs["spoiled"] = True   # a caller's edits stay its own
+    first.pop()
+    again = candidates(ph, GRID, 1e-3)
+    assert len(calls) == 1
+    assert [(x.method, x.knobs, x.seconds) for x in again] == [(x.method, x.knobs, x.seconds) for x in real(
+        ph, GRID, 1e-3, load_cost_model(), None, False, None)]
+    # another tolerance, grid, cost model or geometry (same samples) is planned anew
+    candidates(ph, GRID, 1e-2)
+    candidates(ph, Grid(40, 40, 0.5, 0.5), 1e-3)
+    candidates(ph, GRID, 1e-3, costs={**load_cost_model(), "ffbp_stage0": 2 * load_cost_model()["ffbp_stage0"]})
+    moved = spherical(r0=11e3)
+    assert len(calls) == 4
+    candidates(moved, GRID, 1e-3)
+    assert len(calls) == 5
+
+
+def test_candidates_cache_is_shared_by_threads(sph, monkeypatch):
+    """Threads planning several grids at once through a cache smaller than their number (each
+    call evicts another's entry) each get the candidates of their own grid."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    from sarcli.formers import planner
+
+    ph = sph[0]
+    monkeypatch.setattr(planner, "_CANDIDATE_CACHE_SIZE", 2)
+    planner._CANDIDATE_CACHE.clear()
+    grids = [Grid(n, n, 0.5, 0.5) for n in (32, 40, 48, 56)]
+    want = {g: [(x.method, x.knobs) for x in candidates(ph, g, 1e-3)] for g in grids}
+    with ThreadPoolExecutor(4) as pool:
+        got = list(pool.map(lambda g: (g, [(x.method, x.knobs) for x in candidates(ph, g, 1e-3)]), grids * 6))
+    assert all(cands == want[g] for g, cands in got)
+    assert len(planner._CANDIDATE_CACHE) <= 2

@@ -13,6 +13,11 @@ from ._ffbp_kernels import native, table
 
 #: Largest phase (radians) the truncated range series of stage 0 may cost (:func:`_series_inputs`).
 SERIES_PHASE = 1e-7
+#: Whether stage 0 forms a row's 6-tap weights in a pass of their own before the sums (True), or
+#: inside the sums' blocks (False); None: as suits the CPU's copy of the kernel (a pass on AVX2 and
+#: baseline CPUs, in the blocks on AVX-512 ones: ``stage0_weights_first`` in src/native/ffbp.cpp).
+#: The same image bit for bit either way; set for tests.
+WEIGHTS_FIRST = None
 
 
 def _binomial_half(n):
@@ -69,6 +74,8 @@ def stage0(pre, pim, first, count, pulses, series, frame, tab, kind, bistatic, h
     """
     opts = native().Stage0Options(kind=int(kind), bistatic=bool(bistatic), half_len=float(half_len),
                                   n_len=float(n_len), pad=int(pad), dq=float(dq), kref=float(kref))
+    if WEIGHTS_FIRST is not None:
+        opts.weights_first = int(bool(WEIGHTS_FIRST))
     native().stage0(pre, pim, np.ascontiguousarray(first, np.int64), np.ascontiguousarray(count, np.int64), pulses,
                     np.ascontiguousarray(series, np.bool_), frame, table(tab), opts, out_re, out_im)
 

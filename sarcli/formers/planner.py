@@ -21,11 +21,15 @@ arrays.
 from __future__ import annotations
 
 import functools
+import hashlib
+import json
 import math
 import subprocess
 import sys
+import threading
 import time
-from dataclasses import dataclass, field
+from collections import OrderedDict
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -93,20 +97,65 @@ def _nufft_seconds(c, n_samples, ny, nx, eps, threads=1):
     return (c["nufft_spread"] * n_samples * w * w + c["nufft_fft"] * n_fft * math.log2(max(n_fft, 2))) / threads
 
 
+#: Candidate lists kept by :func:`candidates`, the most recently used last (a few collections
+#: and grids: an image formed again, or by several formers, is planned once).
+_CANDIDATE_CACHE: "OrderedDict[tuple, list]" = OrderedDict()
+_CANDIDATE_CACHE_SIZE = 16
+_CANDIDATE_LOCK = threading.Lock()
+
+
+def _digest(*arrays) -> bytes:
+    """A digest of arrays' shapes, types and bytes (``None`` as such): the cache key of the
+    geometry a plan depends on."""
+    h = hashlib.blake2b(digest_size=16)
+    for a in arrays:
+        if a is None:
+            h.update(b"none;")
+            continue
+        a = np.ascontiguousarray(a)
+        h.update(f"{a.dtype.str}{a.shape};".encode())
+        h.update(a.data)
+    return h.digest()
+
+
 def candidates(ph, grid: Grid, tolerance: float, *, costs=None, nthreads=None, prune=False,
                methods=None) -> list:
     """Every former with knobs predicted to meet ``tolerance`` (and a few that do not, marked).
 
     "Meets" means a predicted error at most ``tolerance / SAFETY`` (:data:`SAFETY`). ``prune``:
     leave out candidates that cannot change :func:`recommend`'s pick (what it passes).
-    ``methods``: only these formers (``direct`` is always listed)."""
+    ``methods``: only these formers (``direct`` is always listed).
+
+    The list depends on the collection's geometry, not on its samples: it is kept (a few, most
+    recently used) under a digest of the geometry, the grid, the arguments and the cost model, so
+    forming the same scene again plans once; each call gets its own copies."""
+    if not (0 < tolerance < 1):
+        raise SarcliInputError(f"--tolerance must lie in (0, 1), got {tolerance}")
+    c = load_cost_model() if costs is None else costs
+    acq = ph.acquisition
+    geo = acq.range_geometry() if ph.model == "spherical" else (None, None, None)
+    key = (ph.model, tuple(ph.data.shape), grid, float(tolerance), nthreads, bool(prune),
+           None if methods is None else tuple(sorted(methods)), acq.is_bistatic if ph.model == "spherical" else None,
+           json.dumps(c, sort_keys=True, default=repr), _digest(acq.frequency_hz, *geo))
+    with _CANDIDATE_LOCK:   # images formed in threads (sar batch) share the cache
+        hit = _CANDIDATE_CACHE.get(key)
+        if hit is not None:
+            _CANDIDATE_CACHE.move_to_end(key)
+    if hit is None:
+        hit = _candidates(ph, grid, tolerance, c, nthreads, prune, methods)
+        with _CANDIDATE_LOCK:
+            _CANDIDATE_CACHE[key] = hit
+            while len(_CANDIDATE_CACHE) > _CANDIDATE_CACHE_SIZE:
+                _CANDIDATE_CACHE.popitem(last=False)
+    return [replace(x, knobs=dict(x.knobs)) for x in hit]
+
+
+def _candidates(ph, grid, tolerance, c, nthreads, prune, methods) -> list:
+    """:func:`candidates`, uncached (``c`` the cost model)."""
     from .backprojection import profile_length
     from .ffbp_model import frequency_error, interp_error
     from .subimage import choose_tile, tile_sizes
 
-    if not (0 < tolerance < 1):
-        raise SarcliInputError(f"--tolerance must lie in (0, 1), got {tolerance}")
-    c = load_cost_model() if costs is None else costs
     thr = max(1, int(nthreads or c.get("threads", 2)))
     acq = ph.acquisition
     P, M = ph.data.shape

@@ -160,6 +160,7 @@ struct Stage0 {
   std::size_t S, nt, nq;
   const float* tab;
   int kind, wmode;          // wmode: WeightMode of the 6-tap kernels
+  bool weights_first;       // the 6-tap weights in a pass before the blocks (stage0_weights_first)
   bool bistatic;
   double half_len, n_len, off, dq, kref;
   float *out_re, *out_im;
@@ -291,6 +292,25 @@ SARCLI_INLINE void weights6(const float* frac, const float* tab, const float* w,
     v3 = w[3 * ws + k];
     v4 = w[4 * ws + k];
     v5 = w[5 * ws + k];
+  }
+}
+
+// The six weights w[b * ws + k] of a 6-tap kernel at fractions frac[0 .. n) (weights6; Mode not
+// kWeightsRead), in one vectorised pass: the polynomials' coefficients are broadcast once for the
+// pass, where a loop forming them block by block broadcasts them again for every block.
+template <int Mode>
+SARCLI_INLINE void weights6_pass(const float* __restrict frac, const float* __restrict tab, std::size_t n,
+                                 float* __restrict w, std::size_t ws) {
+#pragma omp simd
+  for (std::size_t k = 0; k < n; ++k) {
+    float v0, v1, v2, v3, v4, v5;
+    weights6<Mode>(frac, tab, nullptr, 0, k, v0, v1, v2, v3, v4, v5);
+    w[k] = v0;
+    w[ws + k] = v1;
+    w[2 * ws + k] = v2;
+    w[3 * ws + k] = v3;
+    w[4 * ws + k] = v4;
+    w[5 * ws + k] = v5;
   }
 }
 
@@ -604,6 +624,13 @@ void stage0_row(const Stage0& A, std::size_t s, std::size_t it, Scratch0& W) {
     }
     if (ntap == 6) {
       if (A.wmode == kWeightsRead) row_weights<float>(A.kind, frac, n, w, n, A.tab);
+      if (A.weights_first && A.wmode != kWeightsRead) {   // the weights in one pass, then the blocks read them
+        if (A.wmode == kWeightsSymmetric) weights6_pass<kWeightsSymmetric>(frac, A.tab, n, w, n);
+        else weights6_pass<kWeightsPoly>(frac, A.tab, n, w, n);
+        for (std::size_t k0 = 0; k0 < n; k0 += kBlock0)
+          tap6_block<kWeightsRead>(rp, ip, A.plen, idx, frac, A.tab, w, n, cr, ci, acc_re, acc_im, k0);
+        continue;
+      }
       by_mode(A.wmode, [&](auto mode) SARCLI_LAMBDA_INLINE {
         for (std::size_t k0 = 0; k0 < n; k0 += kBlock0)
           tap6_block<decltype(mode)::value>(rp, ip, A.plen, idx, frac, A.tab, w, n, cr, ci, acc_re, acc_im, k0);
@@ -638,7 +665,25 @@ struct Stage0Options {
   int pad = 0;              // bins of padding on each side of the profiles
   double dq = 0.0;          // range spacing of the polar grids
   double kref = 0.0;        // reference wavenumber of the demodulation
+  int weights_first = -1;   // 1, 0: whether stage0_row forms the 6-tap weights in a pass of their own; -1: as
+                            // stage0_weights_first says for this CPU (the same sums either way)
 };
+
+// Whether stage 0 forms a row's 6-tap weights in a pass of their own before its blocks read them,
+// or inside each block of kBlock0 nodes (the same operations, so the same image bit for bit). On
+// the AVX2 and baseline copies a block's loop broadcasts the polynomials' coefficients again for
+// every block (to the stack: sixteen vector registers do not hold them), which the pass does once
+// a row; the AVX-512 copy takes a block in one vector with the coefficients in its 32 registers,
+// and the pass's stores and loads cost it more than they save.
+inline bool stage0_weights_first() {
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && !defined(SARCLI_NO_CLONES)
+  return !__builtin_cpu_supports("x86-64-v4");   // the copy the clones' resolver picks
+#elif defined(__AVX512F__)
+  return false;
+#else
+  return true;
+#endif
+}
 
 void stage0(in<float, 2> pre, in<float, 2> pim, in<i64, 1> first, in<i64, 1> count, in<double, 2> pulses,
             in<bool, 1> series, in<double, 2> frame, in<float, 2> tab, const Stage0Options& o, out<float, 3> out_re,
@@ -656,7 +701,8 @@ void stage0(in<float, 2> pre, in<float, 2> pim, in<i64, 1> first, in<i64, 1> cou
       throw nb::value_error("stage0: sub-aperture pulses out of range");
   const int ntap = kTaps[kind];
   const Stage0 A{pre.data(), pim.data(), pre.shape(1), first.data(), count.data(), pulses.data(), B,
-                 series.data(), frame.data(), S, nt, nq, tab.data(), kind, weight_mode(kind, tab.data()), o.bistatic,
+                 series.data(), frame.data(), S, nt, nq, tab.data(), kind, weight_mode(kind, tab.data()),
+                 o.weights_first < 0 ? stage0_weights_first() : o.weights_first != 0, o.bistatic,
                  o.half_len, o.n_len, static_cast<double>(o.pad - (ntap / 2 - 1)), o.dq, o.kref, out_re.data(),
                  out_im.data()};
   nb::gil_scoped_release nogil;
@@ -1101,17 +1147,19 @@ void final_stage(in<float, 3> cre, in<float, 3> cim, in<double, 2> cframe, in<do
 
 SARCLI_CLONES
 void tone_pulse(const double* k, const double* a, std::size_t L, std::size_t P, std::size_t p, double b,
-                double inv_h, const double* inv_psi, std::size_t top, double* o, std::size_t M) {
-  for (std::size_t j = 0; j < M; ++j) {
-    double acc = 1.0;
-    for (std::size_t l = 0; l < L; ++l) {
-      const double x = std::abs(k[j] * a[l * P + p] + b) * inv_h;
+                double inv_h, const double* inv_psi, std::size_t top, double* o, std::size_t M, double* acc) {
+  for (std::size_t j = 0; j < M; ++j) acc[j] = 1.0;
+  for (std::size_t l = 0; l < L; ++l) {   // level by level, vectorised over the frequencies
+    const double al = a[l * P + p];
+#pragma omp simd
+    for (std::size_t j = 0; j < M; ++j) {
+      const double x = std::abs(k[j] * al + b) * inv_h;
       const std::size_t i = std::min(static_cast<std::size_t>(x), top);
       const double fr = x - static_cast<double>(i);
-      acc *= inv_psi[i] + fr * (inv_psi[i + 1] - inv_psi[i]);
+      acc[j] *= inv_psi[i] + fr * (inv_psi[i + 1] - inv_psi[i]);
     }
-    o[j] *= acc;
   }
+  for (std::size_t j = 0; j < M; ++j) o[j] *= acc[j];
 }
 
 void tone_weights(in<double, 2> k, in<double, 2> a, double b, double inv_h, in<double, 1> inv_psi,
@@ -1124,10 +1172,15 @@ void tone_weights(in<double, 2> k, in<double, 2> a, double b, double inv_h, in<d
   const bool per_pulse = k.shape(0) > 1;
   const std::size_t top = inv_psi.shape(0) - 2;
   nb::gil_scoped_release nogil;
-  // a block of pulses is a few microseconds of work: threads only where it is much more
-#pragma omp parallel for schedule(static) if (P * M * L > (std::size_t(1) << 22))
-  for (long p = 0; p < static_cast<long>(P); ++p)
-    tone_pulse(kp + (per_pulse ? p * M : 0), ap, L, P, p, b, inv_h, psi, top, o + p * M, M);
+  // threads where the work (tens of nanoseconds a pulse, frequency and level) is well above a
+  // parallel region's few microseconds: stage 0's blocks of 64 pulses qualify
+#pragma omp parallel if (P * M * L > (std::size_t(1) << 14))
+  {
+    std::vector<double> acc(M);
+#pragma omp for schedule(static)
+    for (long p = 0; p < static_cast<long>(P); ++p)
+      tone_pulse(kp + (per_pulse ? p * M : 0), ap, L, P, p, b, inv_h, psi, top, o + p * M, M, acc.data());
+  }
 }
 
 template <typename T>
@@ -1164,7 +1217,8 @@ NB_MODULE(_ffbp, m) {
       .def_rw("n_len", &s::Stage0Options::n_len)
       .def_rw("pad", &s::Stage0Options::pad)
       .def_rw("dq", &s::Stage0Options::dq)
-      .def_rw("kref", &s::Stage0Options::kref);
+      .def_rw("kref", &s::Stage0Options::kref)
+      .def_rw("weights_first", &s::Stage0Options::weights_first);
   m.def("stage0", &s::stage0, "pre"_a, "pim"_a, "first"_a, "count"_a, "pulses"_a, "series"_a, "frame"_a, "tab"_a,
         "options"_a, nb::arg("out_re").noconvert(), nb::arg("out_im").noconvert(),
         "Backproject each sub-aperture's pulses (first[s] .. +count[s]) onto its polar grid (out[s]).");
