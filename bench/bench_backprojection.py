@@ -47,11 +47,13 @@ ANCHOR = Path(os.environ.get("SARCLI_BP_ANCHOR",
 
 
 def build_anchor(tmp: Path) -> Path | None:
-    """Compile the anchor with the flags it documents; None if gcc or the source is missing."""
+    """Compile the anchor with the flags it documents; None if gcc or the source is missing.
+    ``$SARCLI_ANCHOR_MARCH`` replaces ``-march=native`` (``x86-64-v3``: the AVX2 yardstick, to set
+    beside sarcli's AVX2 copy, ``SARCLI_BP_ISA=1``)."""
     if not ANCHOR.exists() or shutil.which("gcc") is None:
         return None
     exe = tmp / "bp_anchor"
-    subprocess.run(["gcc", "-O3", "-ffast-math", "-march=native", "-fopenmp-simd", str(ANCHOR),
+    subprocess.run(["gcc", "-O3", "-ffast-math", f"-march={os.environ.get('SARCLI_ANCHOR_MARCH', 'native')}", "-fopenmp-simd", str(ANCHOR),
                     "-o", str(exe), "-lm"], check=True, capture_output=True)
     return exe
 
