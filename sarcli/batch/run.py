@@ -1,4 +1,4 @@
-"""``sar batch``: run many imaging jobs on dask, resumably (issue 8).
+"""``sar batch``: run many imaging jobs on dask, resumably.
 
 A plan (YAML, see ``docs/batch.md`` and :mod:`sarcli.batch.plan`) lists jobs: phase-history
 inputs (files or globs) with a method, its options and a grid, or the generators ``subapertures``
