@@ -212,3 +212,48 @@ def test_prepared_backprojector_is_backproject_and_pulse_contractions(kw):
         bp.image(phi[:-1])
     with pytest.raises(SarcliInputError):
         bp.contract(np.ones(other.shape))
+
+
+@pytest.mark.parametrize("spacing", ["on its line", "rounded", "jittered"])
+def test_point_signals_are_the_matched_filter_sum(spacing):
+    """Each pulse's matched filter at points, compiled (Horner's scheme about the frequency line,
+    its deviations by their series, or sample by sample beyond the series' bound) against the sum
+    with one exponential per sample."""
+    from sarcli._native import load
+
+    rng = np.random.default_rng(3)
+    P, M, K = 5, 97, 37
+    freq = 9.6e9 + 1.5e6 * np.arange(M) + np.zeros((P, 1)) + 1e6 * np.arange(P)[:, None]
+    if spacing == "rounded":    # float32 frequencies, as GOTCHA's: deviations of a few hundred Hz
+        freq = freq.astype(np.float32).astype(np.float64)
+    elif spacing == "jittered":  # far from any line: the series does not hold
+        freq = freq + rng.uniform(-2e5, 2e5, freq.shape)
+    kw = 4 * np.pi * freq / 299792458.0
+    d = rng.normal(size=(P, M)) + 1j * rng.normal(size=(P, M))
+    dr = rng.uniform(-80, 80, (P, K))
+    z = np.empty((P, K), complex)
+    load("autofocus").point_signals(d, kw, dr, z)
+    ref = np.einsum("pj,pjk->pk", d, np.exp(1j * kw[:, :, None] * dr[:, None, :])) / M
+    assert np.abs(z - ref).max() <= 1e-10 * np.abs(ref).max()
+
+
+def test_pulse_signals_of_a_spherical_collection_are_its_phases_summed():
+    """``pulse_signals`` on spherical data (the compiled path) against the sum over ``_phases``."""
+    from sarcli.autofocus._common import _phases, pulse_signals
+    from sarcli.core.acquisition import Acquisition
+    from sarcli.core.geometry import antenna_positions_circle
+    from sarcli.core.grid import Grid
+    from sarcli.core.types import PhaseHistory
+
+    rng = np.random.default_rng(4)
+    P, M = 24, 64
+    az = np.radians(np.linspace(-2, 2, P))
+    a = antenna_positions_circle(az, np.radians(30), 5e3)
+    freq = (9.6e9 + 4e6 * np.arange(M)).astype(np.float32).astype(np.float64)
+    acq = Acquisition(freq, az, np.full(P, np.radians(30)), Grid(32, 32, 0.5, 0.5), antenna_position_m=a,
+                      range_to_center_m=np.linalg.norm(a, axis=1), model="spherical")
+    ph = PhaseHistory(rng.normal(size=(P, M)) + 1j * rng.normal(size=(P, M)), acq)
+    pts = rng.uniform(-8, 8, (9, 2))
+    ref = np.einsum("pj,pjk->pk", ph.data, np.exp(1j * _phases(acq, np.column_stack([pts, np.zeros(9)])))) / M
+    z = pulse_signals(ph, pts)
+    assert np.abs(z - ref).max() <= 1e-10 * np.abs(ref).max()
