@@ -26,6 +26,18 @@ field, monostatic or bistatic. Then, per iteration:
 6. *Iteration*: apply, re-image, repeat until the rms increment is below ``tol`` rad; the
    iterate whose image has the lowest entropy is returned (a narrow window can drift once the
    image is focused).
+
+The decision (``guard``, ``validate``). The estimate is applied only if it leaves the image no
+less sharp (entropy not up, peak-to-mean not down, :func:`~sarcli.autofocus._common.keep_if_sharper`)
+*and* passes a cross-validation like minimum entropy's (:mod:`sarcli.autofocus.entropy`): PGA is
+run on each of two disjoint halves of the scene alone (across range, with a band between them);
+the two estimates must correlate beyond chance (:func:`~sarcli.autofocus.entropy.agreement_threshold`)
+and, each applied to the other half, lower the entropy in sum. A phase error is common to the
+scene; what PGA fits to one half's clutter is not, and on a focused scene it can still pass the
+sharpness test alone. (Each half's own gain is not required: a half's PGA estimate, from half
+the scatterers, carries noise of its own that can cost the other half more than the common error
+it removes; on GOTCHA with an injected 1 rad error the halves correlate 0.81 and one gain is
+slightly negative.)
 """
 
 from __future__ import annotations
@@ -140,7 +152,7 @@ def principal_vector(g, tol: float = 1e-12, max_iter: int = 1000) -> np.ndarray:
 
 def pga(ph, *, grid: Grid | None = None, n_scatterers: int | None = None, separation: int = 3,
         window_db: float = -10.0, min_window: int = 4, max_iter: int = 10, tol: float = 2e-3,
-        guard: bool = True, start=None, estimator: str = "eigen"):
+        guard: bool = True, start=None, estimator: str = "eigen", validate: bool = True):
     """Phase gradient autofocus (see the module docstring for the steps).
 
     Parameters
@@ -165,6 +177,10 @@ def pga(ph, *, grid: Grid | None = None, n_scatterers: int | None = None, separa
     estimator : {'eigen', 'gradient'}
         Maximum likelihood (default) or the classic phase-difference estimate
         (:func:`phase_gradient_estimate`); anything else is a :class:`~sarcli.errors.SarcliInputError`.
+    validate : bool
+        With ``guard``: apply the estimate only when PGA's estimates from two halves of the scene
+        agree beyond chance and, each applied to the other half, lower its entropy in sum (module
+        docstring).
 
     Returns
     -------
@@ -205,4 +221,38 @@ def pga(ph, *, grid: Grid | None = None, n_scatterers: int | None = None, separa
     res = AutofocusResult(best_phi, "pga", iterations=it, history=hist)
     if guard:
         res = keep_if_sharper(ph, grid, res, [phi])
+        if validate and np.any(res.phase_rad):
+            _crossvalidate(ph, grid, res, dict(n_scatterers=n_scatterers, separation=separation,
+                                               window_db=window_db, min_window=min_window, max_iter=max_iter,
+                                               tol=tol, start=start, estimator=estimator))
     return res
+
+
+def _crossvalidate(ph, grid: Grid, res: AutofocusResult, options: dict) -> None:
+    """Keep ``res``'s estimate only if PGA's estimates from the two halves of ``grid`` correlate
+    beyond chance and, each applied to the other half, lower the entropy in sum; else reject it
+    (in place)."""
+    from ._imager import SPLIT_GAP, range_axis, split_grid
+    from .entropy import agreement_threshold
+
+    acq = ph.acquisition
+    halves = split_grid(grid, range_axis(acq), SPLIT_GAP)[:2]
+    ests = [pga(ph, grid=g, guard=False, validate=False, **options).phase_rad for g in halves]
+    h0 = [image_entropy(form(ph, g)) for g in halves]
+    gains = (h0[0] - image_entropy(form(ph, halves[0], ests[1])), h0[1] - image_entropy(form(ph, halves[1], ests[0])))
+    na, nb = np.linalg.norm(ests[0]), np.linalg.norm(ests[1])
+    corr = float(np.dot(*ests) / (na * nb)) if na > 0 and nb > 0 else 0.0
+    chance = agreement_threshold(max(1, ph.data.shape[0] - 2))
+    res.history.update(heldout_gain=gains, halves_correlation=corr)
+    if sum(gains) > 0 and corr > chance:
+        res.history["decision"] = (f"it lowers the entropy and does not lower the peak-to-mean ratio, and PGA's "
+                                   f"estimates from the two halves of the scene agree (correlation {corr:.2f}, "
+                                   f"chance {chance:.2f}) and lower each other's entropy in sum (held-out gains "
+                                   f"{gains[0]:.4f}, {gains[1]:.4f} nats)")
+        return
+    res.history["decision"] = (f"no error common to the scene: PGA's estimates from the two halves of the scene "
+                               f"(correlation {corr:.2f}, chance {chance:.2f}; held-out gains {gains[0]:.4f}, "
+                               f"{gains[1]:.4f} nats) do not both agree and lower each other's entropy in sum")
+    res.phase_rad = np.zeros_like(res.phase_rad)
+    res.accepted = False
+    res.entropy_after, res.peak_to_mean_after = res.entropy_before, res.peak_to_mean_before
