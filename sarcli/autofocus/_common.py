@@ -13,7 +13,7 @@ from ..core.types import PhaseHistory
 from ..errors import SarcliInputError, SarcliWarning
 
 __all__ = ["AutofocusResult", "apply_phase_correction", "remove_linear_phase", "estimation_grid",
-           "pulse_signals", "pulse_images", "form", "sharpness", "keep_if_sharper", "guarded_grid",
+           "pulse_signals", "pulse_images", "correlation", "agreement_threshold", "form", "sharpness", "keep_if_sharper", "guarded_grid",
            "MAX_ESTIMATION_PIXELS"]
 
 #: Largest estimation grid (pixels); bigger grids are cut to a central square of this size.
@@ -210,6 +210,23 @@ def pulse_images(ph: PhaseHistory, grid: Grid) -> np.ndarray:
 def _one_pulse(bp, d, f, t, r0, rcv, grid, p):
     return bp.backproject(d[p:p + 1], f[p:p + 1], t[p:p + 1], r0[p:p + 1], grid,
                           receive_position_m=None if rcv is None else rcv[p:p + 1]).ravel()
+
+
+def correlation(a, b) -> float:
+    """``a·b / (|a| |b|)`` of two estimates (0 when either is zero)."""
+    na, nb = np.linalg.norm(a), np.linalg.norm(b)
+    return float(np.dot(a, b) / (na * nb)) if na > 0 and nb > 0 else 0.0
+
+
+def agreement_threshold(dof: int) -> float:
+    """The correlation two independent estimates with ``dof`` free parameters exceed by chance
+    with probability about 2 % (two standard deviations, ``2/√dof``).
+
+    Two halves of a scene with no common phase error give estimates whose correlation is
+    about normal with variance ``1/dof``; a correlation above this is evidence of an error
+    common to the scene.
+    """
+    return 2.0 / np.sqrt(dof)
 
 
 def sharpness(image):

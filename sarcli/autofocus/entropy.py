@@ -49,7 +49,7 @@ alone, from zero. Each level's estimate from one half is applied to the *other* 
 phase error is common to the whole scene and lowers the entropy of the half it was not estimated
 on, whereas what an estimate fits to one half's own clutter and noise is independent of the
 other half and, applied there, blurs it. A level passes when both held-out gains are positive
-*and* the two halves' estimates correlate beyond chance (:func:`agreement_threshold`, ``2/√dof``):
+*and* the two halves' estimates correlate beyond chance (:func:`~sarcli.autofocus._common.agreement_threshold`, ``2/√dof``):
 on sparse scenes either can happen alone (a point's sidelobes pushed out of both halves' windows
 give well-correlated estimates that blur the other half; a large held-out gain on one half can
 come with a loss on the other). The level kept is the passing one with the largest total
@@ -73,8 +73,9 @@ import numpy as np
 
 from ..core.grid import Grid
 from ..errors import SarcliInputError
-from ._common import (MAX_GUARDED_PIXELS, AutofocusResult, AutofocusWarning, estimation_grid, guarded_grid,
-                      sharpness)
+from ._common import (MAX_GUARDED_PIXELS, AutofocusResult, AutofocusWarning, agreement_threshold, estimation_grid,
+                      guarded_grid, sharpness)
+from ._common import correlation as _corr
 from ._imager import (SPLIT_GAP, BlockImager, Imager, every_nth_line, range_axis, single_threaded_blas,
                       split_grid)
 from ._lbfgs import minimize
@@ -201,11 +202,6 @@ def _each(fn, jobs) -> list:
         return list(pool.map(fn, jobs))
 
 
-def _corr(a, b) -> float:
-    na, nb = np.linalg.norm(a), np.linalg.norm(b)
-    return float(np.dot(a, b) / (na * nb)) if na > 0 and nb > 0 else 0.0
-
-
 #: Orders of the Rényi entropy tried by ``order='auto'``, each on all levels of both halves.
 ORDERS = (1.0, 0.5)
 
@@ -232,17 +228,6 @@ def _dof(level, P: int, gauge) -> int:
     """Free parameters of a level: its basis' columns (or ``P``) less the unobservable ones."""
     A = level_basis(level, P, gauge)
     return max(1, (P if A is None else A.shape[1]) - gauge.shape[1])
-
-
-def agreement_threshold(dof: int) -> float:
-    """The correlation two independent estimates with ``dof`` free parameters exceed by chance
-    with probability about 2 % (two standard deviations, ``2/√dof``).
-
-    Two halves of a scene with no common phase error give estimates whose correlation is
-    about normal with variance ``1/dof``; a correlation above this is evidence of an error
-    common to the scene.
-    """
-    return 2.0 / np.sqrt(dof)
 
 
 #: Least correlation of the detail two halves add at a finer level for that level to be taken:

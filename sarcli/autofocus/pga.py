@@ -31,7 +31,7 @@ The decision (``guard``, ``validate``). The estimate is applied only if it leave
 less sharp (entropy not up, peak-to-mean not down, :func:`~sarcli.autofocus._common.keep_if_sharper`)
 *and* passes a cross-validation like minimum entropy's (:mod:`sarcli.autofocus.entropy`): PGA is
 run on each of two disjoint halves of the scene alone (across range, with a band between them);
-the two estimates must correlate beyond chance (:func:`~sarcli.autofocus.entropy.agreement_threshold`)
+the two estimates must correlate beyond chance (:func:`~sarcli.autofocus._common.agreement_threshold`)
 and, each applied to the other half, lower the entropy in sum. A phase error is common to the
 scene; what PGA fits to one half's clutter is not, and on a focused scene it can still pass the
 sharpness test alone. (Each half's own gain is not required: a half's PGA estimate, from half
@@ -47,8 +47,8 @@ import numpy as np
 from ..analysis.speckle import image_entropy
 from ..core.grid import Grid
 from ..errors import SarcliInputError
-from ._common import (AutofocusResult, estimation_grid, form, keep_if_sharper, pulse_signals,
-                      remove_linear_phase)
+from ._common import (AutofocusResult, agreement_threshold, correlation, estimation_grid, form, keep_if_sharper,
+                      pulse_signals, remove_linear_phase)
 
 __all__ = ["pga", "select_scatterers", "phase_gradient_estimate", "principal_vector", "ESTIMATORS"]
 
@@ -233,15 +233,13 @@ def _crossvalidate(ph, grid: Grid, res: AutofocusResult, options: dict) -> None:
     beyond chance and, each applied to the other half, lower the entropy in sum; else reject it
     (in place)."""
     from ._imager import SPLIT_GAP, range_axis, split_grid
-    from .entropy import agreement_threshold
 
     acq = ph.acquisition
     halves = split_grid(grid, range_axis(acq), SPLIT_GAP)[:2]
     ests = [pga(ph, grid=g, guard=False, validate=False, **options).phase_rad for g in halves]
     h0 = [image_entropy(form(ph, g)) for g in halves]
     gains = (h0[0] - image_entropy(form(ph, halves[0], ests[1])), h0[1] - image_entropy(form(ph, halves[1], ests[0])))
-    na, nb = np.linalg.norm(ests[0]), np.linalg.norm(ests[1])
-    corr = float(np.dot(*ests) / (na * nb)) if na > 0 and nb > 0 else 0.0
+    corr = correlation(*ests)
     chance = agreement_threshold(max(1, ph.data.shape[0] - 2))
     res.history.update(heldout_gain=gains, halves_correlation=corr)
     if sum(gains) > 0 and corr > chance:
