@@ -13,8 +13,8 @@ from ..core.types import PhaseHistory
 from ..errors import SarcliInputError, SarcliWarning
 
 __all__ = ["AutofocusResult", "apply_phase_correction", "remove_linear_phase", "estimation_grid",
-           "pulse_signals", "pulse_images", "correlation", "agreement_threshold", "form", "sharpness", "keep_if_sharper", "guarded_grid",
-           "MAX_ESTIMATION_PIXELS"]
+           "pulse_signals", "pulse_images", "correlation", "agreement_threshold", "form", "sharpness",
+           "keep_if_sharper", "guarded_grid", "MAX_ESTIMATION_PIXELS"]
 
 #: Largest estimation grid (pixels); bigger grids are cut to a central square of this size.
 MAX_ESTIMATION_PIXELS = 128 * 128
