@@ -50,9 +50,10 @@ phase error is common to the whole scene and lowers the entropy of the half it w
 on, whereas what an estimate fits to one half's own clutter and noise is independent of the
 other half and, applied there, blurs it. A level passes when both held-out gains are positive
 *and* the two halves' estimates correlate beyond chance
-(:func:`~sarcli.autofocus._common.agreement_threshold`, ``2/√dof``): on sparse scenes either can happen alone (a point's sidelobes pushed out of both halves' windows
-give well-correlated estimates that blur the other half; a large held-out gain on one half can
-come with a loss on the other). The level kept is the passing one with the largest total
+(:func:`~sarcli.autofocus._common.agreement_threshold`, ``2/√dof``): on sparse scenes either can
+happen alone (a point's sidelobes pushed out of both halves' windows give well-correlated
+estimates that blur the other half; a large held-out gain on one half can come with a loss on the
+other). The level kept is the passing one with the largest total
 held-out gain; a finer passing level is then taken when the detail the halves add to it
 correlates above ``max(1/3, 2/√dof)`` (:data:`REFINE_CORRELATION`). None passes: no correction.
 The whole grid is then searched at that level only, from the mean of the halves' estimates
