@@ -504,3 +504,11 @@ def test_searches_on_threads_give_the_serial_estimate(case, monkeypatch):
     serial = min_entropy(bad)
     np.testing.assert_array_equal(threaded.phase_rad, serial.phase_rad)
     assert threaded.history["evaluations"] == serial.history["evaluations"]
+
+
+def test_pga_on_a_grid_too_narrow_to_split_keeps_the_sharpness_test():
+    """Three pixels across range cannot be split in two halves: PGA decides by sharpness alone
+    and says so (no input error)."""
+    ph = corrupt(scene(seed=0, P=16, M=8), injected_error(16))
+    res = pga(ph, grid=Grid(3, 40, 0.25, 0.25))
+    assert res.accepted and "not cross-validated" in res.describe()

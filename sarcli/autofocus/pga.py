@@ -235,7 +235,12 @@ def _crossvalidate(ph, grid: Grid, res: AutofocusResult, options: dict) -> None:
     from ._imager import SPLIT_GAP, range_axis, split_grid
 
     acq = ph.acquisition
-    halves = split_grid(grid, range_axis(acq), SPLIT_GAP)[:2]
+    try:
+        halves = split_grid(grid, range_axis(acq), SPLIT_GAP)[:2]
+    except SarcliInputError as exc:   # too few pixels across range: the sharpness test alone
+        res.history["decision"] = ("it lowers the entropy and does not lower the peak-to-mean ratio "
+                                   f"(not cross-validated: {exc})")
+        return
     ests = [pga(ph, grid=g, guard=False, validate=False, **options).phase_rad for g in halves]
     h0 = [image_entropy(form(ph, g)) for g in halves]
     gains = (h0[0] - image_entropy(form(ph, halves[0], ests[1])), h0[1] - image_entropy(form(ph, halves[1], ests[0])))
