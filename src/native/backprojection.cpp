@@ -466,6 +466,28 @@ struct Taps<float, 0, 1> {
 };
 #endif
 
+// Pulse p's carried samples at one group of lanes (eval_lanes' ranges): each lane's stencil of the
+// profile pp, weighted, times its carrier: (ur + i ui) = (Σ w v)(c + i s). The forward rows add
+// them up; the contraction weighs them by the image's gradient.
+template <typename PT, int K, int ISA>
+SARCLI_INLINE void carried_lanes(const Anchor& a, const float* uf, const double* ud, long pad, const PT* pp,
+                                 Lanes<K>& L, PT* __restrict ur, PT* __restrict ui) {
+  eval_lanes<K>(a, uf, ud, pad, L);
+  PT tp[2 * Kernel<K>::taps][kLanes];
+  Taps<PT, K, ISA>::load(pp, L.idx, tp);
+#pragma omp simd
+  for (int i = 0; i < kLanes; ++i) {
+    PT vr = 0, vi = 0;
+    for (int k = 0; k < Kernel<K>::taps; ++k) {
+      vr += static_cast<PT>(L.w[k][i]) * tp[2 * k][i];
+      vi += static_cast<PT>(L.w[k][i]) * tp[2 * k + 1][i];
+    }
+    const PT c = L.c[i], s = L.s[i];
+    ur[i] = vr * c - vi * s;
+    ui[i] = vr * s + vi * c;
+  }
+}
+
 // Forward: pulses [p0, p1) into image row `row` (accumulators in registers per tile).
 template <typename PT, int K, int ISA>
 SARCLI_INLINE void bp_row(const Args& A, const PT* prof, long row, long p0, long p1,
@@ -484,21 +506,14 @@ SARCLI_INLINE void bp_row(const Args& A, const PT* prof, long row, long p0, long
       const Anchor a = an.get(p - p0);
       const PT* pp = prof + 2 * p * A.lp;
       for (long g = 0; g < ng; ++g) {
-        eval_lanes<K>(a, uf[g], ud[g], A.pad, L);
-        PT tp[2 * Kernel<K>::taps][kLanes];
-        Taps<PT, K, ISA>::load(pp, L.idx, tp);
+        PT ur[kLanes], ui[kLanes];
+        carried_lanes<PT, K, ISA>(a, uf[g], ud[g], A.pad, pp, L, ur, ui);
         PT* __restrict gr = ar[g];
         PT* __restrict gi = ai[g];
 #pragma omp simd
         for (int i = 0; i < kLanes; ++i) {
-          PT vr = 0, vi = 0;
-          for (int k = 0; k < Kernel<K>::taps; ++k) {
-            vr += static_cast<PT>(L.w[k][i]) * tp[2 * k][i];
-            vi += static_cast<PT>(L.w[k][i]) * tp[2 * k + 1][i];
-          }
-          const PT c = L.c[i], s = L.s[i];
-          gr[i] += vr * c - vi * s;
-          gi[i] += vr * s + vi * c;
+          gr[i] += ur[i];
+          gi[i] += ui[i];
         }
       }
     }
@@ -541,22 +556,14 @@ SARCLI_INLINE void bp_contract_row(const Args& A, const PT* prof, const PT* gre,
       PT* __restrict sr = sums + 2 * kLanes * (p - p0);
       PT* __restrict si = sr + kLanes;
       for (long g = 0; g < ng; ++g) {
-        eval_lanes<K>(a, uf[g], ud[g], A.pad, L);
-        PT tp[2 * Kernel<K>::taps][kLanes];
-        Taps<PT, K, ISA>::load(pp, L.idx, tp);
+        PT ur[kLanes], ui[kLanes];
+        carried_lanes<PT, K, ISA>(a, uf[g], ud[g], A.pad, pp, L, ur, ui);
         const PT* __restrict gr = wr[g];
         const PT* __restrict gi = wi[g];
 #pragma omp simd
         for (int i = 0; i < kLanes; ++i) {
-          PT vr = 0, vi = 0;
-          for (int k = 0; k < Kernel<K>::taps; ++k) {
-            vr += static_cast<PT>(L.w[k][i]) * tp[2 * k][i];
-            vi += static_cast<PT>(L.w[k][i]) * tp[2 * k + 1][i];
-          }
-          const PT c = L.c[i], s = L.s[i];
-          const PT ur = vr * c - vi * s, ui = vr * s + vi * c;
-          sr[i] += gr[i] * ur - gi[i] * ui;
-          si[i] += gr[i] * ui + gi[i] * ur;
+          sr[i] += gr[i] * ur[i] - gi[i] * ui[i];
+          si[i] += gr[i] * ui[i] + gi[i] * ur[i];
         }
       }
     }
