@@ -120,22 +120,24 @@ def test_pulse_contractions_are_the_reprojection_formula(kw):
     assert np.array_equal(v1, pulse_contractions(d, g, freq, a, r0, grid, **kw, nthreads=2))
 
 
-def test_subaperture_images_add_up_to_the_backprojection():
+def test_group_images_add_up_to_the_backprojection():
     from sarcli.core.grid import Grid
     from sarcli.errors import SarcliInputError
-    from sarcli.formers.backprojection import backproject, subaperture_images
+    from sarcli.formers._bp_prepared import Backprojector
+    from sarcli.formers.backprojection import backproject
 
     _, d, freq, a, r0 = _circle_case(23, 32, 4)
     grid = Grid(30, 26, 0.25, 0.25)
     bounds = [0, 5, 6, 15, 23]
-    imgs = [img for _, img in subaperture_images(d, bounds, freq, a, r0, grid)]
+    bp = Backprojector(d, freq, a, r0, grid)
+    imgs = [re + 1j * im for _, re, im in bp.group_images(bounds)]
     assert len(imgs) == 4
     one = backproject(d[6:15], freq, a[6:15], r0[6:15], grid) * (9 / 23)
     assert np.max(np.abs(imgs[2] - one)) < 1e-12 * np.max(np.abs(one))
     full = backproject(d, freq, a, r0, grid)
     assert np.max(np.abs(sum(imgs) - full)) < 1e-12 * np.max(np.abs(full))
     with pytest.raises(SarcliInputError):
-        next(subaperture_images(d, [0, 5, 5, 23], freq, a, r0, grid))
+        next(bp.group_images([0, 5, 5, 23]))
 
 
 def test_lbfgs_driver_refuses_a_routine_of_another_interface():
@@ -179,7 +181,7 @@ def test_prepared_backprojector_is_backproject_and_pulse_contractions(kw):
     from sarcli.core.grid import Grid
     from sarcli.errors import SarcliInputError
     from sarcli.formers._bp_prepared import Backprojector
-    from sarcli.formers.backprojection import backproject, pulse_contractions, subaperture_images
+    from sarcli.formers.backprojection import backproject, pulse_contractions
 
     rng, d, freq, a, r0 = _circle_case(150, 40, 5)   # more pulses than one profile block
     w = np.hanning(42)[1:-1]
@@ -199,8 +201,10 @@ def test_prepared_backprojector_is_backproject_and_pulse_contractions(kw):
     assert bp.on(other).profiles is bp.profiles
     bounds = [0, 7, 8, 100, 150]
     groups = [(b, re.copy(), im.copy()) for b, re, im in bp.group_images(bounds)]
-    for (b, re, im), (b2, ref) in zip(groups, subaperture_images(d, bounds, freq, a, r0, grid, w, **kw)):
-        assert b == b2 and np.max(np.abs(re + 1j * im - ref)) < tol * np.max(np.abs(ref))
+    for (b, re, im), lo, hi in zip(groups, bounds[:-1], bounds[1:]):   # each its share of the whole
+        ref = backproject(d[lo:hi], freq, a[lo:hi], r0[lo:hi], grid, w, **kw) * ((hi - lo) / 150)
+        assert np.max(np.abs(re + 1j * im - ref)) < tol * np.max(np.abs(ref))
+    assert [b for b, _, _ in groups] == [0, 1, 2, 3]
     assert len(groups) == 4
     with pytest.raises(SarcliInputError):
         next(bp.group_images([0, 7, 149]))

@@ -92,10 +92,10 @@ class Backprojector:
         return acc[:, 0] + 1j * acc[:, 1]
 
     def group_images(self, bounds):
-        """The images of consecutive groups of pulses, ``bounds[b] <= p < bounds[b + 1]``, as
-        :func:`~sarcli.formers.backprojection.subaperture_images` gives them (each normalised as its
-        share of the image of all pulses): yields ``(b, real, imag)``, float64 arrays of the grid's
-        shape that are reused for the next group (copy what is kept).
+        """The images of consecutive groups of pulses, ``bounds[b] <= p < bounds[b + 1]``, each
+        normalised as its share of the image of all pulses (their sum is :meth:`image`): yields
+        ``(b, real, imag)``, float64 arrays of the grid's shape that are reused for the next group
+        (copy what is kept).
         """
         st = self._st
         bounds = np.asarray(bounds, dtype=np.int64)

@@ -70,7 +70,7 @@ from .._util.progress import progress
 from ._bp_kernels import GEO_ROWS, kernels, min_range, next_fast_len, tile_width
 from ._samples import is_lazy
 
-__all__ = ["backproject", "reproject", "pulse_contractions", "subaperture_images", "profile_length", "INTERPOLATORS", "DEFAULT_UPSAMPLE", "DEFAULT_PRECISION",
+__all__ = ["backproject", "reproject", "pulse_contractions", "profile_length", "INTERPOLATORS", "DEFAULT_UPSAMPLE", "DEFAULT_PRECISION",
            "DEFAULT_INTERP"]
 
 #: Interpolation kernels for the range profiles and their codes in the compiled kernels.
@@ -349,39 +349,6 @@ def backproject(data, freq_hz, antenna_position_m, range_to_center_m, grid, weig
     img.real = out_re
     img.imag = out_im
     return img
-
-
-def subaperture_images(data, bounds, freq_hz, antenna_position_m, range_to_center_m, grid, weights=None, *,
-                       upsample=DEFAULT_UPSAMPLE, interp=DEFAULT_INTERP, precision="float64",
-                       nthreads=None, receive_position_m=None):
-    """The images of consecutive groups of pulses, ``bounds[b] <= p < bounds[b + 1]``: yields
-    ``(b, image)`` in order, each normalised as its share of :func:`backproject` of all pulses
-    (their sum is that image). One setup for all groups (geometry, checks, kernel options).
-    Arguments as for :func:`backproject`; ``bounds`` increasing from 0 to P.
-    """
-    d = _check_data(data)
-    bounds = np.asarray(bounds, dtype=np.int64)
-    if bounds.ndim != 1 or bounds.size < 2 or bounds[0] != 0 or bounds[-1] != d.shape[0] or np.any(np.diff(bounds) < 1):
-        raise SarcliInputError(f"bounds must increase from 0 to the {d.shape[0]} pulses, got {bounds}")
-    st = _Setup(d.shape, freq_hz, antenna_position_m, range_to_center_m, grid, weights,
-                upsample, interp, precision, receive_position_m)
-    cdt = np.complex64 if st.dtype == np.float32 else np.complex128
-    kern = kernels()
-    for b in range(bounds.size - 1):
-        sl = slice(int(bounds[b]), int(bounds[b + 1]))
-        out_re = np.zeros(st.shape)
-        out_im = np.zeros(st.shape)
-        with using_threads(nthreads):
-            for lo in range(sl.start, sl.stop, st.block):
-                part = slice(lo, min(sl.stop, lo + st.block))
-                prof = _profiles(d[part], None if st.weights is None else st.weights[part], st.total_weight,
-                                 st.n_len, cdt)
-                kern.bp_tiles(prof.view(st.dtype).reshape(prof.shape + (2,)), *st.kernel_args(part),
-                              st.cache_block, out_re, out_im)
-        img = np.empty(st.shape, dtype=np.complex128)
-        img.real = out_re
-        img.imag = out_im
-        yield b, img
 
 
 def pulse_contractions(data, g, freq_hz, antenna_position_m, range_to_center_m, grid, weights=None, *,
