@@ -13,8 +13,8 @@ from .options import echo_info, grid_options, handle_errors, parse_pair, prepare
 @click.option("-o", "--output", required=True, type=click.Path(dir_okay=False),
               help="Corrected phase-history file to write (.h5).")
 @click.option("--method", type=click.Choice(METHODS), default=DEFAULT_METHOD, show_default=True,
-              help="Minimum entropy, coarse to fine, cross-validated between halves of the scene; or "
-                   "phase gradient autofocus.")
+              help="Minimum entropy, coarse to fine, or phase gradient autofocus; either "
+                   "cross-validated between halves of the scene.")
 @grid_options
 @click.pass_context
 @handle_errors
@@ -25,9 +25,10 @@ def command(ctx, input_path, output, method, center, extent, pixel_size):
     /autofocus/phase_rad with the method. Constant and linear phase (a cross-range shift) are not
     observable and are left out of the estimate. The grid options choose the scene part the
     estimate is made on (default the file's grid). No correction is applied when none makes the
-    image sharper (entropy and peak-to-mean) or, for min-entropy, when the estimates from two
-    halves of the scene do not both sharpen the other half and agree beyond chance. What was
-    decided and why is stored in the file's attribute autofocus_decision and printed with -v.
+    image sharper (entropy and peak-to-mean), or when the estimates from two halves of the scene
+    do not agree beyond chance and sharpen the other half (min-entropy: each half; pga: in sum).
+    What was decided and why is stored in the file's attribute autofocus_decision and printed
+    with -v.
     """
     import numpy as np
 
