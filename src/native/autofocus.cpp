@@ -9,7 +9,8 @@
 //
 //   X_b = Σ_s F_bs conj(f_s) a_s,   Y_b = Σ_s F_bs conj(f_s)
 //
-// in double precision, with E = Σ I and T = Σ I ln I (α = 1) or Σ I^α. The caller forms the
+// (single precision within a tile, where each vector lane sums a few dozen terms; double across
+// tiles), with E = Σ I and T = Σ I ln I (α = 1) or Σ I^α in double. The caller forms the
 // entropy and its gradient from these (they are linear in the pixels, so the parts of a split
 // grid add). Each tile's sums are kept apart and added in tile order: the result does not depend
 // on the number of threads.
@@ -26,6 +27,13 @@
 
 #include "sarcli_simd.hpp"
 
+#if defined(SARCLI_HAVE_MVEC) && defined(__GNUC__) && !defined(__clang__)
+// glibc's vector math library (libmvec): declared vectorisable, these calls in `omp simd` loops
+// become its AVX-512, AVX2 or SSE variants in the matching clone
+extern "C" double log(double) noexcept __attribute__((simd("notinbranch")));
+extern "C" double pow(double, double) noexcept __attribute__((simd("notinbranch")));
+#endif
+
 namespace sarcli {
 namespace {
 
@@ -39,7 +47,7 @@ constexpr std::size_t kTileBytes = 192 * 1024;  // stack bytes one tile reads (w
 // interleaved as (wr, wi) and (wi, wr).
 SARCLI_CLONES
 void tile_sums(const float* stack, std::size_t n, std::size_t nb, const float* e, std::size_t s0,
-               std::size_t m, double alpha, bool grad, float* fa, float* fb, double* h, double* res) {
+               std::size_t m, double alpha, bool grad, float* fa, float* fb, float* w, double* h, double* res) {
   const std::size_t m2 = 2 * m;
   std::fill(fa, fa + m2, 0.0f);
   std::fill(fb, fb + m2, 0.0f);
@@ -57,41 +65,100 @@ void tile_sums(const float* stack, std::size_t n, std::size_t nb, const float* e
     }
   }
   // X_b = Σ_k p_k xa_k + i Σ_k p_k xb_k over the interleaved values p = (Re F, Im F), with
-  // xa = (Re f, Im f)·a and xb = (-Im f, Re f)·a; Y_b likewise without a
-  double* xa = h;
-  double* xb = h + m2;
-  double* ya = h + 2 * m2;
-  double* yb = h + 3 * m2;
-  double E = 0.0, T = 0.0;
-  const bool shannon = alpha == 1.0;
+  // xa = (Re f, Im f)·a and xb = (-Im f, Re f)·a; Y_b likewise without a (ya, yb). Three loops
+  // over the tile's pixels, each vectorised: the image and intensity, the weight (the logarithm or
+  // power by glibc's vector math library where it is linked), the weighted values.
+  float* xa = w;
+  float* xb = w + m2;
+  float* ya = w + 2 * m2;
+  float* yb = w + 3 * m2;
+  double* I = h;   // intensity per pixel, then the weight a per value (a, a)
+  double* a2 = h + m2;
+#pragma omp simd
   for (std::size_t s = 0; s < m; ++s) {
     const double fr = static_cast<double>(fa[2 * s] - fb[2 * s + 1]);
     const double fi = static_cast<double>(fa[2 * s + 1] + fb[2 * s]);
-    const double I = fr * fr + fi * fi;
-    double a = 0.0;
-    if (I > 0.0) {
-      a = shannon ? std::log(I) : std::pow(I, alpha - 1.0);
-      T += I * a;
-      E += I;
+    I[s] = fr * fr + fi * fi;
+    ya[2 * s] = static_cast<float>(fr);
+    ya[2 * s + 1] = static_cast<float>(fi);
+    yb[2 * s] = static_cast<float>(-fi);
+    yb[2 * s + 1] = static_cast<float>(fr);
+  }
+  double E = 0.0, T = 0.0;
+  if (alpha == 1.0) {
+#pragma omp simd reduction(+ : E, T)
+    for (std::size_t s = 0; s < m; ++s) {
+      const double v = I[s];
+      const double a = std::log(v > 0.0 ? v : 1.0);  // 0 where I = 0
+      T += v * a;
+      E += v;
+      a2[2 * s] = a;
+      a2[2 * s + 1] = a;
     }
-    xa[2 * s] = fr * a;
-    xa[2 * s + 1] = fi * a;
-    xb[2 * s] = -fi * a;
-    xb[2 * s + 1] = fr * a;
-    ya[2 * s] = fr;
-    ya[2 * s + 1] = fi;
-    yb[2 * s] = -fi;
-    yb[2 * s + 1] = fr;
+  } else if (alpha == 0.5) {  // I^(-1/2): a square root, not a power
+#pragma omp simd reduction(+ : E, T)
+    for (std::size_t s = 0; s < m; ++s) {
+      const double v = I[s];
+      const double a = v > 0.0 ? 1.0 / std::sqrt(v) : 0.0;
+      T += v * a;
+      E += v;
+      a2[2 * s] = a;
+      a2[2 * s + 1] = a;
+    }
+  } else {
+    const double am1 = alpha - 1.0;
+#pragma omp simd reduction(+ : E, T)
+    for (std::size_t s = 0; s < m; ++s) {
+      const double v = I[s];
+      const double a = v > 0.0 ? std::pow(v > 0.0 ? v : 1.0, am1) : 0.0;
+      T += v * a;
+      E += v;
+      a2[2 * s] = a;
+      a2[2 * s + 1] = a;
+    }
   }
   res[0] = E;
   res[1] = T;
   if (!grad) return;
-  for (std::size_t b = 0; b < nb; ++b) {
+#pragma omp simd
+  for (std::size_t k = 0; k < m2; ++k) {
+    xa[k] = static_cast<float>(ya[k] * a2[k]);
+    xb[k] = static_cast<float>(yb[k] * a2[k]);
+  }
+  // two rows at a time: eight independent sums share each load of the weights
+  std::size_t b = 0;
+  for (; b + 1 < nb; b += 2) {
     const float* p = stack + 2 * (b * n + s0);
-    double sa = 0.0, sb = 0.0, ta = 0.0, tb = 0.0;
+    const float* q = p + 2 * n;
+    float sa = 0.0f, sb = 0.0f, ta = 0.0f, tb = 0.0f, ua = 0.0f, ub = 0.0f, va = 0.0f, vb = 0.0f;
+#pragma omp simd reduction(+ : sa, sb, ta, tb, ua, ub, va, vb)
+    for (std::size_t k = 0; k < m2; ++k) {
+      const float v = p[k], u = q[k];
+      sa += v * xa[k];
+      sb += v * xb[k];
+      ta += v * ya[k];
+      tb += v * yb[k];
+      ua += u * xa[k];
+      ub += u * xb[k];
+      va += u * ya[k];
+      vb += u * yb[k];
+    }
+    double* r = res + 2 + 4 * b;
+    r[0] = sa;
+    r[1] = sb;
+    r[2] = ta;
+    r[3] = tb;
+    r[4] = ua;
+    r[5] = ub;
+    r[6] = va;
+    r[7] = vb;
+  }
+  for (; b < nb; ++b) {
+    const float* p = stack + 2 * (b * n + s0);
+    float sa = 0.0f, sb = 0.0f, ta = 0.0f, tb = 0.0f;
 #pragma omp simd reduction(+ : sa, sb, ta, tb)
     for (std::size_t k = 0; k < m2; ++k) {
-      const double v = p[k];
+      const float v = p[k];
       sa += v * xa[k];
       sb += v * xb[k];
       ta += v * ya[k];
@@ -104,6 +171,7 @@ void tile_sums(const float* stack, std::size_t n, std::size_t nb, const float* e
     r[3] = tb;
   }
 }
+
 
 // (E, T); with x and y of length nb, X and Y written there.
 nb::tuple entropy_sums(in<cf, 2> stack, in<cf, 1> e, double alpha, std::optional<out<cd, 1>> x,
@@ -125,11 +193,12 @@ nb::tuple entropy_sums(in<cf, 2> stack, in<cf, 1> e, double alpha, std::optional
 #pragma omp parallel
     {
       std::vector<float> fa(2 * tile), fb(2 * tile);
-      std::vector<double> h(8 * tile);
+      std::vector<float> w(8 * tile);
+      std::vector<double> h(4 * tile);
 #pragma omp for schedule(static)
       for (long t = 0; t < static_cast<long>(ntiles); ++t) {
         const std::size_t s0 = static_cast<std::size_t>(t) * tile;
-        tile_sums(sp, n, nbk, ep, s0, std::min(tile, n - s0), alpha, grad, fa.data(), fb.data(), h.data(),
+        tile_sums(sp, n, nbk, ep, s0, std::min(tile, n - s0), alpha, grad, fa.data(), fb.data(), w.data(), h.data(),
                   res.data() + static_cast<std::size_t>(t) * width);
       }
     }
