@@ -274,7 +274,7 @@ def test_tiles_narrow_near_the_antenna():
 
 def test_range_profiles_are_the_padded_inverse_fft():
     """range_profiles (shared with ffbp) against numpy, with (M,), (1, M) and (P, M) weights."""
-    from sarcli.formers.backprojection import _PAD, range_profiles
+    from sarcli.formers._bp_setup import PAD, range_profiles
 
     rng = np.random.default_rng(2)
     P, M, L = 37, 24, 96
@@ -283,7 +283,7 @@ def test_range_profiles_are_the_padded_inverse_fft():
     buf = np.zeros((P, L), complex)
     buf[:, (np.arange(M) - M // 2) % L] = d * w / 3.0
     ref = np.fft.fftshift(np.fft.ifft(buf, axis=1) * L, axes=1)
-    ref = np.concatenate([ref[:, -_PAD:], ref, ref[:, :_PAD]], axis=1)
+    ref = np.concatenate([ref[:, -PAD:], ref, ref[:, :PAD]], axis=1)
     for wk in (w, w[None, :], np.broadcast_to(w, (P, M))):
         re, im = range_profiles(d, wk, 3.0, L, 1)
         assert np.max(np.abs(re + 1j * im - ref)) < 1e-12

@@ -14,7 +14,8 @@ from .._native import using_threads
 from ..core.grid import Grid
 from ..errors import SarcliInputError
 from ._bp_kernels import kernels
-from .backprojection import DEFAULT_INTERP, DEFAULT_UPSAMPLE, _check_data, _profiles, _Setup
+from ._bp_setup import Setup, check_data, profiles
+from .backprojection import DEFAULT_INTERP, DEFAULT_UPSAMPLE
 
 __all__ = ["Backprojector"]
 
@@ -35,20 +36,20 @@ class Backprojector:
     def __init__(self, data, freq_hz, antenna_position_m, range_to_center_m, grid, weights=None, *,
                  upsample=DEFAULT_UPSAMPLE, interp=DEFAULT_INTERP, precision="float64", nthreads=None,
                  receive_position_m=None, _profiles_of=None):
-        d = _check_data(data)
+        d = check_data(data)
         self._setup_args = (freq_hz, antenna_position_m, range_to_center_m)
         self._options = dict(weights=weights, upsample=upsample, interp=interp, precision=precision,
                              nthreads=nthreads, receive_position_m=receive_position_m)
         self._data = d
         self.grid = grid
-        self._st = st = _Setup(d.shape, freq_hz, antenna_position_m, range_to_center_m, grid, weights,
+        self._st = st = Setup(d.shape, freq_hz, antenna_position_m, range_to_center_m, grid, weights,
                                upsample, interp, precision, receive_position_m)
         self._nthreads = nthreads
         self._cdt = np.complex64 if st.dtype == np.float32 else np.complex128
         if _profiles_of is not None:
             self.profiles = _profiles_of.profiles
         else:
-            self.profiles = _profiles(d[0:st.n_pulses], st.weights, st.total_weight, st.n_len, self._cdt)
+            self.profiles = profiles(d[0:st.n_pulses], st.weights, st.total_weight, st.n_len, self._cdt)
 
     def on(self, grid: Grid) -> "Backprojector":
         """The same data and options on another ``grid``, sharing these profiles."""

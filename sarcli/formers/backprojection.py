@@ -56,25 +56,17 @@ of 1). Linear interpolation needs ``upsample=8`` for 1e-2 (6e-3) and 32 for peak
 
 from __future__ import annotations
 
-import math
-import warnings
-
 import numpy as np
 
 from .._native import using_threads
-from ..errors import AliasingWarning, SarcliInputError
-from ..core.geometry import C, bistatic_differential_range
-from ..core.grid import Grid
-from ..core.sampling import INTERPOLATORS as _ALL_INTERPOLATORS, PROFILE_INTERPOLATORS, equally_spaced, frequency_line
+from ..errors import SarcliInputError
 from .._util.progress import progress
-from ._bp_kernels import GEO_ROWS, kernels, min_range, next_fast_len, tile_width
-from ._samples import is_lazy
+from ._bp_kernels import kernels
+from ._bp_setup import INTERPOLATORS, PAD, Setup, check_data, profile_length, profiles
 
 __all__ = ["backproject", "reproject", "pulse_contractions", "profile_length", "INTERPOLATORS", "DEFAULT_UPSAMPLE", "DEFAULT_PRECISION",
            "DEFAULT_INTERP"]
 
-#: Interpolation kernels for the range profiles and their codes in the compiled kernels.
-INTERPOLATORS = {name: _ALL_INTERPOLATORS[name].code for name in PROFILE_INTERPOLATORS}
 #: Default profile oversampling and interpolation: relative error 3.5e-5 vs the exact matched
 #: filter and unit-point peaks 1 ± 1e-4 (measured: see tests/test_backprojection.py).
 DEFAULT_UPSAMPLE = 16
@@ -85,180 +77,8 @@ DEFAULT_INTERP = "cubic"
 #: run faster (docs/performance.md). :func:`backproject` and :func:`reproject` themselves, the linear map and
 #: its exact adjoint, default to float64.
 DEFAULT_PRECISION = "float32"
-#: Profile padding on each side (periodic copies), enough for the 6-tap Lanczos-3 stencil.
-_PAD = 3
-_PRECISIONS = {"float64": np.float64, "float32": np.float32}
-#: Most pulses range-compressed and backprojected together (bounds the profile memory).
-_BLOCK = 128
-#: Pulses per FFT call, at most, and the bytes their buffer may take (it stays in cache).
-_FFT_ROWS = 16
-_FFT_BYTES = 1 << 20
-#: Profile bytes one pass over the image works through (about a core's L2 cache).
-_CACHE_BYTES = 640 * 1024
 
 
-# ---------------------------------------------------------------------------------------------
-# setup shared by both directions
-# ---------------------------------------------------------------------------------------------
-def profile_length(n_frequencies: int, upsample: float) -> int:
-    """Range-profile (IFFT) length ``L``: ``upsample·M`` rounded up to an even fast FFT size."""
-    half = int(math.ceil(float(upsample) * int(n_frequencies) / 2.0))
-    return 2 * next_fast_len(max(half, 1))
-
-
-def _profiles(data, weights, total_weight, n_len, dtype):
-    """Range profiles [B, n_len + 2·pad] of ``dtype`` (complex): :func:`range_profiles` unsplit.
-
-    The FFTs run up to :data:`_FFT_ROWS` pulses at a time, in a buffer of at most :data:`_FFT_BYTES`:
-    numpy's FFT of a few rows whose buffer stays in cache is several times faster per row than one
-    call on the whole block.
-    """
-    b, m = data.shape
-    fft_rows = max(1, min(_FFT_ROWS, _FFT_BYTES // (n_len * np.dtype(dtype).itemsize)))
-    if weights is not None:
-        weights = np.broadcast_to(weights, (b, m))   # (M,) or (1, M) weights serve every pulse
-    slots = (np.arange(m) - m // 2) % n_len
-    idx = (np.arange(n_len + 2 * _PAD) - _PAD - n_len // 2) % n_len
-    out = np.empty((b, n_len + 2 * _PAD), dtype=dtype)
-    buf = np.zeros((min(b, fft_rows), n_len), dtype=dtype)
-    for r in range(0, b, fft_rows):
-        rows = slice(r, min(b, r + fft_rows))
-        n = rows.stop - rows.start
-        wd = data[rows] if weights is None else data[rows] * weights[rows]
-        buf[:n].fill(0)
-        buf[:n, slots] = wd / total_weight
-        np.take(np.fft.ifft(buf[:n], axis=1, norm="forward"), idx, axis=1, out=out[rows])
-    return out
-
-
-def range_profiles(data, weights, total_weight, n_len, nthreads, dtype=np.complex128):
-    """Range profiles of pulses ``data`` [B, M] for backprojection and ffbp: real and imaginary parts
-    [B, n_len + 2·pad], C-contiguous.
-
-    ``w d / W`` go on the FFT slots ``(j - j_c) mod L`` (``j_c = M // 2``), an unnormalised inverse
-    FFT of length ``L = n_len`` follows, and fftshift: profile index ``q`` holds the differential
-    range ``Δr = (q - L/2) c / (2 Δα L)``. Periodic copies of ``pad`` samples at both ends let a
-    stencil run past either end; the shift and the padding are one gather, ``(j - pad - L//2) mod L``.
-    """
-    prof = _profiles(data, weights, total_weight, n_len, dtype)
-    return np.ascontiguousarray(prof.real), np.ascontiguousarray(prof.imag)
-
-
-class _Setup:
-    """Validated inputs, per-pulse constants (in the working precision) and the FFT layout."""
-
-    def __init__(self, shape, freq_hz, antenna_position_m, range_to_center_m, grid, weights,
-                 upsample, interp, precision, receive_position_m=None):
-        n_pulses, m = shape
-        if interp not in INTERPOLATORS:
-            raise SarcliInputError(f"unknown interpolation {interp!r}; choose one of {sorted(INTERPOLATORS)}")
-        if precision not in _PRECISIONS:
-            raise SarcliInputError(f"unknown precision {precision!r}; choose 'float64' or 'float32'")
-        if not (np.isfinite(upsample) and upsample >= 1):
-            raise SarcliInputError(f"upsample must be a number >= 1, got {upsample!r}")
-        if not isinstance(grid, Grid):
-            raise SarcliInputError(f"grid must be a sarcli.core.grid.Grid, got {type(grid).__name__}")
-        if m < 2:
-            raise SarcliInputError("backprojection needs at least two frequencies per pulse; "
-                                   "use method 'direct'")
-        f = np.asarray(freq_hz, dtype=np.float64)
-        # one row when every pulse has the same frequencies: the checks below then cost O(M), not O(P M)
-        f = f[None, :] if f.ndim == 1 else f
-        if f.shape not in ((1, m), (n_pulses, m)):
-            raise SarcliInputError(f"frequencies have shape {np.shape(freq_hz)}, expected ({m},) "
-                                   f"or ({n_pulses}, {m}) to match the data")
-        a = np.asarray(antenna_position_m, dtype=np.float64)
-        r0 = np.asarray(range_to_center_m, dtype=np.float64)
-        if a.shape != (n_pulses, 3) or r0.shape != (n_pulses,):
-            raise SarcliInputError(f"antenna positions {a.shape} / ranges {r0.shape} do not match "
-                                   f"{n_pulses} pulses (expected ({n_pulses}, 3) and ({n_pulses},))")
-        b = a if receive_position_m is None else np.asarray(receive_position_m, dtype=np.float64)
-        if b.shape != a.shape:
-            raise SarcliInputError(f"receive positions {b.shape} do not match the transmit positions {a.shape}")
-        self.bistatic = not np.array_equal(a, b)
-        equally_spaced(f, "backprojection")
-        if weights is None:
-            w = None
-            self.total_weight = float(n_pulses * m)
-        else:
-            w = np.broadcast_to(np.asarray(weights, dtype=np.float64), (n_pulses, m))
-            if np.any(w < 0) or not np.all(np.isfinite(w)):
-                raise SarcliInputError("window weights must be finite and non-negative")
-            self.total_weight = float(w.sum())
-            if self.total_weight <= 0:
-                raise SarcliInputError("window weights sum to zero")
-        self.weights = w
-        self.n_pulses, self.m = n_pulses, m
-        self.n_len = profile_length(m, upsample)
-        self.jc = m // 2
-        self.slots = (np.arange(m) - self.jc) % self.n_len  # FFT slot of frequency j
-        self.kind = INTERPOLATORS[interp]
-        self.dtype = _PRECISIONS[precision]
-        dt = self.dtype
-        alpha_ref, dalpha = frequency_line(f, self.jc)
-        alpha_ref = np.broadcast_to(alpha_ref, (n_pulses,))
-        dalpha = np.broadcast_to(dalpha, (n_pulses,))
-        bin_m = C / (2.0 * dalpha * self.n_len)   # signed for decreasing frequencies
-        na = np.linalg.norm(a, axis=1)
-        nb = np.linalg.norm(b, axis=1)
-        # per-pulse geometry in float64, the rows _bp_kernels.GEO_ROWS names
-        self.geo = np.empty((GEO_ROWS, n_pulses))
-        self.geo[0], self.geo[1], self.geo[2], self.geo[3] = 2.0 * a[:, 0], 2.0 * a[:, 1], na * na, na
-        self.geo[4], self.geo[5], self.geo[6], self.geo[7] = 2.0 * b[:, 0], 2.0 * b[:, 1], nb * nb, nb
-        # (|a| + |b|)/2 - r0: exactly |a| - r0 when a = b
-        self.geo[8] = (0.5 * (na + nb) if self.bistatic else na) - r0
-        self.geo[9] = 1.0 / bin_m
-        self.geo[10] = 4.0 * np.pi * alpha_ref / C
-        self.x = np.ascontiguousarray(grid.x, dtype=np.float64)
-        self.y = np.ascontiguousarray(grid.y, dtype=np.float64)
-        self.shape = grid.shape
-        r_min = min(min_range(a, grid), min_range(b, grid))
-        self.width = tile_width(grid, r_min, float(np.max(np.abs(self.geo[10]))),
-                                float(np.max(np.abs(self.geo[9]))))
-        self._check_window(a, b, r0, grid, np.abs(bin_m) * self.n_len / 2.0)
-        # pulses per pass over the image inside a kernel call: their profiles stay in cache
-        row_bytes = (self.n_len + 2 * _PAD) * 2 * np.dtype(dt).itemsize
-        self.cache_block = max(4, _CACHE_BYTES // row_bytes)
-        # pulses whose profiles live at once: at most _BLOCK, and no more bytes than the phase
-        # history and the image hold (complex128), so few long pulses onto a small image stay
-        # within a few times the data and the image
-        budget = 16 * (n_pulses * m + grid.nx * grid.ny)
-        self.block = int(min(_BLOCK, max(4, budget // row_bytes)))
-
-    @staticmethod
-    def _check_window(a, b, r0, grid, half_window):
-        """Warn when the grid's corners leave some pulse's unambiguous window ``|Δr| < c/(4Δα)``.
-
-        ``|a - x|`` is convex in x, so its maximum over the rectangle is at a corner; the corners
-        are also where the minimum lies unless an antenna is right above the grid.
-        """
-        xs = [grid.x[0] - grid.dx / 2, grid.x[-1] + grid.dx / 2]
-        ys = [grid.y[0] - grid.dy / 2, grid.y[-1] + grid.dy / 2]
-        corners = np.array([[x, y, 0.0] for x in xs for y in ys])
-        excess = np.abs(bistatic_differential_range(a, b, r0, corners)) / half_window[:, None]
-        if np.max(excess) >= 1.0:
-            worst = int(np.argmax(np.max(excess, axis=1)))
-            warnings.warn(
-                f"the grid reaches {np.max(excess):.3g} times the unambiguous range window "
-                f"|Δr| < c/(4Δα) = {half_window[worst]:.4g} m (pulse {worst}); backprojection leaves "
-                f"pixels outside it out of those pulses", AliasingWarning, stacklevel=4)
-
-    def kernel_args(self, sl):
-        """Geometry and options of the kernels for the pulses in slice ``sl``."""
-        return (self.x, self.y, np.ascontiguousarray(self.geo[:, sl]), self.n_len, _PAD, self.kind,
-                self.bistatic, self.width)
-
-    def blocks(self):
-        """Slices of at most ``self.block`` pulses: profiles live one block at a time."""
-        return [slice(b, min(b + self.block, self.n_pulses)) for b in range(0, self.n_pulses, self.block)]
-
-
-def _check_data(data):
-    # a phase history left on disk (sarcli.io.pulses.PulseArray) stays there: blocks are read below
-    d = data if is_lazy(data) else np.asarray(data)
-    if d.ndim != 2 or d.shape[0] * d.shape[1] == 0:
-        raise SarcliInputError(f"phase history must be a non-empty [P, M] array, got shape {d.shape}")
-    return d
 
 
 # ---------------------------------------------------------------------------------------------
@@ -327,8 +147,8 @@ def backproject(data, freq_hz, antenna_position_m, range_to_center_m, grid, weig
     >>> int(row), int(col), float(round(abs(img[row, col]), 3))   # x = 1 m, y = 2 m
     (28, 24, 1.0)
     """
-    d = _check_data(data)
-    st = _Setup(d.shape, freq_hz, antenna_position_m, range_to_center_m, grid, weights,
+    d = check_data(data)
+    st = Setup(d.shape, freq_hz, antenna_position_m, range_to_center_m, grid, weights,
                 upsample, interp, precision, receive_position_m)
     cdt = np.complex64 if st.dtype == np.float32 else np.complex128
     out_re = np.zeros(st.shape)
@@ -339,7 +159,7 @@ def backproject(data, freq_hz, antenna_position_m, range_to_center_m, grid, weig
         for sl in progress(blocks, total=len(blocks), desc="backprojection", unit="pulse block"):
             # w d / W on FFT slots (j - j_c) mod L, unnormalised IFFT, fftshift: profile index
             # q holds Δr = (q - L/2) c / (2 Δα L); periodic copies pad both ends
-            prof = _profiles(d[sl], None if st.weights is None else st.weights[sl], st.total_weight,
+            prof = profiles(d[sl], None if st.weights is None else st.weights[sl], st.total_weight,
                              st.n_len, cdt)
             # real and imaginary parts interleaved: [B, n_len + 2 pad, 2]
             kern.bp_tiles(prof.view(st.dtype).reshape(prof.shape + (2,)), *st.kernel_args(sl),
@@ -362,11 +182,11 @@ def pulse_contractions(data, g, freq_hz, antenna_position_m, range_to_center_m, 
     from each pulse's profile as the forward kernel does rather than scattering onto it.
     Arguments as for :func:`backproject`; ``g`` has the grid's shape.
     """
-    d = _check_data(data)
+    d = check_data(data)
     gg = np.asarray(g)
     if gg.shape != grid.shape:
         raise SarcliInputError(f"g shape {gg.shape} does not match the grid {grid.shape}")
-    st = _Setup(d.shape, freq_hz, antenna_position_m, range_to_center_m, grid, weights,
+    st = Setup(d.shape, freq_hz, antenna_position_m, range_to_center_m, grid, weights,
                 upsample, interp, precision, receive_position_m)
     cdt = np.complex64 if st.dtype == np.float32 else np.complex128
     gre = np.ascontiguousarray(gg.real, dtype=st.dtype)
@@ -375,7 +195,7 @@ def pulse_contractions(data, g, freq_hz, antenna_position_m, range_to_center_m, 
     kern = kernels()
     with using_threads(nthreads):
         for sl in st.blocks():
-            prof = _profiles(d[sl], None if st.weights is None else st.weights[sl], st.total_weight,
+            prof = profiles(d[sl], None if st.weights is None else st.weights[sl], st.total_weight,
                              st.n_len, cdt)
             acc = np.empty((sl.stop - sl.start, 2))
             kern.bp_contract(prof.view(st.dtype).reshape(prof.shape + (2,)), gre, gim,
@@ -415,11 +235,11 @@ def reproject(image, freq_hz, antenna_position_m, range_to_center_m, grid, weigh
     fr = np.asarray(freq_hz)
     if a.ndim != 2:
         raise SarcliInputError(f"antenna positions must be (P, 3), got {a.shape}")
-    st = _Setup((a.shape[0], fr.shape[-1]), freq_hz, antenna_position_m, range_to_center_m, grid,
+    st = Setup((a.shape[0], fr.shape[-1]), freq_hz, antenna_position_m, range_to_center_m, grid,
                 weights, upsample, interp, precision, receive_position_m)
     fre = np.ascontiguousarray(f.real, dtype=st.dtype)
     fim = np.ascontiguousarray(f.imag, dtype=st.dtype) if np.iscomplexobj(f) else np.zeros_like(fre)
-    n_padded = st.n_len + 2 * _PAD
+    n_padded = st.n_len + 2 * PAD
     out = np.empty((st.n_pulses, st.m), dtype=np.complex128)
     kern = kernels()
     with using_threads(nthreads):
@@ -429,9 +249,9 @@ def reproject(image, freq_hz, antenna_position_m, range_to_center_m, grid, weigh
             kern.rp_tiles(fre, fim, *st.kernel_args(sl), hri)
             h = hri.astype(np.float64).view(np.complex128)[..., 0]
             # transpose of the periodic padding: fold the copies back onto their sources
-            g = h[:, _PAD:_PAD + st.n_len].copy()
-            g[:, st.n_len - _PAD:] += h[:, :_PAD]
-            g[:, :_PAD] += h[:, _PAD + st.n_len:]
+            g = h[:, PAD:PAD + st.n_len].copy()
+            g[:, st.n_len - PAD:] += h[:, :PAD]
+            g[:, :PAD] += h[:, PAD + st.n_len:]
             # transpose of fftshift and of the unnormalised inverse FFT (= unnormalised forward FFT)
             g = np.fft.fft(np.fft.ifftshift(g, axes=1), axis=1, norm="backward")
             out[sl] = g[:, st.slots] / st.total_weight

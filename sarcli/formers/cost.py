@@ -88,11 +88,11 @@ def form_image_bytes(method, n_pulses, n_freq, grid, *, model="farfield", acq=No
         cells = _kgrid_cells(acq, grid, oversample) if acq is not None else oversample**2 * npix
         return base + 3 * cells * _C16
     if method == "backprojection":
-        from .backprojection import _BLOCK, profile_length
+        from ._bp_setup import BLOCK, profile_length
 
         length = float(profile_length(int(n_freq), float(upsample))) if upsample <= 1e6 else upsample * n_freq
         item = 8 if precision == "float32" else 16
-        return base + 5 * min(_BLOCK, n_pulses) * length * item + npix * item
+        return base + 5 * min(BLOCK, n_pulses) * length * item + npix * item
     return base + 4 * npix * _C16 + pm * 48  # other formers: NUFFT-like
 
 

@@ -195,9 +195,9 @@ def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weigh
     from . import _ffbp_kernels as kern
     from ._ffbp_stage0 import _pulse_geometry, _series_inputs, _tone_weights, pulse_table, stage0
     from .._native import using_threads
-    from .backprojection import _PAD, _check_data, profile_length, range_profiles
+    from ._bp_setup import PAD, check_data, profile_length, range_profiles
 
-    d = _check_data(data)   # a phase history left on disk stays there: stage 0 reads it by blocks
+    d = check_data(data)   # a phase history left on disk stays there: stage 0 reads it by blocks
     P, M = d.shape
     if M < 2:
         raise SarcliInputError("ffbp needs at least two frequencies per pulse; use method 'direct'")
@@ -270,7 +270,7 @@ def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weigh
                                      1.0 / h_psi, inv_psi, wb)
                 pre, pim = range_profiles(d[p0:p1], wb, total, n_len, nthr, dtype=np.complex64)
                 stage0(pre, pim, lev.first[s0:s1] - p0, lev.count[s0:s1], np.ascontiguousarray(pulses[:, p0:p1]),
-                       series[s0:s1], kern.frame(lev, s0, s1), tab_p, kind, bistatic, n_len // 2, n_len, _PAD,
+                       series[s0:s1], kern.frame(lev, s0, s1), tab_p, kind, bistatic, n_len // 2, n_len, PAD,
                        plan.dq, plan.kref, cur_re[s0 - lo:s1 - lo], cur_im[s0 - lo:s1 - lo])
                 del pre, pim
             for l in range(1, len(levels)):
