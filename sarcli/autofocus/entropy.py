@@ -62,7 +62,10 @@ backprojection pair, on every other range line: whole cross-range lines, half th
 kept when each half's increment lowers the other half's entropy and the increments agree (same
 test); the whole grid's estimate is then its sub-aperture estimate
 plus the mean of the halves' increments. Finally the estimate is applied only if it leaves the
-image no less sharp (Shannon entropy not up, peak-to-mean not down).
+image no less sharp (Shannon entropy not up, peak-to-mean not down), both on the guarded grid and
+on the grid asked for. A grid whose guarded grid is too narrow across range to split in two halves
+is an input error that names it and the pixels it needs
+(:func:`~sarcli.autofocus._imager.check_splittable`).
 """
 
 
@@ -77,8 +80,8 @@ from ..errors import SarcliInputError
 from ._common import (MAX_GUARDED_PIXELS, AutofocusResult, AutofocusWarning, agreement_threshold, estimation_grid,
                       guarded_grid, sharpness)
 from ._common import correlation as _corr
-from ._imager import (SPLIT_GAP, BlockImager, Imager, every_nth_line, range_axis, single_threaded_blas,
-                      split_grid)
+from ._imager import (SPLIT_GAP, BlockImager, Imager, check_splittable, every_nth_line, range_axis,
+                      single_threaded_blas, split_grid)
 from ._lbfgs import minimize
 
 __all__ = ["min_entropy", "coarse_to_fine", "level_basis", "LEVELS"]
@@ -326,6 +329,7 @@ def _min_entropy(ph, grid, start, levels, max_iter, pulse_iter, pulse_lines, ful
     if any(lv != "smooth" and int(lv) <= K for lv in levels):
         coarse += (K,)
     axis = range_axis(acq)
+    check_splittable(grid or acq.grid, est, g_est, acq, axis)
     full = BlockImager(ph, g_est, K, axis, order=orders[0])
     halves = full.halves()
     hist: dict = {"levels": [str(lv) for lv in coarse], "block_pulses": K,
@@ -465,4 +469,17 @@ def _min_entropy(ph, grid, start, levels, max_iter, pulse_iter, pulse_lines, ful
         res.entropy_after, res.peak_to_mean_after = h0, m0
         warnings.warn(f"autofocus (min-entropy) did not sharpen the image (entropy {h0:.4f}, peak-to-mean "
                       f"{m0:.4g} before): no correction applied", AutofocusWarning, stacklevel=3)
+    elif guard and np.any(phi) and est.shape != full.grid.shape:
+        # and on the grid asked for, inside the guard band: on a grid of a few pixels a search
+        # can sharpen the band by moving energy that the grid itself loses
+        mine = Imager(ph, est, like=full)
+        (u0, n0), (u1, n1) = sharpness(mine.image(zero)), sharpness(mine.image(phi))
+        if not (u1 < u0 and n1 >= n0):
+            hist["decision"] += (f"; but it left the {est.nx} x {est.ny} pixel grid asked for less sharp (entropy "
+                                 f"{u0:.4f} -> {u1:.4f}, peak-to-mean {n0:.4g} -> {n1:.4g}): not applied")
+            res.phase_rad, res.accepted = zero, False
+            res.entropy_after, res.peak_to_mean_after = h0, m0
+            warnings.warn(f"autofocus (min-entropy) did not sharpen the {est.nx} x {est.ny} pixel grid (entropy "
+                          f"{u0:.4f}, peak-to-mean {n0:.4g} before): no correction applied", AutofocusWarning,
+                          stacklevel=3)
     return res
