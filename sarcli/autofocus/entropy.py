@@ -26,7 +26,9 @@ when an iteration lowers the entropy by less than
 :data:`~sarcli.autofocus._lbfgs.LEVEL_FTOL` of it.
 
 Every basis is orthogonal to the constant and to the phase linear in look azimuth: those change
-no image magnitude but shift it in cross-range, so they are neither searched nor returned.
+no image magnitude but shift it in cross-range, so they are neither searched nor returned. Each
+level's estimate has them removed by a fit to the phase unwrapped across the pulses
+(:func:`_without_gauge`): a shift written with ``2π`` jumps is orthogonal to them as it stands.
 
 The entropy is measured on the whole image grid, at full resolution up to
 :data:`MAX_ENTROPY_PIXELS` pixels (a central window beyond), widened by a guard band on small grids
@@ -98,6 +100,19 @@ def _gauge(acq) -> np.ndarray:
         A = A[:, :1]
     q, _ = np.linalg.qr(A)
     return q
+
+
+def _without_gauge(phi, gauge) -> np.ndarray:
+    """``φ`` less its constant and linear part, fitted to ``φ`` unwrapped across the pulses.
+
+    A phase of ``2π`` on one pulse changes no image, so the search can reach a cross-range shift
+    (a linear phase) as a vector orthogonal to the linear phases, e.g. a ramp of 1 rad per pulse
+    with ``2π`` jumps: the linear part is fitted after those jumps are undone. On a window that
+    does not hold the whole scene a shift can lower the entropy, by the same amount on both halves
+    of the scene.
+    """
+    phi = np.unwrap(np.asarray(phi, np.float64))
+    return phi - gauge @ (gauge.T @ phi)
 
 
 def _degree(P: int) -> int:
@@ -185,8 +200,7 @@ def coarse_to_fine(imager: Imager, start, gauge, levels=LEVELS, max_iter: int = 
         step = x if A is None else A @ x
         # the phase the imager's images are exact for (block means on sub-apertures), constant
         # and linear part removed
-        phi = imager.blockwise(base + step)
-        phi = phi - gauge @ (gauge.T @ phi)
+        phi = _without_gauge(imager.blockwise(base + step), gauge)
         out.append(phi.copy())
     return out
 
