@@ -35,10 +35,10 @@ import numpy as np
 
 from ..core.grid import Grid
 from ..errors import SarcliInputError, SarcliWarning
-from ._common import pulse_images
+from ._common import MAX_GUARDED_PIXELS, guarded_grid, pulse_images
 
-__all__ = ["Imager", "BlockImager", "entropy_of", "split_grid", "every_nth_line", "range_axis",
-           "single_threaded_blas"]
+__all__ = ["Imager", "BlockImager", "entropy_of", "split_grid", "check_splittable", "every_nth_line",
+           "range_axis", "single_threaded_blas"]
 
 #: Backprojection options of the estimator: the pair backproject/reproject is an exact adjoint
 #: for any of them, and the estimate only needs the image to a few per cent.
@@ -220,6 +220,37 @@ def split_grid(grid: Grid, axis: int = 1, gap: float = 0.0) -> tuple[Grid, ...]:
 
     parts = (part(0, half), part(half + g, n - half - g))
     return parts + ((part(half, g),) if g else ())
+
+
+def check_splittable(user: Grid, est: Grid, guarded: Grid, acq, axis: int) -> None:
+    """Raise a :class:`~sarcli.errors.SarcliInputError` naming ``user`` and the pixels across range
+    it needs when ``guarded`` cannot be split in two halves (:func:`split_grid`).
+
+    Parameters
+    ----------
+    user, est, guarded : Grid
+        The grid asked for, its estimation window and that window widened by the guard band.
+    acq : Acquisition
+    axis : int
+        The axis across range (:func:`range_axis`).
+    """
+    def splits(g):
+        try:
+            return bool(split_grid(g, axis, SPLIT_GAP))
+        except SarcliInputError:
+            return False
+
+    if splits(guarded):
+        return
+    n0 = est.nx if axis == 1 else est.ny
+    wider = (Grid(n, est.ny, est.dx, est.dy, est.cx, est.cy) if axis == 1 else
+             Grid(est.nx, n, est.dx, est.dy, est.cx, est.cy) for n in range(n0 + 1, n0 + 65))
+    need = next((g.nx if axis == 1 else g.ny for g in wider
+                 if splits(guarded_grid(g, acq, max_pixels=max(g.nx * g.ny, MAX_GUARDED_PIXELS)))), None)
+    raise SarcliInputError(
+        f"min-entropy autofocus needs an image grid of {f'at least {need}' if need else 'more'} pixels along "
+        f"{'x' if axis == 1 else 'y'} (across range) to compare two halves of the scene; the grid is "
+        f"{user.nx} x {user.ny} pixels ({user.dx:g} x {user.dy:g} m): widen it (--extent) or use pga")
 
 
 def every_nth_line(grid: Grid, axis: int, n: int) -> Grid:

@@ -26,7 +26,9 @@ when an iteration lowers the entropy by less than
 :data:`~sarcli.autofocus._lbfgs.LEVEL_FTOL` of it.
 
 Every basis is orthogonal to the constant and to the phase linear in look azimuth: those change
-no image magnitude but shift it in cross-range, so they are neither searched nor returned.
+no image magnitude but shift it in cross-range, so they are neither searched nor returned. Each
+level's estimate has them removed by a fit to the phase unwrapped across the pulses
+(:func:`_without_gauge`): a shift written with ``2π`` jumps is orthogonal to them as it stands.
 
 The entropy is measured on the whole image grid, at full resolution up to
 :data:`MAX_ENTROPY_PIXELS` pixels (a central window beyond), widened by a guard band on small grids
@@ -62,7 +64,10 @@ backprojection pair, on every other range line: whole cross-range lines, half th
 kept when each half's increment lowers the other half's entropy and the increments agree (same
 test); the whole grid's estimate is then its sub-aperture estimate
 plus the mean of the halves' increments. Finally the estimate is applied only if it leaves the
-image no less sharp (Shannon entropy not up, peak-to-mean not down).
+image no less sharp (Shannon entropy not up, peak-to-mean not down), both on the guarded grid and
+on the grid asked for. A grid whose guarded grid is too narrow across range to split in two halves
+is an input error that names it and the pixels it needs
+(:func:`~sarcli.autofocus._imager.check_splittable`).
 """
 
 
@@ -77,8 +82,8 @@ from ..errors import SarcliInputError
 from ._common import (MAX_GUARDED_PIXELS, AutofocusResult, AutofocusWarning, agreement_threshold, estimation_grid,
                       guarded_grid, sharpness)
 from ._common import correlation as _corr
-from ._imager import (SPLIT_GAP, BlockImager, Imager, every_nth_line, range_axis, single_threaded_blas,
-                      split_grid)
+from ._imager import (SPLIT_GAP, BlockImager, Imager, check_splittable, every_nth_line, range_axis,
+                      single_threaded_blas, split_grid)
 from ._lbfgs import minimize
 
 __all__ = ["min_entropy", "coarse_to_fine", "level_basis", "LEVELS"]
@@ -95,6 +100,19 @@ def _gauge(acq) -> np.ndarray:
         A = A[:, :1]
     q, _ = np.linalg.qr(A)
     return q
+
+
+def _without_gauge(phi, gauge) -> np.ndarray:
+    """``φ`` less its constant and linear part, fitted to ``φ`` unwrapped across the pulses.
+
+    A phase of ``2π`` on one pulse changes no image, so the search can reach a cross-range shift
+    (a linear phase) as a vector orthogonal to the linear phases, e.g. a ramp of 1 rad per pulse
+    with ``2π`` jumps: the linear part is fitted after those jumps are undone. On a window that
+    does not hold the whole scene a shift can lower the entropy, by the same amount on both halves
+    of the scene.
+    """
+    phi = np.unwrap(np.asarray(phi, np.float64))
+    return phi - gauge @ (gauge.T @ phi)
 
 
 def _degree(P: int) -> int:
@@ -182,8 +200,7 @@ def coarse_to_fine(imager: Imager, start, gauge, levels=LEVELS, max_iter: int = 
         step = x if A is None else A @ x
         # the phase the imager's images are exact for (block means on sub-apertures), constant
         # and linear part removed
-        phi = imager.blockwise(base + step)
-        phi = phi - gauge @ (gauge.T @ phi)
+        phi = _without_gauge(imager.blockwise(base + step), gauge)
         out.append(phi.copy())
     return out
 
@@ -326,6 +343,7 @@ def _min_entropy(ph, grid, start, levels, max_iter, pulse_iter, pulse_lines, ful
     if any(lv != "smooth" and int(lv) <= K for lv in levels):
         coarse += (K,)
     axis = range_axis(acq)
+    check_splittable(grid or acq.grid, est, g_est, acq, axis)
     full = BlockImager(ph, g_est, K, axis, order=orders[0])
     halves = full.halves()
     hist: dict = {"levels": [str(lv) for lv in coarse], "block_pulses": K,
@@ -465,4 +483,17 @@ def _min_entropy(ph, grid, start, levels, max_iter, pulse_iter, pulse_lines, ful
         res.entropy_after, res.peak_to_mean_after = h0, m0
         warnings.warn(f"autofocus (min-entropy) did not sharpen the image (entropy {h0:.4f}, peak-to-mean "
                       f"{m0:.4g} before): no correction applied", AutofocusWarning, stacklevel=3)
+    elif guard and np.any(phi) and est.shape != full.grid.shape:
+        # and on the grid asked for, inside the guard band: on a grid of a few pixels a search
+        # can sharpen the band by moving energy that the grid itself loses
+        mine = Imager(ph, est, like=full)
+        (u0, n0), (u1, n1) = sharpness(mine.image(zero)), sharpness(mine.image(phi))
+        if not (u1 < u0 and n1 >= n0):
+            hist["decision"] += (f"; but it left the {est.nx} x {est.ny} pixel grid asked for less sharp (entropy "
+                                 f"{u0:.4f} -> {u1:.4f}, peak-to-mean {n0:.4g} -> {n1:.4g}): not applied")
+            res.phase_rad, res.accepted = zero, False
+            res.entropy_after, res.peak_to_mean_after = h0, m0
+            warnings.warn(f"autofocus (min-entropy) did not sharpen the {est.nx} x {est.ny} pixel grid (entropy "
+                          f"{u0:.4f}, peak-to-mean {n0:.4g} before): no correction applied", AutofocusWarning,
+                          stacklevel=3)
     return res
