@@ -557,13 +557,39 @@ def test_min_entropy_never_less_sharp_on_the_grid_asked_for():
 def test_gauge_is_removed_from_the_phase_unwrapped():
     """A cross-range shift written with 2π jumps (a ramp of 1 rad per pulse, wrapped) is a linear
     phase: nothing of it is left."""
-    from sarcli.autofocus.entropy import _gauge, _without_gauge
+    from sarcli.autofocus._levels import gauge_basis as _gauge, without_gauge as _without_gauge
 
     ph = scene(seed=0, P=16, M=8)
     ramp = np.angle(np.exp(1j * np.arange(16.0)))
     gauge = _gauge(ph.acquisition)
     assert np.sqrt(np.mean((ramp - gauge @ (gauge.T @ ramp)) ** 2)) > 1.0   # what the test is for
     np.testing.assert_allclose(_without_gauge(ramp, gauge), 0.0, atol=1e-9)
+
+
+def test_gauge_of_a_large_pulse_to_pulse_error_is_fitted_to_the_phase_as_it_is():
+    """A white error of 1.5 rad rms has neighbours more than π apart: unwrapping would add 2π steps
+    whose linear fit is a shift of no use; the phase as it is keeps its own linear part only."""
+    from sarcli.autofocus._levels import gauge_basis, without_gauge, wrapped
+
+    ph = scene(seed=0, P=128, M=8)
+    phi = np.random.default_rng(3).normal(0.0, 1.5, 128)
+    assert np.any(np.abs(np.diff(phi)) > np.pi)   # what the test is for
+    gauge = gauge_basis(ph.acquisition)
+    plain = phi - gauge @ (gauge.T @ phi)
+    u = np.unwrap(phi)
+    assert np.max(np.abs(wrapped(u - gauge @ (gauge.T @ u) - plain))) > 0.5   # unwrapping would shift
+    np.testing.assert_allclose(without_gauge(phi, gauge), plain, atol=1e-12)
+
+
+def test_phase_mean_is_taken_modulo_two_pi():
+    """Two estimates whole turns apart on some pulses average to the estimate, not to it plus π."""
+    from sarcli.autofocus._levels import phase_mean, wrapped
+
+    a = np.random.default_rng(4).normal(0.0, 1.0, 64)
+    b = a + 0.2 + 2 * np.pi * np.random.default_rng(5).integers(-2, 3, 64)
+    np.testing.assert_allclose(phase_mean(a, b), a + 0.1, atol=1e-12)
+    np.testing.assert_allclose(wrapped(phase_mean(b, a) - (a + 0.1)), 0.0, atol=1e-12)   # the same phases
+    assert np.max(np.abs(wrapped(0.5 * (a + b) - (a + 0.1)))) > 3.0   # the plain mean is π off on some
 
 
 def test_min_entropy_on_a_small_grid_finds_the_error_not_a_shift():

@@ -27,8 +27,9 @@ when an iteration lowers the entropy by less than
 
 Every basis is orthogonal to the constant and to the phase linear in look azimuth: those change
 no image magnitude but shift it in cross-range, so they are neither searched nor returned. Each
-level's estimate has them removed by a fit to the phase unwrapped across the pulses
-(:func:`_without_gauge`): a shift written with ``2π`` jumps is orthogonal to them as it stands.
+level's estimate has them removed by a fit to the phase unwrapped across the pulses where that
+leaves it nearer zero modulo ``2π`` (:func:`~sarcli.autofocus._levels.without_gauge`): a shift
+written with ``2π`` jumps is orthogonal to them as it stands. Estimates are averaged modulo ``2π``.
 
 The entropy is measured on the whole image grid, at full resolution up to
 :data:`MAX_ENTROPY_PIXELS` pixels (a central window beyond), widened by a guard band on small grids
@@ -85,72 +86,9 @@ from ._common import correlation as _corr
 from ._imager import (SPLIT_GAP, BlockImager, Imager, check_splittable, every_nth_line, range_axis,
                       single_threaded_blas, split_grid)
 from ._lbfgs import minimize
+from ._levels import LEVELS, dof, gauge_basis, level_basis, phase_mean, spacing, without_gauge, wrapped
 
 __all__ = ["min_entropy", "coarse_to_fine", "level_basis", "LEVELS"]
-
-#: The levels of the search: a smooth polynomial subspace, knots every 16 and 4 pulses, every pulse.
-LEVELS = ("smooth", 16, 4, 1)
-
-
-def _gauge(acq) -> np.ndarray:
-    """Orthonormal basis ``Q`` (P × 2) of the unobservable constant and linear-in-azimuth phase."""
-    th = np.unwrap(np.asarray(acq.azimuth_rad, np.float64))
-    A = np.column_stack([np.ones_like(th), th - th.mean()])
-    if np.ptp(th) == 0:
-        A = A[:, :1]
-    q, _ = np.linalg.qr(A)
-    return q
-
-
-def _without_gauge(phi, gauge) -> np.ndarray:
-    """``φ`` less its constant and linear part, fitted to ``φ`` unwrapped across the pulses.
-
-    A phase of ``2π`` on one pulse changes no image, so the search can reach a cross-range shift
-    (a linear phase) as a vector orthogonal to the linear phases, e.g. a ramp of 1 rad per pulse
-    with ``2π`` jumps: the linear part is fitted after those jumps are undone. On a window that
-    does not hold the whole scene a shift can lower the entropy, by the same amount on both halves
-    of the scene.
-    """
-    phi = np.unwrap(np.asarray(phi, np.float64))
-    return phi - gauge @ (gauge.T @ phi)
-
-
-def _degree(P: int) -> int:
-    return int(min(12, max(2, P // 8)))
-
-
-def _spacing(level, P: int) -> int:
-    """Pulses over which a level's phase is nearly constant: the knot spacing, or for the smooth
-    level half the mean distance between the zeros of its highest-degree polynomial (``P / 2K``)."""
-    return max(1, P // (2 * _degree(P))) if level == "smooth" else int(level)
-
-
-def level_basis(level, P: int, gauge: np.ndarray) -> np.ndarray | None:
-    """The basis ``A`` (P × K) of one level, orthogonal to ``gauge``; ``None`` for one phase per
-    pulse (then the gradient itself is projected, ``(I - QQᵀ) g``).
-
-    Parameters
-    ----------
-    level : 'smooth' or int
-        ``'smooth'``: Legendre polynomials ``L_2 … L_K`` of ``u ∈ [-1, 1]`` across the pulses,
-        ``K = min(12, max(2, P // 8))``; an int ``k``: hat functions on knots every ``k`` pulses
-        (and at the last pulse), i.e. a phase piecewise linear between the knots.
-    P : int
-    gauge : ndarray, shape (P, g)
-    """
-    if level == 1 or P < 4:
-        return None
-    if level == "smooth":
-        K = _degree(P)
-        A = np.polynomial.legendre.legvander(np.linspace(-1.0, 1.0, P), K)[:, 2:]
-    else:
-        knots = np.unique(np.append(np.arange(0, P, int(level)), P - 1))
-        if knots.size >= P:
-            return None
-        eye = np.eye(knots.size)
-        A = np.column_stack([np.interp(np.arange(P), knots, eye[i]) for i in range(knots.size)])
-    return A - gauge @ (gauge.T @ A)
-
 
 #: Quadratic phases tried before the smooth level (rad at the aperture ends): a large quadratic
 #: error puts the smooth level's L-BFGS in a local minimum, a scan over it does not.
@@ -181,7 +119,7 @@ def coarse_to_fine(imager: Imager, start, gauge, levels=LEVELS, max_iter: int = 
     for level in levels:
         A = level_basis(level, P, gauge)
         # a phase smooth over `spacing` pulses needs no finer sub-apertures than that
-        im = imager.coarsened(_spacing(level, P))
+        im = imager.coarsened(spacing(level, P))
         if level == "smooth" and A is not None:
             phi = _defocus_search(im, phi, A[:, 0])
         base = phi
@@ -200,7 +138,7 @@ def coarse_to_fine(imager: Imager, start, gauge, levels=LEVELS, max_iter: int = 
         step = x if A is None else A @ x
         # the phase the imager's images are exact for (block means on sub-apertures), constant
         # and linear part removed
-        phi = _without_gauge(imager.blockwise(base + step), gauge)
+        phi = without_gauge(imager.blockwise(base + step), gauge)
         out.append(phi.copy())
     return out
 
@@ -240,12 +178,6 @@ def _crossvalidate(halves, paths):
     h0 = [im.entropy(np.zeros(P)) for im in halves]
     gains = [(h0[0] - halves[0].entropy(b), h0[1] - halves[1].entropy(a)) for a, b in zip(*paths)]
     return gains, [_corr(a, b) for a, b in zip(*paths)]
-
-
-def _dof(level, P: int, gauge) -> int:
-    """Free parameters of a level: its basis' columns (or ``P``) less the unobservable ones."""
-    A = level_basis(level, P, gauge)
-    return max(1, (P if A is None else A.shape[1]) - gauge.shape[1])
 
 
 #: Least correlation of the detail two halves add at a finer level for that level to be taken:
@@ -335,7 +267,7 @@ def _min_entropy(ph, grid, start, levels, max_iter, pulse_iter, pulse_lines, ful
     acq = ph.acquisition
     est = estimation_grid(grid or acq.grid, MAX_ENTROPY_PIXELS)
     P = ph.data.shape[0]
-    gauge = _gauge(acq)
+    gauge = gauge_basis(acq)
     g_est = guarded_grid(est, acq, max_pixels=max(est.nx * est.ny, MAX_GUARDED_PIXELS))
     image_mib = g_est.nx * g_est.ny * 8 / 2 ** 20
     K = max(_block_size(P, max_blocks), int(np.ceil(P * image_mib / max_stack_mib)))
@@ -366,7 +298,7 @@ def _min_entropy(ph, grid, start, levels, max_iter, pulse_iter, pulse_lines, ful
     # pass over the stack runs on one thread and releases the GIL)
     for im in halves:  # the merged stacks, built before the threads share them
         for lv in coarse:
-            im.coarsened(_spacing(lv, P))
+            im.coarsened(spacing(lv, P))
     runs = _each(lambda im: coarse_to_fine(im, zero, gauge, coarse, max_iter),
                  [im.with_order(o) for o in orders for im in halves])
     by_order = {o: runs[2 * k:2 * k + 2] for k, o in enumerate(orders)}
@@ -387,7 +319,7 @@ def _min_entropy(ph, grid, start, levels, max_iter, pulse_iter, pulse_lines, ful
     full = full.with_order(chosen)
     gains, corrs = _crossvalidate(halves, paths)
     names = [str(lv) for lv in coarse]
-    dofs = [_dof(lv, P, gauge) for lv in coarse]
+    dofs = [dof(lv, P, gauge) for lv in coarse]
     # a level passes when each half's estimate lowers the other half's entropy and the two
     # halves' estimates agree beyond chance; the one kept has the largest total held-out gain
     passed = [min(g) > 0 and c > agreement_threshold(n) for g, c, n in zip(gains, corrs, dofs)]
@@ -410,10 +342,10 @@ def _min_entropy(ph, grid, start, levels, max_iter, pulse_iter, pulse_lines, ful
     elif kept:
         # the whole grid searches the level kept only, from the mean of the halves' estimates
         # at that level (the coarser levels have brought each half there already)
-        phi = coarse_to_fine(full, 0.5 * (paths[0][best] + paths[1][best]), gauge, coarse[best:best + 1],
+        phi = coarse_to_fine(full, phase_mean(paths[0][best], paths[1][best]), gauge, coarse[best:best + 1],
                              max_iter, max_fun=max_iter)[-1]
     hist.update(entropy_start=full.entropy(phi0),
-                entropy_levels=[full.entropy(0.5 * (a + b)) for a, b in zip(*paths)],
+                entropy_levels=[full.entropy(phase_mean(a, b)) for a, b in zip(*paths)],
                 heldout_gain=gains, halves_correlation=corrs, level=names[best] if kept else None,
                 detail_correlation=[_corr(*(p[j] - (p[j - 1] if j else 0.0) for p in paths))
                                     for j in range(len(coarse))])
@@ -448,7 +380,7 @@ def _min_entropy(ph, grid, start, levels, max_iter, pulse_iter, pulse_lines, ful
         ends = [coarse_to_fine(im, p[best], gauge, (1,), pulse_iter)[-1] for im, p in zip(sides, paths)]
         # on the half's lines, the other half's sub-aperture estimate against its per-pulse one
         g1 = tuple(side.entropy(paths[1 - i][best]) - side.entropy(ends[1 - i]) for i, side in enumerate(sides))
-        steps = [e - p[best] for e, p in zip(ends, paths)]
+        steps = [wrapped(e - p[best]) for e, p in zip(ends, paths)]
         c1 = _corr(*steps)
         fine_imagers += sides
         hist["heldout_gain"] = gains + [g1]
@@ -459,8 +391,7 @@ def _min_entropy(ph, grid, start, levels, max_iter, pulse_iter, pulse_lines, ful
             # per-pulse increments, a few more iterations on all of it
             exact = Imager(ph, full.grid, chosen, like=full)
             fine_imagers.append(exact)
-            start1 = phi + 0.5 * (steps[0] + steps[1])
-            start1 = start1 - gauge @ (gauge.T @ start1)
+            start1 = without_gauge(phi + phase_mean(steps[0], steps[1]), gauge)
             if full_pulse_iter > 0:
                 start1 = coarse_to_fine(exact, start1, gauge, (1,), full_pulse_iter)[-1]
             phi, judge, hist["level"] = start1, exact, "1"
