@@ -37,7 +37,9 @@ scene; what PGA fits to one half's clutter is not, and on a focused scene it can
 sharpness test alone. (Each half's own gain is not required: a half's PGA estimate, from half
 the scatterers, carries noise of its own that can cost the other half more than the common error
 it removes; on GOTCHA with an injected 1 rad error the halves correlate 0.81 and one gain is
-slightly negative.)
+slightly negative.) On a grid too narrow across range for two halves nothing is applied, and
+the decision says why: there the sharpness test is no evidence (what PGA fits sharpens a focused
+scene as readily as the true error a blurred one).
 """
 
 from __future__ import annotations
@@ -47,7 +49,7 @@ import numpy as np
 from ..analysis.speckle import image_entropy
 from ..core.grid import Grid
 from ..errors import SarcliInputError
-from ._common import (AutofocusResult, agreement_threshold, correlation, estimation_grid, form, keep_if_sharper,
+from ._common import (AutofocusResult, AutofocusWarning, agreement_threshold, correlation, estimation_grid, form, keep_if_sharper,
                       pulse_signals, remove_linear_phase)
 
 __all__ = ["pga", "select_scatterers", "phase_gradient_estimate", "principal_vector", "ESTIMATORS"]
@@ -234,12 +236,19 @@ def _crossvalidate(ph, grid: Grid, res: AutofocusResult, options: dict) -> None:
     (in place)."""
     from ._imager import SPLIT_GAP, range_axis, split_grid
 
+    import warnings
+
     acq = ph.acquisition
     try:
         halves = split_grid(grid, range_axis(acq), SPLIT_GAP)[:2]
-    except SarcliInputError as exc:   # too few pixels across range: the sharpness test alone
-        res.history["decision"] = ("it lowers the entropy and does not lower the peak-to-mean ratio "
-                                   f"(not cross-validated: {exc})")
+    except SarcliInputError:
+        # no two halves: the sharpness of so narrow a window is no evidence (what PGA fits there
+        # sharpens a focused scene as readily as the true error a blurred one)
+        why = (f"the grid of {grid.nx} x {grid.ny} pixels is too narrow across range to compare two halves of "
+               f"the scene")
+        res.history["decision"] = f"not cross-validated, so not applied: {why}"
+        _reject(res)
+        warnings.warn(f"autofocus (pga) applied no correction: {why}", AutofocusWarning, stacklevel=4)
         return
     ests = [pga(ph, grid=g, guard=False, validate=False, **options).phase_rad for g in halves]
     h0 = [image_entropy(form(ph, g)) for g in halves]
@@ -256,6 +265,11 @@ def _crossvalidate(ph, grid: Grid, res: AutofocusResult, options: dict) -> None:
     res.history["decision"] = (f"no error common to the scene: PGA's estimates from the two halves of the scene "
                                f"(correlation {corr:.2f}, chance {chance:.2f}; held-out gains {gains[0]:.4f}, "
                                f"{gains[1]:.4f} nats) do not both agree and lower each other's entropy in sum")
+    _reject(res)
+
+
+def _reject(res: AutofocusResult) -> None:
+    """No correction: ``res``'s estimate replaced by zero (in place)."""
     res.phase_rad = np.zeros_like(res.phase_rad)
     res.accepted = False
     res.entropy_after, res.peak_to_mean_after = res.entropy_before, res.peak_to_mean_before
