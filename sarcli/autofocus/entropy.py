@@ -61,9 +61,11 @@ held-out gain; a finer passing level is then taken when the detail the halves ad
 correlates above ``max(1/3, 2/√dof)`` (:data:`REFINE_CORRELATION`). None passes: no correction.
 The whole grid is then searched at that level only, from the mean of the halves' estimates
 there. One phase per pulse beyond the sub-apertures is searched on each half (exact
-backprojection pair, on every other range line: whole cross-range lines, half the pixels) and
-kept when each half's increment lowers the other half's entropy and the increments agree (same
-test); the whole grid's estimate is then its sub-aperture estimate
+backprojection pair, on every other range line: whole cross-range lines, half the pixels), from
+its estimate at the level kept or from zero when none was (an error from pulse to pulse can be
+all there is), after a level of finer knots where the sub-apertures hold three of its knots or
+more, and kept when each half's increment lowers the other half's entropy and the increments
+agree (same test); the whole grid's estimate is then its sub-aperture estimate
 plus the mean of the halves' increments. Finally the estimate is applied only if it leaves the
 image no less sharp (Shannon entropy not up, peak-to-mean not down), both on the guarded grid and
 on the grid asked for. A grid whose guarded grid is too narrow across range to split in two halves
@@ -352,8 +354,9 @@ def _min_entropy(ph, grid, start, levels, max_iter, pulse_iter, pulse_lines, ful
     if not validate:
         hist["decision"] = f"finest level {names[-1]} (not cross-validated)"
     elif not kept:
-        hist["decision"] = ("no error common to the scene: at no level did the estimates from the two halves "
-                            "of the scene both lower the other half's entropy and agree beyond chance")
+        hist["decision"] = (f"no error common to the scene{' at the sub-apertures' if K > 1 else ''}: at no level "
+                            "did the estimates from the two halves of the scene both lower the other half's entropy "
+                            "and agree beyond chance")
     else:
         first = int(np.argmax(score))
         hist["decision"] = (f"level {names[first]}: its estimates from each half of the scene lower the "
@@ -368,24 +371,29 @@ def _min_entropy(ph, grid, start, levels, max_iter, pulse_iter, pulse_lines, ful
                             + ", ".join(f"{v:.2f} with order {k.rstrip('0').rstrip('.')}" for k, v in agree.items())
                             + "); " + hist["decision"])
     judge, fine_imagers = full, []  # the images the estimate is exact for
-    if kept and K > 1 and pulse_iter > 0 and any(lv != "smooth" and int(lv) < K for lv in levels) \
-            and best == len(coarse) - 1:
+    if K > 1 and pulse_iter > 0 and any(lv != "smooth" and int(lv) < K for lv in levels):
         # one phase per pulse, beyond the sub-apertures, on the exact backprojection pair (no
         # stack) on every `pulse_lines`-th range line of each half (whole cross-range lines):
-        # each half refines its own sub-aperture estimate, and the level is kept when each
-        # half's per-pulse increment lowers the other half's entropy
+        # each half refines its own estimate at the level kept (from zero when none was: an error
+        # from pulse to pulse can be all there is), and the level is kept when each half's
+        # per-pulse increment lowers the other half's entropy
         low, high = split_grid(every_nth_line(full.grid, axis, pulse_lines), axis, SPLIT_GAP)[:2]
         # the range profiles of the stack's backprojector, made once
         sides = [Imager(ph, g, chosen, like=full) for g in (low, high)]
-        ends = [coarse_to_fine(im, p[best], gauge, (1,), pulse_iter)[-1] for im, p in zip(sides, paths)]
-        # on the half's lines, the other half's sub-aperture estimate against its per-pulse one
-        g1 = tuple(side.entropy(paths[1 - i][best]) - side.entropy(ends[1 - i]) for i, side in enumerate(sides))
-        steps = [wrapped(e - p[best]) for e, p in zip(ends, paths)]
+        starts = [p[best] if kept else zero for p in paths]
+        # a finer level of knots first where the sub-apertures hold three of its knots or more: one
+        # phase per pulse alone, in a few iterations, leaves much of a smooth error within them
+        fine = tuple(lv for lv in levels if lv != "smooth" and 1 < int(lv) and 3 * int(lv) <= K) + (1,)
+        ends = [coarse_to_fine(im, s0, gauge, fine, pulse_iter)[-1] for im, s0 in zip(sides, starts)]
+        # on the half's lines, the other half's start against its per-pulse estimate
+        g1 = tuple(side.entropy(starts[1 - i]) - side.entropy(ends[1 - i]) for i, side in enumerate(sides))
+        steps = [wrapped(e - s0) for e, s0 in zip(ends, starts)]
         c1 = _corr(*steps)
         fine_imagers += sides
         hist["heldout_gain"] = gains + [g1]
         hist["halves_correlation"] = corrs + [c1]
         hist["levels"] = names + ["1"]
+        what = ("increment", "increments") if kept else ("estimate (from zero)", "estimates (from zero)")
         if min(g1) > 0 and c1 > max(REFINE_CORRELATION, agreement_threshold(P - gauge.shape[1])):
             # the whole grid: from its sub-aperture estimate plus the mean of the halves'
             # per-pulse increments, a few more iterations on all of it
@@ -395,12 +403,13 @@ def _min_entropy(ph, grid, start, levels, max_iter, pulse_iter, pulse_lines, ful
             if full_pulse_iter > 0:
                 start1 = coarse_to_fine(exact, start1, gauge, (1,), full_pulse_iter)[-1]
             phi, judge, hist["level"] = start1, exact, "1"
-            hist["decision"] += (f"; then one phase per pulse: each half's per-pulse increment lowers the "
-                                 f"other half's entropy ({g1[0]:.4f}, {g1[1]:.4f} nats; correlation {c1:.2f})")
+            hist["decision"] += (f"; {'then ' if kept else 'but at '}one phase per pulse: each half's per-pulse {what[0]} "
+                                 f"lowers the other half's entropy ({g1[0]:.4f}, {g1[1]:.4f} nats; correlation "
+                                 f"{c1:.2f})")
         else:
-            hist["decision"] += (f"; one phase per pulse not kept: the halves' per-pulse increments "
-                                 f"(held-out gains {g1[0]:.4f}, {g1[1]:.4f} nats; correlation {c1:.2f}) do not "
-                                 f"both lower the other half's entropy and agree")
+            hist["decision"] += (f"; one phase per pulse not kept: the halves' per-pulse {what[1]} (held-out gains "
+                                 f"{g1[0]:.4f}, {g1[1]:.4f} nats; correlation {c1:.2f}) do not both lower the "
+                                 f"other half's entropy and agree")
     hist["evaluations"] = evals = full.evaluations + sum(im.evaluations for im in [*halves, *fine_imagers])
     res = AutofocusResult(phi, "min-entropy", iterations=evals, history=hist)
     # the uncorrected image from the stack (exact for a zero phase; sharpness ignores pixel order)
