@@ -18,7 +18,7 @@ from .conftest import small_config, spy_rows
 @pytest.fixture(scope="module")
 def ph_file(tmp_path_factory):
     path = tmp_path_factory.mktemp("stream") / "ph.h5"
-    from sarcli.formers.backprojection import _BLOCK
+    from sarcli.formers._bp_setup import BLOCK as _BLOCK
 
     # more pulses than one block of the block readers (backprojection's is the largest)
     cfg = small_config(azimuths={"center_deg": 50.0, "extent_deg": 3.0, "count": 2 * _BLOCK + 44})
@@ -44,7 +44,7 @@ def test_block_formers_never_read_the_whole_collection(ph_file, monkeypatch):
     asked = spy_rows(monkeypatch)
     ph = read_phase_history(ph_file, lazy=True)
     n = ph.data.shape[0]
-    sarcli.form_image(ph, "backprojection", extent=2.0)  # blocks of backprojection._BLOCK pulses
+    sarcli.form_image(ph, "backprojection", extent=2.0)  # blocks of _bp_setup.BLOCK pulses
     assert asked and sum(asked) == n and max(asked) < n, asked
     asked.clear()
     sarcli.form_image(ph, "ffbp", extent=2.0)  # stage 0: whole sub-apertures, at most 64 pulses a block
