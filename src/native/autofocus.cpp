@@ -125,11 +125,11 @@ void tile_sums(const float* stack, std::size_t n, std::size_t nb, const float* e
     xa[k] = static_cast<float>(ya[k] * a2[k]);
     xb[k] = static_cast<float>(yb[k] * a2[k]);
   }
-  // two rows at a time: eight independent sums share each load of the weights
-  std::size_t b = 0;
-  for (; b + 1 < nb; b += 2) {
+  // two rows at a time (the last one twice when they are odd in number): eight independent sums
+  // share each load of the weights
+  for (std::size_t b = 0; b < nb; b += 2) {
     const float* p = stack + 2 * (b * n + s0);
-    const float* q = p + 2 * n;
+    const float* q = b + 1 < nb ? p + 2 * n : p;
     float sa = 0.0f, sb = 0.0f, ta = 0.0f, tb = 0.0f, ua = 0.0f, ub = 0.0f, va = 0.0f, vb = 0.0f;
 #pragma omp simd reduction(+ : sa, sb, ta, tb, ua, ub, va, vb)
     for (std::size_t k = 0; k < m2; ++k) {
@@ -148,27 +148,12 @@ void tile_sums(const float* stack, std::size_t n, std::size_t nb, const float* e
     r[1] = sb;
     r[2] = ta;
     r[3] = tb;
-    r[4] = ua;
-    r[5] = ub;
-    r[6] = va;
-    r[7] = vb;
-  }
-  for (; b < nb; ++b) {
-    const float* p = stack + 2 * (b * n + s0);
-    float sa = 0.0f, sb = 0.0f, ta = 0.0f, tb = 0.0f;
-#pragma omp simd reduction(+ : sa, sb, ta, tb)
-    for (std::size_t k = 0; k < m2; ++k) {
-      const float v = p[k];
-      sa += v * xa[k];
-      sb += v * xb[k];
-      ta += v * ya[k];
-      tb += v * yb[k];
+    if (b + 1 < nb) {
+      r[4] = ua;
+      r[5] = ub;
+      r[6] = va;
+      r[7] = vb;
     }
-    double* r = res + 2 + 4 * b;
-    r[0] = sa;
-    r[1] = sb;
-    r[2] = ta;
-    r[3] = tb;
   }
 }
 
