@@ -440,7 +440,7 @@ class BlockImager:
         """One fused pass over the stack (``sarcli._native._autofocus.entropy_sums``, per part):
         ``E = Σ|f|²``, ``T`` (``Σ I ln I``, or ``Σ I^α``) and, with ``grad``, the per-block
         ``X_b = Σ_s F_bs conj(f_s) a_s`` and ``Y_b = Σ_s F_bs conj(f_s)`` (``a = ln I`` or ``I^(α-1)``)."""
-        from .._native import load, using_threads
+        from .._native import load
 
         kern, nb = load("autofocus"), len(self.bounds) - 1
         e = np.ascontiguousarray(e, np.complex64)
@@ -449,15 +449,14 @@ class BlockImager:
         Y = np.zeros(nb, np.complex128) if grad else None
         x = np.empty(nb, np.complex128) if grad else None
         y = np.empty(nb, np.complex128) if grad else None
-        # one thread: a pass is memory-bound and a few milliseconds long; on cores shared with
-        # other jobs a second thread's waits cost more CPU time than it saves (docs/autofocus.md)
-        with using_threads(1):
-            for part in self.parts:
-                dE, dT = kern.entropy_sums(part, e, self.order, x, y)
-                E, T = E + dE, T + dT
-                if grad:
-                    X += x
-                    Y += y
+        # the calling thread's count: the halves' searches, side by side, run theirs on one each
+        # (entropy._each); a search alone uses the idle cores too
+        for part in self.parts:
+            dE, dT = kern.entropy_sums(part, e, self.order, x, y)
+            E, T = E + dE, T + dT
+            if grad:
+                X += x
+                Y += y
         return E, T, X, Y
 
     def _entropy_from(self, E, T) -> float:

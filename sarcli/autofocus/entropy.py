@@ -147,8 +147,9 @@ def coarse_to_fine(imager: Imager, start, gauge, levels=LEVELS, max_iter: int = 
 
 def _each(fn, jobs) -> list:
     """``[fn(j) for j in jobs]``, the jobs side by side on up to ``sarcli._native.threads()``
-    threads (independent searches; each returns what it would alone)."""
-    from .._native import threads
+    threads, each running its kernels on one (independent searches; each returns what it would
+    alone)."""
+    from .._native import threads, using_threads
 
     jobs = list(jobs)
     workers = min(len(jobs), threads())
@@ -156,8 +157,12 @@ def _each(fn, jobs) -> list:
         return [fn(j) for j in jobs]
     from concurrent.futures import ThreadPoolExecutor
 
+    def one(j):
+        with using_threads(1):
+            return fn(j)
+
     with ThreadPoolExecutor(max_workers=workers) as pool:
-        return list(pool.map(fn, jobs))
+        return list(pool.map(one, jobs))
 
 
 #: Orders of the Rényi entropy tried by ``order='auto'``, each on all levels of both halves.
