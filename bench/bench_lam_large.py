@@ -11,7 +11,8 @@ iterations, both path solvers, the final solve) and the ratios; the terminal out
 ``WORKDIR/auto.log`` and ``WORKDIR/fixed.log`` with the time of each write.
 
 Heavy: about 600 + 300 applications of the spherical pair (two exact sums over 566² pixels and
-131,072 samples each). Usage: ``python bench/bench_lam_large.py WORKDIR``
+131,072 samples each). Usage: ``python bench/bench_lam_large.py [WORKDIR]`` (default
+``out/bench/large-spherical``, where ``make bench`` runs it).
 """
 
 from __future__ import annotations
@@ -82,7 +83,7 @@ def main(argv=None):
 
     from sarcli.io.hdf5 import read_image
 
-    work = Path((argv or sys.argv[1:] or ["large-spherical"])[0])
+    work = Path((argv or sys.argv[1:] or ["out/bench/large-spherical"])[0])
     work.mkdir(parents=True, exist_ok=True)
     sar = str(Path(sys.executable).with_name("sar"))
     write_config(work / "large.yaml")
