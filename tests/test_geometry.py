@@ -84,3 +84,15 @@ def test_dimensionless_frequencies_wrap():
     assert np.all(np.abs(k1) <= np.pi) and np.all(np.abs(k2) <= np.pi)
     kx, ky = geometry.kspace_coordinates([10e9], [0.3], [0.5])
     assert np.allclose(np.exp(1j * k1), np.exp(1j * kx * 0.5))
+
+
+def test_image_sampling_is_the_nyquist_spacing_of_the_band():
+    """One look along x: the band's extent in x is 4π B cos φ / c, so the spacing is the range
+    resolution c / (2 B cos φ); it has no extent in y. Two looks 90° apart: the same in both axes."""
+    f = np.linspace(9.5e9, 10.1e9, 64)
+    el = np.radians(30.0)
+    dx, dy = geometry.image_sampling(f, np.array([0.0]), np.array([el]))
+    assert dx == pytest.approx(geometry.C / (2 * 0.6e9 * np.cos(el)), rel=1e-12) and dy == np.inf
+    dx, dy = geometry.image_sampling(f, np.array([0.0, np.pi / 2]), np.full(2, el))
+    k1 = 4 * np.pi * 10.1e9 * np.cos(el) / geometry.C
+    assert dx == pytest.approx(2 * np.pi / k1, rel=1e-12) and dy == pytest.approx(dx, rel=1e-12)

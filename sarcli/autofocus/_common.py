@@ -100,8 +100,36 @@ def apply_phase_correction(ph: PhaseHistory, phase_rad, method: str, decision: s
     return PhaseHistory(data=out, acquisition=ph.acquisition, truth=ph.truth, attrs=attrs)
 
 
-def estimation_grid(grid: Grid, max_pixels: int = MAX_ESTIMATION_PIXELS) -> Grid:
-    """``grid``, or its central square window of at most ``max_pixels`` pixels (same spacing)."""
+#: An axis of the estimation grid whose spacing exceeds this fraction of the image's Nyquist spacing
+#: is resampled to :data:`ESTIMATION_OVERSAMPLE` pixels per Nyquist spacing (:func:`estimation_grid`).
+ESTIMATION_COARSEST = 0.9
+ESTIMATION_OVERSAMPLE = 1.6
+
+
+def estimation_grid(grid: Grid, max_pixels: int = MAX_ESTIMATION_PIXELS, acq=None) -> Grid:
+    """``grid``, or its central square window of at most ``max_pixels`` pixels (same spacing).
+
+    With ``acq``, an axis whose spacing exceeds :data:`ESTIMATION_COARSEST` of the image's
+    Nyquist spacing (:func:`sarcli.core.geometry.image_sampling`) is first resampled over the same
+    extent at that spacing over :data:`ESTIMATION_OVERSAMPLE`: on a grid near or beyond it a bright
+    point's energy depends on where it falls between pixels, and a phase search moves points onto
+    pixels (GOTCHA, an injected 1.1 rad rms error, 100 m at 0.33, 0.4 and 0.5 m pixels against a
+    Nyquist spacing of 0.31-0.33 m: 0.24, 0.22 and 1.01 rad rms of it left, 0.020 at 0.3 m; so
+    resampled, 0.018 at each of 0.3, 0.4 and 0.5 m).
+    """
+    if acq is not None:
+        from ..core.geometry import image_sampling
+
+        sx, sy = image_sampling(acq.frequency_hz, acq.azimuth_rad, acq.elevation_rad)
+        dx, dy = grid.dx, grid.dy
+        if dx > ESTIMATION_COARSEST * sx:
+            dx = sx / ESTIMATION_OVERSAMPLE
+        if dy > ESTIMATION_COARSEST * sy:
+            dy = sy / ESTIMATION_OVERSAMPLE
+        if (dx, dy) != (grid.dx, grid.dy):
+            nx = max(2, int(np.ceil(grid.nx * grid.dx / dx / 2.0)) * 2)
+            ny = max(2, int(np.ceil(grid.ny * grid.dy / dy / 2.0)) * 2)
+            grid = Grid(nx, ny, dx, dy, grid.cx, grid.cy)
     if grid.nx * grid.ny <= max_pixels:
         return grid
     side = int(np.sqrt(max_pixels)) // 2 * 2

@@ -272,7 +272,7 @@ def _min_entropy(ph, grid, start, levels, max_iter, pulse_iter, pulse_lines, ful
         if not orders[0] > 0:
             raise SarcliInputError(f"entropy order must be 'auto' or a positive number, got {order!r}")
     acq = ph.acquisition
-    est = estimation_grid(grid or acq.grid, MAX_ENTROPY_PIXELS)
+    est = estimation_grid(grid or acq.grid, MAX_ENTROPY_PIXELS, acq)
     P = ph.data.shape[0]
     gauge = gauge_basis(acq)
     g_est = guarded_grid(est, acq, max_pixels=max(est.nx * est.ny, MAX_GUARDED_PIXELS))
@@ -433,8 +433,10 @@ def _min_entropy(ph, grid, start, levels, max_iter, pulse_iter, pulse_lines, ful
         # can sharpen the band by moving energy that the grid itself loses
         mine = Imager(ph, est, like=full)
         (u0, n0), (u1, n1) = sharpness(mine.image(zero)), sharpness(mine.image(phi))
+        asked = grid or acq.grid
+        which = "grid asked for" if (est.dx, est.dy) == (asked.dx, asked.dy) else "estimation grid"
         if not (u1 < u0 and n1 >= n0):
-            hist["decision"] += (f"; but it left the {est.nx} x {est.ny} pixel grid asked for less sharp (entropy "
+            hist["decision"] += (f"; but it left the {est.nx} x {est.ny} pixel {which} less sharp (entropy "
                                  f"{u0:.4f} -> {u1:.4f}, peak-to-mean {n0:.4g} -> {n1:.4g}): not applied")
             res.phase_rad, res.accepted = zero, False
             res.entropy_after, res.peak_to_mean_after = h0, m0

@@ -22,6 +22,7 @@ __all__ = [
     "dimensionless_frequencies",
     "alias_free_radii",
     "resolutions",
+    "image_sampling",
     "frequency_spacing",
     "azimuth_spacing",
     "antenna_positions_circle",
@@ -187,6 +188,20 @@ def resolutions(freq_hz, azimuth_rad, elevation_rad):
     rho_r = np.inf if bandwidth == 0 else C / (2.0 * bandwidth * cos_el)
     rho_cr = np.inf if aperture == 0 else C / (4.0 * alpha_c * cos_el * np.sin(min(aperture, np.pi) / 2))
     return rho_r, rho_cr
+
+
+def image_sampling(freq_hz, azimuth_rad, elevation_rad):
+    """Largest pixel spacings ``(dx, dy)`` (m) that sample the image without aliasing its band:
+    ``2π / (max k_x - min k_x)`` and likewise in y, over the k-space samples
+    (:func:`kspace_coordinates`); ``inf`` where the band has no extent.
+
+    A grid coarser than this lets a bright point fall between pixels: its energy on the grid
+    depends on where it lies, and on such a grid a search over the phase can move points onto
+    pixels (minimum-entropy autofocus does; ``docs/autofocus.md``).
+    """
+    kx, ky = kspace_coordinates(freq_hz, azimuth_rad, elevation_rad)
+    ex, ey = float(np.ptp(kx)), float(np.ptp(ky))
+    return (np.inf if ex == 0 else 2.0 * np.pi / ex), (np.inf if ey == 0 else 2.0 * np.pi / ey)
 
 
 def total_aperture(azimuth_rad) -> float:
