@@ -16,8 +16,9 @@ __all__ = ["AutofocusResult", "apply_phase_correction", "remove_linear_phase", "
            "pulse_signals", "pulse_images", "correlation", "agreement_threshold", "form", "sharpness",
            "keep_if_sharper", "guarded_grid", "MAX_ESTIMATION_PIXELS"]
 
-#: Largest estimation grid (pixels); bigger grids are cut to a central square of this size.
-MAX_ESTIMATION_PIXELS = 128 * 128
+#: Largest estimation grid (pixels) of PGA and minimum entropy; bigger grids are cut to a central
+#: square of this size.
+MAX_ESTIMATION_PIXELS = 400 * 400
 #: Largest guarded grid of minimum entropy (pixels; its single-pulse image stack is P times this).
 MAX_GUARDED_PIXELS = 192 * 192
 

@@ -32,7 +32,7 @@ leaves it nearer zero modulo ``2π`` (:func:`~sarcli.autofocus._levels.without_g
 written with ``2π`` jumps is orthogonal to them as it stands. Estimates are averaged modulo ``2π``.
 
 The entropy is measured on the whole image grid, at full resolution up to
-:data:`MAX_ENTROPY_PIXELS` pixels (a central window beyond), widened by a guard band on small grids
+:data:`~sarcli.autofocus._common.MAX_ESTIMATION_PIXELS` pixels (a central window beyond), widened by a guard band on small grids
 (:func:`~sarcli.autofocus._common.guarded_grid`: on a window that just holds a point scene a phase
 error can lower the entropy by pushing sidelobes out of the window).
 
@@ -82,8 +82,8 @@ import numpy as np
 
 from ..core.grid import Grid
 from ..errors import SarcliInputError
-from ._common import (MAX_GUARDED_PIXELS, AutofocusResult, AutofocusWarning, agreement_threshold, estimation_grid,
-                      guarded_grid, sharpness)
+from ._common import (MAX_ESTIMATION_PIXELS, MAX_GUARDED_PIXELS, AutofocusResult, AutofocusWarning,
+                      agreement_threshold, estimation_grid, guarded_grid, sharpness)
 from ._common import correlation as _corr
 from ._imager import (SPLIT_GAP, BlockImager, Imager, check_splittable, every_nth_line, range_axis,
                       single_threaded_blas, split_grid)
@@ -169,11 +169,6 @@ def _each(fn, jobs) -> list:
 ORDERS = (1.0, 0.5)
 
 
-#: Most pixels of the grid the entropy is estimated on: larger grids are cut to a central window
-#: of full-resolution pixels (:func:`~sarcli.autofocus._common.estimation_grid`).
-MAX_ENTROPY_PIXELS = 400 * 400
-
-
 def _block_size(P: int, max_blocks: int) -> int:
     return max(1, -(-P // max_blocks))
 
@@ -205,7 +200,7 @@ def min_entropy(ph, *, grid: Grid | None = None, start="zero", levels=LEVELS, ma
     ph : PhaseHistory
     grid : Grid, optional
         The image grid (default the acquisition's); the entropy is measured on all of it, at
-        most :data:`MAX_ENTROPY_PIXELS` pixels (a central window beyond), widened by a guard band
+        most :data:`~sarcli.autofocus._common.MAX_ESTIMATION_PIXELS` pixels (a central window beyond), widened by a guard band
         where that stays within :data:`~sarcli.autofocus._common.MAX_GUARDED_PIXELS`.
     start : 'zero', 'pga' or array_like
         Start of the search on the whole grid: no correction (default; the smooth level finds
@@ -272,7 +267,7 @@ def _min_entropy(ph, grid, start, levels, max_iter, pulse_iter, pulse_lines, ful
         if not orders[0] > 0:
             raise SarcliInputError(f"entropy order must be 'auto' or a positive number, got {order!r}")
     acq = ph.acquisition
-    est = estimation_grid(grid or acq.grid, MAX_ENTROPY_PIXELS, acq)
+    est = estimation_grid(grid or acq.grid, MAX_ESTIMATION_PIXELS, acq)
     P = ph.data.shape[0]
     gauge = gauge_basis(acq)
     g_est = guarded_grid(est, acq, max_pixels=max(est.nx * est.ny, MAX_GUARDED_PIXELS))

@@ -36,8 +36,8 @@ and, each applied to the other half, lower the entropy in sum. A phase error is 
 scene; what PGA fits to one half's clutter is not, and on a focused scene it can still pass the
 sharpness test alone. (Each half's own gain is not required: a half's PGA estimate, from half
 the scatterers, carries noise of its own that can cost the other half more than the common error
-it removes; on GOTCHA with an injected 1 rad error the halves correlate 0.81 and one gain is
-slightly negative.) On a grid too narrow across range for two halves nothing is applied, and
+it removes; on a 32 m window of GOTCHA with an injected 1 rad error one gain is slightly
+negative.) On a grid too narrow across range for two halves nothing is applied, and
 the decision says why: there the sharpness test is no evidence (what PGA fits sharpens a focused
 scene as readily as the true error a blurred one).
 """
@@ -49,8 +49,8 @@ import numpy as np
 from ..analysis.speckle import image_entropy
 from ..core.grid import Grid
 from ..errors import SarcliInputError
-from ._common import (AutofocusResult, AutofocusWarning, agreement_threshold, correlation, estimation_grid, form, keep_if_sharper,
-                      pulse_signals, remove_linear_phase)
+from ._common import (AutofocusResult, AutofocusWarning, agreement_threshold, correlation, estimation_grid, form,
+                      keep_if_sharper, pulse_signals, remove_linear_phase)
 
 __all__ = ["pga", "select_scatterers", "phase_gradient_estimate", "principal_vector", "ESTIMATORS"]
 
