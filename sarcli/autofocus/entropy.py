@@ -88,7 +88,7 @@ from ._common import correlation as _corr
 from ._imager import (SPLIT_GAP, BlockImager, Imager, check_splittable, every_nth_line, range_axis,
                       single_threaded_blas, split_grid)
 from ._lbfgs import minimize
-from ._levels import LEVELS, dof, gauge_basis, level_basis, phase_mean, spacing, without_gauge, wrapped
+from ._levels import LEVELS, dof, gauge_basis, level_basis, phase_mean, spacing, without_gauge
 
 __all__ = ["min_entropy", "coarse_to_fine", "level_basis", "LEVELS"]
 
@@ -387,7 +387,9 @@ def _min_entropy(ph, grid, start, levels, max_iter, pulse_iter, pulse_lines, ful
         ends = [coarse_to_fine(im, s0, gauge, fine, pulse_iter)[-1] for im, s0 in zip(sides, starts)]
         # on the half's lines, the other half's start against its per-pulse estimate
         g1 = tuple(side.entropy(starts[1 - i]) - side.entropy(ends[1 - i]) for i, side in enumerate(sides))
-        steps = [wrapped(e - s0) for e, s0 in zip(ends, starts)]
+        # each half's increment, continuous across the pulses (2π jumps between the start's and
+        # the end's representations undone; a smooth increment of any size kept)
+        steps = [np.unwrap(e - s0) for e, s0 in zip(ends, starts)]
         c1 = _corr(*steps)
         fine_imagers += sides
         hist["heldout_gain"] = gains + [g1]
