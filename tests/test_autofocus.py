@@ -520,6 +520,7 @@ def test_min_entropy_on_a_grid_coarser_than_the_image_band():
     raw = min_entropy(ph)
     res = min_entropy(corrupt(ph, err))
     assert res.accepted and res.history["estimation_grid"][0] > 200
+    assert "the grid's 0.5 x 0.5 m being too coarse for the image's band" in res.history["decision"]
     left = remove_linear_phase(err - (res.phase_rad - raw.phase_rad), az)
     assert np.sqrt(np.mean(left ** 2)) < 0.05
 

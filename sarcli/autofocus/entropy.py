@@ -412,6 +412,11 @@ def _min_entropy(ph, grid, start, levels, max_iter, pulse_iter, pulse_lines, ful
             hist["decision"] += (f"; one phase per pulse not kept: the halves' per-pulse {what[1]} (held-out gains "
                                  f"{g1[0]:.4f}, {g1[1]:.4f} nats; correlation {c1:.2f}) do not both lower the "
                                  f"other half's entropy and agree")
+    asked = grid or acq.grid
+    if (est.dx, est.dy) != (asked.dx, asked.dy):
+        hist["decision"] = (f"estimated on {est.nx} x {est.ny} pixels of {est.dx:.3g} x {est.dy:.3g} m, the grid's "
+                            f"{asked.dx:.3g} x {asked.dy:.3g} m being too coarse for the image's band; "
+                            + hist["decision"])
     hist["evaluations"] = evals = full.evaluations + sum(im.evaluations for im in [*halves, *fine_imagers])
     res = AutofocusResult(phi, "min-entropy", iterations=evals, history=hist)
     # the uncorrected image from the stack (exact for a zero phase; sharpness ignores pixel order)
@@ -430,7 +435,6 @@ def _min_entropy(ph, grid, start, levels, max_iter, pulse_iter, pulse_lines, ful
         # can sharpen the band by moving energy that the grid itself loses
         mine = Imager(ph, est, like=full)
         (u0, n0), (u1, n1) = sharpness(mine.image(zero)), sharpness(mine.image(phi))
-        asked = grid or acq.grid
         which = "grid asked for" if (est.dx, est.dy) == (asked.dx, asked.dy) else "estimation grid"
         if not (u1 < u0 and n1 >= n0):
             hist["decision"] += (f"; but it left the {est.nx} x {est.ny} pixel {which} less sharp (entropy "
