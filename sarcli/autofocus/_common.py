@@ -51,6 +51,15 @@ class AutofocusResult:
     history: dict = field(default_factory=dict)
     accepted: bool = True
 
+    def reject(self, why: str | None = None) -> None:
+        """No correction after all: the estimate replaced by zero and the image left as it was
+        (``why`` appended to the decision, where given)."""
+        self.phase_rad = np.zeros_like(self.phase_rad)
+        self.accepted = False
+        self.entropy_after, self.peak_to_mean_after = self.entropy_before, self.peak_to_mean_before
+        if why:
+            self.history["decision"] = self.history.get("decision", "") + why
+
     def describe(self) -> str:
         """One line: what was applied and why (the method's own decision when it records one)."""
         rms = float(np.sqrt(np.mean(self.phase_rad ** 2)))

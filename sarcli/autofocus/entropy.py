@@ -267,7 +267,8 @@ def _min_entropy(ph, grid, start, levels, max_iter, pulse_iter, pulse_lines, ful
         if not orders[0] > 0:
             raise SarcliInputError(f"entropy order must be 'auto' or a positive number, got {order!r}")
     acq = ph.acquisition
-    est = estimation_grid(grid or acq.grid, MAX_ESTIMATION_PIXELS, acq)
+    asked = grid or acq.grid
+    est = estimation_grid(asked, MAX_ESTIMATION_PIXELS, acq)
     P = ph.data.shape[0]
     gauge = gauge_basis(acq)
     g_est = guarded_grid(est, acq, max_pixels=max(est.nx * est.ny, MAX_GUARDED_PIXELS))
@@ -277,7 +278,7 @@ def _min_entropy(ph, grid, start, levels, max_iter, pulse_iter, pulse_lines, ful
     if any(lv != "smooth" and int(lv) <= K for lv in levels):
         coarse += (K,)
     axis = range_axis(acq)
-    check_splittable(grid or acq.grid, est, g_est, acq, axis)
+    check_splittable(asked, est, g_est, acq, axis)
     full = BlockImager(ph, g_est, K, axis, order=orders[0])
     halves = full.halves()
     hist: dict = {"levels": [str(lv) for lv in coarse], "block_pulses": K,
@@ -412,7 +413,6 @@ def _min_entropy(ph, grid, start, levels, max_iter, pulse_iter, pulse_lines, ful
             hist["decision"] += (f"; one phase per pulse not kept: the halves' per-pulse {what[1]} (held-out gains "
                                  f"{g1[0]:.4f}, {g1[1]:.4f} nats; correlation {c1:.2f}) do not both lower the "
                                  f"other half's entropy and agree")
-    asked = grid or acq.grid
     if (est.dx, est.dy) != (asked.dx, asked.dy):
         hist["decision"] = (f"estimated on {est.nx} x {est.ny} pixels of {est.dx:.3g} x {est.dy:.3g} m, the grid's "
                             f"{asked.dx:.3g} x {asked.dy:.3g} m being too coarse for the image's band; "
@@ -425,9 +425,7 @@ def _min_entropy(ph, grid, start, levels, max_iter, pulse_iter, pulse_lines, ful
     res.entropy_after, res.peak_to_mean_after = h1, m1
     if guard and np.any(phi) and not (h1 < h0 and m1 >= m0):
         # never less sharp, on the images the estimate was made on (exact for its block phases)
-        hist["decision"] += "; but it left the image less sharp (entropy or peak-to-mean): not applied"
-        res.phase_rad, res.accepted = zero, False
-        res.entropy_after, res.peak_to_mean_after = h0, m0
+        res.reject("; but it left the image less sharp (entropy or peak-to-mean): not applied")
         warnings.warn(f"autofocus (min-entropy) did not sharpen the image (entropy {h0:.4f}, peak-to-mean "
                       f"{m0:.4g} before): no correction applied", AutofocusWarning, stacklevel=3)
     elif guard and np.any(phi) and est.shape != full.grid.shape:
@@ -435,13 +433,11 @@ def _min_entropy(ph, grid, start, levels, max_iter, pulse_iter, pulse_lines, ful
         # can sharpen the band by moving energy that the grid itself loses
         mine = Imager(ph, est, like=full)
         (u0, n0), (u1, n1) = sharpness(mine.image(zero)), sharpness(mine.image(phi))
-        which = "grid asked for" if (est.dx, est.dy) == (asked.dx, asked.dy) else "estimation grid"
+        which = f"{est.nx} x {est.ny} pixel " + (
+            "grid asked for" if (est.dx, est.dy) == (asked.dx, asked.dy) else "estimation grid")
         if not (u1 < u0 and n1 >= n0):
-            hist["decision"] += (f"; but it left the {est.nx} x {est.ny} pixel {which} less sharp (entropy "
-                                 f"{u0:.4f} -> {u1:.4f}, peak-to-mean {n0:.4g} -> {n1:.4g}): not applied")
-            res.phase_rad, res.accepted = zero, False
-            res.entropy_after, res.peak_to_mean_after = h0, m0
-            warnings.warn(f"autofocus (min-entropy) did not sharpen the {est.nx} x {est.ny} pixel grid (entropy "
-                          f"{u0:.4f}, peak-to-mean {n0:.4g} before): no correction applied", AutofocusWarning,
-                          stacklevel=3)
+            res.reject(f"; but it left the {which} less sharp (entropy {u0:.4f} -> {u1:.4f}, peak-to-mean "
+                       f"{n0:.4g} -> {n1:.4g}): not applied")
+            warnings.warn(f"autofocus (min-entropy) did not sharpen the {which} (entropy {u0:.4f}, peak-to-mean "
+                          f"{n0:.4g} before): no correction applied", AutofocusWarning, stacklevel=3)
     return res

@@ -44,6 +44,8 @@ scene as readily as the true error a blurred one).
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 
 from ..analysis.speckle import image_entropy
@@ -236,8 +238,6 @@ def _crossvalidate(ph, grid: Grid, res: AutofocusResult, options: dict) -> None:
     (in place)."""
     from ._imager import SPLIT_GAP, range_axis, split_grid
 
-    import warnings
-
     acq = ph.acquisition
     try:
         halves = split_grid(grid, range_axis(acq), SPLIT_GAP)[:2]
@@ -247,7 +247,7 @@ def _crossvalidate(ph, grid: Grid, res: AutofocusResult, options: dict) -> None:
         why = (f"the grid of {grid.nx} x {grid.ny} pixels is too narrow across range to compare two halves of "
                f"the scene")
         res.history["decision"] = f"not cross-validated, so not applied: {why}"
-        _reject(res)
+        res.reject()
         warnings.warn(f"autofocus (pga) applied no correction: {why}", AutofocusWarning, stacklevel=4)
         return
     ests = [pga(ph, grid=g, guard=False, validate=False, **options).phase_rad for g in halves]
@@ -265,11 +265,4 @@ def _crossvalidate(ph, grid: Grid, res: AutofocusResult, options: dict) -> None:
     res.history["decision"] = (f"no error common to the scene: PGA's estimates from the two halves of the scene "
                                f"(correlation {corr:.2f}, chance {chance:.2f}; held-out gains {gains[0]:.4f}, "
                                f"{gains[1]:.4f} nats) do not both agree and lower each other's entropy in sum")
-    _reject(res)
-
-
-def _reject(res: AutofocusResult) -> None:
-    """No correction: ``res``'s estimate replaced by zero (in place)."""
-    res.phase_rad = np.zeros_like(res.phase_rad)
-    res.accepted = False
-    res.entropy_after, res.peak_to_mean_after = res.entropy_before, res.peak_to_mean_before
+    res.reject()
