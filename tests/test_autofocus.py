@@ -21,10 +21,9 @@ from sarcli.core import geometry
 from sarcli.core.acquisition import Acquisition
 from sarcli.core.grid import Grid
 from sarcli.core.types import PhaseHistory
-from sarcli.io.gotcha import gotcha_files
 from sarcli.io.hdf5 import read_phase_history, write_phase_history
 
-from .conftest import GOTCHA_DIR
+from .conftest import GOTCHA_FILES
 
 
 def scene(clutter=0.05, seed=0, P=128, M=64):
@@ -433,14 +432,12 @@ def test_cli_autofocus_default_says_what_and_why(tmp_path, case):
 
 
 def _gotcha_one():
-    files = sorted(GOTCHA_DIR.glob("data_3dsar_pass1_az001_HH.mat")) if GOTCHA_DIR.is_dir() else []
-    if not files:
-        pytest.skip(f"GOTCHA data not found at {GOTCHA_DIR}")
     from sarcli.io.gotcha import read_gotcha
 
-    return read_gotcha(files, grid=Grid(128, 128, 0.25, 0.25))
+    return read_gotcha(GOTCHA_FILES[:1], grid=Grid(128, 128, 0.25, 0.25))
 
 
+@pytest.mark.gotcha
 @pytest.mark.parametrize("method", ["pga", "min-entropy"])
 def test_gotcha_never_less_sharp(method):
     """Real data, as found and with errors injected: the image is never left less sharp."""
@@ -463,13 +460,12 @@ def test_gotcha_never_less_sharp(method):
     assert peak_to_mean(img) > 0.95 * peak_to_mean(raw) > peak_to_mean(blurred)
 
 
+@pytest.mark.gotcha
 def test_per_pulse_level_runs_when_no_sub_aperture_level_passes():
     """GOTCHA's own error is mostly from pulse to pulse: on sub-apertures of 15 pulses (a 40 MiB
     stack) no level passes the halves' test, and one phase per pulse, searched from zero on each
     half and cross-validated the same way, still finds it."""
-    files = gotcha_files(GOTCHA_DIR)[:4] if GOTCHA_DIR.is_dir() else []
-    if len(files) < 4:
-        pytest.skip(f"GOTCHA data not found at {GOTCHA_DIR}")
+    files = GOTCHA_FILES
     from sarcli.io.gotcha import read_gotcha
 
     res = min_entropy(read_gotcha(files), max_stack_mib=40)
@@ -505,13 +501,12 @@ def test_estimation_grid_resamples_an_axis_too_coarse_for_the_band(case):
     assert g.nx * g.dx >= coarse.nx * coarse.dx and g.ny == coarse.ny
 
 
+@pytest.mark.gotcha
 def test_min_entropy_on_a_grid_coarser_than_the_image_band():
     """GOTCHA on 100 m at 0.5 m pixels (its Nyquist spacing is 0.31-0.33 m): the search ran on
     that grid, moved points onto its pixels and left 1.01 of an injected 1.08 rad rms; on the
     resampled estimation grid 0.018 is left (against the estimate on the raw data)."""
-    files = gotcha_files(GOTCHA_DIR)[:4] if GOTCHA_DIR.is_dir() else []
-    if len(files) < 4:
-        pytest.skip(f"GOTCHA data not found at {GOTCHA_DIR}")
+    files = GOTCHA_FILES
     from sarcli.io.gotcha import read_gotcha
 
     ph = read_gotcha(files, grid=Grid(200, 200, 0.5, 0.5))

@@ -23,7 +23,7 @@ from sarcli.formers.formation import form_image, image_error
 from sarcli.core.types import PhaseHistory
 from sarcli.io.hdf5 import read_image, read_phase_history
 
-from .conftest import CONFIGS, GOTCHA_DIR, small_config
+from .conftest import CONFIGS, GOTCHA_DIR, GOTCHA_FILES, small_config
 
 import distributed  # noqa: E402  (a hard dependency: never skipped)
 
@@ -230,10 +230,9 @@ def test_resume_after_failure_only_missing_outputs_made(client, tmp_path, data):
     assert read_image(out / "broken.h5").parameters["window"] == "hann"
 
 
+@pytest.mark.gotcha
 def test_gotcha_file_job_serial(tmp_path):
-    files = sorted(GOTCHA_DIR.glob("*.mat"))
-    if not files:
-        pytest.skip(f"GOTCHA files not found in {GOTCHA_DIR} (the shared data folder is absent)")
+    files = GOTCHA_FILES
     from sarcli.io.gotcha import read_gotcha
 
     plan = _write_plan(tmp_path / "g.yaml", {"jobs": [{"input": str(GOTCHA_DIR / "*.mat"), "method": "backprojection",

@@ -16,7 +16,7 @@ from sarcli.cli.main import cli
 
 from .conftest import small_config
 
-from .conftest import GOTCHA_DIR  # noqa: E402
+from .conftest import GOTCHA_FILES  # noqa: E402
 
 
 def _farfield_cfg(**kw):
@@ -143,10 +143,9 @@ def test_cli_bench_bad_method_is_one_line(write_config, tmp_path):
                                                "backprojection, ffbp, subimage"]
 
 
+@pytest.mark.gotcha
 def test_gotcha_bench_on_a_subgrid():
-    files = sorted(GOTCHA_DIR.glob("*.mat"))
-    if not files:
-        pytest.skip(f"GOTCHA data not found at {GOTCHA_DIR}")
+    files = GOTCHA_FILES
     ph = bm.load_input(files[:1])
     res = bm.run_benchmark(ph, repeat=1, extent=4.0, settings=[("nufft", {"eps": 1e-6}),
                                                               ("backprojection", {"upsample": 8})],

@@ -266,14 +266,13 @@ def test_sicd_rejects_real_kinds_and_corrupt_input(tmp_path):
     assert res.exit_code == 0, res.output
 
 
-from .conftest import GOTCHA_DIR as GOTCHA  # noqa: E402
+from .conftest import GOTCHA_FILES  # noqa: E402
 
 
+@pytest.mark.gotcha
 def test_cphd_round_trip_gotcha(tmp_path):
     """Real data: one degree of GOTCHA (float32 frequencies, autofocus r0 != |a|) through CPHD."""
-    files = sorted(GOTCHA.glob("data_3dsar_pass1_az001_HH.mat")) if GOTCHA.is_dir() else []
-    if not files:
-        pytest.skip(f"GOTCHA data not found at {GOTCHA}")
+    files = GOTCHA_FILES[:1]
     from sarcli.io.gotcha import read_gotcha
 
     ph = read_gotcha(files, autofocus=True)

@@ -18,10 +18,10 @@ from sarcli.io.gotcha import read_gotcha
 from sarcli.core.grid import Grid
 from sarcli.io.hdf5 import read_phase_history
 
-from .conftest import GOTCHA_DIR as GOTCHA  # noqa: E402
-REAL = [GOTCHA / f"data_3dsar_pass1_az00{i}_HH.mat" for i in (1, 2)]
-needs_real = pytest.mark.skipif(not all(p.exists() for p in REAL),
-                                reason=f"GOTCHA data not found at {GOTCHA} (files az001, az002 of pass 1 HH)")
+from .conftest import GOTCHA_FILES  # noqa: E402
+
+REAL = GOTCHA_FILES[:2]
+needs_real = pytest.mark.gotcha
 
 
 def fake_gotcha(path, th0_deg, *, P=5, M=8, freq=None, af=True, drop=None):

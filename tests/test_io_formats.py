@@ -17,7 +17,7 @@ from sarcli.io.describe import describe
 from sarcli.io.geotiff import read_geotiff, write_geotiff
 from sarcli.io.hdf5 import write_image
 
-from .conftest import GOTCHA_DIR, small_config
+from .conftest import GOTCHA_FILES, small_config
 
 
 @pytest.fixture(scope="module")
@@ -61,9 +61,9 @@ def test_every_written_format_is_recognised_and_described(files, fmt):
     assert f"format: {fmt}" in res.output
 
 
-@pytest.mark.skipif(not sorted(GOTCHA_DIR.glob("*.mat")), reason=f"GOTCHA data not found at {GOTCHA_DIR}")
+@pytest.mark.gotcha
 def test_gotcha_mat_is_recognised():
-    path = sorted(GOTCHA_DIR.glob("*.mat"))[0]
+    path = GOTCHA_FILES[0]
     assert detect_format(path) == "gotcha"
     info = describe(path)
     assert info["model"] == "spherical" and info["pulses"] > 100

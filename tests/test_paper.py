@@ -30,9 +30,7 @@ import fig11_projection  # noqa: E402
 import fig12_example  # noqa: E402
 from _common import acquisition  # noqa: E402
 
-from sarcli.io.gotcha import gotcha_files  # noqa: E402
 
-from .conftest import GOTCHA_DIR  # noqa: E402
 
 
 def test_fig01_wrapped_frequencies_alias_exactly():
@@ -140,9 +138,8 @@ def test_fig09_optimality_conditions_hold_after_admm():
     assert res["cond4_lsq"] < 1e-2
 
 
+@pytest.mark.gotcha
 def test_fig10_regularisation_reduces_speckle_and_sharpens_on_gotcha():
-    if not gotcha_files(GOTCHA_DIR):
-        pytest.skip(f"GOTCHA files not found in {GOTCHA_DIR} (the shared data folder beside the repository)")
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         res = fig10_gotcha.compute(n_files=1, extent_m=24.0, pixel_m=0.25, iters=30, priors=("tv",))

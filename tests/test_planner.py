@@ -329,12 +329,13 @@ def _plan_cases():
 def test_the_sweep_picks_what_planning_every_setting_picks():
     """The planner lays out every ffbp setting but completes the error model only where it can
     change the answer: its picks are those of planning every setting fully, on geometries that
-    deapodize, that do not and that widen the bands, at three tolerances; and ``recommend`` picks
-    what the full list does."""
+    deapodize, that do not and that widen the bands, at three tolerances (and, on one geometry, one
+    that no ffbp setting meets); and ``recommend`` picks what the full list does. Both outcomes are
+    covered by the synthetic cases alone: the GOTCHA case, where present, only adds to them."""
     c = dict(load_cost_model(), threads=2)
     seen = set()
     for name, ph, grid in _plan_cases():
-        for tol in (1e-2, 1e-3, 1e-4):
+        for tol in (1e-2, 1e-3, 1e-4) + ((1e-6,) if name == "near" else ()):
             want = _ffbp_picks_planned_fully(ph, grid, tol, c)
             full = candidates(ph, grid, tol, costs=c, nthreads=2)
             assert _picks(full) == want, (name, tol)
@@ -347,7 +348,8 @@ def test_the_sweep_picks_what_planning_every_setting_picks():
             best = min(met, key=lambda x: x.seconds)
             assert (pick.method, pick.knobs, pick.seconds) == (best.method, best.knobs, best.seconds), (name, tol)
             seen.add((name, want[0] is not None, want[1] is not None))
-    assert {s[1] for s in seen} == {True, False} and {s[2] for s in seen} == {True, False}
+    synthetic = {s for s in seen if s[0] != "gotcha"}
+    assert {s[1] for s in synthetic} == {True, False} and {s[2] for s in synthetic} == {True, False}
 
 
 def test_candidates_are_planned_once_per_geometry(sph, monkeypatch):

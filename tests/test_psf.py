@@ -178,15 +178,13 @@ def test_predicted_ipr_with_unequal_frequencies_uses_the_exact_sum():
     assert pred["range"]["irw_m"] == pytest.approx(ref["range"]["irw_m"], rel=1e-3)   # measured 1.6e-4
 
 
-from sarcli.io.gotcha import gotcha_files  # noqa: E402
 
-from .conftest import GOTCHA_DIR as GOTCHA  # noqa: E402
+from .conftest import GOTCHA_FILES  # noqa: E402
 
 
+@pytest.mark.gotcha
 def test_predicted_ipr_on_gotcha_geometry_matches_the_textbook():
-    files = gotcha_files(GOTCHA)
-    if not files:
-        pytest.skip(f"GOTCHA data not found at {GOTCHA}")
+    files = GOTCHA_FILES
     from sarcli.io import gotcha
     acq = gotcha.read_gotcha(files[:1]).acquisition
     pred = predicted_ipr(acq)

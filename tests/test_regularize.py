@@ -20,7 +20,7 @@ from sarcli.io.hdf5 import read_image, write_phase_history
 from sarcli.linops import NufftOperator
 from sarcli.regularize import PRIORS, matched_filter, regularize
 
-from .conftest import GOTCHA_DIR  # noqa: E402
+from .conftest import GOTCHA_FILES  # noqa: E402
 
 
 def _narrowband_acquisition(n=48, h=0.25, bandwidth=150e6, **kw):
@@ -209,11 +209,11 @@ def test_cli_regularize_writes_image_history_and_png(tmp_path, scene):
     assert res.exit_code == 2 and "lam" in res.output
 
 
-@pytest.mark.skipif(not GOTCHA_DIR.exists(), reason=f"GOTCHA data not found at {GOTCHA_DIR}")
+@pytest.mark.gotcha
 def test_gotcha_ptv_patch_runs():
     from sarcli.io.gotcha import read_gotcha
 
-    ph = read_gotcha([GOTCHA_DIR / "data_3dsar_pass1_az001_HH.mat"], grid=Grid.square(10.0, 64))
+    ph = read_gotcha(GOTCHA_FILES[:1], grid=Grid.square(10.0, 64))
     ph = PhaseHistory(ph.data[::4], ph.acquisition.subset(pulses=slice(None, None, 4)))
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
