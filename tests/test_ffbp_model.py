@@ -20,7 +20,9 @@ def test_shipped_tables_equal_a_fresh_design(beta):
     fresh = fm.kernel_tables([beta])[0]
     row = np.load(fm.TABLE_PATH)
     row = row[row[:, 0] == beta][0]
-    np.testing.assert_allclose(row, fresh, rtol=1e-9, atol=1e-15)
+    # the design is an iterative least-squares fit: LAPACK's rounding moves small weights by ~1e-13
+    # between machines and thread counts (seen: 4e-13 on weights of 1e-5), a wrong table by O(1)
+    np.testing.assert_allclose(row, fresh, rtol=1e-9, atol=1e-10 * np.max(np.abs(fresh[1:])))
 
 
 def test_optimal_weights_are_minimax_per_fraction():
