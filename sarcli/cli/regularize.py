@@ -36,8 +36,14 @@ def _parse_lam(text):
 @click.option("--beta", type=click.FloatRange(min=0, min_open=True), default=None, help="ADMM penalty β (default 32 λ).")
 @click.option("--iters", type=click.IntRange(min=1), default=300, show_default=True, help="Iteration cap.")
 @click.option("--tol", type=click.FloatRange(min=0, min_open=True), default=1e-4, show_default=True, help="Relative-change tolerance.")
-@click.option("--operator", type=click.Choice(["auto", "nufft", "toeplitz", "spherical"]), default="auto",
-              show_default=True, help="Forward operator: NUFFT pair, pre-gridded Toeplitz, spherical pair.")
+@click.option("--operator", type=click.Choice(["auto", "nufft", "toeplitz", "warped", "spherical"]), default="auto",
+              show_default=True, help="Forward operator: far-field NUFFT pair or its pre-gridded Toeplitz form; "
+                                      "for spherical data, warped sub-aperture NUFFTs held to --tolerance or the "
+                                      "exact backprojection pair. auto: Toeplitz where the far field holds, else "
+                                      "warped where it meets --tolerance, else the exact pair.")
+@click.option("--tolerance", type=click.FloatRange(min=0, max=1, min_open=True, max_open=True), default=1e-3,
+              show_default=True, help="Relative error of AᴴA, against the exact spherical model, that the warped "
+                                      "operator is held to (--tol is the solver's stopping tolerance).")
 @click.option("--anisotropic", is_flag=True, help="Anisotropic TV shrinkage (default isotropic).")
 @click.option("--reestimate-every", type=click.IntRange(min=0), default=0, show_default=True,
               help="ptv: re-estimate the phases Θ from the iterate every N iterations (0: never).")
@@ -49,7 +55,7 @@ def _parse_lam(text):
 @export_options
 @click.pass_context
 @handle_errors
-def command(ctx, input_path, output, prior, order, lam, beta, iters, tol, operator, anisotropic,
+def command(ctx, input_path, output, prior, order, lam, beta, iters, tol, operator, tolerance, anisotropic,
             reestimate_every, init_path, center, extent, pixel_size, history_png, png_path, tif_path):
     """Regularised image of a phase history: min ‖Af − b‖² + λ‖Tf‖₁ (ADMM) or Tikhonov (CG)."""
     from ..io import open_input
@@ -78,7 +84,7 @@ def command(ctx, input_path, output, prior, order, lam, beta, iters, tol, operat
 
     try:
         img = regularize(ph, prior=prior, order=order, lam=lam, beta=beta, iters=iters, tol=tol,
-                         operator=operator, center=parse_pair(center, "--center"),
+                         operator=operator, tolerance=tolerance, center=parse_pair(center, "--center"),
                          extent=parse_pair(extent, "--extent"), pixel_size=pixel_size, init=init,
                          isotropic=not anisotropic, reestimate_every=reestimate_every, callback=callback,
                          progress=bar, notice=None if quiet else message)
@@ -92,7 +98,9 @@ def command(ctx, input_path, output, prior, order, lam, beta, iters, tol, operat
     p = img.parameters
     sel = p.get("lam_selection")
     how = f"lam {p['lam']:.4g}" + (f" by {sel['criterion']}" if sel else "")
-    wrote(output, f"{prior} ({p['operator']}), {how}, {p.get('iterations', 0)} iterations, {img.runtime_s:.3g} s")
+    op = p["operator"] + (f", {p['subapertures']} sub-apertures, predicted error {p['operator_predicted_error']:.2g}"
+                          if p["operator"] == "warped" else "")
+    wrote(output, f"{prior} ({op}), {how}, {p.get('iterations', 0)} iterations, {img.runtime_s:.3g} s")
     if sel and (ctx.find_root().obj or {}).get("verbose") and not quiet:
         click.echo(lam_selection_line(sel))
 

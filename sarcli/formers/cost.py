@@ -163,5 +163,5 @@ def check_regularize(ph, grid, *, iters, operator="auto", nthreads=None) -> None
         t = 2 * iters * direct_seconds(p, m, grid.nx * grid.ny, "spherical", nthreads)
         if t > DIRECT_WARN_S:
             warnings.warn(f"regularize with the spherical operator: {iters} iterations x 2 exact sums on "
-                          f"{grid.nx} x {grid.ny} pixels, estimated {t:.3g} s; operator auto/nufft is far faster",
+                          f"{grid.nx} x {grid.ny} pixels, estimated {t:.3g} s; operator auto or warped is far faster",
                           SarcliWarning, stacklevel=2)

@@ -6,7 +6,9 @@ Solves, on an image grid,
     min_f ‖A f - b‖² + λ ‖Dᵏ f‖²         (conjugate gradients; prior 'tikhonov')
 
 with A the forward model of the data (far-field pixel model as a NUFFT pair or its pre-gridded
-Toeplitz form, or the spherical reprojection/backprojection pair) and T the identity, D, Dᵏ or
+Toeplitz form; for spherical data the sub-aperture NUFFTs on warped pixel positions of
+:mod:`sarcli.linops.warped`, held to a tolerance, or the exact reprojection/backprojection pair)
+and T the identity, D, Dᵏ or
 D Θ with Θ = diag(exp(-i arg f0)) and f0 the matched filter (phase-corrected TV, the paper's
 choice for SAR, whose pixels have random phases).
 
@@ -46,7 +48,12 @@ __all__ = ["regularize", "PRIORS", "OPERATORS", "DEFAULT_LAM", "DEFAULT_BETA_RAT
            "matched_filter", "scale_problem"]
 
 PRIORS = ("l1", "tv", "hotv", "ptv", "tikhonov")
-OPERATORS = ("auto", "nufft", "toeplitz", "spherical")
+OPERATORS = ("auto", "nufft", "toeplitz", "warped", "spherical")
+#: Relative error of AᴴA (against the exact spherical model) the 'warped' operator is held to.
+DEFAULT_OPERATOR_TOLERANCE = 1e-3
+#: 'auto' takes the warped operator only with at least this many pulses per sub-aperture: with
+#: fewer, spreading every pixel once per sub-aperture costs about what backprojecting them does.
+MIN_PULSES_PER_RUN = 32
 #: Default λ per prior, in the normalised units above (ℓ1: λ ≥ 2 zeroes the image).
 DEFAULT_LAM = {"l1": 0.05, "tv": 0.02, "hotv": 0.02, "ptv": 0.02, "tikhonov": 0.05}
 #: Default β = ratio · λ: the shrinkage threshold λ/β is then 1/32 of the normalised image scale,
@@ -56,25 +63,47 @@ DEFAULT_BETA_RATIO = 32.0
 DEFOCUS_WARN_RAD = geometry.DEFOCUS_WARN_RAD
 
 
-def _choose_operator(ph: PhaseHistory, grid: Grid, operator: str) -> tuple[str, float]:
+def _choose_operator(ph: PhaseHistory, grid: Grid, operator: str, tolerance: float):
+    """``(operator, far-field phase error, sub-apertures of 'warped' or None)``: 'auto' takes the
+    Toeplitz form where the far-field model holds (phase error at the grid corner at most
+    :data:`DEFOCUS_WARN_RAD`), else the warped operator where it meets ``tolerance`` with at least
+    :data:`MIN_PULSES_PER_RUN` pulses per sub-aperture, else the exact spherical pair."""
+    from ..linops.warped import choose_subapertures
+
     acq = ph.acquisition
     err = acq.farfield_phase_error(grid.half_diagonal) if (ph.model == "spherical" and acq.has_positions) else 0.0
+    runs = None
     if operator == "auto":
         operator = "spherical" if err > DEFOCUS_WARN_RAD else "toeplitz"
+        if operator == "spherical" and acq.n_pulses >= MIN_PULSES_PER_RUN:
+            runs, _ = choose_subapertures(acq, grid, tolerance)
+            if runs is not None and acq.n_pulses // runs >= MIN_PULSES_PER_RUN:
+                operator = "warped"
+            else:
+                runs = None
     if operator in ("nufft", "toeplitz") and err > DEFOCUS_WARN_RAD:
         warnings.warn(f"far-field operator '{operator}' on spherical data: predicted phase error {err:.3g} rad "
                       f"at the grid corner ({grid.half_diagonal:.3g} m from the centre); use --operator "
                       f"spherical", DefocusWarning, stacklevel=3)
-    if operator == "spherical" and not acq.has_positions:
-        raise SarcliInputError("operator 'spherical' needs antenna positions; this file has none")
-    return operator, err
+    if operator in ("spherical", "warped") and not acq.has_positions:
+        raise SarcliInputError(f"operator '{operator}' needs antenna positions; this file has none")
+    return operator, err, runs
 
 
-def _build(ph: PhaseHistory, grid: Grid, operator: str, eps: float):
+def _build(ph: PhaseHistory, grid: Grid, operator: str, eps: float, tolerance: float, runs):
     acq = ph.acquisition
     if operator == "spherical":
         op = SphericalOperator.from_acquisition(acq, grid)
         return op, normal_equations(op, ph.data, form="nufft")
+    if operator == "warped":
+        # AᴴA by the warped operator; Aᴴb by the exact pair (one backprojection), so that the only
+        # approximation in the normal equations is AᴴA's, whose error the tolerance bounds
+        from ..linops.warped import WarpedNufftOperator
+        from ..linops._reduce import norm2
+
+        op = WarpedNufftOperator(acq, grid, subapertures="auto" if runs is None else runs, tolerance=tolerance)
+        atb = SphericalOperator.from_acquisition(acq, grid).adjoint(ph.data)
+        return op, NormalEquations(op.gram(), atb, norm2(np.asarray(ph.data)))
     op = NufftOperator.from_acquisition(acq, grid, eps=eps)
     return op, normal_equations(op, ph.data, form=operator)
 
@@ -103,7 +132,7 @@ def matched_filter(ph: PhaseHistory, grid: Grid | None = None, *, operator: str 
                    eps: float = 1e-9) -> np.ndarray:
     """``Aᴴb / (P M)``: the matched filter (eq. ``mf``) of the operator pair used here."""
     grid = ph.acquisition.grid if grid is None else grid
-    op = SphericalOperator.from_acquisition(ph.acquisition, grid) if operator == "spherical" \
+    op = SphericalOperator.from_acquisition(ph.acquisition, grid) if operator in ("spherical", "warped") \
         else NufftOperator.from_acquisition(ph.acquisition, grid, eps=eps)
     return op.adjoint(ph.data) / ph.data.size
 
@@ -208,7 +237,8 @@ def regularize(ph: PhaseHistory, *, prior: str = "ptv", order: int = 1, lam: flo
                beta: float | None = None, iters: int = 300, tol: float = 1e-4, operator: str = "auto",
                grid: Grid | None = None, center=None, extent=None, pixel_size=None, init=None,
                isotropic: bool = True, callback=None, inner_iters: int = 1, reestimate_every: int = 0,
-               eps: float = 1e-9, progress=None, notice=None) -> Image:
+               eps: float = 1e-9, tolerance: float = DEFAULT_OPERATOR_TOLERANCE, progress=None,
+               notice=None) -> Image:
     """Regularised image of a phase history (paper eq. ``eq: reg`` / ``eq: main-L1``).
 
     Parameters
@@ -230,10 +260,13 @@ def regularize(ph: PhaseHistory, *, prior: str = "ptv", order: int = 1, lam: flo
         of a given β at the default λ is kept).
     iters, tol : int, float
         Iteration cap and relative-change tolerance (CG residual tolerance for 'tikhonov').
-    operator : {'auto', 'nufft', 'toeplitz', 'spherical'}
-        Forward model: the NUFFT pair, its pre-gridded Toeplitz form (same far-field model), or the
-        spherical reprojection/backprojection pair. 'auto': spherical when the far-field phase error
-        at the grid corner exceeds :data:`DEFOCUS_WARN_RAD`, else Toeplitz.
+    operator : {'auto', 'nufft', 'toeplitz', 'warped', 'spherical'}
+        Forward model: the far-field NUFFT pair or its pre-gridded Toeplitz form; for spherical
+        data the warped sub-aperture NUFFTs (:class:`~sarcli.linops.warped.WarpedNufftOperator`,
+        AᴴA within ``tolerance`` of the exact model) or the exact reprojection/backprojection pair.
+        'auto': Toeplitz when the far-field phase error at the grid corner is at most
+        :data:`DEFOCUS_WARN_RAD`; else warped where it meets ``tolerance`` with at least
+        :data:`MIN_PULSES_PER_RUN` pulses per sub-aperture; else the exact pair.
     grid : Grid, optional
         Image grid; default the acquisition's, modified by ``center``/``extent``/``pixel_size``.
     center, extent, pixel_size : optional
@@ -250,7 +283,10 @@ def regularize(ph: PhaseHistory, *, prior: str = "ptv", order: int = 1, lam: flo
     reestimate_every : int
         'ptv': re-estimate Θ from the iterate every this many iterations (0: never).
     eps : float
-        NUFFT tolerance.
+        NUFFT tolerance of the far-field operators.
+    tolerance : float
+        Relative error of AᴴA (against the exact spherical model) the warped operator is held to
+        (its sub-apertures are chosen for it).
     progress : tqdm-like, optional
         A bar (``reset(total=)``, ``update(n)``, ``set_description(s)``, attributes ``n`` and
         ``total``) advanced once per power iteration of the scaling, per iteration of the λ path
@@ -304,13 +340,15 @@ def regularize(ph: PhaseHistory, *, prior: str = "ptv", order: int = 1, lam: flo
         init = np.asarray(init.image if isinstance(init, Image) else init, np.complex128)
         if init.shape != grid.shape:
             raise SarcliInputError(f"initial image shape {init.shape} does not match the grid {grid.shape}")
-    operator, phase_err = _choose_operator(ph, grid, operator)
-    op, normal = _build(ph, grid, operator, eps)
+    if not (0 < tolerance < 1):
+        raise SarcliInputError(f"tolerance must be in (0, 1), got {tolerance}")
+    operator, phase_err, runs = _choose_operator(ph, grid, operator, tolerance)
+    op, normal = _build(ph, grid, operator, eps, tolerance, runs)
     n_samples = ph.data.size
     mf = normal.atb / n_samples
     # the spherical AᴴA is two backprojections: fewer power iterations (the far-field forms share 30
     # so that 'nufft' and 'toeplitz' scale identically)
-    power_iters = 10 if operator == "spherical" else 30
+    power_iters = 10 if operator in ("spherical", "warped") else 30
     path_budget = 2 * PATH_ITERS * len(SELECT_PATH) if auto else 0  # two solvers per path iteration
     if progress is not None:
         progress.reset(total=power_iters + path_budget + int(iters))
@@ -335,7 +373,9 @@ def regularize(ph: PhaseHistory, *, prior: str = "ptv", order: int = 1, lam: flo
             faster = [f"give --lam (skips the lam path, about {gram_s * int(iters):.0f} s)"] if auto else []
             faster += ["fewer --iters", "a coarser --pixel-size or a smaller --extent"]
             if operator == "spherical":
-                faster.append("--operator toeplitz (far-field; may defocus)")
+                faster.append("--operator warped (sub-aperture NUFFTs held to --tolerance)")
+            elif operator == "warped":
+                faster.append("a larger --tolerance (fewer sub-apertures)")
             path = f"a lam path of up to {path_budget} and " if auto else ""
             notice(f"regularize {prior}: up to {predicted:.0f} s predicted ({path}{int(iters)} iterations at "
                    f"{gram_s:.2g} s); faster: {', '.join(faster)}")
@@ -347,6 +387,8 @@ def regularize(ph: PhaseHistory, *, prior: str = "ptv", order: int = 1, lam: flo
               "grid": grid.as_dict(), "init": init is not None, "scale_operator": s_a,
               "scale_data": s_b, "scale_power_iterations": power_iters,
               "farfield_phase_error_rad": phase_err, "model": ph.model, **estimate,
+              **({"operator_tolerance": tolerance, "subapertures": op.subapertures,
+                  "operator_predicted_error": op.predicted_error} if operator == "warped" else {}),
               "normalisation": "pixel-model reflectivity f = u * scale_data / scale_operator: a unit point "
                                "at a pixel centre recovered exactly is 1, the matched filter's peak"}
     if scaled is None:

@@ -1,0 +1,357 @@
+"""The spherical forward operator at FFT speed: sub-aperture NUFFTs on warped pixel positions.
+
+The exact spherical model (CONVENTIONS.md "Data models") is
+``A f (p, j) = Σ_x f(x) exp(−i k_pj d_p(x))``, ``k_pj = 4π α_pj / c`` and ``d_p(x)`` the
+differential range (:func:`sarcli.core.geometry.bistatic_differential_range`). Split it as
+``d_p(x) = d_p(0) + ρ_p(x)``: the first term is a phase per sample, exact. Over a short run of
+pulses ``ρ_p(x)`` is, for every pixel, almost a linear function of the look direction
+``v_p = −∇d_p(0)`` (horizontal part): ``ρ_p(x) ≈ −v_p · w(x)`` with ``w(x)`` the pixel's *warped
+position*, fitted per pixel by least squares over the pulses (``w = x`` in the far field). Then
+
+    A f (p, j) ≈ exp(−i k_pj d_p(0)) Σ_x f(x) exp(i κ_pj · w(x)),   κ_pj = k_pj v_p,
+
+a non-uniform Fourier sum from non-uniform points ``w(x)`` to non-uniform frequencies
+``κ_pj`` (a type-3 NUFFT). It is computed from pieces that are each exactly adjoint to their
+reverse, so the pair (A, Aᴴ) is an exact adjoint pair as implemented:
+
+1. ``E``: the phase ``exp(i κ̄·w(x))`` of the sub-aperture's mean frequency κ̄, per pixel;
+2. ``S``: the pixels spread from ``u(x) = R w(x)`` (R rotates κ's principal axes onto the grid
+   axes) onto a uniform grid of spacing ``h_i = π / (σ K_i)`` (K_i the half-extent of
+   ``R(κ − κ̄)``, σ = 2) with FINUFFT's exponential-of-semicircle kernel φ (its spreader alone);
+   the adjoint is its interpolation;
+3. ``F``: the grid's Fourier series at ``ξ h`` (ξ = R(κ − κ̄)), a FINUFFT type-2 transform;
+   the adjoint is the type-1 transform at the same points;
+4. ``C``: per sample, ``exp(i ξ·o) / Φ̂(ξ)`` (o the grid's centre, Φ̂ the kernel's Fourier series)
+   times ``exp(−i k d_p(0))``.
+
+``AᴴA = Σ_s Eᴴ Sᵀ T_s S E`` with ``T_s = Fᴴ |C|² F`` applied by FFTs on the 2n × 2n embedding of
+the grid (:class:`~sarcli.linops.toeplitz.ToeplitzGram`): per sub-aperture two passes of the
+spreader over the pixels and two FFTs of a grid whose area shrinks as the sub-aperture does.
+
+Error. The fit leaves a residual ``r_p(x) = ρ_p(x) + v_p·w(x)`` that grows as the square of the
+sub-aperture's angular extent (it is the wavefront's curvature seen over the sub-aperture less
+what a warp of the pixel absorbs). The predicted relative error of ``A f`` is the RMS of
+``|exp(i k r_p(x)) − 1|`` over pixels (a 9 × 9 lattice over the grid, corners included), every
+pulse, and the band's two ends and centre, plus the NUFFT's ``eps``; ``AᴴA``'s is twice that (an
+error on each side). ``subapertures='auto'`` takes the fewest equal runs of pulses that meet the
+tolerance.
+"""
+
+from __future__ import annotations
+
+import math
+
+import finufft
+import numpy as np
+
+from ..core import geometry
+from ..core.grid import Grid
+from ..errors import SarcliInputError
+from .base import Linop
+from .toeplitz import ToeplitzGram
+
+__all__ = ["WarpedNufftOperator", "WarpedGram", "predict_error", "choose_subapertures", "SUBAPERTURE_COUNTS"]
+
+#: Sub-aperture counts ``subapertures='auto'`` tries, fewest first.
+SUBAPERTURE_COUNTS = (1, 2, 3, 4, 6, 8, 12, 16, 24, 32, 48, 64)
+#: Grid oversampling over the band (FINUFFT's kernel is designed for it).
+SIGMA = 2.0
+#: Pixels along each side of the lattice on which the fit's residual is evaluated.
+LATTICE = 9
+#: Pulses of a run the per-pixel fit uses (evenly spread, ends included).
+FIT_PULSES = 33
+#: Nodes a side of the lattice the warp is fitted on and interpolated from (bicubic).
+SPLINE_NODES = 48
+#: Pixels per chunk of the per-pixel fit (bounds its work arrays to a few tens of MB).
+_CHUNK = 16384
+_C = 299_792_458.0
+
+
+def _blocks(n_pulses: int, count: int) -> list[slice]:
+    """``count`` runs of consecutive pulses, as equal as integers allow."""
+    edges = np.linspace(0, n_pulses, count + 1).round().astype(int)
+    return [slice(int(a), int(b)) for a, b in zip(edges[:-1], edges[1:]) if b > a]
+
+
+def _look(t, q):
+    """Horizontal look directions ``v_p = −∇d_p(0)`` (P, 2): the mean of the unit vectors to the
+    transmitter and the receiver (the same vector, monostatic)."""
+    def unit(a):
+        return a / np.linalg.norm(a, axis=1)[:, None]
+    return (0.5 * (unit(t) + unit(q)))[:, :2]
+
+
+class _Fit:
+    """The per-pixel warp of one run of pulses: ``w(x) = −(VᵀV)⁻¹ Vᵀ ρ(x)``, the least-squares
+    fit over :data:`FIT_PULSES` pulses spread evenly over the run (ends included; ``ρ`` is smooth
+    in the pulse, so more add nothing but time)."""
+
+    def __init__(self, t, q, r0):
+        self.t, self.q, self.r0 = t, q, r0
+        self.offset = geometry.bistatic_differential_range(t, q, r0, np.zeros((1, 3)))[:, 0]
+        self.v = _look(t, q)
+        self.fit = np.unique(np.linspace(0, t.shape[0] - 1, FIT_PULSES).round().astype(int))
+        vf = self.v[self.fit]
+        self.pinv = np.linalg.solve(vf.T @ vf, vf.T)  # (2, FIT_PULSES)
+
+    def rho(self, pts, pulses=slice(None)):
+        """``ρ_p(x) = d_p(x) − d_p(0)`` of the given pulses, shape (P, S)."""
+        return (geometry.bistatic_differential_range(self.t[pulses], self.q[pulses], self.r0[pulses], pts)
+                - self.offset[pulses, None])
+
+    def warp(self, pts):
+        """Warped positions ``w(x)`` (S, 2) of points (S, 3), fitted at each point."""
+        out = np.empty((pts.shape[0], 2))
+        for a in range(0, pts.shape[0], _CHUNK):
+            out[a:a + _CHUNK] = -(self.pinv @ self.rho(pts[a:a + _CHUNK], self.fit)).T
+        return out
+
+    def on_grid(self, grid: Grid):
+        """``(wx, wy)(x, y)``: the warp over ``grid`` as bicubic splines of ``w(x) − x`` through
+        its fit on a lattice of at most :data:`SPLINE_NODES` nodes a side (the warp is as smooth
+        as the wavefront; the spline's own error is part of :meth:`residual`'s)."""
+        from scipy.interpolate import RectBivariateSpline
+
+        def nodes(c, n):
+            return c[np.unique(np.linspace(0, n - 1, min(n, SPLINE_NODES)).round().astype(int))]
+        xs, ys = nodes(grid.x, grid.nx), nodes(grid.y, grid.ny)
+        xx, yy = np.meshgrid(xs, ys)
+        w = self.warp(np.stack([xx.ravel(), yy.ravel(), np.zeros(xx.size)], axis=1))
+        dw = w - np.stack([xx.ravel(), yy.ravel()], axis=1)
+        k = dict(kx=min(3, xs.size - 1), ky=min(3, ys.size - 1))
+        return [RectBivariateSpline(ys, xs, dw[:, i].reshape(xx.shape), **k) for i in (0, 1)]
+
+    def warp_on(self, splines, pts):
+        """The spline warp (:meth:`on_grid`) at points (S, 3) inside the grid."""
+        return pts[:, :2] + np.stack([sp.ev(pts[:, 1], pts[:, 0]) for sp in splines], axis=1)
+
+    def residual(self, pts, splines):
+        """The operator's residual ``r_p(x) = ρ_p(x) + v_p·w(x)`` (m) at every pulse, shape (P, S),
+        with the spline warp."""
+        return self.rho(pts) + self.v @ self.warp_on(splines, pts).T
+
+
+def _lattice(grid: Grid) -> np.ndarray:
+    """A ``LATTICE`` × ``LATTICE`` lattice of pixel centres spanning the grid, corners included."""
+    xs = grid.x[np.unique(np.linspace(0, grid.nx - 1, LATTICE).round().astype(int))]
+    ys = grid.y[np.unique(np.linspace(0, grid.ny - 1, LATTICE).round().astype(int))]
+    xx, yy = np.meshgrid(xs, ys)
+    return np.stack([xx.ravel(), yy.ravel(), np.zeros(xx.size)], axis=1)
+
+
+def _geometry(acq):
+    if not acq.has_positions:
+        raise SarcliInputError("the warped operator needs antenna positions; this collection has none")
+    t, q, r0 = acq.range_geometry()
+    k = 4 * np.pi * np.asarray(acq.frequencies_2d, np.float64) / _C
+    return np.asarray(t, float), np.asarray(q, float), np.asarray(r0, float), k
+
+
+def predict_error(acq, grid: Grid, subapertures: int, *, eps: float = 1e-6) -> float:
+    """Predicted relative error of ``A f`` of :class:`WarpedNufftOperator` with ``subapertures``
+    runs of pulses (module docstring): RMS of ``|exp(i k r_p(x)) − 1|`` over a lattice of pixels,
+    every pulse and the band's ends and centre, plus ``eps``."""
+    t, q, r0, k = _geometry(acq)
+    pts = _lattice(grid)
+    cols = np.unique([0, k.shape[1] // 2, k.shape[1] - 1])
+    total, count = 0.0, 0
+    for b in _blocks(t.shape[0], subapertures):
+        fit = _Fit(t[b], q[b], r0[b])
+        r = fit.residual(pts, fit.on_grid(grid))  # (P_s, S)
+        e = np.abs(np.expm1(1j * k[b][:, cols][:, :, None] * r[:, None, :]))
+        total += float(np.sum(e * e))
+        count += e.size
+    return math.sqrt(total / count) + eps
+
+
+def choose_subapertures(acq, grid: Grid, tolerance: float, *, eps: float | None = None):
+    """The fewest sub-apertures (of :data:`SUBAPERTURE_COUNTS`, at least 8 pulses each) whose
+    predicted ``AᴴA`` error (twice :func:`predict_error`) is within ``tolerance``.
+
+    Returns
+    -------
+    count : int or None
+        None when no count meets the tolerance.
+    error : float
+        The predicted ``AᴴA`` error at ``count`` (at the largest count tried when None).
+    """
+    eps = tolerance / 20 if eps is None else eps
+    err = math.inf
+    for n in SUBAPERTURE_COUNTS:
+        if n > 1 and acq.n_pulses // n < 8:
+            break
+        err = 2 * predict_error(acq, grid, n, eps=eps)
+        if err <= tolerance:
+            return n, err
+    return None, err
+
+
+def _kernel_series(n: int, eps: float, t: np.ndarray) -> np.ndarray:
+    """``Φ̂(t) = Σ_j φ(j) e^{i t j}``: the Fourier series of FINUFFT's spreading kernel (its values
+    at the grid nodes around a point on a node, read back from the spreader itself) at ``t``."""
+    m = 64
+    g = finufft.nufft1d1(np.zeros(1), np.ones(1, np.complex128), m, eps=eps, spreadinterponly=1,
+                         upsampfac=SIGMA, modeord=0)
+    j = np.arange(m) - m // 2
+    keep = np.abs(g) > 0
+    return np.real(np.exp(1j * np.outer(t, j[keep])) @ g[keep])
+
+
+class _Run:
+    """One run of pulses: its warp, grid, plans and per-sample factors (module docstring, 1-4)."""
+
+    def __init__(self, t, q, r0, k, grid, eps, nthreads):
+        fit = _Fit(t, q, r0)
+        xx, yy = np.meshgrid(grid.x, grid.y)
+        sx, sy = fit.on_grid(grid)
+        w = np.stack([(xx + sx(grid.y, grid.x)).ravel(), (yy + sy(grid.y, grid.x)).ravel()], axis=1)  # (N, 2)
+        kap = k[:, :, None] * fit.v[:, None, :]             # (P_s, M, 2)
+        kbar = kap.reshape(-1, 2).mean(axis=0)
+        _, _, rot = np.linalg.svd(kap.reshape(-1, 2) - kbar, full_matrices=False)
+        xi = (kap - kbar) @ rot.T                           # (P_s, M, 2) in the rotated frame
+        u = w @ rot.T                                       # (N, 2)
+        half = np.maximum(np.abs(xi).reshape(-1, 2).max(axis=0), 1e-12)
+        h = np.pi / (SIGMA * half)
+        lo, hi = u.min(axis=0), u.max(axis=0)
+        width = int(math.ceil(-math.log10(eps))) + 2
+        n = (np.ceil((hi - lo) / h).astype(int) + 2 * width + 2) // 2 * 2
+        o = 0.5 * (lo + hi)
+        tau = 2 * np.pi * (u - o) / (n * h)                 # spreader coordinates in [-π, π)
+        s = xi * h                                          # dimensionless frequencies, |s| ≤ π/σ
+        phi = _kernel_series(int(n[0]), eps, s[..., 0].ravel()) * \
+            _kernel_series(int(n[1]), eps, s[..., 1].ravel())
+        off = fit.offset
+        self.image_phase = np.exp(1j * (w @ kbar))          # E
+        self.sample = (np.exp(1j * (xi @ o)).ravel() / phi
+                       * np.exp(-1j * k * off[:, None]).ravel())   # C
+        self.weight2 = np.abs(self.sample) ** 2
+        self.shape = (int(n[0]), int(n[1]))
+        kw = dict(eps=eps, nthreads=nthreads) if nthreads else dict(eps=eps)
+        self._spread = finufft.Plan(1, self.shape, spreadinterponly=1, upsampfac=SIGMA, modeord=0, **kw)
+        self._interp = finufft.Plan(2, self.shape, spreadinterponly=1, upsampfac=SIGMA, modeord=0, **kw)
+        for p in (self._spread, self._interp):
+            p.setpts(np.ascontiguousarray(tau[:, 0]), np.ascontiguousarray(tau[:, 1]))
+        s0, s1 = np.ascontiguousarray(s[..., 0].ravel()), np.ascontiguousarray(s[..., 1].ravel())
+        self._fourier = finufft.Plan(2, self.shape, isign=+1, modeord=0, **kw)
+        self._fourier_h = finufft.Plan(1, self.shape, isign=-1, modeord=0, **kw)
+        for p in (self._fourier, self._fourier_h):
+            p.setpts(s0, s1)
+        self._s = (s0, s1)
+        self._eps = eps
+        self._toeplitz = None
+        self.n_samples = s0.size
+
+    def spread(self, f):
+        return self._spread.execute(np.ascontiguousarray(self.image_phase * f))
+
+    def interp(self, g):
+        return np.conj(self.image_phase) * self._interp.execute(np.ascontiguousarray(g, np.complex128))
+
+    def forward(self, f):
+        return self.sample * self._fourier.execute(self.spread(f))
+
+    def adjoint(self, y):
+        return self.interp(self._fourier_h.execute(np.ascontiguousarray(np.conj(self.sample) * y)))
+
+    def toeplitz(self) -> ToeplitzGram:
+        if self._toeplitz is None:
+            # (FᴴWF)[m, m'] = Σ_l w_l e^{-i s_l·(m - m')}: ToeplitzGram's kernel at -s (k1 on columns)
+            s0, s1 = self._s
+            self._toeplitz = ToeplitzGram(-s1, -s0, self.shape, weights=self.weight2, eps=self._eps)
+        return self._toeplitz
+
+    def gram(self, f):
+        return self.interp(self.toeplitz().apply(self.spread(f)))
+
+
+class WarpedNufftOperator(Linop):
+    """``A``: image ``[ny, nx]`` → spherical (or bistatic) phase history ``[P, M]`` at FFT speed.
+
+    Sub-aperture NUFFTs on warped pixel positions (module docstring); an exact adjoint pair as
+    implemented, whose difference from the exact spherical model is predicted by
+    :func:`predict_error`.
+
+    Parameters
+    ----------
+    acq : Acquisition
+        With antenna positions (monostatic or bistatic).
+    grid : Grid
+    subapertures : int or 'auto'
+        Runs of consecutive pulses, each with its own warp; 'auto': :func:`choose_subapertures`.
+    tolerance : float
+        Relative error of ``AᴴA`` that 'auto' meets (default 1e-3).
+    eps : float, optional
+        NUFFT tolerance (default ``tolerance / 20``).
+    nthreads : int, optional
+        FINUFFT threads (default: FINUFFT's choice).
+
+    Attributes
+    ----------
+    subapertures : int
+    predicted_error : float
+        Predicted relative error of ``AᴴA`` against the exact spherical model.
+    """
+
+    def __init__(self, acq, grid: Grid, *, subapertures="auto", tolerance: float = 1e-3,
+                 eps: float | None = None, nthreads: int | None = None):
+        t, q, r0, k = _geometry(acq)
+        super().__init__(grid.shape, (t.shape[0], k.shape[1]), np.complex128)
+        self.grid = grid
+        self.eps = tolerance / 20 if eps is None else float(eps)
+        if subapertures == "auto":
+            n, err = choose_subapertures(acq, grid, tolerance, eps=self.eps)
+            if n is None:
+                raise SarcliInputError(
+                    f"the warped operator cannot meet tolerance {tolerance:g} on this grid (predicted "
+                    f"{err:.3g} with sub-apertures of 8 pulses); use the exact spherical pair")
+        else:
+            n = int(subapertures)
+            if not 1 <= n <= t.shape[0]:
+                raise SarcliInputError(f"subapertures must be 1..{t.shape[0]}, got {subapertures}")
+            err = 2 * predict_error(acq, grid, n, eps=self.eps)
+        self.subapertures, self.predicted_error = n, float(err)
+        self._blocks = _blocks(t.shape[0], n)
+        self._runs = [_Run(t[b], q[b], r0[b], k[b], grid, self.eps, nthreads) for b in self._blocks]
+
+    @property
+    def n_samples(self) -> int:
+        return int(np.prod(self.oshape))
+
+    def _forward(self, x):
+        f = np.ascontiguousarray(x, np.complex128).ravel()
+        out = np.empty(self.oshape, np.complex128)
+        for b, run in zip(self._blocks, self._runs):
+            out[b] = run.forward(f).reshape(-1, self.oshape[1])
+        return out
+
+    def _adjoint(self, y):
+        y = np.asarray(y, np.complex128)
+        out = np.zeros(int(np.prod(self.ishape)), np.complex128)
+        for b, run in zip(self._blocks, self._runs):
+            out += run.adjoint(y[b].ravel())
+        return out.reshape(self.ishape)
+
+    def gram(self) -> "WarpedGram":
+        """``AᴴA`` by FFTs on each sub-aperture's grid (:class:`WarpedGram`)."""
+        return WarpedGram(self)
+
+
+class WarpedGram(Linop):
+    """``AᴴA`` of a :class:`WarpedNufftOperator`: ``Σ_s Eᴴ Sᵀ T_s S E`` (Hermitian, positive
+    semi-definite as implemented; equal to ``Aᴴ(A x)`` to the NUFFT's ``eps``)."""
+
+    def __init__(self, op: WarpedNufftOperator):
+        super().__init__(op.ishape, op.ishape, np.complex128)
+        self.op = op
+        for run in op._runs:
+            run.toeplitz()
+
+    def _forward(self, x):
+        f = np.ascontiguousarray(x, np.complex128).ravel()
+        out = np.zeros_like(f)
+        for run in self.op._runs:
+            out += run.gram(f)
+        return out.reshape(self.ishape)
+
+    def _adjoint(self, y):
+        return self._forward(y)
