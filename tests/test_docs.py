@@ -151,3 +151,124 @@ def test_readme_python_example_runs_without_warnings(tmp_path, monkeypatch):
         warnings.simplefilter("error")
         exec(compile(code, "README.md", "exec"), {})
     assert (tmp_path / "ph.h5").exists() and (tmp_path / "img.h5").exists()
+
+
+# -- facts a test can check: commands and flags, files, modules, machine paths, history ----------------
+#: pages written by hand (docs/cli.md is --help itself; docs/stability.md lists deliberately wrong
+#: commands, generated from the cases in tests/stability/)
+HAND_WRITTEN = [p for p in PAGES if p.name not in ("cli.md", "stability.md")]
+
+
+def _code_spans(page: Path) -> tuple[list[str], list[str]]:
+    """(lines of fenced code blocks, backslash continuations joined; inline code spans of the prose)."""
+    text = page.read_text()
+    blocks = [ln for m in re.finditer(r"```[^\n]*\n(.*?)```", text, flags=re.S)
+              for ln in m.group(1).replace("\\\n", " ").splitlines()]
+    return blocks, re.findall(r"`([^`\n]+)`", re.sub(r"```.*?```", "", text, flags=re.S))
+
+
+def _sar_invocations(span: str):
+    """``(command words, flags)`` of each ``sar ...`` in a line or code span (comments dropped)."""
+    for part in re.split(r";|&&", span.split(" #")[0]):
+        words = part.replace("[", " ").replace("]", " ").split()
+        if "sar" not in words:
+            continue
+        words = words[words.index("sar") + 1:]
+        while words and words[0].startswith("-"):  # the group's options come before the command
+            words = words[2:] if words[0] == "--max-memory" else words[1:]
+        if not words or not re.fullmatch(r"[a-z-]+", words[0]):
+            continue
+        cmd = words[:2] if words[0] == "import" and len(words) > 1 and words[1] in ("gotcha", "cphd") else words[:1]
+        flags = {w.split("=")[0].rstrip(",.:)") for w in words[len(cmd):] if re.match(r"--?[a-zA-Z]", w)}
+        yield tuple(cmd), flags
+
+
+_HELP: dict = {}
+
+
+def _help_flags(cmd: tuple) -> set | None:
+    """The flags `sar CMD --help` shows (None when CMD is not a command)."""
+    from click.testing import CliRunner
+
+    from sarcli.cli.main import cli
+
+    if cmd not in _HELP:
+        res = CliRunner().invoke(cli, [*cmd, "--help"])
+        _HELP[cmd] = set(re.findall(r"(?<![\w-])(--?[a-zA-Z][\w-]*)", res.output)) if res.exit_code == 0 else None
+    return _HELP[cmd]
+
+
+@pytest.mark.parametrize("page", HAND_WRITTEN, ids=lambda p: str(p.relative_to(REPO)))
+def test_every_sar_command_and_flag_named_in_the_docs_is_in_its_help(page):
+    blocks, inline = _code_spans(page)
+    bad = []
+    for span in blocks + inline:
+        for cmd, flags in _sar_invocations(span):
+            known = _help_flags(cmd)
+            if known is None:
+                bad.append(f"`sar {' '.join(cmd)}` is not a command")
+                continue
+            bad += [f"`sar {' '.join(cmd)} {f}`: no such option in its --help"
+                    for f in sorted(flags - known)]  # the group's -q, -v go before CMD
+    assert not bad, f"{page.relative_to(REPO)}: " + "; ".join(sorted(set(bad)))
+
+
+def test_the_flag_check_catches_a_wrong_flag():
+    found = list(_sar_invocations("sar -q export IMG.h5 -o OUT.png --annotate [--bare]; sar import gotcha F -o X"))
+    assert found == [(("export",), {"-o", "--annotate", "--bare"}), (("import", "gotcha"), {"-o"})]
+    assert "--annotate" not in _help_flags(("export",)) and "--bare" in _help_flags(("export",))
+    assert _help_flags(("simulat",)) is None
+    assert "-v" not in _help_flags(("regularize",))  # `sar -v regularize`, never `sar regularize -v`
+
+
+@pytest.mark.parametrize("page", HAND_WRITTEN, ids=lambda p: str(p.relative_to(REPO)))
+def test_repository_files_and_modules_named_in_the_prose_exist(page):
+    import importlib
+
+    bad = []
+    for span in _code_spans(page)[1]:
+        for path in re.findall(r"(?<![\w./-])((?:sarcli|tests|docs|scripts|configs|bench|src|\.ci)/[\w./*-]*)", span):
+            where = path.split("::")[0].rstrip("/")
+            if not ((REPO / where).exists() or ("*" in where and list(REPO.glob(where)))):
+                bad.append(f"{path} does not exist")
+        for name in re.findall(r"(?<![\w.])(sarcli(?:\.\w+)+)", span):
+            parts = name.split(".")
+            for n in range(len(parts), 0, -1):  # the longest importable prefix, then attributes
+                try:
+                    obj = importlib.import_module(".".join(parts[:n]))
+                    break
+                except ImportError:
+                    continue
+            for attr in parts[n:]:
+                if not hasattr(obj, attr):
+                    bad.append(f"{name}: {'.'.join(parts[:n])} has no {attr!r}")
+                    break
+                obj = getattr(obj, attr)
+    assert not bad, f"{page.relative_to(REPO)}: " + "; ".join(sorted(set(bad)))
+
+
+#: absolute paths of a machine (a user's data sits wherever they put it: docs name it by a placeholder)
+MACHINE_PATH = re.compile(r"(?<![\w.~$-])/(?:work|home|root|Users|tmp|mnt|scratch|shared|data|opt|srv)/")
+#: words that tell what used to be rather than what is
+HISTORY = re.compile(r"\b(?:used to (?:be|say|give|take|write|read|run|pick|have)|earlier runs?|earlier versions?|"
+                     r"previous(?:ly| versions?| runs?)|no longer|formerly|was changed|has changed|"
+                     r"until recently|(?:this|last|previous) (?:session|round)|round \d|issue \d+|"
+                     r"now\b[^.\n]{0,60}\binstead of)\b", re.I)
+
+
+@pytest.mark.parametrize("page", PAGES, ids=lambda p: str(p.relative_to(REPO)))
+def test_no_machine_paths_and_no_history(page):
+    text = page.read_text()
+    assert not MACHINE_PATH.findall(text), f"{page.relative_to(REPO)}: machine paths {MACHINE_PATH.findall(text)}"
+    words = [m.group(0) for m in HISTORY.finditer(text)]
+    assert not words, f"{page.relative_to(REPO)} tells history: {words}"
+
+
+def test_the_history_and_path_patterns_catch_what_they_are_for():
+    for s in ("1.70 (1.82-1.95 in two earlier runs)", "it now reads the file instead of the cache",
+              "the default used to be nufft", "fixed in round 2", "as issue 38 asks"):
+        assert HISTORY.search(s), s
+    for s in ("the estimate is used to form the image", "pixel instead of the grid", "now `sar --help` works"):
+        assert not HISTORY.search(s), s
+    assert MACHINE_PATH.search("(`/work/shared/data/gotcha/x.mat`)") and MACHINE_PATH.search("input: /shared/gotcha")
+    assert not MACHINE_PATH.search("`out/img.h5`, ~/.cache/sarcli, `/truth/scene`, `$HOME/data/`")
