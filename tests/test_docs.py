@@ -138,6 +138,21 @@ def test_the_file_contract_names_exactly_what_sarcli_writes(tmp_path):
     assert not named - written, f"docs/conventions.md names {sorted(named - written)}, which sarcli never writes"
 
 
+def test_the_own_data_page_runs_as_a_doctest(tmp_path, monkeypatch):
+    """docs/own-data.md: numpy arrays -> phase-history file -> image -> GeoTIFF, every line as printed."""
+    import doctest
+
+    page = REPO / "docs" / "own-data.md"
+    monkeypatch.chdir(tmp_path)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        result = doctest.testfile(str(page), module_relative=False, encoding="utf-8", report=True,
+                                  optionflags=doctest.NORMALIZE_WHITESPACE | doctest.ELLIPSIS)
+    assert result.attempted > 20 and result.failed == 0, result
+    assert {p.name for p in tmp_path.iterdir()} >= {"my-collect.h5", "my-image.h5", "my-image.tif"}
+    assert "own-data.md" in (REPO / "README.md").read_text()
+
+
 def _readme_python() -> str:
     blocks = re.findall(r"```python\n(.*?)```", (REPO / "README.md").read_text(), flags=re.S)
     assert blocks, "the README has a Python example"
