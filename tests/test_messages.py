@@ -89,9 +89,11 @@ def test_help_lists_every_method_and_no_latex_label():
 def test_a_mistyped_command_is_one_line_naming_the_closest(typed, meant):
     res = CliRunner().invoke(cli, [typed, "x.yaml"])
     assert res.exit_code == 2 and res.output.count("\n") == 1, res.output
-    assert f"No such command '{typed}'; did you mean '{meant}'?" in res.output
+    assert f"No such command '{typed}'. Did you mean '{meant}'?" in res.output
     res = CliRunner().invoke(cli, ["zzzz"])
-    assert res.exit_code == 2 and "did you mean" not in res.output and "No such command 'zzzz'" in res.output
+    assert res.exit_code == 2 and "Did you mean" not in res.output and "No such command 'zzzz'." in res.output
+    res = CliRunner().invoke(cli, ["import", "gotch", "x.mat"])
+    assert res.exit_code == 2 and "No such command 'gotch'. Did you mean 'gotcha'?" in res.output, res.output
 
 
 def test_info_says_which_resolution_it_prints_and_the_definition_holds(write_config):

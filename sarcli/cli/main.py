@@ -49,7 +49,7 @@ class LazyGroup(click.Group):
             import difflib
 
             close = difflib.get_close_matches(name, sorted(COMMANDS), n=1, cutoff=0.6)
-            hint = f"; did you mean '{close[0]}'?" if close else ""
+            hint = f". Did you mean '{close[0]}'?" if close else "."
             raise click.UsageError(f"No such command '{name}'{hint}", ctx)
         return super().resolve_command(ctx, args)
 
