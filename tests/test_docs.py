@@ -287,3 +287,31 @@ def test_the_history_and_path_patterns_catch_what_they_are_for():
         assert not HISTORY.search(s), s
     assert MACHINE_PATH.search("(`/work/shared/data/gotcha/x.mat`)") and MACHINE_PATH.search("input: /shared/gotcha")
     assert not MACHINE_PATH.search("`out/img.h5`, ~/.cache/sarcli, `/truth/scene`, `$HOME/data/`")
+
+
+def _table_rows_with_the_wrong_width(text: str) -> list[str]:
+    """Rows of Markdown tables whose cell count differs from the header's (an unescaped `|`)."""
+    cells = lambda line: len(re.split(r"(?<!\\)\|", line.strip()))  # noqa: E731
+    lines = re.sub(r"```.*?```", "", text, flags=re.S).splitlines()
+    bad = []
+    for i, line in enumerate(lines[1:], 1):
+        if re.fullmatch(r"\|[-: |]+\|", line.strip()):
+            j = i + 1
+            while j < len(lines) and lines[j].startswith("|"):
+                if cells(lines[j]) != cells(lines[i - 1]):
+                    bad.append(lines[j][:80])
+                j += 1
+    return bad
+
+
+@pytest.mark.parametrize("page", PAGES, ids=lambda p: str(p.relative_to(REPO)))
+def test_every_table_row_has_its_header_s_cells(page):
+    # a `|` inside a cell, even in code, splits it on GitHub: it is written \|
+    bad = _table_rows_with_the_wrong_width(page.read_text())
+    assert not bad, f"{page.relative_to(REPO)}: rows with an unescaped |: {bad}"
+
+
+def test_the_table_check_sees_an_unescaped_bar():
+    good = "| a | b |\n|---|---|\n| `x\\|y` | 1 |\n"
+    assert _table_rows_with_the_wrong_width(good) == []
+    assert _table_rows_with_the_wrong_width(good.replace("\\|", "|")) == ["| `x|y` | 1 |"]
