@@ -39,10 +39,10 @@ def _figure(ncols=1, size=(6.4, 4.8), nrows=1, layout="constrained"):
     return fig, np.atleast_1d(axes)
 
 
-def _save(fig, path, **kwargs):
+def _save(fig, path, *, metadata=None, **kwargs):
     if path is not None:
         with atomic_path(path) as tmp:
-            fig.savefig(tmp, format="png", **kwargs)
+            fig.savefig(tmp, format="png", metadata=metadata, **kwargs)
 
 
 def _as_image(img_or_psf, grid=None) -> Image:
@@ -384,7 +384,7 @@ def image_figure(img, path, *, kind="db", dynamic_range_db=50.0, cmap="gray"):
     The pixels are the display values of :func:`sarcli.io.png.display_values` (``kind`` 'db' or
     'magnitude', ``dynamic_range_db``) in the matplotlib colormap ``cmap``.
     """
-    from .io.png import colormap, display_values
+    from .io.png import colormap, display_values, png_text
 
     values = display_values(img, kind=kind, dynamic_range_db=dynamic_range_db)
     dr = float(dynamic_range_db)
@@ -408,4 +408,5 @@ def image_figure(img, path, *, kind="db", dynamic_range_db=50.0, cmap="gray"):
     ax.set_title(f"{img.method or 'image'}: {grid.nx} x {grid.ny} pixels of {grid.dx:.3g} m "
                  f"({width:.4g} m x {height:.4g} m)", fontsize=10)
     fig.colorbar(im, ax=ax, label=label)
-    _save(fig, path, bbox_inches="tight")
+    _save(fig, path, bbox_inches="tight",
+          metadata=png_text(kind=kind, dynamic_range_db=dr, cmap=cmap, figure=True))

@@ -25,6 +25,7 @@ def acquisition_numbers(config=CONFIG) -> dict:
     import sarcli
     from sarcli.analysis.psf import predicted_ipr
     from sarcli.core import geometry
+    from sarcli.core.windows import IRW_FACTOR_UNIFORM
 
     acq = sarcli.load_acquisition(config)
     s = acq.summary()
@@ -41,6 +42,7 @@ def acquisition_numbers(config=CONFIG) -> dict:
         "defocus_rad": float(defocus), "nx": g.nx, "pixel_m": g.dx, "width_m": g.nx * g.dx,
         "taylor_widening_pct": 100.0 * (widen - 1.0),
         "pslr_plain_db": plain["range"]["pslr_db"], "pslr_taylor_db": taylor["range"]["pslr_db"],
+        "irw_range_m": plain["range"]["irw_m"], "irw_factor": IRW_FACTOR_UNIFORM,
     }
 
 
@@ -93,7 +95,9 @@ sar info configs/three-points.yaml
 ```
 
 prints the band, the aperture, the resolutions (range {a['resolution_range_m']:.3f} m, cross-range
-{a['resolution_cross_m']:.3f} m), the alias-free radii (range {a['radius_range_m']:.1f} m, cross-range
+{a['resolution_cross_m']:.3f} m: `c/(2B cos φ)` and its cross-range twin, the distance from a
+point's peak to the first null; the −3 dB width that `sar quality` calls IRW is {a['irw_factor']:.3f} of it
+without a window), the alias-free radii (range {a['radius_range_m']:.1f} m, cross-range
 {a['radius_cross_m']:.1f} m: the {a['width_m']:g} m scene is safely inside) and notes that a far-field
 method would defocus the grid corner by {a['defocus_rad']:.2f} rad at this range — so the spherical
 data go to backprojection, and the far-field model of the same scene to the far-field methods.
@@ -138,7 +142,9 @@ sar quality out/three-points-bp.h5 --ph out/three-points.h5
 {bp_table}
 ```
 
-Measured −3 dB widths agree with the PSF's prediction to {100 * irw_err:.1f} %, peaks are within
+The IRW columns are −3 dB widths of the main lobe (here {a['irw_range_m']:.3f} m predicted in range,
+{a['irw_factor']:.3f} × the {a['resolution_range_m']:.3f} m `sar info` prints). The notes name each target whose
+sidelobe neighbourhood the image border cuts. Measured −3 dB widths agree with the PSF's prediction to {100 * irw_err:.1f} %, peaks are within
 {1000 * pos_err:.1f} mm of the truth and at magnitude {min(peaks):.3f}–{max(peaks):.3f} (a unit target
 peaks at 1 by the normalisation of [conventions.md](conventions.md); the rest is the other targets'
 sidelobes and the interpolation).

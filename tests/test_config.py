@@ -162,6 +162,35 @@ def test_derived_grid_and_alias_warning(write_config):
         sarcli.load_acquisition(write_config(cfg))
 
 
+@pytest.mark.parametrize("path, center_deg", [("line", 90.0), ("line", 50.0), ("circle", 0.0), ("circle", 130.0)])
+def test_derived_grid_keeps_cells_around_every_point(write_config, path, center_deg):
+    """A Ku-band collection at 8 km over 3 degrees, five points and a disk phantom (the derived grid
+    must not put a corner target 0.56 m, under five range cells, from the edge): every point keeps
+    POINT_MARGIN_CELLS range cells along the range direction and as many cross-range cells across it."""
+    from sarcli.io.config import POINT_MARGIN_CELLS
+    from sarcli.io.scene_spec import point_targets
+
+    pts = [[0.0, 0.0], [5.0, 5.0], [-5.0, 5.0], [5.0, -5.0], [-6.0, -4.0]]
+    cfg = small_config(image=None, frequencies={"center_frequency_ghz": 16.0, "bandwidth_mhz": 1500.0, "count": 256},
+                       azimuths={"center_deg": center_deg, "extent_deg": 3.0, "count": 200},
+                       geometry={"path": path, "standoff_range_m": 8000.0},
+                       scene={"points": [{"position_m": q} for q in pts], "phantom": {"name": "disks", "half_width_m": 4.0}})
+    acq = sarcli.load_acquisition(write_config(cfg))
+    g = acq.grid
+    rho_r, rho_cr = acq.resolutions()
+    assert POINT_MARGIN_CELLS >= 3 and rho_r < 0.12  # a few cells of a fine range resolution
+    th = np.radians(center_deg)
+    k = POINT_MARGIN_CELLS
+    hx = k * np.hypot(rho_r * np.cos(th), rho_cr * np.sin(th))
+    hy = k * np.hypot(rho_r * np.sin(th), rho_cr * np.cos(th))
+    x0, x1 = g.x[0] - g.dx / 2, g.x[-1] + g.dx / 2
+    y0, y1 = g.y[0] - g.dy / 2, g.y[-1] + g.dy / 2
+    for x, y, _ in point_targets(acq.scene)[0]:
+        assert min(x - x0, x1 - x) >= hx - 1e-9 and min(y - y0, y1 - y) >= hy - 1e-9, (x, y, g.as_dict())
+    # and not much more: the grid is the farthest point plus its margin, rounded up to even pixels
+    assert g.extent[0] / 2 <= max(6.0 + hx, 5.0 + hy) + 2 * g.dx
+
+
 def test_shipped_configs_load():
     for name in ("three-points", "shepp-logan", "circular-360", "narrowband"):
         acq = sarcli.load_acquisition(CONFIGS / f"{name}.yaml")

@@ -117,6 +117,30 @@ def test_png_is_an_annotated_figure_unless_bare(tmp_path):
     assert w > 300 and h > 200                                         # a readable figure, not a thumbnail
 
 
+def test_png_description_says_what_each_picture_is_and_annotate_is_deprecated(tmp_path):
+    # docs/formats.md: both the figure and the --bare raster carry a Description text chunk
+    img = Image(np.outer(np.hanning(40), np.hanning(30)) + 0j, np.arange(30) * 0.1, np.arange(40) * 0.1, method="t")
+    write_image(tmp_path / "img.h5", img)
+    run = CliRunner()
+    for name, extra in (("fig.png", []), ("raw.png", ["--bare"])):
+        res = run.invoke(cli, ["export", str(tmp_path / "img.h5"), "-o", str(tmp_path / name),
+                               "--dynamic-range-db", "35", "--cmap", "magma", *extra])
+        assert res.exit_code == 0, res.output
+        with PILImage.open(tmp_path / name) as pic:
+            text = pic.text
+        assert "clipped to [-35, 0] dB -> 0..255" in text["Description"] and "colormap magma" in text["Description"]
+        assert text["Software"] == f"sarcli {sarcli.__version__}"
+        layout = "axes x east and y north in metres" if name == "fig.png" else "file row 0 is the northern edge"
+        assert layout in text["Description"], text["Description"]
+    res = run.invoke(cli, ["export", str(tmp_path / "img.h5"), "-o", str(tmp_path / "a.png"), "--annotate"])
+    assert res.exit_code == 0 and "--annotate is deprecated and has no effect" in res.output, res.output
+    with PILImage.open(tmp_path / "a.png") as pic:
+        assert pic.size[0] > 300                                       # still the figure
+    res = run.invoke(cli, ["export", str(tmp_path / "img.h5"), "-o", str(tmp_path / "b.png"), "--annotate", "--bare"])
+    assert res.exit_code == 2 and "contradict" in res.output and not (tmp_path / "b.png").exists()
+    assert "--annotate" not in run.invoke(cli, ["export", "--help"]).output
+
+
 def test_quiet_prints_nothing_on_success(files, tmp_path):
     res = CliRunner().invoke(cli, ["-q", "export", str(files["image"]), "-o", str(tmp_path / "q.tif")])
     assert res.exit_code == 0 and res.output == ""

@@ -84,6 +84,38 @@ def test_help_lists_every_method_and_no_latex_label():
     assert "main-theorem" not in out
 
 
+@pytest.mark.parametrize("typed, meant", [("simulat", "simulate"), ("form-imag", "form-image"),
+                                          ("qualty", "quality"), ("autofocs", "autofocus")])
+def test_a_mistyped_command_is_one_line_naming_the_closest(typed, meant):
+    res = CliRunner().invoke(cli, [typed, "x.yaml"])
+    assert res.exit_code == 2 and res.output.count("\n") == 1, res.output
+    assert f"No such command '{typed}'. Did you mean '{meant}'?" in res.output
+    res = CliRunner().invoke(cli, ["zzzz"])
+    assert res.exit_code == 2 and "Did you mean" not in res.output and "No such command 'zzzz'." in res.output
+    res = CliRunner().invoke(cli, ["import", "gotch", "x.mat"])
+    assert res.exit_code == 2 and "No such command 'gotch'. Did you mean 'gotcha'?" in res.output, res.output
+
+
+def test_info_says_which_resolution_it_prints_and_the_definition_holds(write_config):
+    """`sar info`'s resolution is c/(2B cos el), the first null; the predicted -3 dB width of an
+    unwindowed cut (what `sar quality` calls IRW) is IRW_FACTOR_UNIFORM of it, as the line says."""
+    from sarcli.analysis.psf import predicted_ipr
+    from sarcli.core.windows import IRW_FACTOR_UNIFORM
+    from sarcli.io.config import load_acquisition
+
+    path = REPO / "configs" / "three-points.yaml"
+    doc = json.loads(CliRunner().invoke(cli, ["info", str(path), "--json"]).output)
+    f_lo, f_hi = doc["band_hz"]
+    assert doc["resolution_m"]["range"] == pytest.approx(geometry.C / (2 * (f_hi - f_lo) * math.cos(math.radians(30))))
+    assert "c/(2 B cos(elevation))" in doc["resolution_definition"]
+    assert f"is {IRW_FACTOR_UNIFORM:.3f} of it without a window" in doc["resolution_definition"]
+    irw = predicted_ipr(load_acquisition(path))["range"]["irw_m"]
+    assert irw / doc["resolution_m"]["range"] == pytest.approx(IRW_FACTOR_UNIFORM, rel=0.01)
+    lines = CliRunner().invoke(cli, ["info", str(path)]).output.splitlines()
+    at = next(i for i, line in enumerate(lines) if line.strip().startswith("resolution_m:"))
+    assert lines[at + 1].strip().startswith("resolution_definition: range c/(2 B cos(elevation))")
+
+
 def test_info_on_a_sicd_reads_its_metadata_and_shows_no_dependency_warning(tmp_path):
     from sarcli.io.sicd import write_sicd
 

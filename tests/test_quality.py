@@ -137,6 +137,26 @@ def test_cli_quality_json_and_table(tmp_path):
     assert res.exit_code == 2 and "--ph" in res.output
 
 
+def test_quality_table_names_the_targets_at_the_border_and_says_what_irw_is():
+    from sarcli.cli.quality import _table
+    from sarcli.core.windows import IRW_FACTOR_UNIFORM
+
+    ph, image = _ph_and_image()
+    res = image_quality(image, ph)
+    cut = {r["name"] for r in res if r["measured"]["patch_truncated"]}
+    assert cut and cut != {"T1", "T2", "T3"}  # T1 at the centre keeps its whole neighbourhood
+    text = _table(res)
+    for r in res:
+        m = r["measured"]
+        note = f"note: {r['name']} at ({m['x_m']:.3f}, {m['y_m']:.3f}) m lies near the image border"
+        assert (note in text) == (r["name"] in cut), (r["name"], text)
+    assert "IRW: the -3 dB width of the main lobe along each cut, window none" in text
+    assert f"about {1 / IRW_FACTOR_UNIFORM:.3f} x the IRW without a window" in text
+    # what the footer claims: unwindowed, the predicted IRW is 0.886 of c/(2B cos el)
+    rho_r = geometry.resolutions(F, AZ, np.full(AZ.size, EL))[0]
+    assert res[0]["predicted"]["range"]["irw_m"] == pytest.approx(IRW_FACTOR_UNIFORM * rho_r, rel=0.01)
+
+
 def test_cli_quality_with_a_config(tmp_path):
     cfg = {"name": "q", "model": "farfield",
            "frequencies": {"center_frequency_ghz": 10.0, "bandwidth_mhz": 600.0, "count": 128},

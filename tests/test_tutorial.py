@@ -19,7 +19,8 @@ def test_tutorial_shows_the_numbers_the_library_computes():
     page = " ".join((REPO / "docs" / "tutorial.md").read_text().split())  # line breaks do not matter
     for text in (f"range {a['resolution_range_m']:.3f} m", f"cross-range {a['resolution_cross_m']:.3f} m",
                  f"range {a['radius_range_m']:.1f} m", f"by {a['defocus_rad']:.2f} rad",
-                 f"{a['taylor_widening_pct']:.0f} % wider"):
+                 f"{a['taylor_widening_pct']:.0f} % wider", f"here {a['irw_range_m']:.3f} m predicted in range",
+                 f"calls IRW is {a['irw_factor']:.3f} of it"):
         assert text in page, f"docs/tutorial.md is stale ({text!r} not found): run make tutorial"
     # the Taylor 4/-35 dB window widens the main lobe by about a third, not the 18 % once typed here
     assert 30 < a["taylor_widening_pct"] < 40

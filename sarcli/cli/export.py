@@ -18,15 +18,23 @@ from .options import handle_errors, prepare_outputs, wrote
 @click.option("--cmap", default="gray", show_default=True, help="PNG colormap (matplotlib name).")
 @click.option("--bare", is_flag=True,
               help="PNG: the raw raster (one pixel per image pixel) instead of the annotated figure.")
-@click.option("--annotate", is_flag=True, hidden=True, help="PNG: the annotated figure (the default).")
+# deprecated and hidden: the annotated figure is the default; accepted so that scripts keep running
+@click.option("--annotate", is_flag=True, hidden=True, help="Deprecated: the annotated figure is the default.")
 @click.option("--phase-history", "phase_history", type=click.Path(dir_okay=False), default=None,
               help="SICD: the phase-history file the image was formed from (collection geometry).")
 @handle_errors
 def command(image, output, kind, dynamic_range_db, cmap, bare, annotate, phase_history):
     """Export IMAGE (a sarcli image file, a SICD or a GeoTIFF) to GeoTIFF, PNG or SICD."""
+    from ..errors import SarcliInputError
     from ..io import open_input
     from ..io.export import IMAGE_FORMATS, export_image, format_from_suffix
 
+    if annotate and bare:
+        raise SarcliInputError("--annotate and --bare contradict each other: give --bare for the raw raster, "
+                               "nothing for the annotated figure")
+    if annotate:
+        click.echo("warning: --annotate is deprecated and has no effect: the annotated figure is the PNG "
+                   "default (--bare gives the raw raster)", err=True)
     prepare_outputs([("image", image), ("--phase-history", phase_history)], [("output", output)])
     fmt = format_from_suffix(output)
     annotate = fmt == "png" and not bare

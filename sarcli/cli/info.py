@@ -27,7 +27,8 @@ def _fmt(v):
 def command(path, as_json):
     """Describe any file sarcli reads: a YAML acquisition, a phase history (sarcli HDF5, GOTCHA .mat,
     CPHD), an image (sarcli HDF5, SICD, GeoTIFF) or a k-grid."""
-    from ..core.geometry import DEFOCUS_WARN_RAD
+    from ..core.geometry import DEFOCUS_WARN_RAD, RESOLUTION_DEFINITION
+    from ..core.windows import IRW_FACTOR_UNIFORM
     from ..formers.formation import SPHERICAL_ADVICE
     from ..io.describe import describe
 
@@ -54,6 +55,12 @@ def command(path, as_json):
     if ext and radii and max(ext) / 2 > min(radii.values()) + pixel:
         ww.append(f"the grid half-width {max(ext) / 2:.4g} m exceeds the alias-free radius "
                   f"{min(radii.values()):.4g} m: content beyond it wraps around")
+    if "resolution_m" in info:
+        # the same word means two widths: say which one this is, and how sar quality's IRW relates
+        defined = {"resolution_definition": f"{RESOLUTION_DEFINITION}; the -3 dB width (IRW, sar quality) "
+                                            f"is {IRW_FACTOR_UNIFORM:.3f} of it without a window, wider with one"}
+        at = list(info).index("resolution_m") + 1
+        info = dict([*list(info.items())[:at], *defined.items(), *list(info.items())[at:]])
     info["warnings"] = ww
     info["notes"] = notes
     if as_json:

@@ -13,6 +13,16 @@ def _num(v, fmt):
     return "-" if v is None else format(v + 0.0, fmt)  # + 0.0: no "-0.000"
 
 
+def _irw_definition(predicted) -> str:
+    """The footer line that says which width the IRW columns are (not sar info's resolution)."""
+    from ..core.windows import IRW_FACTOR_UNIFORM
+
+    window = predicted.get("window") or "none"
+    return (f"IRW: the -3 dB width of the main lobe along each cut, window {window} (pred: of the predicted PSF); "
+            f"sar info's resolution c/(2B cos(elevation)) is the first null's distance, about "
+            f"{1 / IRW_FACTOR_UNIFORM:.3f} x the IRW without a window")
+
+
 def _table(results) -> str:
     """The results as a table: every number is the JSON's, rounded (``measured`` x_m, y_m, ...)."""
     head = (f"{'target':<7s} {'status':<7s} {'exp_x':>8s} {'exp_y':>8s} {'x_m':>8s} {'y_m':>8s} {'err_m':>7s} "
@@ -39,6 +49,7 @@ def _table(results) -> str:
                     f"+/-{m['sidelobe_extent_cells']:g} resolution cells of the peak")
         rows.append("exp_x, exp_y: where the target should focus (truth plus layover for points off the image "
                     "plane); x_m, y_m: its own peak; err_m: the distance between the two")
+        rows.append(_irw_definition(results[0]["predicted"]))
     for r in results:
         if r["layover_m"] is not None and any(abs(v) > 0 for v in r["layover_m"]):
             dx, dy = r["layover_m"]
@@ -50,8 +61,12 @@ def _table(results) -> str:
         elif r["status"] == "no peak":
             rows.append(f"{r['name']}: no peak of its own within reach of its expected position "
                         "(merged with a neighbour, or absent)")
-    if any(r["measured"] and r["measured"]["patch_truncated"] for r in results):
-        rows.append("note: some targets lie near the image border (neighbourhood truncated)")
+    for r in results:
+        m = r["measured"]
+        if m and m["patch_truncated"]:
+            rows.append(f"note: {r['name']} at ({m['x_m']:.3f}, {m['y_m']:.3f}) m lies near the image border: its "
+                        f"neighbourhood (+/-{m['sidelobe_extent_cells'] + 2:g} resolution cells) is cut by it, so PSLR "
+                        "and ISLR see only the sidelobes inside the image")
     return "\n".join(rows)
 
 

@@ -190,6 +190,11 @@ def resolutions(freq_hz, azimuth_rad, elevation_rad):
     return rho_r, rho_cr
 
 
+#: What :func:`resolutions` computes, in words (``sar info`` prints it beside the numbers).
+RESOLUTION_DEFINITION = ("range c/(2 B cos(elevation)), cross-range c/(4 f_c cos(elevation) sin(aperture/2)): "
+                         "the distance from the peak to the first null of an unwindowed cut")
+
+
 def image_sampling(freq_hz, azimuth_rad, elevation_rad):
     """Largest pixel spacings ``(dx, dy)`` (m) that sample the image without aliasing its band:
     ``2π / (max k_x - min k_x)`` and likewise in y, over the k-space samples

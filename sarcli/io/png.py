@@ -5,7 +5,8 @@ linearly onto 0..255, so the peak is exactly 255 and ``-DR`` dB (and below) is 0
 maps ``|f| / max|f|`` linearly onto 0..255. Rows are flipped so the top of the picture is north;
 the PNG's ``Description`` text chunk records the flip and the mapping. Grey pictures are 8-bit
 single-channel; a named matplotlib colormap gives 8-bit RGB. The same display values drawn as a
-figure with metre axes and a colour bar: :func:`sarcli.viz.image_figure`.
+figure with metre axes and a colour bar: :func:`sarcli.viz.image_figure`, whose PNG carries the
+same kind of ``Description`` (:func:`png_text`).
 """
 
 from __future__ import annotations
@@ -18,7 +19,7 @@ from ..errors import SarcliInputError
 from ..core.types import Image
 from . import pixels as _common
 
-__all__ = ["write_png", "display_values", "colormap"]
+__all__ = ["write_png", "display_values", "colormap", "png_text"]
 
 
 def display_values(img: Image, *, kind: str = "db", dynamic_range_db: float = 50.0) -> np.ndarray:
@@ -41,6 +42,20 @@ def colormap(name):
         return matplotlib.colormaps[name]
     except KeyError:
         raise SarcliInputError(f"unknown matplotlib colormap {name!r} (try gray, viridis, magma)") from None
+
+
+def png_text(*, kind: str = "db", dynamic_range_db: float = 50.0, cmap: str = "gray",
+             figure: bool = False) -> dict:
+    """The PNG text chunks (``Description``, ``Software``) of a raster or of a figure.
+
+    ``Description`` says how the picture is oriented, how ``|f|`` maps onto 0..255 and which
+    colormap shows it; a figure (``figure=True``) says it has metre axes instead of the flip.
+    """
+    mapping = (f"20log10(|f|/max|f|) clipped to [-{dynamic_range_db:g}, 0] dB -> 0..255" if kind == "db"
+               else "|f|/max|f| -> 0..255")
+    layout = ("sarcli image figure: north-up, axes x east and y north in metres, colour bar"
+              if figure else _common.FLIP_NOTE)
+    return {"Description": f"{layout}; {mapping}; colormap {cmap}", "Software": f"sarcli {__version__}"}
 
 
 def write_png(img: Image, path, *, kind: str = "db", dynamic_range_db: float = 50.0,
@@ -69,10 +84,8 @@ def write_png(img: Image, path, *, kind: str = "db", dynamic_range_db: float = 5
         rgb = (cm(up.astype(np.float64) / 255.0)[..., :3] * 255.0 + 0.5).astype(np.uint8)
         pic = PILImage.fromarray(rgb, mode="RGB")
     info = PngInfo()
-    mapping = (f"20log10(|f|/max|f|) clipped to [-{dynamic_range_db:g}, 0] dB -> 0..255" if kind == "db"
-               else "|f|/max|f| -> 0..255")
-    info.add_text("Description", f"{_common.FLIP_NOTE}; {mapping}; colormap {cmap}")
-    info.add_text("Software", f"sarcli {__version__}")
+    for key, value in png_text(kind=kind, dynamic_range_db=dynamic_range_db, cmap=cmap).items():
+        info.add_text(key, value)
     with atomic_path(path) as tmp:
         pic.save(tmp, format="PNG", pnginfo=info)
 

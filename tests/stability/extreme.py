@@ -481,7 +481,7 @@ def render(results, bad_rows, elapsed) -> list[str]:
     for case, outcomes in results:
         for i, o in enumerate(outcomes):
             head = f"{case.key} `{case.config}`" if i == 0 else ""
-            what = case.stresses if i == 0 else ""
+            what = case.stresses.replace("|", "\\|") if i == 0 else ""
             measured = o.measured.replace("|", "\\|").replace("\n", " ")
             lines.append(f"| {head} | {what} | {o.method} | {measured} | {_fmt(o.value)} | {o.criterion} | "
                          f"{'pass' if o.passed else '**FAIL**'} |")
