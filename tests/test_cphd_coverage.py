@@ -339,3 +339,167 @@ def test_toa_domain_streams(tmp_path, monkeypatch):
                                    "--method", "backprojection", "--extent", "8", "--channel", "1"])
     assert res.exit_code == 0, res.output
     assert asked and sum(asked) == P and max(asked) <= BLOCK, asked
+
+
+# --------------------------------------------------------------------------------------------
+# the phase sign: vendor quirk, checked against the data, overridden
+# --------------------------------------------------------------------------------------------
+DOWNRANGE = (Channel(points=np.array([[0.0, 0.0], [4.0, -3.0], [-6.0, 5.0], [7.5, 6.5]]), downrange=True),)
+#: an asymmetric saved swath (the period 1/SCSS is 352 ns): the points lie 29-40 ns downrange
+ASYMMETRIC = (-10e-9, 150e-9)
+
+
+def test_capella_sign_quirk(tmp_path):
+    """A Capella file declares +1 with -1 data: the quirk applies, said in one line; forcing the
+    declared sign gives the mirror image (the data cannot be imaged both ways to decide)."""
+    fx = build_cphd(tmp_path / "c.cphd", Case(collector="capella-14", declared_sgn=1, data_sgn=-1))
+    err, ph = _error(tmp_path / "c.cphd", fx["1"])
+    assert err <= TOL and ph.attrs["cphd_sgn_used"] == -1, err
+    note, = ph.attrs["cphd_notes"]
+    assert note.startswith("Capella collection (CollectorName 'capella-14')") and "using SGN -1" in note
+    err, ph = _error(tmp_path / "c.cphd", fx["1"], sgn=1)
+    assert err > 0.5 and ph.attrs["cphd_notes"] == []
+    mirror = np.abs(form_image(ph, method="direct").image)
+    assert abs(mirror[GRID.index_of(-4.0, 3.0)]) == pytest.approx(0.8, abs=0.1)  # the point at (4, -3), mirrored
+
+
+@pytest.mark.parametrize("declared, data, collector, note", [
+    (1, -1, "Synthetic", "the data follow SGN -1, not +1"),   # a wrong declaration
+    (-1, -1, "Synthetic", None),                               # a right one
+    (1, -1, "capella-3", "Capella collection"),                # the quirk, confirmed by the data
+    (-1, -1, "capella-3", None),                               # nothing for the quirk to fix
+    (1, 1, "capella-3", "the data follow SGN +1, not -1")])    # a quirk that does not hold here
+def test_sign_checked_against_the_saved_swath(tmp_path, declared, data, collector, note):
+    """With an asymmetric TOA swath the data tell their sign: a wrong declaration (or a quirk that
+    does not hold) is overruled and said in one line; a right one passes silently."""
+    fx = build_cphd(tmp_path / "s.cphd", Case(channels=DOWNRANGE, swath=ASYMMETRIC, declared_sgn=declared,
+                                              data_sgn=data, collector=collector))
+    err, ph = _error(tmp_path / "s.cphd", fx["1"])
+    assert err <= TOL and ph.attrs["cphd_sgn_used"] == data, err
+    notes = ph.attrs["cphd_notes"]
+    assert notes == [] if note is None else (len(notes) == 1 and notes[0].startswith(note)), notes
+    # --sgn wins over the data (and then images the mirror)
+    err, _ = _error(tmp_path / "s.cphd", fx["1"], sgn=-data)
+    assert err > 0.5
+
+
+def test_sign_check_on_the_command_line(tmp_path):
+    from sarcli.io.hdf5 import read_image
+
+    fx = build_cphd(tmp_path / "s.cphd", Case(channels=DOWNRANGE, swath=ASYMMETRIC, declared_sgn=1, data_sgn=-1))
+    res = CliRunner().invoke(cli, ["form-image", str(tmp_path / "s.cphd"), "-o", str(tmp_path / "a.h5"),
+                                   "--method", "direct"])
+    assert res.exit_code == 0 and res.output.count("note: the data follow SGN -1, not +1") == 1, res.output
+    assert _rel(read_image(tmp_path / "a.h5").image, independent_matched_filter(fx["1"], GRID)) <= TOL
+    res = CliRunner().invoke(cli, ["import", "cphd", str(tmp_path / "s.cphd"), "-o", str(tmp_path / "b.h5"),
+                                   "--sgn", "+1"])
+    assert res.exit_code == 0 and "note:" not in res.output, res.output
+
+
+def test_sign_check_reads_a_few_vectors(tmp_path, monkeypatch):
+    """The check reads 16 vectors, once; the former then streams the rest by blocks."""
+    from sarcli.formers._bp_setup import BLOCK
+
+    P = 2 * BLOCK + 40
+    build_cphd(tmp_path / "s.cphd", Case(channels=DOWNRANGE, P=P, swath=ASYMMETRIC, declared_sgn=1))
+    asked = spy_rows(monkeypatch)
+    ph = read_cphd(tmp_path / "s.cphd", lazy=True)
+    assert asked == [16] and ph.attrs["cphd_sgn_used"] == -1
+    form_image(ph, "backprojection", grid=Grid(16, 16, 0.5, 0.5, 0.0, 0.0))
+    assert sum(asked[1:]) == P and max(asked[1:]) <= BLOCK, asked
+
+
+# --------------------------------------------------------------------------------------------
+# the troposphere
+# --------------------------------------------------------------------------------------------
+def test_iceye_troposphere_quirk(tmp_path):
+    """An ICEYE file gives TDTropoSRP = 0 with the delay in its data: the modelled delay (N0 from
+    its TropoParameters) is removed, said in one line; kept, the image is shifted in range."""
+    fx = build_cphd(tmp_path / "i.cphd", Case(collector="ICEYE-X21", delay_in_data=True))
+    td = fx["1"]["td"]
+    assert 28e-9 < td.mean() < 34e-9  # 30 deg of grazing: 2.35 m / sin 30 = 4.7 m one way, 31 ns both
+    err, ph = _error(tmp_path / "i.cphd", fx["1"])
+    assert err <= TOL, err
+    note, = ph.attrs["cphd_notes"]
+    assert note.startswith("ICEYE collection (CollectorName 'ICEYE-X21')") and "N0 = 320.3" in note
+    assert ph.attrs["cphd_troposphere_residual_s"] == pytest.approx(td.mean(), rel=1e-6)
+    err, ph = _error(tmp_path / "i.cphd", fx["1"], troposphere="file")
+    assert err > 0.3 and ph.attrs["cphd_notes"] == []
+
+
+@pytest.mark.parametrize("mode, td_field, delay, ok", [
+    ("auto", "model", False, True),     # the file's TDTropoSRP is in its reference: nothing to remove
+    ("model", "model", False, True),    # the model less the file's value: nothing either
+    ("model", "zero", True, True),      # a delay left in an anonymous file, removed on request
+    ("auto", "zero", True, False)])     # ... and not without
+def test_troposphere_modes(tmp_path, mode, td_field, delay, ok):
+    fx = build_cphd(tmp_path / "t.cphd", Case(td_tropo_srp=td_field, delay_in_data=delay))
+    err, ph = _error(tmp_path / "t.cphd", fx["1"], troposphere=mode)
+    assert (err <= TOL) == ok, err
+    assert bool(ph.attrs["cphd_notes"]) == (mode == "model")
+
+
+# --------------------------------------------------------------------------------------------
+# bad input: one line, exit 2, nothing written
+# --------------------------------------------------------------------------------------------
+def _rewrite(src, dst, edit):
+    """Copy CPHD ``src`` to ``dst`` through sarkit, ``edit(xml, signal, pvp)`` applied in between."""
+    import sarkit.cphd as skcphd
+
+    with open(src, "rb") as f, skcphd.Reader(f) as r:
+        xml = copy.deepcopy(r.metadata.xmltree)
+        sig, pvp = r.read_channel("1")
+    sig, pvp = edit(xml, sig, pvp)
+    with open(dst, "wb") as f, skcphd.Writer(f, skcphd.Metadata(xmltree=xml)) as w:
+        w.write_signal("1", sig)
+        w.write_pvp("1", pvp)
+
+
+def _nan_pvp(xml, sig, pvp):
+    pvp = pvp.copy()
+    pvp["TxPos"][5] = np.nan
+    return sig, pvp
+
+
+def _compressed(xml, sig, pvp):
+    data = xml.find("{*}Data")
+    E = lxml.builder.ElementMaker(namespace=lxml.etree.QName(data).namespace)
+    data.find("{*}NumBytesPVP").addprevious(E.SignalCompressionID("acme-zip-7"))
+    data.find("{*}Channel/{*}PVPArrayByteOffset").addnext(E.CompressedSignalSize("100"))
+    return np.zeros(100, np.uint8), pvp
+
+
+def _short_pvp_block(path):
+    """The header's PVP block made one vector short of NumVectors (same digits, no offset moves)."""
+    raw = path.read_bytes()
+    key = b"PVP_BLOCK_SIZE := "
+    i = raw.index(key) + len(key)
+    j = raw.index(b"\n", i)
+    size = int(raw[i:j])
+    new = str(size - 352).rjust(j - i, "0").encode()
+    path.write_bytes(raw[:i] + new + raw[j:])
+
+
+@pytest.mark.parametrize("fault, expect", [
+    ("nan", "CPHD PVP TxPos is NaN/Inf in 1 of 48 vectors of channel '1' (vector 5)"),
+    ("compressed", "SignalCompressionID 'acme-zip-7'"),
+    ("sizes", "CPHD PVP and signal sizes disagree: channel '1' has 48 signal vectors (NumVectors) but its PVP "
+              "array holds 47")])
+def test_bad_cphd_is_one_line_exit_2_nothing_written(tmp_path, fault, expect):
+    build_cphd(tmp_path / "good.cphd")
+    bad = tmp_path / "bad.cphd"
+    if fault == "sizes":
+        bad.write_bytes((tmp_path / "good.cphd").read_bytes())
+        _short_pvp_block(bad)
+    else:
+        _rewrite(tmp_path / "good.cphd", bad, _nan_pvp if fault == "nan" else _compressed)
+    for lazy in (False, True):
+        with pytest.raises(InputFileError, match=expect.replace("(", r"\(").replace(")", r"\)")):
+            read_cphd(bad, lazy=lazy)
+    runner = CliRunner()
+    for args in (["import", "cphd", str(bad), "-o", str(tmp_path / "o.h5")],
+                 ["form-image", str(bad), "-o", str(tmp_path / "o.h5")],
+                 ["info", str(bad)]):
+        res = runner.invoke(cli, args)
+        assert res.exit_code == 2 and res.output.count("\n") == 1 and expect in res.output, (args, res.output)
+        assert str(bad) in res.output and not (tmp_path / "o.h5").exists()

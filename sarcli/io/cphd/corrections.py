@@ -42,8 +42,8 @@ _MIN_OWN_FRACTION = 0.05
 
 #: vendor -> (what its files get wrong, what sarcli does)
 VENDOR_QUIRKS = {
-    "capella": {"sgn": -1, "why": "its files declare SGN = +1 while the data follow -1"},
-    "iceye": {"troposphere": "model",
+    "capella": {"name": "Capella", "sgn": -1, "why": "its files declare SGN = +1 while the data follow -1"},
+    "iceye": {"name": "ICEYE", "troposphere": "model",
               "why": "TDTropoSRP is 0 while the troposphere's delay is in the data"},
 }
 

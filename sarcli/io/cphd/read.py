@@ -162,7 +162,7 @@ def _decide_sign(p, ch, shape, base: Decoding, declared: int, asked, vendor_evid
     chosen, notes = declared, []
     if quirk is not None and quirk != declared:
         chosen = quirk
-        notes.append(f"{vendor.capitalize()} collection ({evidence}): {corrections.VENDOR_QUIRKS[vendor]['why']}; "
+        notes.append(f"{corrections.VENDOR_QUIRKS[vendor]['name']} collection ({evidence}): {corrections.VENDOR_QUIRKS[vendor]['why']}; "
                      f"using SGN {quirk:+d} (--sgn to override)")
     vec = np.arange(shape[0]) if base.vectors is None else base.vectors
     toa1, toa2 = np.asarray(pvp["TOA1"], np.float64), np.asarray(pvp["TOA2"], np.float64)
@@ -192,7 +192,7 @@ def _residual_delay(xml, pvp, mode: str, vendor, evidence):
     model = corrections.troposphere_delay(pvp["SRPPos"], pvp["TxPos"], pvp["RcvPos"], n0)
     given = np.asarray(pvp["TDTropoSRP"], np.float64) if "TDTropoSRP" in pvp.dtype.names else np.zeros(len(pvp))
     delay = model - given
-    why = (f"{vendor.capitalize()} collection ({evidence}): {corrections.VENDOR_QUIRKS[vendor]['why']}"
+    why = (f"{corrections.VENDOR_QUIRKS[vendor]['name']} collection ({evidence}): {corrections.VENDOR_QUIRKS[vendor]['why']}"
            if mode == "auto" else "troposphere = model (--troposphere)")
     mean = float(np.mean(delay))
     return delay, [f"{why}; removing the modelled delay ({source}) less TDTropoSRP: {1e9 * mean:.3g} ns mean, "
