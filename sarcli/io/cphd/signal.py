@@ -30,8 +30,10 @@ from ..pulses import PulseSource, row_indices
 
 __all__ = ["READ_BLOCK", "CphdSignal", "Decoding", "ToaToFx"]
 
-#: Pulses read from the signal array at a time (bounds the temporaries of decoding).
+#: Pulses read from the signal array at a time (in the file's storage format).
 READ_BLOCK = 1024
+#: Pulses decoded at a time (bounds the complex128 temporaries of AmpSF, TOA-to-FX and delay).
+DECODE_BLOCK = 128
 
 
 @dataclass(frozen=True)
@@ -153,7 +155,9 @@ class CphdSignal(PulseSource):
                         n = min(READ_BLOCK, int(hi) - o)
                         start = int(vec[o])
                         raw = r.read_signal(self.channel, start_vector=start, stop_vector=start + n)
-                        out[o:o + n] = self._decode(raw, np.arange(start, start + n))
+                        for c in range(0, n, DECODE_BLOCK):  # complex128 temporaries of DECODE_BLOCK rows
+                            m = min(DECODE_BLOCK, n - c)
+                            out[o + c:o + c + m] = self._decode(raw[c:c + m], np.arange(start + c, start + c + m))
         except (OSError, ValueError, KeyError, TypeError, IndexError, RuntimeError,
                 lxml.etree.LxmlError) as exc:
             msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
