@@ -165,10 +165,10 @@ def _decide_sign(p, ch, shape, base: Decoding, declared: int, asked, vendor_evid
         notes.append(f"{corrections.VENDOR_QUIRKS[vendor]['name']} collection ({evidence}): {corrections.VENDOR_QUIRKS[vendor]['why']}; "
                      f"using SGN {quirk:+d} (--sgn to override)")
     vec = np.arange(shape[0]) if base.vectors is None else base.vectors
-    toa1, toa2 = np.asarray(pvp["TOA1"], np.float64), np.asarray(pvp["TOA2"], np.float64)
-    if not corrections.swath_can_tell(fx_step[vec], toa1[vec], toa2[vec]):
-        return chosen, notes
     pick = np.unique(vec[np.linspace(0, vec.size - 1, min(_SIGN_CHECK_VECTORS, vec.size)).round().astype(int)])
+    toa1, toa2 = np.asarray(pvp["TOA1"], np.float64), np.asarray(pvp["TOA2"], np.float64)
+    if not corrections.swath_can_tell(fx_step[pick], toa1[pick], toa2[pick]):
+        return chosen, notes
     probe = CphdSignal(p, ch, *shape, Decoding(vectors=pick, amp_sf=base.amp_sf, conjugate=declared == 1,
                                                toa=base.toa))
     verdict, f_own, f_mirror = corrections.sign_from_swath(np.asarray(probe), fx_step[pick], toa1[pick], toa2[pick])
