@@ -48,7 +48,11 @@ def describe(path) -> dict:
     """
     from . import open_input
 
-    fmt, obj = open_input(path, lazy=True)  # the samples stay on disk: a summary reads none
+    from . import detect_format
+
+    # a CPHD file's samples stay on disk (a summary of a large collection reads none of them);
+    # a sarcli phase history is read whole, so that NaN/Inf in it is reported
+    fmt, obj = open_input(path, lazy=detect_format(path) == "cphd")
     out = {"file": str(Path(path)), "format": fmt, "kind": _KINDS[fmt]}
     if fmt == "config":
         out.update(obj.summary())
