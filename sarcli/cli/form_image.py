@@ -8,8 +8,8 @@ from click.core import ParameterSource
 from ..autofocus import METHODS as AUTOFOCUS_METHODS
 from ..formers import cost as _cost
 from ..formers.formation import METHODS
-from .options import (export_options, grid_options, handle_errors, parse_pair, prepare_outputs,
-                      threads_option, window_options, write_side_outputs, wrote)
+from .options import (cphd_arguments, cphd_options, echo_notes, export_options, grid_options, handle_errors,
+                      parse_pair, prepare_outputs, threads_option, window_options, write_side_outputs, wrote)
 
 #: Options that set a knob of one method (auto chooses them itself).
 _METHOD_KNOBS = ("eps", "kernel", "oversample", "width", "upsample", "interp", "precision", "base", "merge",
@@ -49,13 +49,14 @@ _METHOD_KNOBS = ("eps", "kernel", "oversample", "width", "upsample", "interp", "
 @click.option("--autofocus", "autofocus_method", type=click.Choice(AUTOFOCUS_METHODS), default=None,
               help="First estimate and remove per-pulse phase errors on the image grid (see sar autofocus).")
 @threads_option
+@cphd_options
 @export_options
 @click.pass_context
 @handle_errors
 def command(ctx, input_path, output, method, autofocus_method, window, taylor_nbar, taylor_sll_db, center, extent,
             pixel_size,
             eps, kernel, oversample, width, upsample, interp, precision, base, merge, os_range, os_angle, tile,
-            tolerance, nthreads, png_path, tif_path):
+            tolerance, nthreads, channel, sgn, troposphere, png_path, tif_path):
     """Form the matched-filter image of a phase history (or of a k-grid file with --method pfa)."""
     from ..formers.formation import form_image
     from pathlib import Path
@@ -75,7 +76,8 @@ def command(ctx, input_path, output, method, autofocus_method, window, taylor_nb
     # the samples stay on disk until a former reads them (by blocks of pulses where it can);
     # autofocus rewrites them, so it reads them whole
     _, src = open_input(input_path, expect=("phase-history", "kgrid", "gotcha", "cphd"), truth=False,
-                        lazy=autofocus_method is None)
+                        lazy=autofocus_method is None, cphd=cphd_arguments(channel, sgn, troposphere))
+    echo_notes(src)
     acq = getattr(src, "acquisition", None)
     if acq is not None:
         grid = resolve_grid(acq.grid, center=parse_pair(center, "--center"), extent=parse_pair(extent, "--extent"),

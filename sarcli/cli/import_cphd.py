@@ -4,22 +4,24 @@ from __future__ import annotations
 
 import click
 
-from .options import handle_errors, prepare_outputs, wrote
+from .options import cphd_arguments, cphd_options, echo_notes, handle_errors, prepare_outputs, wrote
 
 
 @click.command("cphd")
 @click.argument("cphd_file", type=click.Path(dir_okay=False))
 @click.option("-o", "--output", required=True, type=click.Path(dir_okay=False),
               help="Phase-history file to write (HDF5).")
+@cphd_options
 @click.pass_context
 @handle_errors
-def command(ctx, cphd_file, output):
-    """Import CPHD_FILE (FX domain, monostatic or bistatic; first channel) as a spherical phase history."""
+def command(ctx, cphd_file, output, channel, sgn, troposphere):
+    """Import one channel of CPHD_FILE (FX or TOA domain, monostatic or bistatic) as a spherical phase history."""
     from ..io.cphd import read_cphd
     from ..io.hdf5 import write_phase_history
 
     prepare_outputs([("input", cphd_file)], [("output", output)])
-    ph = read_cphd(cphd_file)
+    ph = read_cphd(cphd_file, **(cphd_arguments(channel, sgn, troposphere) or {}))
+    echo_notes(ph)
     write_phase_history(output, ph)
     P, M = ph.data.shape
-    wrote(output, f"{P} pulses x {M} frequencies, spherical model")
+    wrote(output, f"channel '{ph.attrs['cphd_channel']}', {P} pulses x {M} frequencies, spherical model")

@@ -40,7 +40,7 @@ def command(path, as_json):
         warnings.simplefilter("ignore", PendingDeprecationWarning)
         info = describe(path)
     ww = [str(w.message) for w in caught]
-    notes = []
+    notes = list(info.pop("notes", []))
     defocus = info.get("farfield_phase_error_rad_at_grid_corner")
     if defocus is not None and info.get("model") == "spherical" and defocus > DEFOCUS_WARN_RAD:
         # not a fault of the file: advice on which image formers suit it

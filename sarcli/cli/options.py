@@ -236,6 +236,42 @@ def echo_info(ctx, text):
         click.echo(text)
 
 
+def cphd_options(func):
+    """``--channel``, ``--sgn`` and ``--troposphere``: how a CPHD input is read
+    (:func:`sarcli.io.cphd.read_cphd`); they reach the reader as the ``cphd`` argument."""
+    from ..io.cphd.read import TROPOSPHERE_MODES
+
+    func = click.option("--troposphere", type=click.Choice(TROPOSPHERE_MODES), default=None,
+                        help="CPHD: auto (default: trust TDTropoSRP, unless a known vendor leaves the delay in "
+                             "the data), file (trust TDTropoSRP), model (remove a standard atmosphere's delay "
+                             "less TDTropoSRP).")(func)
+    func = click.option("--sgn", type=click.Choice(["-1", "+1", "1"]), default=None,
+                        help="CPHD: the phase sign to use, whatever the file and the data say.")(func)
+    func = click.option("--channel", default=None, metavar="NAME|INDEX",
+                        help="CPHD: the channel to read, by identifier or 0-based index (default the first; "
+                             "sar info lists them).")(func)
+    return func
+
+
+def cphd_arguments(channel=None, sgn=None, troposphere=None) -> dict | None:
+    """The ``cphd`` argument of :func:`sarcli.io.open_input` from :func:`cphd_options` (None: none given)."""
+    given = {k: v for k, v in (("channel", channel), ("sgn", None if sgn is None else int(sgn)),
+                               ("troposphere", troposphere)) if v is not None}
+    return given or None
+
+
+def echo_notes(ph) -> None:
+    """Print the reader's one-line notes (``attrs['cphd_notes']``: a channel chosen, a sign or a
+    troposphere correction applied) as ``note: ...`` on stderr, unless ``--quiet``."""
+    from .._util.progress import message
+
+    ctx = click.get_current_context(silent=True)
+    if ctx is not None and (ctx.find_root().obj or {}).get("quiet"):
+        return
+    for note in (getattr(ph, "attrs", None) or {}).get("cphd_notes", []) or []:
+        message(f"note: {note}")
+
+
 def _remember_bare(ctx, param, value):
     ctx.meta["sarcli.png_bare"] = bool(value)
     return value

@@ -132,7 +132,7 @@ def detect_format(path) -> str:
     raise InputFileError(path, f"unrecognised file content; sarcli reads {readable}")
 
 
-def open_input(path, *, expect=None, truth=True, lazy=False):
+def open_input(path, *, expect=None, truth=True, lazy=False, cphd=None):
     """Read any file sarcli reads, recognised by :func:`detect_format`.
 
     Parameters
@@ -147,6 +147,9 @@ def open_input(path, *, expect=None, truth=True, lazy=False):
     lazy : bool
         For a sarcli phase history or a CPHD file: leave the samples on disk, read by blocks of
         pulses (:class:`sarcli.io.pulses.PulseSource`).
+    cphd : dict, optional
+        Keyword arguments of :func:`sarcli.io.cphd.read_cphd` (``channel``, ``sgn``,
+        ``troposphere``); given for another format, one :class:`InputFileError` line.
 
     Returns
     -------
@@ -162,13 +165,16 @@ def open_input(path, *, expect=None, truth=True, lazy=False):
         if fmt not in allowed:
             article = "an" if fmt[0] in "aeio" else "a"
             raise InputFileError(path, f"is {article} {fmt} file; expected {' or '.join(allowed)}")
+    if cphd and fmt != "cphd":
+        raise InputFileError(path, f"is {'an' if fmt[0] in 'aeio' else 'a'} {fmt} file: "
+                                   f"{', '.join('--' + k for k in cphd)} apply to CPHD input only")
     module, reader = FORMATS[fmt]
     read = getattr(importlib.import_module(f".{module}", __name__), reader)
     if fmt == "gotcha":
         return fmt, read([path])
     if fmt == "phase-history":
         return fmt, read(path, truth=truth, lazy=lazy)
-    return fmt, read(path, lazy=lazy) if fmt == "cphd" else read(path)
+    return fmt, read(path, lazy=lazy, **(cphd or {})) if fmt == "cphd" else read(path)
 
 
 def __getattr__(name):

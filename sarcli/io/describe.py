@@ -48,7 +48,11 @@ def describe(path) -> dict:
     """
     from . import open_input
 
-    fmt, obj = open_input(path)
+    from . import detect_format
+
+    # a CPHD file's samples stay on disk (a summary of a large collection reads none of them);
+    # a sarcli phase history is read whole, so that NaN/Inf in it is reported
+    fmt, obj = open_input(path, lazy=detect_format(path) == "cphd")
     out = {"file": str(Path(path)), "format": fmt, "kind": _KINDS[fmt]}
     if fmt == "config":
         out.update(obj.summary())
@@ -61,6 +65,14 @@ def describe(path) -> dict:
             out["sarcli_version"] = obj.attrs["sarcli_version"]
         if obj.truth is not None:
             out["truth_points"] = int(len(obj.truth.point_amplitude))
+        if fmt == "cphd":
+            from .cphd import cphd_channels
+
+            out["cphd_channels"] = [f"{c['identifier']} ({c['vectors']} x {c['samples']}, {c['polarization']})"
+                                    for c in cphd_channels(path)]
+            out.update({k: obj.attrs[k] for k in ("cphd_channel", "cphd_domain", "cphd_sgn_declared",
+                                                   "cphd_sgn_used")})
+            out["notes"] = list(obj.attrs.get("cphd_notes", []))
     elif fmt == "kgrid":
         out.update({"shape": list(obj.shape), "k0_rad_per_m": [obj.kx0, obj.ky0], "dk_rad_per_m": [obj.dkx, obj.dky],
                     "support_centre_rad_per_m": list(obj.kc), "parameters": obj.parameters})

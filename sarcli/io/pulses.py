@@ -8,7 +8,7 @@ therefore hold one block at a time, so their peak memory does not grow with the 
 formers that need every sample at once (NUFFT, PFA) call ``np.asarray`` and read it whole.
 
 Two sources exist: :class:`PulseArray` (a dataset of a sarcli HDF5 phase history) and
-:class:`sarcli.io._cphd_parts.CphdSignal` (one channel of a CPHD signal array).
+:class:`sarcli.io.cphd.CphdSignal` (one channel of a CPHD signal array).
 """
 
 from __future__ import annotations

@@ -1,34 +1,26 @@
-"""CPHD (NGA.STND.0068, version 1.1.0) in and out, through sarkit.
+"""CPHD 1.1.0 out, through sarkit: a phase history as a one-channel FX-domain file.
 
 Mapping (``docs/formats.md`` has the table):
 
-* One channel, FX domain, ``SGN = -1``: a scatterer whose time of arrival exceeds the SRP's by
+* ``SGN = -1``: a scatterer whose time of arrival exceeds the SRP's by
   ``ΔTOA = 2 (|a - x| - |a - SRP|) / c`` contributes ``exp(-i 2π f ΔTOA)``, which is our
   spherical model ``exp(-i (4π α / c)(|a_p - x| - r0_p))`` with ``r0_p = |a_p - SRP_p|``.
 * Vector p = pulse p: ``TxPos = RcvPos = a_p`` (monostatic, stop-and-hop) or, when the phase
-  history has separate transmit and receive positions, ``TxPos = t_p``, ``RcvPos = q_p`` (the
-  platform moves while the echo travels, or a ``BISTATIC`` collection: attr ``collect_type``);
-  reading keeps them (CONVENTIONS.md two-way model, ``r0_p = (|t_p - SRP| + |q_p - SRP|)/2``);
-  ``SRPPos`` = the scene
-  centre, ``SC0``/``SCSS`` = first frequency and spacing (``FX1``/``FX2`` the band edges), so the
-  frequencies of every pulse must be equally spaced
-  (:func:`sarcli.core.sampling.equally_spaced`). A phase history whose ``r0_p`` differs from ``|a_p|``
-  (motion-compensated data) has the phase ``exp(+i (4π α/c)(|a_p| - r0_p))`` folded into
-  the signal so that the file is referenced to the SRP, as CPHD requires.
+  history has separate transmit and receive positions, ``TxPos = t_p``, ``RcvPos = q_p``
+  (attr ``collect_type`` says ``BISTATIC``); ``SRPPos`` = the scene centre, ``SC0``/``SCSS`` =
+  first frequency and spacing (``FX1``/``FX2`` the band edges), so the frequencies of every pulse
+  must be equally spaced (:func:`sarcli.core.sampling.equally_spaced`). A phase history whose
+  ``r0_p`` differs from ``|a_p|`` (motion-compensated data) has the phase
+  ``exp(+i (4π α/c)(|a_p| - r0_p))`` folded into the signal so that the file is referenced to the
+  SRP, as CPHD requires.
 * Signal format ``CF8`` (complex64; CPHD has no complex128 format, so complex128 data is rounded).
-* Our local ENU frame (x east, y north, z up, origin at the scene centre) is anchored on the Earth
-  at ``scene_center_lat_deg`` / ``scene_center_lon_deg`` (/ ``scene_center_height_m``) from the
-  phase history's attrs, or at the placeholder :data:`sarcli.io.georef.DEFAULT_REFERENCE`
-  (0° N, 0° E, 0 m; written into the file's ``CollectionID/CoreName`` note). The conversion is
-  :func:`sarcli.io.georef.enu_to_ecf`. The planar image area is spanned by East (IAX) and
-  North (IAY), so image-area coordinates equal our x, y; ``SceneCoordinates/ImageGrid`` holds our grid.
+* Our local ENU frame is anchored on the Earth at ``scene_center_lat_deg`` /
+  ``scene_center_lon_deg`` (/ ``scene_center_height_m``) from the phase history's attrs, or at the
+  placeholder :data:`sarcli.io.georef.DEFAULT_REFERENCE` (said in ``CollectionID/Parameter``).
+  The planar image area is spanned by East (IAX) and North (IAY), so image-area coordinates equal
+  our x, y; ``SceneCoordinates/ImageGrid`` holds our grid.
 * Times are synthetic (CPHD needs them, our files have none): pulses are spaced so the platform
   moves at :data:`NOMINAL_SPEED_M_S`; velocities are finite differences of the positions.
-
-Public API
-----------
-read_cphd(path, lazy=False) -> PhaseHistory
-write_cphd(ph, path) -> Path
 """
 
 from __future__ import annotations
@@ -39,18 +31,14 @@ import lxml.builder
 import lxml.etree
 import numpy as np
 
-from ..core import geometry, sampling
-from .._util.atomic import atomic_path
-from .._version import __version__
-from ..core.acquisition import Acquisition
-from ..errors import InputFileError, SarcliInputError
-from ._cphd_parts import AXES_TOLERANCE_RAD, READ_BLOCK  # noqa: F401  (re-exported)
-from ._cphd_parts import grid_from_xml as _grid_from_xml
-from ._cphd_parts import read_signal_blocks as _read_signal_blocks
-from .georef import ReferencePoint, ecf_to_enu, enu_basis, enu_to_ecf, reference_point
-from ..core.types import PhaseHistory
+from ...core import geometry, sampling
+from ..._util.atomic import atomic_path
+from ..._version import __version__
+from ...errors import SarcliInputError
+from ..georef import ReferencePoint, enu_basis, enu_to_ecf, reference_point
+from ...core.types import PhaseHistory
 
-__all__ = ["read_cphd", "write_cphd", "pulse_times", "NOMINAL_SPEED_M_S", "CPHD_NS"]
+__all__ = ["write_cphd", "pulse_times", "NOMINAL_SPEED_M_S", "CPHD_NS"]
 
 CPHD_NS = "http://api.nsgreg.nga.mil/schema/cphd/1.1.0"
 #: Platform speed (m/s) used to invent pulse times for files that carry none.
@@ -316,129 +304,3 @@ def write_cphd(ph: PhaseHistory, path) -> Path:
             w.write_signal(CHANNEL_ID, sig)
             w.write_pvp(CHANNEL_ID, pvp)
     return Path(path)
-
-
-# --------------------------------------------------------------------------------------------
-# reading
-# --------------------------------------------------------------------------------------------
-def read_cphd(path, *, lazy: bool = False) -> PhaseHistory:
-    """Read the first channel of an FX-domain CPHD file (monostatic or bistatic) as a phase history.
-
-    Positions are converted to the local ENU frame of the image-area reference point (IARP) at
-    any latitude and longitude (:func:`sarcli.io.georef.ecf_to_enu`). Where ``TxPos`` and
-    ``RcvPos`` differ they are kept as transmit/receive positions (the two-way range model), the
-    antenna position is their midpoint (for angles only) and ``r0_p = (|t_p - SRP_p| +
-    |q_p - SRP_p|)/2``; azimuth and elevation come from
-    :func:`sarcli.core.geometry.angles_from_positions`; frequencies are ``SC0 + n SCSS``. A file with
-    ``SGN = +1`` is conjugated into our sign convention; an ``AmpSF`` PVP scales its vector;
-    vectors with ``SIGNAL = 0`` are dropped. The samples are complex64 whatever the storage
-    format (CI2, CI4, CI8, CF8; CF16 is rounded) and are checked for NaN/Inf.
-
-    Parameters
-    ----------
-    path : str or Path
-    lazy : bool
-        Leave the signal on disk: ``data`` is a :class:`sarcli.io._cphd_parts.CphdSignal` read by
-        blocks of pulses as a former asks for them (the PVPs are read now), so formers that work
-        pulse by pulse (backprojection, ffbp, the spherical matched filter) hold one block at a time.
-
-    Raises
-    ------
-    InputFileError
-        Missing, truncated or foreign file, a TOA-domain collection, a compressed signal array,
-        NaN/Inf samples (with ``lazy``, when the block holding them is read).
-    """
-    p = Path(path)
-    if not p.is_file():
-        raise InputFileError(path, "no such file (expected a CPHD file)")
-    try:
-        return _read_cphd(p, lazy=lazy)
-    except InputFileError:
-        raise
-    except (OSError, ValueError, KeyError, TypeError, IndexError, AttributeError,
-            lxml.etree.LxmlError, AssertionError) as exc:
-        msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
-        raise InputFileError(path, f"not a readable CPHD file ({msg})") from None
-
-
-def _read_cphd(p: Path, lazy: bool = False) -> PhaseHistory:
-    import sarkit.cphd as skcphd
-    from sarkit import wgs84
-
-    with open(p, "rb") as f:
-        head = f.read(5)
-        if head != b"CPHD/":
-            raise InputFileError(p, "not a CPHD file (it does not start with 'CPHD/')")
-        f.seek(0)
-        try:
-            _, kvp = skcphd.read_file_header(f)
-            f.seek(0)
-            reader = skcphd.Reader(f)
-        except (ValueError, KeyError, OSError, lxml.etree.LxmlError) as exc:
-            raise InputFileError(p, "truncated or corrupt CPHD file: its header or XML block cannot be "
-                                    f"read ({type(exc).__name__}: {str(exc)[:80]})") from None
-        with reader as r:
-            size = p.stat().st_size
-            need = int(kvp["SIGNAL_BLOCK_BYTE_OFFSET"]) + int(kvp["SIGNAL_BLOCK_SIZE"])
-            if size < need:
-                raise InputFileError(p, f"truncated CPHD file: {size} bytes, the header promises {need}")
-            xml = r.metadata.xmltree
-            ch = xml.findtext("{*}Data/{*}Channel/{*}Identifier")
-            if xml.findtext("{*}Global/{*}DomainType") != "FX":
-                raise InputFileError(p, "only FX-domain CPHD files are supported (DomainType is "
-                                        f"{xml.findtext('{*}Global/{*}DomainType')})")
-            node = xml.find(f"{{*}}Data/{{*}}Channel[{{*}}Identifier='{ch}']")
-            if node.findtext("{*}CompressedSignalSize") is not None:
-                raise InputFileError(p, f"compressed CPHD signal arrays are not supported (channel '{ch}' is "
-                                        f"compressed with {xml.findtext('{*}Data/{*}SignalCompressionID')!r}; "
-                                        "decompress it first)")
-            pvp = r.read_pvps(ch)
-    sgn = int(xml.findtext("{*}Global/{*}SGN"))
-    # the one reader of the samples: by rows, on demand (lazy) or all now, in blocks
-    data = _read_signal_blocks(p, ch, int(node.findtext("{*}NumVectors")), int(node.findtext("{*}NumSamples")),
-                               pvp, conjugate=sgn == 1, lazy=lazy)
-    if "SIGNAL" in pvp.dtype.names and np.any(pvp["SIGNAL"] == 0):
-        pvp = pvp[pvp["SIGNAL"] != 0]
-    iarp = np.array([float(xml.findtext(f"{{*}}SceneCoordinates/{{*}}IARP/{{*}}ECF/{{*}}{c}")) for c in "XYZ"])
-    lat, lon, hae = wgs84.cartesian_to_geodetic(iarp)
-    ref = ReferencePoint(float(lat), float(lon), float(hae))
-    tx = ecf_to_enu(np.asarray(pvp["TxPos"], np.float64), ref)
-    rcv = ecf_to_enu(np.asarray(pvp["RcvPos"], np.float64), ref)
-    srp = ecf_to_enu(np.asarray(pvp["SRPPos"], np.float64), ref)
-    # the signal is referenced to the SRP: r0_p is half the two-way path to it (CONVENTIONS.md)
-    r0 = geometry.bistatic_reference_range(tx - srp, rcv - srp)
-    bistatic = not np.array_equal(tx, rcv)
-    pos = 0.5 * (tx + rcv) if bistatic else tx
-    M = data.shape[1]
-    sc0, scss = np.asarray(pvp["SC0"], np.float64), np.asarray(pvp["SCSS"], np.float64)
-    if np.all(sc0 == sc0[0]) and np.all(scss == scss[0]):
-        # one band for all pulses: never build the [P, M] table (as large as the signal)
-        freq = sc0[0] + np.arange(M) * scss[0]
-    else:
-        freq = sc0[:, None] + np.arange(M)[None, :] * scss[:, None]
-        if np.all(freq == freq[0]):
-            freq = freq[0].copy()
-    az, el, _ = geometry.angles_from_positions(pos)
-    grid = _grid_from_xml(xml, ref)
-    if grid is None:
-        from ..core.grid import derive_grid
-
-        grid = derive_grid(freq, az, el)
-    name = xml.findtext("{*}CollectionID/{*}CoreName") or ""
-    acq = Acquisition(frequency_hz=freq, azimuth_rad=az, elevation_rad=el, grid=grid,
-                      antenna_position_m=pos, range_to_center_m=r0, model="spherical",
-                      name=name, source=str(p),
-                      transmit_position_m=tx if bistatic else None,
-                      receive_position_m=rcv if bistatic else None,
-                      extra={"tx_time_s": np.asarray(pvp["TxTime"], np.float64).copy(),
-                             "rcv_time_s": np.asarray(pvp["RcvTime"], np.float64).copy()})
-    attrs = {**ref.as_attrs(), "source_format": "CPHD",
-             "cphd_version": lxml.etree.QName(xml.getroot()).namespace.rsplit("/", 1)[-1],
-             "collect_type": xml.findtext("{*}CollectionID/{*}CollectType") or "MONOSTATIC",
-             "collection_start": xml.findtext("{*}Global/{*}Timeline/{*}CollectionStart") or "",
-             "collector_name": xml.findtext("{*}CollectionID/{*}CollectorName") or ""}
-    tx_pol = xml.findtext("{*}Channel/{*}Parameters/{*}Polarization/{*}TxPol")
-    rcv_pol = xml.findtext("{*}Channel/{*}Parameters/{*}Polarization/{*}RcvPol")
-    if tx_pol in ("H", "V") and rcv_pol in ("H", "V"):
-        attrs["polarization"] = tx_pol + rcv_pol
-    return PhaseHistory(data=data, acquisition=acq, truth=None, attrs=attrs)

@@ -1,0 +1,22 @@
+"""CPHD (NGA.STND.0068) in and out, through sarkit (``docs/formats.md`` has the mapping).
+
+Modules: :mod:`.read` (a channel as a phase history), :mod:`.signal` (the samples, read by rows
+and decoded), :mod:`.validate` (what makes a file unreadable), :mod:`.corrections` (vendor
+quirks, the phase sign against the data, the troposphere), :mod:`.write` (a phase history as a
+one-channel FX file).
+
+Public API
+----------
+read_cphd(path, lazy=False, channel=None, sgn=None, troposphere='auto') -> PhaseHistory
+cphd_channels(path) -> list of dict
+write_cphd(ph, path) -> Path
+"""
+
+from __future__ import annotations
+
+from .read import AXES_TOLERANCE_RAD, TROPOSPHERE_MODES, cphd_channels, read_cphd
+from .signal import READ_BLOCK, CphdSignal
+from .write import CPHD_NS, NOMINAL_SPEED_M_S, pulse_times, write_cphd
+
+__all__ = ["read_cphd", "cphd_channels", "write_cphd", "pulse_times", "CphdSignal", "NOMINAL_SPEED_M_S",
+           "CPHD_NS", "READ_BLOCK", "AXES_TOLERANCE_RAD", "TROPOSPHERE_MODES"]
