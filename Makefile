@@ -34,7 +34,7 @@ CXX ?= c++
 # a new subpackage (its __init__.py newer than the install) re-installs: the editable install maps each
 # module to its file, and a module that became a package (sarcli/regularize.py -> sarcli/regularize/)
 # is not found again until then
-$(VENV)/.installed: pyproject.toml $(NATIVE) $(wildcard sarcli/*/__init__.py)
+$(VENV)/.installed: pyproject.toml $(NATIVE) $(wildcard sarcli/*/__init__.py sarcli/*/*/__init__.py)
 	@command -v $(CXX) >/dev/null 2>&1 || command -v g++ >/dev/null 2>&1 || { echo "sarcli's kernels need a C++17 compiler with OpenMP, and none was found (Debian/Ubuntu: apt-get install g++)"; exit 2; }
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
