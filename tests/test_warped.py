@@ -16,7 +16,8 @@ from sarcli.core.types import PhaseHistory
 from sarcli.errors import SarcliInputError
 from sarcli.io.hdf5 import read_image, write_phase_history
 from sarcli.linops import SphericalOperator
-from sarcli.linops.warped import WarpedNufftOperator, choose_subapertures, predict_error
+from sarcli.linops.warped import (SUBAPERTURE_COUNTS, WarpedNufftOperator, choose_subapertures, predict_error,
+                                  predict_gram_error)
 from sarcli.regularize import regularize
 
 C = 299_792_458.0
@@ -88,12 +89,13 @@ def test_adjoint_pair_and_error_within_prediction(name, runs):
     pred_a = predict_error(acq, grid, runs, eps=op.eps)
     # the model is the error, not a loose bound: measured 0.80-0.87 of it on these geometries
     assert 0.5 * pred_a <= err_a <= pred_a, (err_a, pred_a)
-    # AᴴA: within the operator's predicted error, for random x and for a point scene
+    # AᴴA: within the operator's predicted error, for random x and for a point scene (measured
+    # 0.1-0.6 of it: the Gram sees the residual phase only through its differences)
     gram = op.gram()
     for f in (x, np.where(np.arange(x.size).reshape(x.shape) == x.size // 3, 1.0 + 0j, 0j)):
         got = gram.forward(f)
         ref = (A.conj().T @ (A @ f.ravel())).reshape(grid.shape)
-        assert rel(got, ref) <= op.predicted_error, (rel(got, ref), op.predicted_error)
+        assert 0.03 * op.predicted_error <= rel(got, ref) <= op.predicted_error, (rel(got, ref), op.predicted_error)
         # the FFT form is Aᴴ(A f) to the NUFFT's eps
         assert rel(got, op.adjoint(op.forward(f))) <= 10 * op.eps
 
@@ -130,7 +132,8 @@ def test_choose_subapertures_meets_the_tolerance_or_says_none():
     acq = circle(R=200.0, deg=10.0, grid=Grid.square(4.0, 40))
     for tol in (1e-2, 1e-3):
         n, err = choose_subapertures(acq, acq.grid, tol)
-        assert err <= tol and (n == 1 or 2 * predict_error(acq, acq.grid, n - 1, eps=tol / 20) > tol)
+        fewer = SUBAPERTURE_COUNTS[SUBAPERTURE_COUNTS.index(n) - 1] if n > 1 else None
+        assert err <= tol and (fewer is None or predict_gram_error(acq, acq.grid, fewer, eps=tol / 10) > tol)
     few = circle(R=200.0, deg=10.0, P=16, grid=Grid.square(4.0, 40))
     n, err = choose_subapertures(few, few.grid, 1e-5)
     assert n is None and err > 1e-5
