@@ -47,6 +47,10 @@ def _parse_lam(text):
 @click.option("--anisotropic", is_flag=True, help="Anisotropic TV shrinkage (default isotropic).")
 @click.option("--reestimate-every", type=click.IntRange(min=0), default=0, show_default=True,
               help="ptv: re-estimate the phases Θ from the iterate every N iterations (0: never).")
+@click.option("--outside", "outside_path", type=click.Path(dir_okay=False), default=None, metavar="IMG.h5",
+              help="A regularised image of the whole scene: its part outside this grid (and a guard band of "
+                   "four resolution cells) is reprojected and taken out of the data first, so that a patch is "
+                   "regularised against its own echoes.")
 @click.option("--init", "init_path", type=click.Path(dir_okay=False), default=None,
               help="Initial image file (also the phase estimate f0 of ptv; default: the matched filter).")
 @grid_options
@@ -56,7 +60,7 @@ def _parse_lam(text):
 @click.pass_context
 @handle_errors
 def command(ctx, input_path, output, prior, order, lam, beta, iters, tol, operator, tolerance, anisotropic,
-            reestimate_every, init_path, center, extent, pixel_size, history_png, png_path, tif_path):
+            reestimate_every, outside_path, init_path, center, extent, pixel_size, history_png, png_path, tif_path):
     """Regularised image of a phase history: min ‖Af − b‖² + λ‖Tf‖₁ (ADMM) or Tikhonov (CG)."""
     from ..io import open_input
     from ..io.hdf5 import write_image
@@ -68,7 +72,7 @@ def command(ctx, input_path, output, prior, order, lam, beta, iters, tol, operat
     from ..formers.cost import check_regularize
     from .options import prepare_outputs
 
-    prepare_outputs([("input", input_path), ("--init", init_path)],
+    prepare_outputs([("input", input_path), ("--init", init_path), ("--outside", outside_path)],
                     [("output", output), ("--png", png_path), ("--geotiff", tif_path), ("--history-png", history_png)])
     lam = _parse_lam(lam)
     _, ph = open_input(input_path, expect=("phase-history", "gotcha", "cphd"), truth=False)
@@ -76,6 +80,12 @@ def command(ctx, input_path, output, prior, order, lam, beta, iters, tol, operat
                                       extent=parse_pair(extent, "--extent"), pixel_size=pixel_size),
                      iters=iters, operator=operator)
     init = open_input(init_path, expect=("image", "sicd"))[1] if init_path else None
+    if outside_path:
+        from ..regularize.patch import without_outside
+
+        grid = resolve_grid(ph.acquisition.grid, center=parse_pair(center, "--center"),
+                            extent=parse_pair(extent, "--extent"), pixel_size=pixel_size)
+        ph = without_outside(ph, open_input(outside_path, expect=("image",))[1], grid)
     bar = progress(total=iters, desc=f"regularize {prior}", unit="it")
     quiet = bool((ctx.find_root().obj or {}).get("quiet"))
 
