@@ -39,7 +39,8 @@ from ..core.grid import Grid
 from ..errors import SarcliInputError
 from .calibration import DEFAULT_COSTS, STARTUP_IMPORTS, load_cost_model, save_cost_model
 
-__all__ = ["Candidate", "candidates", "recommend", "ffbp_knobs", "command_seconds", "load_cost_model", "calibrate"]
+__all__ = ["Candidate", "candidates", "recommend", "ffbp_knobs", "bp_seconds", "command_seconds", "load_cost_model",
+           "calibrate"]
 
 #: Profile upsamplings tried for backprojection, smallest first.
 _BP_UPSAMPLES = (2, 4, 8, 16, 32)
@@ -150,8 +151,20 @@ def candidates(ph, grid: Grid, tolerance: float, *, costs=None, nthreads=None, p
     return [replace(x, knobs=dict(x.knobs)) for x in hit]
 
 
+def bp_seconds(c, n_pulses, n_freq, n_pixels, interp, upsample, tile_cost, nthreads) -> float:
+    """Predicted seconds of backprojection: ``c["bp"]`` per pixel-pulse of 4-tap interpolation at unit
+    tile cost, scaled by the interpolator's taps and the tiling's relative cost
+    (:attr:`sarcli.formers._bp_kernels.Tiling.cost`), plus the range profiles' FFTs."""
+    from .backprojection import profile_length
+
+    L = profile_length(n_freq, upsample)
+    taps = sampling.INTERPOLATORS[interp].taps
+    return (c["bp"] * n_pulses * n_pixels * taps / 4 * tile_cost + c["bp_fft"] * n_pulses * L * math.log2(L)) / nthreads
+
+
 def _candidates(ph, grid, tolerance, c, nthreads, prune, methods) -> list:
     """:func:`candidates`, uncached (``c`` the cost model)."""
+    from ._bp_setup import tiling_for
     from .backprojection import profile_length
     from .ffbp_model import frequency_error, interp_error
     from .subimage import choose_tile, tile_sizes
@@ -186,12 +199,11 @@ def _candidates(ph, grid, tolerance, c, nthreads, prune, methods) -> list:
         # with ``prune`` not looked at where even its shortest profiles are slower than ffbp's pick
         for interp in ("cubic", "lanczos", "linear") if wanted("backprojection") else ():
             def seconds(up):
-                L = profile_length(M, up)
-                return (c["bp"] * P * npix * sampling.INTERPOLATORS[interp].taps / 4 + c["bp_fft"] * P * L * math.log2(L)) / thr
+                return bp_seconds(c, P, M, npix, interp, up, tiling_for(f, pos, rcv, grid, up).cost, thr)
             if prune and seconds(_BP_UPSAMPLES[0]) > best_ffbp:
                 continue
             for up in _BP_UPSAMPLES:
-                e = interp_error(interp, float(up)) + e_freq
+                e = interp_error(interp, float(up)) + e_freq + tiling_for(f, pos, rcv, grid, up).error
                 if e <= target or up == _BP_UPSAMPLES[-1]:
                     out.append(Candidate("backprojection", {"upsample": up, "interp": interp}, e, seconds(up),
                                          16 * (P * M + 32 * profile_length(M, up) + 2 * npix)))
@@ -417,7 +429,8 @@ def calibrate(path=None, *, repeat: int = 3) -> dict:
     """
     from ..core import geometry
     from . import ffbp as fb
-    from .backprojection import DEFAULT_PRECISION, backproject, profile_length
+    from ._bp_setup import tiling_for
+    from .backprojection import DEFAULT_PRECISION, DEFAULT_UPSAMPLE, backproject, profile_length
     from .direct import direct_spherical
     from .nufft import nufft_farfield
     from .subimage import subimage_nufft
@@ -436,7 +449,8 @@ def calibrate(path=None, *, repeat: int = 3) -> dict:
     thr = 2
     c = {"threads": thr}
     c["bp_fft"] = DEFAULT_COSTS["bp_fft"]
-    c["bp"] = best(lambda: backproject(d, freq, a, r0, grid, precision=DEFAULT_PRECISION)) * thr / (P * N * N)
+    tile_cost = tiling_for(freq, a, None, grid, DEFAULT_UPSAMPLE).cost
+    c["bp"] = best(lambda: backproject(d, freq, a, r0, grid, precision=DEFAULT_PRECISION)) * thr / (P * N * N * tile_cost)
     small = Grid(32, 32, 0.5, 0.5)
     c["direct"] = best(lambda: direct_spherical(d, freq, a, r0, small)) * thr / (P * M * 32 * 32)
     # ffbp: settings whose shares of stage 0 (per pulse-node tap and per node), interpolation taps
