@@ -103,8 +103,8 @@ EXACT_ROUNDINGS = 16
 #: Relative cost of a tile's work per pulse, in 16-lane groups of the quadratic model: a group of
 #: lanes in each model (the exact one adds a square root, a division and a few products a lane)
 #: and the float64 anchor of a tile (measured: ``bench/bench_bp_range.py --tile-costs``).
-_GROUP_COST = {QUADRATIC: 1.0, EXACT: 1.3}
-_ANCHOR_COST = {QUADRATIC: 0.4, EXACT: 0.4}
+_GROUP_COST = {QUADRATIC: 1.0, EXACT: 1.4}
+_ANCHOR_COST = {QUADRATIC: 0.5, EXACT: 0.5}
 _LANES = 16
 
 
