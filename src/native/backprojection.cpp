@@ -6,8 +6,11 @@
 //     Δr(u) = Δr_c + d1 u + d2 u²,
 // d2 = (1 - c²) / (2R) and d1 = c + (3/4) h² d3 (c the direction cosine along the row, d3 the
 // cubic Taylor coefficient -c (1 - c²) / (2R²), h the tile's half width: the Chebyshev
-// economisation of the cubic term, which leaves at most |d3| h³ / 4 of model error; Python picks
-// the tile width that keeps it far below the interpolation error). A tile's pixels run as groups
+// economisation of the cubic term, which leaves at most |d3| h³ / 4 of model error). Near the
+// radar that error (∝ h³/R²) narrows the tiles to a few pixels; there the exact model (Args::exact,
+// ExactAnchor) keeps the plain Taylor quadratic (d1 = c) and adds each pixel's exact departure ρ
+// from it in float32. Python picks the model and the tile width that keep the error far below the
+// interpolation's at the least cost (sarcli.formers._bp_kernels.tiling). A tile's pixels run as groups
 // of 16 SIMD lanes, its accumulators stay in registers over a block of pulses whose profiles stay
 // in cache, and each lane reads its stencil as one contiguous vector (profiles interleave real
 // and imaginary parts) that is transposed in registers. The profile position is kept
