@@ -18,7 +18,7 @@ from ..errors import AliasingWarning, SarcliInputError
 from ._bp_kernels import EXACT, GEO_ROWS, min_range, next_fast_len, tiling
 from ._samples import is_lazy
 
-__all__ = ["INTERPOLATORS", "PAD", "BLOCK", "profile_length", "profiles", "range_profiles", "tiling_for", "Setup",
+__all__ = ["INTERPOLATORS", "PAD", "BLOCK", "profile_length", "profiles", "range_profiles", "TilingInputs", "tiling_for", "Setup",
            "check_data"]
 
 #: Interpolation kernels for the range profiles and their codes in the compiled kernels.
@@ -85,18 +85,33 @@ def _tiling(grid, a, b, kc_max, inv_bin_max):
     return tiling(grid, r_min, kc_max, inv_bin_max, bistatic=not np.array_equal(a, b))
 
 
+class TilingInputs:
+    """What :func:`._bp_kernels.tiling` needs of a collection, computed once for several upsamplings:
+    the smallest antenna-to-grid range, the largest carrier wavenumber and frequency step."""
+
+    def __init__(self, freq_hz, antenna_position_m, receive_position_m, grid):
+        f = np.asarray(freq_hz, dtype=np.float64)
+        f = f[None, :] if f.ndim == 1 else f
+        self.m = f.shape[-1]
+        alpha_ref, dalpha = frequency_line(f, self.m // 2)
+        a = np.asarray(antenna_position_m, dtype=np.float64)
+        b = a if receive_position_m is None else np.asarray(receive_position_m, dtype=np.float64)
+        self.grid = grid
+        self.r_min = min(min_range(a, grid), min_range(b, grid))
+        self.bistatic = not np.array_equal(a, b)
+        self.kc_max = float(np.max(np.abs(4.0 * np.pi * np.asarray(alpha_ref) / C)))
+        self.dalpha_max = float(np.max(np.abs(dalpha)))
+
+    def tiling(self, upsample):
+        """The tiling :class:`Setup` chooses at profile oversampling ``upsample``."""
+        n_len = profile_length(self.m, upsample)
+        return tiling(self.grid, self.r_min, self.kc_max, 2.0 * self.dalpha_max * n_len / C, bistatic=self.bistatic)
+
+
 def tiling_for(freq_hz, antenna_position_m, receive_position_m, grid, upsample):
     """The tiling :class:`Setup` chooses for these frequencies, positions, grid and ``upsample``
     (:func:`._bp_kernels.tiling`; ``receive_position_m`` None when monostatic), without the checks."""
-    f = np.asarray(freq_hz, dtype=np.float64)
-    f = f[None, :] if f.ndim == 1 else f
-    m = f.shape[-1]
-    alpha_ref, dalpha = frequency_line(f, m // 2)
-    n_len = profile_length(m, upsample)
-    a = np.asarray(antenna_position_m, dtype=np.float64)
-    b = a if receive_position_m is None else np.asarray(receive_position_m, dtype=np.float64)
-    return _tiling(grid, a, b, float(np.max(np.abs(4.0 * np.pi * np.asarray(alpha_ref) / C))),
-                   float(np.max(np.abs(2.0 * np.asarray(dalpha) * n_len / C))))
+    return TilingInputs(freq_hz, antenna_position_m, receive_position_m, grid).tiling(upsample)
 
 
 class Setup:

@@ -174,7 +174,7 @@ def bp_units(data, freq_hz, antenna_position_m, grid) -> float:
 
 def _candidates(ph, grid, tolerance, c, nthreads, prune, methods) -> list:
     """:func:`candidates`, uncached (``c`` the cost model)."""
-    from ._bp_setup import tiling_for
+    from ._bp_setup import TilingInputs
     from .backprojection import profile_length
     from .ffbp_model import frequency_error, interp_error
     from .subimage import choose_tile, tile_sizes
@@ -207,13 +207,16 @@ def _candidates(ph, grid, tolerance, c, nthreads, prune, methods) -> list:
         best_ffbp = min((x.seconds for x in ff if x.predicted_error <= target), default=math.inf)
         # backprojection: the profile interpolation (and unequal frequency spacing) is its error;
         # with ``prune`` not looked at where even its shortest profiles are slower than ffbp's pick
+        # the range model and tile width backprojection would choose at each upsampling
+        tiled = functools.lru_cache(maxsize=None)(TilingInputs(f, pos, rcv, grid).tiling) \
+            if wanted("backprojection") else None
         for interp in ("cubic", "lanczos", "linear") if wanted("backprojection") else ():
             def seconds(up):
-                return bp_seconds(c, P, M, npix, interp, up, tiling_for(f, pos, rcv, grid, up).cost, thr)
+                return bp_seconds(c, P, M, npix, interp, up, tiled(up).cost, thr)
             if prune and seconds(_BP_UPSAMPLES[0]) > best_ffbp:
                 continue
             for up in _BP_UPSAMPLES:
-                e = interp_error(interp, float(up)) + e_freq + tiling_for(f, pos, rcv, grid, up).error
+                e = interp_error(interp, float(up)) + e_freq + tiled(up).error
                 if e <= target or up == _BP_UPSAMPLES[-1]:
                     out.append(Candidate("backprojection", {"upsample": up, "interp": interp}, e, seconds(up),
                                          16 * (P * M + 32 * profile_length(M, up) + 2 * npix)))
