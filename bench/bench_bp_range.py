@@ -9,7 +9,7 @@ stays within half the range, so 50 m images a 35 m square). Per range, one threa
   it) and backprojection's default (``form_image``'s: float32, Keys cubic, upsample 16), timed
   alternately A B A B, best of ``--repeat`` in CPU seconds; the ratios to the anchor and to the 10 km rate;
 - the tiling the kernels chose (range model and tile width, :func:`sarcli.formers._bp_kernels.tiling`);
-- the planner's predicted seconds, one thread (:func:`sarcli.formers.planner.bp_seconds`; its ``bp``
+- the planner's predicted seconds, one thread (:func:`sarcli.formers.cost.bp_seconds`; its ``bp``
   constant measured in this run on the planner's calibration collection, 10 km, as
   :func:`sarcli.formers.planner.calibrate` does) against the measured;
 - the relative error against the exact matched filter (``direct``) on a strided sub-grid of a
@@ -42,7 +42,7 @@ from sarcli import _native  # noqa: E402
 from sarcli.analysis.accuracy import reference_grid  # noqa: E402
 from sarcli.core import geometry  # noqa: E402
 from sarcli.core.grid import Grid  # noqa: E402
-from sarcli.formers import planner  # noqa: E402
+from sarcli.formers import cost  # noqa: E402
 from sarcli.formers._bp_setup import Setup  # noqa: E402
 from sarcli.formers.backprojection import (DEFAULT_INTERP, DEFAULT_PRECISION, DEFAULT_UPSAMPLE,  # noqa: E402
                                            backproject)
@@ -158,8 +158,8 @@ def main(argv=None):
         backproject(*problem(1e4, 16, 2)[:5], **DEFAULT)   # load the kernels
         # the planner's constant as its calibration measures it (10 km, 256 pulses onto 256²), but
         # in this run, on one thread and in CPU seconds like the rows below
-        costs["bp_fft"], costs["bp"] = planner._bp_constants(lambda fn: best_cpu(fn, 3 * opts.repeat),
-                                                             *planner_calibration_problem(), 1)
+        costs["bp_fft"], costs["bp"] = cost.bp_constants(lambda fn: best_cpu(fn, 3 * opts.repeat),
+                                                         *planner_calibration_problem(), 1)
         for rng_m in ranges:
             data, freq, a, r0, grid, points = problem(rng_m, opts.n, opts.pulses)
             args = (data, freq, a, r0, grid)
@@ -170,8 +170,8 @@ def main(argv=None):
             rate = opts.n * opts.n * opts.pulses / t
             st = Setup(data.shape, freq, a, r0, grid, None, DEFAULT["upsample"], DEFAULT["interp"],
                        DEFAULT["precision"], None)
-            pred = planner.bp_seconds(costs, opts.pulses, freq.size, grid.nx * grid.ny, DEFAULT["interp"],
-                                      DEFAULT["upsample"], st.tiling.cost, 1)
+            pred = cost.bp_seconds(costs, opts.pulses, freq.size, grid.nx * grid.ny, DEFAULT["interp"],
+                                   DEFAULT["upsample"], st.tiling.cost, 1)
             err = float("nan") if opts.no_accuracy else accuracy(points, freq, a, r0, grid)
             e_pred = interp_error(DEFAULT["interp"], float(DEFAULT["upsample"])) + \
                 frequency_error(freq, a, grid) + st.tiling.error

@@ -38,9 +38,9 @@ from ..core import sampling
 from ..core.grid import Grid
 from ..errors import SarcliInputError
 from .calibration import DEFAULT_COSTS, STARTUP_IMPORTS, load_cost_model, save_cost_model
+from .cost import bp_constants, bp_seconds
 
-__all__ = ["Candidate", "candidates", "recommend", "ffbp_knobs", "bp_seconds", "bp_units", "command_seconds", "load_cost_model",
-           "calibrate"]
+__all__ = ["Candidate", "candidates", "recommend", "ffbp_knobs", "command_seconds", "load_cost_model", "calibrate"]
 
 #: Profile upsamplings tried for backprojection, smallest first.
 _BP_UPSAMPLES = (2, 4, 8, 16, 32)
@@ -149,27 +149,6 @@ def candidates(ph, grid: Grid, tolerance: float, *, costs=None, nthreads=None, p
             while len(_CANDIDATE_CACHE) > _CANDIDATE_CACHE_SIZE:
                 _CANDIDATE_CACHE.popitem(last=False)
     return [replace(x, knobs=dict(x.knobs)) for x in hit]
-
-
-def bp_seconds(c, n_pulses, n_freq, n_pixels, interp, upsample, tile_cost, nthreads) -> float:
-    """Predicted seconds of backprojection: ``c["bp"]`` per pixel-pulse of 4-tap interpolation at unit
-    tile cost, scaled by the interpolator's taps and the tiling's relative cost
-    (:attr:`sarcli.formers._bp_kernels.Tiling.cost`), plus the range profiles' FFTs."""
-    from .backprojection import profile_length
-
-    L = profile_length(n_freq, upsample)
-    taps = sampling.INTERPOLATORS[interp].taps
-    return (c["bp"] * n_pulses * n_pixels * taps / 4 * tile_cost + c["bp_fft"] * n_pulses * L * math.log2(L)) / nthreads
-
-
-def bp_units(data, freq_hz, antenna_position_m, grid) -> float:
-    """What ``c["bp"]`` is per: the pixel-pulses of backprojection's default on this collection
-    times its tiling's relative cost (:func:`bp_seconds` without the FFTs, at unit cost)."""
-    from ._bp_setup import tiling_for
-    from .backprojection import DEFAULT_UPSAMPLE
-
-    cost = tiling_for(freq_hz, antenna_position_m, None, grid, DEFAULT_UPSAMPLE).cost
-    return float(np.shape(data)[0]) * grid.nx * grid.ny * cost
 
 
 def _candidates(ph, grid, tolerance, c, nthreads, prune, methods) -> list:
@@ -430,21 +409,6 @@ def _fit_ffbp(rows, rhs) -> np.ndarray:
     return floor + nnls(rows / scale, np.maximum(rhs - rows @ floor, 0.0))[0] / scale
 
 
-def _bp_constants(best, d, freq, a, r0, grid, thr):
-    """``(c["bp_fft"], c["bp"])`` from ``best`` (best seconds of a call) on ``thr`` threads, both
-    seconds x threads like every constant: the range profiles' FFTs (numpy's, one thread, so that
-    ``thr`` threads are charged their time) per ``L log2 L`` and pulse, and the rest of
-    backprojection's default per :func:`bp_units`."""
-    from ._bp_setup import profiles
-    from .backprojection import DEFAULT_PRECISION, DEFAULT_UPSAMPLE, backproject, profile_length
-
-    P, M = d.shape
-    L = profile_length(M, DEFAULT_UPSAMPLE)
-    fft = best(lambda: profiles(d, None, float(P * M), L, np.complex64)) * thr / (P * L * math.log2(L))
-    total = best(lambda: backproject(d, freq, a, r0, grid, precision=DEFAULT_PRECISION)) * thr
-    return fft, max(total - fft * P * L * math.log2(L), 0.0) / bp_units(d, freq, a, grid)
-
-
 def calibrate(path=None, *, repeat: int = 3) -> dict:
     """Measure the constants on this machine and write them to ``path`` (default: this machine's
     file in the user's cache, :func:`sarcli.formers.calibration.user_cost_model_path`; the shipped
@@ -475,7 +439,7 @@ def calibrate(path=None, *, repeat: int = 3) -> dict:
     grid = Grid(N, N, 0.25, 0.25)
     thr = 2
     c = {"threads": thr}
-    c["bp_fft"], c["bp"] = _bp_constants(best, d, freq, a, r0, grid, thr)
+    c["bp_fft"], c["bp"] = bp_constants(best, d, freq, a, r0, grid, thr)
     small = Grid(32, 32, 0.5, 0.5)
     c["direct"] = best(lambda: direct_spherical(d, freq, a, r0, small)) * thr / (P * M * 32 * 32)
     # ffbp: settings whose shares of stage 0 (per pulse-node tap and per node), interpolation taps
