@@ -287,3 +287,130 @@ def test_range_profiles_are_the_padded_inverse_fft():
     for wk in (w, w[None, :], np.broadcast_to(w, (P, M))):
         re, im = range_profiles(d, wk, 3.0, L, 1)
         assert np.max(np.abs(re + 1j * im - ref)) < 1e-12
+
+
+# ---------------------------------------------------------------------------------------------
+# The range models near and far from the radar (the quadratic and the exact, _bp_kernels.tiling)
+# ---------------------------------------------------------------------------------------------
+def _tone_collection(r0, dx, *, P=4, M=16, n=128, el_deg=30.0, tone=0):
+    """One frequency lit per pulse (``j = M//2 + tone``): the range profile is a pure tone that the
+    16x-oversampled interpolation reproduces to ~1e-7, so the image's departure from the exact
+    matched filter is the range model's, in radians (scaled by W / P = M)."""
+    grid = Grid(n, n, dx, dx)
+    el = np.radians(el_deg)
+    dalpha = geometry.C / (4.0 * 1.2 * grid.half_diagonal * np.cos(el))
+    freq = 10e9 - dalpha * M / 2 + dalpha * np.arange(M)
+    a = geometry.antenna_positions_circle(np.radians(np.linspace(-10, 10, P)), el, r0)
+    r0s = np.linalg.norm(a, axis=1)
+    data = np.zeros((P, M), complex)
+    data[:, M // 2 + tone] = 1.0
+    return data, freq, a, r0s, grid
+
+
+def _forced_tiling(monkeypatch, model, width):
+    from sarcli.formers import _bp_kernels as bk, _bp_setup
+
+    monkeypatch.setattr(_bp_setup, "tiling", lambda *args, **kw: bk.Tiling(model, width, 0.0, 1.0))
+
+
+@pytest.mark.parametrize("model", ["quadratic", "exact"])
+@pytest.mark.parametrize("r0", [30.0, 200.0, 1e3, 1e4, 1e6])
+def test_range_model_error_within_its_bound(monkeypatch, model, r0):
+    """Each model, forced to 64-, 16- and 4-pixel tiles: the largest phase error against the exact
+    matched filter is within the bound the tiling is chosen by (quadratic_error / exact_error times
+    the larger of kc and 1/bin), plus the float32 carrier's and weights' floor; and the quadratic's
+    bound is sharp (within 10x) wherever its error rises above that floor."""
+    from sarcli.formers import _bp_kernels as bk
+    from sarcli.formers._bp_setup import Setup
+
+    floor = 1.5e-6   # measured 3e-7 (AVX-512, AVX2) to 7e-7 (baseline)
+    bound = bk.quadratic_error if model == "quadratic" else bk.exact_error
+    for tone in (0, 1):   # tone 1: its interpolation error stays below the floor (tone 3: 6e-6)
+        data, freq, a, r0s, grid = _tone_collection(r0, min(0.25, r0 / 300), tone=tone)
+        ref = exact_mf(data, freq, a, r0s, grid)
+        st = Setup(data.shape, freq, a, r0s, grid, None, DEFAULT_UPSAMPLE, "cubic", "float32")
+        scale = max(np.max(np.abs(st.geo[10])), np.max(np.abs(st.geo[9])))
+        r_min = bk.min_range(a, grid)
+        for width in (64, 16, 4):
+            _forced_tiling(monkeypatch, model, width)
+            img = backproject(data, freq, a, r0s, grid, precision="float32")
+            err = np.max(np.abs(img - ref)) * data.shape[1]
+            predicted = bound(0.5 * (width - 1) * grid.dx, r_min) * scale
+            assert err <= predicted + floor, (tone, width, err, predicted)
+            if model == "quadratic" and err > 10 * floor:
+                assert err > predicted / 10, (tone, width, err, predicted)   # measured 0.3-0.6
+
+
+def test_tiling_keeps_wide_tiles_near_the_radar():
+    """The quadratic's tiles narrow to 2 pixels at 200 m; the exact model keeps 64 within the same
+    tolerance, and far away (1,000 km) the cheaper quadratic keeps 64 itself."""
+    from sarcli.formers._bp_kernels import EXACT, MODEL_TOLERANCE, QUADRATIC, tiling
+
+    grid = Grid(512, 512, 0.25, 0.25)
+    kc, ib = 4 * np.pi * 10e9 / geometry.C, 1.0 / 0.01
+    assert tile_width(grid, 150.0, kc, ib) <= 4
+    near = tiling(grid, 150.0, kc, ib)
+    assert (near.model, near.width) == (EXACT, 64) and near.error <= MODEL_TOLERANCE
+    assert tiling(grid, 50.0, kc, ib).width >= 32
+    far = tiling(grid, 1e6, kc, ib)
+    assert (far.model, far.width) == (QUADRATIC, 64) and far.cost < near.cost
+    # a tile may not reach past half the range (the exact model's rounding bound needs it)
+    assert tiling(Grid(64, 64, 1.0, 1.0), 20.0, kc, ib).width <= 21
+
+
+@pytest.mark.parametrize("r0", [50.0, 200.0, 1e3, 1e4, 1e6])
+def test_default_error_at_every_range_within_prediction(monkeypatch, r0):
+    """The image's error against the exact matched filter from 50 m to 1,000 km, at form_image's
+    defaults (float32, Keys cubic, upsample 16): the tiling's range model departs from the range
+    evaluated in float64 at every pixel (one-pixel tiles) by at most its predicted error, and the
+    whole error stays within the planner's margin (SAFETY) of the error it predicts
+    (interpolation + unequal spacing + the tiling's model error)."""
+    from sarcli.formers import _bp_kernels as bk
+    from sarcli.formers._bp_setup import tiling_for
+    from sarcli.formers.backprojection import DEFAULT_PRECISION
+    from sarcli.formers.ffbp_model import frequency_error, interp_error
+    from sarcli.formers.planner import SAFETY
+
+    dx = min(0.25, r0 / 200)
+    grid = Grid(64, 64, dx, dx)
+    half = 28 * dx
+    rng = np.random.default_rng(3)
+    pts = np.column_stack([rng.uniform(-half, half, 5), rng.uniform(-half, half, 5), np.zeros(5)])
+    data, freq, a, rr = collection(pts, rng.normal(size=5) + 1j * rng.normal(size=5), P=48, M=64, r0=r0,
+                                   bw=geometry.C / (4 * 1.1 * grid.half_diagonal * np.cos(np.radians(30))) * 63,
+                                   aperture_deg=3.0 if r0 > 1e3 else 20.0)
+    ref = exact_mf(data, freq, a, rr, grid)
+    img = backproject(data, freq, a, rr, grid, precision=DEFAULT_PRECISION)
+    t = tiling_for(freq, a, None, grid, DEFAULT_UPSAMPLE)
+    predicted = interp_error(DEFAULT_INTERP, float(DEFAULT_UPSAMPLE)) + frequency_error(freq, a, grid) + t.error
+    # measured 2.9e-5 (10 km, 1,000 km) to 4.0e-5 (200 m) against 3.4e-5 predicted: the interpolation's
+    # RMS model, the same with one-pixel tiles
+    assert rel_err(img, ref) <= SAFETY * predicted, (t, rel_err(img, ref), predicted)
+    _forced_tiling(monkeypatch, bk.QUADRATIC, 1)
+    pixelwise = backproject(data, freq, a, rr, grid, precision=DEFAULT_PRECISION)
+    assert rel_err(img, pixelwise) <= t.error + 3e-6     # measured 6e-7 to 1.2e-6 (float32 roundings)
+
+
+@pytest.mark.parametrize("level", ["0", "1"])
+def test_exact_model_every_instruction_set_and_adjoint(monkeypatch, level):
+    """At 40 m (the exact model, 64-pixel tiles; bistatic too): the AVX2 and baseline copies give
+    AVX-512's image, and reproject stays backproject's exact adjoint."""
+    from sarcli.formers._bp_setup import tiling_for
+
+    rng = np.random.default_rng(11)
+    data, freq, a, r0 = collection([[1.0, -2.0, 0.0]], [1.0], P=24, M=32, r0=40.0, aperture_deg=30.0)
+    grid = Grid(96, 40, 0.1, 0.15)
+    assert tiling_for(freq, a, None, grid, 4).model == "exact"
+    rcv = a + np.array([0.0, 1.5, 0.2])
+    d = rng.normal(size=data.shape) + 1j * rng.normal(size=data.shape)
+    f = rng.normal(size=grid.shape) + 1j * rng.normal(size=grid.shape)
+    for q in (None, rcv):
+        kw = dict(upsample=4, interp="cubic", precision="float64", receive_position_m=q)
+        best = backproject(d, freq, a, r0, grid, **kw)
+        monkeypatch.setenv("SARCLI_BP_ISA", level)
+        img = backproject(d, freq, a, r0, grid, **kw)
+        assert rel_err(img, best) < 4e-6    # measured: AVX2 bit for bit; baseline ~1e-7
+        lhs = np.vdot(f, img)
+        rhs = np.vdot(reproject(f, freq, a, r0, grid, **kw), d)
+        assert abs(lhs - rhs) / abs(lhs) < 1e-14
+        monkeypatch.delenv("SARCLI_BP_ISA")

@@ -12,20 +12,39 @@ along the row; inside the tile a pixel at offset ``u`` from the centre takes
 
 (``R`` the range to the centre, ``c`` the direction cosine along the row, ``h`` the tile's half
 width; the ``3/4 h² d3`` term is the Chebyshev economisation of the cubic Taylor term), so the
-model leaves at most ``|d3| h³ / 4`` plus the quartic term. :func:`tile_width` picks the widest
-tile that keeps this below :data:`MODEL_TOLERANCE` in both carrier phase and profile bins. The
-profile position is float32 relative to an integer bin of the centre, the carrier phase float64
-reduced to [-π, π] and evaluated by a float32 minimax polynomial; the interpolation weights and
-the carrier are thus float32 (errors ~1e-7), the profiles and accumulation follow ``precision``.
+model leaves at most ``|d3| h³ / 4`` plus the quartic term (:func:`quadratic_error`).
+
+That error grows as ``h³ / R²``: near the radar the quadratic's tiles narrow to a few pixels and
+the per-tile work dominates. The *exact* model keeps wide tiles there: the plain Taylor quadratic
+(``d1 = c``) in float64 plus, per pixel, its exact departure
+
+.. math::
+
+    \\rho(u) = R(u) - R - c u - \\frac{(1 - c^2) u^2}{2R}
+             = -\\frac{\\delta (2 c u + \\delta)}{2R}, \\qquad
+    \\delta = \\frac{(1 - c^2) u^2}{R + c u + R(u)}, \\quad
+    R(u) = \\sqrt{R^2 + 2 c R u + u^2},
+
+in float32 (a square root and a division per pixel; no cancellation). Its error is float32
+rounding of ρ alone (:func:`exact_error`), since ``0 ≤ δ ≤ u²/(2 R_min)``. :func:`tiling` picks,
+of the two models, the tiling of least predicted cost (:func:`tile_cost`) whose error stays below
+:data:`MODEL_TOLERANCE` in both carrier phase and profile bins. The profile position is float32
+relative to an integer bin of the centre, the carrier phase float64 reduced to [-π, π] and
+evaluated by a float32 minimax polynomial; the interpolation weights and the carrier are thus
+float32 (errors ~1e-7), the profiles and accumulation follow ``precision``.
 """
 
 from __future__ import annotations
+
+import math
+from typing import NamedTuple
 
 import numpy as np
 
 from .._native import load
 
-__all__ = ["GEO_ROWS", "MODEL_TOLERANCE", "next_fast_len", "tile_width", "kernels"]
+__all__ = ["GEO_ROWS", "MODEL_TOLERANCE", "QUADRATIC", "EXACT", "Tiling", "next_fast_len", "quadratic_error",
+           "exact_error", "tile_cost", "tile_width", "tiling", "kernels"]
 
 #: Rows of the per-pulse geometry table the kernels read: 2a_x, 2a_y, |a|², |a|, 2b_x, 2b_y, |b|²,
 #: |b| (transmit a, receive b), (|a| + |b|)/2 - r0, 1/bin and the carrier wavenumber kc.
@@ -73,18 +92,85 @@ def min_range(pos, grid) -> float:
     return float(np.sqrt(np.min(dx * dx + dy * dy + pos[:, 2] ** 2)))
 
 
-def tile_width(grid, r_min: float, kc_max: float, inv_bin_max: float) -> int:
-    """Widest tile (pixels along a row, at most 64) whose range model stays within tolerance.
+#: The two range models of a tile (module docstring).
+QUADRATIC, EXACT = "quadratic", "exact"
+#: Unit roundoff of float32.
+_EPS32 = 2.0**-24
+#: float32 roundings that the exact model's departure ρ accumulates, at most, as a multiple of its
+#: bound's unit roundoff (the inputs' conversions, the square root, division and products: about 8;
+#: twice that for margin, checked against float64 in tests/test_backprojection.py).
+EXACT_ROUNDINGS = 16
+#: Relative cost of a tile's work per pulse, in 16-lane groups of the quadratic model: a group of
+#: lanes in each model (the exact one adds a square root, a division and a few products a lane)
+#: and the float64 anchor of a tile (measured: ``bench/bench_bp_range.py --tile-costs``).
+_GROUP_COST = {QUADRATIC: 1.0, EXACT: 1.4}
+_ANCHOR_COST = {QUADRATIC: 0.5, EXACT: 0.5}
+_LANES = 16
 
-    Bounds the model error by ``|d3| h³/4 + |d4| h⁴`` with ``|d3| <= 0.19245 / R²`` and
-    ``|d4| <= 5 / (8 R³)`` at the smallest range ``R`` (``h`` the tile's half width) and asks
-    ``kc · error`` and ``error / bin`` below :data:`MODEL_TOLERANCE`.
-    """
+
+class Tiling(NamedTuple):
+    """A backprojection tiling: the range model, the tile width (pixels along a row), the model's
+    largest error (radians of carrier phase or profile bins, whichever is larger) and the relative
+    cost per pixel-pulse (:func:`tile_cost`)."""
+    model: str
+    width: int
+    error: float
+    cost: float
+
+
+def quadratic_error(h: float, r: float) -> float:
+    """Largest range error (m) of the economised quadratic over a tile of half width ``h`` (m) whose
+    pixels are at least ``r`` (m) from the antenna: ``|d3| h³/4 + |d4| h⁴`` with
+    ``|d3| <= 0.19245 / R²`` and ``|d4| <= 5 / (8 R³)``."""
+    return 0.19245 * h**3 / (4.0 * r * r) + 0.625 * h**4 / r**3
+
+
+def exact_error(h: float, r: float) -> float:
+    """Largest range error (m) of the exact model over a tile of half width ``h`` (m) whose pixels are
+    at least ``r`` (m) from the antenna: :data:`EXACT_ROUNDINGS` float32 roundings of the bound
+    ``δ (2h + δ) / (2r)`` on ``|ρ|``, ``δ = h²/(2r)`` (``R'' <= 1/R_min`` along the row); infinite
+    beyond ``h = r/2``, where the bound on the roundings of ``R + c u + R(u)`` is not kept."""
+    if h > 0.5 * r:
+        return math.inf
+    d = h * h / (2.0 * r)
+    return EXACT_ROUNDINGS * _EPS32 * d * (2.0 * h + d) / (2.0 * r)
+
+
+def tile_cost(model: str, width: int) -> float:
+    """Predicted work per pixel-pulse of tiles of ``width`` pixels in ``model``, relative to full
+    64-pixel tiles of the quadratic model's lane groups (each tile runs whole groups of 16 lanes
+    and computes one float64 anchor per pulse)."""
+    groups = math.ceil(width / _LANES)
+    return (groups * _GROUP_COST[model] + _ANCHOR_COST[model]) / (width / _LANES)
+
+
+def tiling(grid, r_min: float, kc_max: float, inv_bin_max: float, *, bistatic: bool = False) -> Tiling:
+    """The cheapest tiling (:func:`tile_cost`) whose range model stays within :data:`MODEL_TOLERANCE`
+    in carrier phase (``kc_max`` rad/m) and profile bins (``inv_bin_max`` bins/m), for pixels at least
+    ``r_min`` from every antenna. A bistatic exact model evaluates two ends a lane."""
+    scale = max(abs(kc_max), abs(inv_bin_max), 1e-30)
+    r = max(r_min, 1e-9)
+    best = None
+    for model, error in ((QUADRATIC, quadratic_error), (EXACT, exact_error)):
+        for w in _WIDTHS:
+            e = error(0.5 * (w - 1) * abs(grid.dx), r) * scale
+            if e <= MODEL_TOLERANCE or w == 1:
+                cost = tile_cost(model, w)
+                if model == EXACT and bistatic:
+                    cost += math.ceil(w / _LANES) * (_GROUP_COST[EXACT] - _GROUP_COST[QUADRATIC]) / (w / _LANES)
+                cand = Tiling(model, w, e, cost)
+                if best is None or cand.cost < best.cost:
+                    best = cand
+                break
+    return best
+
+
+def tile_width(grid, r_min: float, kc_max: float, inv_bin_max: float) -> int:
+    """Widest tile of the quadratic model (pixels along a row, at most 64) within tolerance:
+    ``kc · error`` and ``error / bin`` below :data:`MODEL_TOLERANCE` (:func:`quadratic_error`)."""
     scale = max(abs(kc_max), abs(inv_bin_max), 1e-30)
     r = max(r_min, 1e-9)
     for w in _WIDTHS:
-        h = 0.5 * (w - 1) * abs(grid.dx)
-        err = 0.19245 * h**3 / (4.0 * r * r) + 0.625 * h**4 / r**3
-        if err * scale <= MODEL_TOLERANCE:
+        if quadratic_error(0.5 * (w - 1) * abs(grid.dx), r) * scale <= MODEL_TOLERANCE:
             return w
     return 1

@@ -15,10 +15,11 @@ from ..core.geometry import C, bistatic_differential_range
 from ..core.grid import Grid
 from ..core.sampling import INTERPOLATORS as _ALL_INTERPOLATORS, PROFILE_INTERPOLATORS, equally_spaced, frequency_line
 from ..errors import AliasingWarning, SarcliInputError
-from ._bp_kernels import GEO_ROWS, min_range, next_fast_len, tile_width
+from ._bp_kernels import EXACT, GEO_ROWS, min_range, next_fast_len, tiling
 from ._samples import is_lazy
 
-__all__ = ["INTERPOLATORS", "PAD", "BLOCK", "profile_length", "profiles", "range_profiles", "Setup", "check_data"]
+__all__ = ["INTERPOLATORS", "PAD", "BLOCK", "profile_length", "profiles", "range_profiles", "TilingInputs", "tiling_for", "Setup",
+           "check_data"]
 
 #: Interpolation kernels for the range profiles and their codes in the compiled kernels.
 INTERPOLATORS = {name: _ALL_INTERPOLATORS[name].code for name in PROFILE_INTERPOLATORS}
@@ -76,6 +77,41 @@ def range_profiles(data, weights, total_weight, n_len, nthreads, dtype=np.comple
     """
     prof = profiles(data, weights, total_weight, n_len, dtype)
     return np.ascontiguousarray(prof.real), np.ascontiguousarray(prof.imag)
+
+
+def _tiling(grid, a, b, kc_max, inv_bin_max):
+    """:func:`._bp_kernels.tiling` for transmit positions ``a`` and receive positions ``b`` [P, 3]."""
+    r_min = min(min_range(a, grid), min_range(b, grid))
+    return tiling(grid, r_min, kc_max, inv_bin_max, bistatic=not np.array_equal(a, b))
+
+
+class TilingInputs:
+    """What :func:`._bp_kernels.tiling` needs of a collection, computed once for several upsamplings:
+    the smallest antenna-to-grid range, the largest carrier wavenumber and frequency step."""
+
+    def __init__(self, freq_hz, antenna_position_m, receive_position_m, grid):
+        f = np.asarray(freq_hz, dtype=np.float64)
+        f = f[None, :] if f.ndim == 1 else f
+        self.m = f.shape[-1]
+        alpha_ref, dalpha = frequency_line(f, self.m // 2)
+        a = np.asarray(antenna_position_m, dtype=np.float64)
+        b = a if receive_position_m is None else np.asarray(receive_position_m, dtype=np.float64)
+        self.grid = grid
+        self.r_min = min(min_range(a, grid), min_range(b, grid))
+        self.bistatic = not np.array_equal(a, b)
+        self.kc_max = float(np.max(np.abs(4.0 * np.pi * np.asarray(alpha_ref) / C)))
+        self.dalpha_max = float(np.max(np.abs(dalpha)))
+
+    def tiling(self, upsample):
+        """The tiling :class:`Setup` chooses at profile oversampling ``upsample``."""
+        n_len = profile_length(self.m, upsample)
+        return tiling(self.grid, self.r_min, self.kc_max, 2.0 * self.dalpha_max * n_len / C, bistatic=self.bistatic)
+
+
+def tiling_for(freq_hz, antenna_position_m, receive_position_m, grid, upsample):
+    """The tiling :class:`Setup` chooses for these frequencies, positions, grid and ``upsample``
+    (:func:`._bp_kernels.tiling`; ``receive_position_m`` None when monostatic), without the checks."""
+    return TilingInputs(freq_hz, antenna_position_m, receive_position_m, grid).tiling(upsample)
 
 
 class Setup:
@@ -146,9 +182,9 @@ class Setup:
         self.x = np.ascontiguousarray(grid.x, dtype=np.float64)
         self.y = np.ascontiguousarray(grid.y, dtype=np.float64)
         self.shape = grid.shape
-        r_min = min(min_range(a, grid), min_range(b, grid))
-        self.width = tile_width(grid, r_min, float(np.max(np.abs(self.geo[10]))),
-                                float(np.max(np.abs(self.geo[9]))))
+        #: the range model and tile width (:func:`._bp_kernels.tiling`)
+        self.tiling = _tiling(grid, a, b, float(np.max(np.abs(self.geo[10]))), float(np.max(np.abs(self.geo[9]))))
+        self.model, self.width = self.tiling.model, self.tiling.width
         self._check_window(a, b, r0, grid, np.abs(bin_m) * self.n_len / 2.0)
         # pulses per pass over the image inside a kernel call: their profiles stay in cache
         row_bytes = (self.n_len + 2 * PAD) * 2 * np.dtype(dt).itemsize
@@ -180,7 +216,7 @@ class Setup:
     def kernel_args(self, sl):
         """Geometry and options of the kernels for the pulses in slice ``sl``."""
         return (self.x, self.y, np.ascontiguousarray(self.geo[:, sl]), self.n_len, PAD, self.kind,
-                self.bistatic, self.width)
+                self.bistatic, self.width, self.model == EXACT)
 
     def blocks(self):
         """Slices of at most ``self.block`` pulses: profiles live one block at a time."""

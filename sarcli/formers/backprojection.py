@@ -42,8 +42,10 @@ frequencies are rounded to float32: 2.4e-4 of the exact matched filter).
 
 The kernels (``src/native/backprojection.cpp``, :mod:`._bp_kernels`) take the differential range
 of each tile of up to 64 pixels along a row in float64 at the tile's centre, without
-cancellation (``Δr = (|x|² - 2 a·x) / (|a - x| + |a|) + (|a| - r0)``), and inside the tile a
-quadratic in the pixel's offset whose error :func:`._bp_kernels.tile_width` bounds. Profile
+cancellation (``Δr = (|x|² - 2 a·x) / (|a - x| + |a|) + (|a| - r0)``), and inside the tile either
+a quadratic in the pixel's offset or, near the radar where the quadratic's tiles would narrow, the
+exact range as that quadratic plus its float32 departure; :func:`._bp_kernels.tiling` picks the
+cheaper within the same error bound. Profile
 positions and interpolation weights are float32, the carrier phase float64 reduced modulo 2π and
 its sine and cosine a float32 polynomial (error 4e-7). ``precision`` sets the profiles and the
 accumulation: ``'float64'`` keeps both in float64, so that :func:`reproject` is the adjoint to

@@ -11,16 +11,18 @@ sum's rate from the planner's cost model of this machine and the far field's fro
 
 from __future__ import annotations
 
+import math
 import os
 import warnings
 
 import numpy as np
 
 from .._util.resources import check_memory
+from ..core import sampling
 from ..errors import SarcliInputError, SarcliWarning
 
 __all__ = ["UPSAMPLE_RANGE", "OVERSAMPLE_RANGE", "WIDTH_RANGE", "EPS_RANGE", "check_knobs",
-           "form_image_bytes", "direct_seconds", "check_form_image", "regularize_bytes", "check_regularize",
+           "form_image_bytes", "direct_seconds", "bp_seconds", "bp_units", "bp_constants", "check_form_image", "regularize_bytes", "check_regularize",
            "DIRECT_WARN_S"]
 
 #: backprojection range-profile upsampling (1: no upsampling; 64 reaches 1e-5 peak accuracy)
@@ -106,6 +108,42 @@ def direct_seconds(n_pulses, n_freq, n_pixels, model="farfield", nthreads=None) 
     from .calibration import load_cost_model
 
     return terms * load_cost_model()["direct"] / cores      # seconds per term on one core
+
+
+def bp_seconds(c, n_pulses, n_freq, n_pixels, interp, upsample, tile_cost, nthreads) -> float:
+    """Predicted seconds of backprojection: ``c["bp"]`` per pixel-pulse of 4-tap interpolation at unit
+    tile cost, scaled by the interpolator's taps and the tiling's relative cost
+    (:attr:`sarcli.formers._bp_kernels.Tiling.cost`), plus the range profiles' FFTs."""
+    from .backprojection import profile_length
+
+    L = profile_length(n_freq, upsample)
+    taps = sampling.INTERPOLATORS[interp].taps
+    return (c["bp"] * n_pulses * n_pixels * taps / 4 * tile_cost + c["bp_fft"] * n_pulses * L * math.log2(L)) / nthreads
+
+
+def bp_units(data, freq_hz, antenna_position_m, grid) -> float:
+    """What ``c["bp"]`` is per: the pixel-pulses of backprojection's default on this collection
+    times its tiling's relative cost (:func:`bp_seconds` without the FFTs, at unit cost)."""
+    from ._bp_setup import tiling_for
+    from .backprojection import DEFAULT_UPSAMPLE
+
+    cost = tiling_for(freq_hz, antenna_position_m, None, grid, DEFAULT_UPSAMPLE).cost
+    return float(np.shape(data)[0]) * grid.nx * grid.ny * cost
+
+
+def bp_constants(best, d, freq, a, r0, grid, thr):
+    """``(c["bp_fft"], c["bp"])`` from ``best`` (best seconds of a call) on ``thr`` threads, both
+    seconds x threads like every constant: the range profiles' FFTs (numpy's, one thread, so that
+    ``thr`` threads are charged their time) per ``L log2 L`` and pulse, and the rest of
+    backprojection's default per :func:`bp_units`."""
+    from ._bp_setup import profiles
+    from .backprojection import DEFAULT_PRECISION, DEFAULT_UPSAMPLE, backproject, profile_length
+
+    P, M = d.shape
+    L = profile_length(M, DEFAULT_UPSAMPLE)
+    fft = best(lambda: profiles(d, None, float(P * M), L, np.complex64)) * thr / (P * L * math.log2(L))
+    total = best(lambda: backproject(d, freq, a, r0, grid, precision=DEFAULT_PRECISION)) * thr
+    return fft, max(total - fft * P * L * math.log2(L), 0.0) / bp_units(d, freq, a, grid)
 
 
 def check_form_image(src, method, grid, *, oversample=2.0, upsample=None, eps=None, width=None,

@@ -38,6 +38,7 @@ from ..core import sampling
 from ..core.grid import Grid
 from ..errors import SarcliInputError
 from .calibration import DEFAULT_COSTS, STARTUP_IMPORTS, load_cost_model, save_cost_model
+from .cost import bp_constants, bp_seconds
 
 __all__ = ["Candidate", "candidates", "recommend", "ffbp_knobs", "command_seconds", "load_cost_model", "calibrate"]
 
@@ -152,6 +153,7 @@ def candidates(ph, grid: Grid, tolerance: float, *, costs=None, nthreads=None, p
 
 def _candidates(ph, grid, tolerance, c, nthreads, prune, methods) -> list:
     """:func:`candidates`, uncached (``c`` the cost model)."""
+    from ._bp_setup import TilingInputs
     from .backprojection import profile_length
     from .ffbp_model import frequency_error, interp_error
     from .subimage import choose_tile, tile_sizes
@@ -184,14 +186,16 @@ def _candidates(ph, grid, tolerance, c, nthreads, prune, methods) -> list:
         best_ffbp = min((x.seconds for x in ff if x.predicted_error <= target), default=math.inf)
         # backprojection: the profile interpolation (and unequal frequency spacing) is its error;
         # with ``prune`` not looked at where even its shortest profiles are slower than ffbp's pick
+        # the range model and tile width backprojection would choose at each upsampling
+        tiled = functools.lru_cache(maxsize=None)(TilingInputs(f, pos, rcv, grid).tiling) \
+            if wanted("backprojection") else None
         for interp in ("cubic", "lanczos", "linear") if wanted("backprojection") else ():
             def seconds(up):
-                L = profile_length(M, up)
-                return (c["bp"] * P * npix * sampling.INTERPOLATORS[interp].taps / 4 + c["bp_fft"] * P * L * math.log2(L)) / thr
+                return bp_seconds(c, P, M, npix, interp, up, tiled(up).cost, thr)
             if prune and seconds(_BP_UPSAMPLES[0]) > best_ffbp:
                 continue
             for up in _BP_UPSAMPLES:
-                e = interp_error(interp, float(up)) + e_freq
+                e = interp_error(interp, float(up)) + e_freq + tiled(up).error
                 if e <= target or up == _BP_UPSAMPLES[-1]:
                     out.append(Candidate("backprojection", {"upsample": up, "interp": interp}, e, seconds(up),
                                          16 * (P * M + 32 * profile_length(M, up) + 2 * npix)))
@@ -435,8 +439,7 @@ def calibrate(path=None, *, repeat: int = 3) -> dict:
     grid = Grid(N, N, 0.25, 0.25)
     thr = 2
     c = {"threads": thr}
-    c["bp_fft"] = DEFAULT_COSTS["bp_fft"]
-    c["bp"] = best(lambda: backproject(d, freq, a, r0, grid, precision=DEFAULT_PRECISION)) * thr / (P * N * N)
+    c["bp_fft"], c["bp"] = bp_constants(best, d, freq, a, r0, grid, thr)
     small = Grid(32, 32, 0.5, 0.5)
     c["direct"] = best(lambda: direct_spherical(d, freq, a, r0, small)) * thr / (P * M * 32 * 32)
     # ffbp: settings whose shares of stage 0 (per pulse-node tap and per node), interpolation taps

@@ -6,8 +6,11 @@
 //     Δr(u) = Δr_c + d1 u + d2 u²,
 // d2 = (1 - c²) / (2R) and d1 = c + (3/4) h² d3 (c the direction cosine along the row, d3 the
 // cubic Taylor coefficient -c (1 - c²) / (2R²), h the tile's half width: the Chebyshev
-// economisation of the cubic term, which leaves at most |d3| h³ / 4 of model error; Python picks
-// the tile width that keeps it far below the interpolation error). A tile's pixels run as groups
+// economisation of the cubic term, which leaves at most |d3| h³ / 4 of model error). Near the
+// radar that error (∝ h³/R²) narrows the tiles to a few pixels; there the exact model (Args::exact,
+// ExactAnchor) keeps the plain Taylor quadratic (d1 = c) and adds each pixel's exact departure ρ
+// from it in float32. Python picks the model and the tile width that keep the error far below the
+// interpolation's at the least cost (sarcli.formers._bp_kernels.tiling). A tile's pixels run as groups
 // of 16 SIMD lanes, its accumulators stay in registers over a block of pulses whose profiles stay
 // in cache, and each lane reads its stencil as one contiguous vector (profiles interleave real
 // and imaginary parts) that is transposed in registers. The profile position is kept
@@ -134,6 +137,27 @@ struct Args {
   long n_len, pad, width;  // width: tile width <= 16
   double half_len;
   bool bist;
+  bool exact;  // the exact range model (ExactAnchor) rather than the economised quadratic
+};
+
+// The exact model's float32 terms of one end at the anchor (ExactAnchor).
+struct ExactEnd {
+  float tdx, rc2, rc, c, c2, s2, i2r;
+};
+// i2r: -1/(4 R_c), each end's weight in the bistatic mean (exact_lanes).
+SARCLI_INLINE ExactEnd exact_end(double r, double c, double s2) {
+  return ExactEnd{static_cast<float>(2.0 * c * r), static_cast<float>(r * r), static_cast<float>(r),
+                  static_cast<float>(c), static_cast<float>(2.0 * c), static_cast<float>(s2),
+                  static_cast<float>(-0.25 / r)};
+}
+
+// The exact range model's per-pulse terms at a tile's anchor: with u the pixel's offset along the
+// row, each end's range R(u) = √(R_c² + 2 c R_c u + u²) departs from its quadratic
+// R_c + c u + (1 - c²) u² / (2 R_c) by ρ(u) = -δ (2 c u + δ) / (2 R_c), δ = (1 - c²) u² / (R_c + c u + R)
+// (no cancellation), evaluated in float32 and added to the float64 quadratic.
+struct ExactAnchor {
+  ExactEnd e[2];
+  float ib, kc;  // bins and radians per metre of exact_lanes' output (-1/(2 R_c) folded in if NE = 1)
 };
 
 // Tile anchor terms for one pulse (float64 geometry; see the file comment).
@@ -151,7 +175,8 @@ struct Anchors {
   double *ph0, *ph1, *ph2;
   // the contraction's per-pulse lane sums over a row, [n][2][kLanes] of the working precision
   std::vector<double> sums;
-  explicit Anchors(size_t n) : store(10 * n), sums(2 * kLanes * n) {
+  std::vector<ExactAnchor> ex;  // the exact model's terms (filled only when Args::exact)
+  explicit Anchors(size_t n) : store(10 * n), sums(2 * kLanes * n), ex(n) {
     double* d = store.data();
     ph0 = d; ph1 = d + n; ph2 = d + 2 * n;
     j0 = reinterpret_cast<int*>(d + 3 * n);
@@ -163,27 +188,38 @@ struct Anchors {
   }
 };
 
-// One-way range terms at the anchor: Δr part, d1, d2 (3/4 h² d3 folded into d1).
+// One-way range terms at the anchor: Δr part, d1, d2 (3/4 h² d3 folded into d1); the range r,
+// the direction cosine c along the row and 1 - c².
 SARCLI_INLINE void one_way(double xc, double y, double two_ax, double two_ay, double a2, double na,
-                           double he, double& dr, double& d1, double& d2) {
+                           double he, double& dr, double& d1, double& d2, double& r, double& c,
+                           double& s2) {
   const double num = xc * xc + y * y - two_ax * xc - two_ay * y;  // |x|² - 2 a·x
-  const double r = std::sqrt(a2 + num);
+  r = std::sqrt(a2 + num);
   dr = num / (r + na);  // |a - x| - |a| without cancellation
-  const double c = (xc - 0.5 * two_ax) / r;
-  const double s2 = 1.0 - c * c;
+  c = (xc - 0.5 * two_ax) / r;
+  s2 = 1.0 - c * c;
   d2 = s2 / (2.0 * r);
   d1 = c - he * c * s2 / (2.0 * r * r);
 }
 
+
 template <bool BIST>
-SARCLI_INLINE Anchor anchor(const Args& A, long p, double xc, double y, double he) {
+SARCLI_INLINE Anchor anchor(const Args& A, long p, double xc, double y, double he, ExactAnchor& ex) {
   const double* g = A.geo;
   const long B = A.B;
-  double dr, d1, d2;
-  one_way(xc, y, g[G2AX * B + p], g[G2AY * B + p], g[GA2 * B + p], g[GNA * B + p], he, dr, d1, d2);
+  double dr, d1, d2, r, c, s2;
+  one_way(xc, y, g[G2AX * B + p], g[G2AY * B + p], g[GA2 * B + p], g[GNA * B + p], he, dr, d1, d2,
+          r, c, s2);
+  ex.e[0] = exact_end(r, c, s2);
+  ex.e[1] = ex.e[0];
+  const double fold = BIST ? 1.0 : -0.5 / r;
+  ex.ib = static_cast<float>(g[GIB * B + p] * fold);
+  ex.kc = static_cast<float>(g[GKC * B + p] * fold);
   if (BIST) {
-    double drb, d1b, d2b;
-    one_way(xc, y, g[G2BX * B + p], g[G2BY * B + p], g[GB2 * B + p], g[GNB * B + p], he, drb, d1b, d2b);
+    double drb, d1b, d2b, rb, cb, s2b;
+    one_way(xc, y, g[G2BX * B + p], g[G2BY * B + p], g[GB2 * B + p], g[GNB * B + p], he, drb, d1b,
+            d2b, rb, cb, s2b);
+    ex.e[1] = exact_end(rb, cb, s2b);
     dr = 0.5 * (dr + drb);
     d1 = 0.5 * (d1 + d1b);
     d2 = 0.5 * (d2 + d2b);
@@ -217,17 +253,26 @@ SARCLI_INLINE void anchors(const Args& A, long p0, long p1, double xc, double y,
   float *__restrict f0 = an.f0, *__restrict s1 = an.s1, *__restrict s2 = an.s2;
   float *__restrict lo = an.lo, *__restrict hi = an.hi, *__restrict top = an.top;
   double *__restrict ph0 = an.ph0, *__restrict ph1 = an.ph1, *__restrict ph2 = an.ph2;
-#define SARCLI_ANCHOR_LOOP(BIST)                                                              \
+  ExactAnchor* __restrict ex = an.ex.data();
+#define SARCLI_ANCHOR_LOOP(BIST, EX)                                                          \
   for (long p = p0; p < p1; ++p) {                                                              \
-    const Anchor a = anchor<BIST>(A, p, xc, y, he);                                             \
+    ExactAnchor e;                                                                              \
+    const Anchor a = anchor<BIST>(A, p, xc, y, he, e);                                          \
     const long i = p - p0;                                                                      \
     j0[i] = a.j0; f0[i] = a.f0; s1[i] = a.s1; s2[i] = a.s2; lo[i] = a.lo; hi[i] = a.hi;         \
     top[i] = a.top; ph0[i] = a.ph0; ph1[i] = a.ph1; ph2[i] = a.ph2;                             \
+    if (EX) ex[i] = e;                                                                          \
   }
   if (A.bist) {
-    SARCLI_ANCHOR_LOOP(true)
+    if (A.exact) {
+      SARCLI_ANCHOR_LOOP(true, true)
+    } else {
+      SARCLI_ANCHOR_LOOP(true, false)
+    }
+  } else if (A.exact) {
+    SARCLI_ANCHOR_LOOP(false, true)
   } else {
-    SARCLI_ANCHOR_LOOP(false)
+    SARCLI_ANCHOR_LOOP(false, false)
   }
 #undef SARCLI_ANCHOR_LOOP
 }
@@ -240,15 +285,45 @@ struct Lanes {
   float c[kLanes], s[kLanes];
 };
 
-template <int K>
-SARCLI_INLINE void eval_lanes(const Anchor& an, const float* uf, const double* ud, long pad,
-                              Lanes<K>& L) {
+// The exact model's departure from the quadratic at each lane, up to the factor that
+// ExactAnchor::ib and ::kc carry: with NE = 1 (monostatic) m = δ (2 c u + δ), so ρ = -m / (2 R_c);
+// with NE = 2 (bistatic) the mean of the two ends' ρ (their i2r carry -1/(4 R_c)).
+// (The generic version: square root and division; the AVX-512 and AVX2 versions below refine the
+// hardware's reciprocal square root and reciprocal by a Newton step instead, which keeps the
+// divider, 20-odd cycles a vector, out of the loop.)
+template <int NE, int ISA>
+struct ExactLanes {
+  static SARCLI_INLINE void eval(const ExactAnchor& x, const float* uf, float* rho) {
+#pragma omp simd
+    for (int i = 0; i < kLanes; ++i) {
+      const float u = uf[i], uu = u * u;
+      float r = 0.0f;
+      for (int e = 0; e < NE; ++e) {
+        const ExactEnd& q = x.e[e];
+        const float R = std::sqrt(q.rc2 + q.tdx * u + uu);
+        const float d = q.s2 * uu / (q.rc + q.c * u + R);
+        const float m = d * (q.c2 * u + d);
+        r = NE == 1 ? m : r + m * q.i2r;
+      }
+      rho[i] = r;
+    }
+  }
+};
+
+// Each lane's profile position and carrier phase: the anchor's quadratic, plus with NE > 0 the
+// exact model's ρ (in bins and in radians).
+template <int K, int NE, int ISA>
+SARCLI_INLINE void eval_lanes(const Anchor& an, const ExactAnchor* ex, const float* uf,
+                              const double* ud, long pad, Lanes<K>& L) {
   const int base = an.j0 + static_cast<int>(pad) - Kernel<K>::first;
-  float t[kLanes], m[kLanes];
+  float t[kLanes], m[kLanes], rho[kLanes];
+  if (NE > 0) ExactLanes<NE, ISA>::eval(*ex, uf, rho);
+  const float ib = NE > 0 ? ex->ib : 0.0f, kc = NE > 0 ? ex->kc : 0.0f;
 #pragma omp simd
   for (int i = 0; i < kLanes; ++i) {
     const float u = uf[i];
     float sp = an.f0 + u * (an.s1 + u * an.s2);
+    if (NE > 0) sp += ib * rho[i];
     m[i] = (sp >= an.lo && sp < an.hi) ? 1.0f : 0.0f;
     sp = std::min(std::max(sp, an.lo), an.top);
     const float fl = std::floor(sp);
@@ -258,8 +333,10 @@ SARCLI_INLINE void eval_lanes(const Anchor& an, const float* uf, const double* u
 #pragma omp simd
   for (int i = 0; i < kLanes; ++i) {
     const double v = ud[i];
+    double ph = an.ph0 + v * (an.ph1 + v * an.ph2);
+    if (NE > 0) ph += static_cast<double>(kc * rho[i]);
     float c, s;
-    carrier(an.ph0 + v * (an.ph1 + v * an.ph2), c, s);
+    carrier(ph, c, s);
     L.c[i] = m[i] * c;
     L.s[i] = m[i] * s;
   }
@@ -464,15 +541,61 @@ struct Taps<float, 0, 1> {
     }
   }
 };
+
+// ExactLanes with the hardware's reciprocal (square root) estimates and one Newton step each:
+// R = A y refined by R + (y/2)(A - R²), 1/D by v (2 - D v). AVX-512's 14-bit estimates leave
+// about 1 ulp; AVX2's 12-bit ones about 2 (within _bp_kernels.EXACT_ROUNDINGS either way).
+#define SARCLI_EXACT_BODY(V, P)                                                                      \
+  const V u = P##_loadu_ps(uf), uu = P##_mul_ps(u, u);                                               \
+  V r = P##_setzero_ps();                                                                            \
+  for (int e = 0; e < NE; ++e) {                                                                     \
+    const ExactEnd& q = x.e[e];                                                                      \
+    const V A = P##_add_ps(P##_fmadd_ps(P##_set1_ps(q.tdx), u, P##_set1_ps(q.rc2)), uu);             \
+    const V y = RSQRT(A);                                                                            \
+    V R = P##_mul_ps(A, y);                                                                          \
+    R = P##_fmadd_ps(P##_mul_ps(P##_set1_ps(0.5f), y), P##_fnmadd_ps(R, R, A), R);                   \
+    const V D = P##_add_ps(P##_fmadd_ps(P##_set1_ps(q.c), u, P##_set1_ps(q.rc)), R);                 \
+    V iv = RCP(D);                                                                                   \
+    iv = P##_mul_ps(iv, P##_fnmadd_ps(D, iv, P##_set1_ps(2.0f)));                                    \
+    const V d = P##_mul_ps(P##_mul_ps(P##_set1_ps(q.s2), uu), iv);                                   \
+    const V m = P##_mul_ps(d, P##_fmadd_ps(P##_set1_ps(q.c2), u, d));                                \
+    r = NE == 1 ? m : P##_fmadd_ps(m, P##_set1_ps(q.i2r), r);                                        \
+  }
+template <int NE>
+struct ExactLanes<NE, 2> {
+  static SARCLI_V4_LOAD void eval(const ExactAnchor& x, const float* uf, float* rho) {
+#define RSQRT _mm512_rsqrt14_ps
+#define RCP _mm512_rcp14_ps
+    SARCLI_EXACT_BODY(__m512, _mm512)
+    _mm512_storeu_ps(rho, r);
+#undef RSQRT
+#undef RCP
+  }
+};
+template <int NE>
+struct ExactLanes<NE, 1> {
+  static SARCLI_V3_LOAD void eval(const ExactAnchor& x, const float* uf0, float* rho) {
+#define RSQRT _mm256_rsqrt_ps
+#define RCP _mm256_rcp_ps
+    for (int h = 0; h < 2; ++h) {
+      const float* uf = uf0 + 8 * h;
+      SARCLI_EXACT_BODY(__m256, _mm256)
+      _mm256_storeu_ps(rho + 8 * h, r);
+    }
+#undef RSQRT
+#undef RCP
+  }
+};
+#undef SARCLI_EXACT_BODY
 #endif
 
 // Pulse p's carried samples at one group of lanes (eval_lanes' ranges): each lane's stencil of the
 // profile pp, weighted, times its carrier: (ur + i ui) = (Σ w v)(c + i s). The forward rows add
 // them up; the contraction weighs them by the image's gradient.
-template <typename PT, int K, int ISA>
-SARCLI_INLINE void carried_lanes(const Anchor& a, const float* uf, const double* ud, long pad, const PT* pp,
-                                 Lanes<K>& L, PT* __restrict ur, PT* __restrict ui) {
-  eval_lanes<K>(a, uf, ud, pad, L);
+template <typename PT, int K, int ISA, int NE>
+SARCLI_INLINE void carried_lanes(const Anchor& a, const ExactAnchor* ex, const float* uf, const double* ud,
+                                 long pad, const PT* pp, Lanes<K>& L, PT* __restrict ur, PT* __restrict ui) {
+  eval_lanes<K, NE, ISA>(a, ex, uf, ud, pad, L);
   PT tp[2 * Kernel<K>::taps][kLanes];
   Taps<PT, K, ISA>::load(pp, L.idx, tp);
 #pragma omp simd
@@ -488,10 +611,11 @@ SARCLI_INLINE void carried_lanes(const Anchor& a, const float* uf, const double*
   }
 }
 
-// Forward: pulses [p0, p1) into image row `row` (accumulators in registers per tile).
-template <typename PT, int K, int ISA>
-SARCLI_INLINE void bp_row(const Args& A, const PT* prof, long row, long p0, long p1,
-                          Anchors& an, double* ore, double* oim) {
+// Forward: pulses [p0, p1) into image row `row` (accumulators in registers per tile); NE: the
+// range model (0 the economised quadratic, 1 or 2 the exact model of one or two ends).
+template <typename PT, int K, int ISA, int NE>
+SARCLI_INLINE void bp_row_model(const Args& A, const PT* prof, long row, long p0, long p1,
+                                Anchors& an, double* ore, double* oim) {
   const double y = A.y[row];
   float uf[kGroups][kLanes];
   double ud[kGroups][kLanes];
@@ -500,14 +624,15 @@ SARCLI_INLINE void bp_row(const Args& A, const PT* prof, long row, long p0, long
     double xc, he;
     const long wv = tile_lanes(A, c0, uf, ud, xc, he);
     const long ng = (wv + kLanes - 1) / kLanes;
-    anchors(A, p0, p1, xc, y, he, an);
+    anchors(A, p0, p1, xc, y, NE > 0 ? 0.0 : he, an);
     PT ar[kGroups][kLanes] = {}, ai[kGroups][kLanes] = {};
     for (long p = p0; p < p1; ++p) {
       const Anchor a = an.get(p - p0);
+      const ExactAnchor* ex = an.ex.data() + (p - p0);
       const PT* pp = prof + 2 * p * A.lp;
       for (long g = 0; g < ng; ++g) {
         PT ur[kLanes], ui[kLanes];
-        carried_lanes<PT, K, ISA>(a, uf[g], ud[g], A.pad, pp, L, ur, ui);
+        carried_lanes<PT, K, ISA, NE>(a, ex, uf[g], ud[g], A.pad, pp, L, ur, ui);
         PT* __restrict gr = ar[g];
         PT* __restrict gi = ai[g];
 #pragma omp simd
@@ -526,12 +651,26 @@ SARCLI_INLINE void bp_row(const Args& A, const PT* prof, long row, long p0, long
   }
 }
 
+// The range model's instance of a row (the exact flag is the same for every tile of a call).
+#define SARCLI_BY_MODEL(FN, ...)                       \
+  do {                                                 \
+    if (!A.exact) FN<PT, K, ISA, 0>(__VA_ARGS__);      \
+    else if (A.bist) FN<PT, K, ISA, 2>(__VA_ARGS__);   \
+    else FN<PT, K, ISA, 1>(__VA_ARGS__);               \
+  } while (0)
+
+template <typename PT, int K, int ISA>
+SARCLI_INLINE void bp_row(const Args& A, const PT* prof, long row, long p0, long p1,
+                          Anchors& an, double* ore, double* oim) {
+  SARCLI_BY_MODEL(bp_row_model, A, prof, row, p0, p1, an, ore, oim);
+}
+
 // Contraction: acc[2p], acc[2p + 1] += Σ over image row `row` of g · (pulse p's backprojection),
 // for the pulses [p0, p1): the per-pulse derivative of an image functional with gradient g, as a
 // gather from each profile where the adjoint (rp_pulse) scatters onto it.
-template <typename PT, int K, int ISA>
-SARCLI_INLINE void bp_contract_row(const Args& A, const PT* prof, const PT* gre, const PT* gim,
-                                   long row, long p0, long p1, Anchors& an, double* acc) {
+template <typename PT, int K, int ISA, int NE>
+SARCLI_INLINE void bp_contract_row_model(const Args& A, const PT* prof, const PT* gre, const PT* gim,
+                                         long row, long p0, long p1, Anchors& an, double* acc) {
   const double y = A.y[row];
   float uf[kGroups][kLanes];
   double ud[kGroups][kLanes];
@@ -549,15 +688,16 @@ SARCLI_INLINE void bp_contract_row(const Args& A, const PT* prof, const PT* gre,
       wr[c / kLanes][c % kLanes] = c < wv ? gre[row * A.nx + c0 + c] : PT(0);
       wi[c / kLanes][c % kLanes] = c < wv ? gim[row * A.nx + c0 + c] : PT(0);
     }
-    anchors(A, p0, p1, xc, y, he, an);
+    anchors(A, p0, p1, xc, y, NE > 0 ? 0.0 : he, an);
     for (long p = p0; p < p1; ++p) {
       const Anchor a = an.get(p - p0);
+      const ExactAnchor* ex = an.ex.data() + (p - p0);
       const PT* pp = prof + 2 * p * A.lp;
       PT* __restrict sr = sums + 2 * kLanes * (p - p0);
       PT* __restrict si = sr + kLanes;
       for (long g = 0; g < ng; ++g) {
         PT ur[kLanes], ui[kLanes];
-        carried_lanes<PT, K, ISA>(a, uf[g], ud[g], A.pad, pp, L, ur, ui);
+        carried_lanes<PT, K, ISA, NE>(a, ex, uf[g], ud[g], A.pad, pp, L, ur, ui);
         const PT* __restrict gr = wr[g];
         const PT* __restrict gi = wi[g];
 #pragma omp simd
@@ -580,9 +720,15 @@ SARCLI_INLINE void bp_contract_row(const Args& A, const PT* prof, const PT* gre,
   }
 }
 
+template <typename PT, int K, int ISA>
+SARCLI_INLINE void bp_contract_row(const Args& A, const PT* prof, const PT* gre, const PT* gim,
+                                   long row, long p0, long p1, Anchors& an, double* acc) {
+  SARCLI_BY_MODEL(bp_contract_row_model, A, prof, gre, gim, row, p0, p1, an, acc);
+}
+
 // Adjoint: every pixel of the image scattered onto pulse p's profile.
-template <typename PT, int K>
-SARCLI_INLINE void rp_pulse(const Args& A, const PT* fre, const PT* fim, long p, PT* h) {
+template <typename PT, int K, int ISA, int NE>
+SARCLI_INLINE void rp_pulse_model(const Args& A, const PT* fre, const PT* fim, long p, PT* h) {
   float uf[kGroups][kLanes];
   double ud[kGroups][kLanes];
   Lanes<K> L;
@@ -592,10 +738,12 @@ SARCLI_INLINE void rp_pulse(const Args& A, const PT* fre, const PT* fim, long p,
     for (long c0 = 0; c0 < A.nx; c0 += A.width) {
       double xc, he;
       const long wt = tile_lanes(A, c0, uf, ud, xc, he);
-      const Anchor an = A.bist ? anchor<true>(A, p, xc, y, he) : anchor<false>(A, p, xc, y, he);
+      if (NE > 0) he = 0.0;
+      ExactAnchor ex;
+      const Anchor an = A.bist ? anchor<true>(A, p, xc, y, he, ex) : anchor<false>(A, p, xc, y, he, ex);
       for (long g = 0; g * kLanes < wt; ++g) {
         const long wv = std::min<long>(kLanes, wt - g * kLanes);
-        eval_lanes<K>(an, uf[g], ud[g], A.pad, L);
+        eval_lanes<K, NE, ISA>(an, &ex, uf[g], ud[g], A.pad, L);
         const PT* fr = fre + row * A.nx + c0 + g * kLanes;
         const PT* fi = fim + row * A.nx + c0 + g * kLanes;
         for (long i = 0; i < wv; ++i) {  // f · exp(-i kc Δr) (masked)
@@ -616,6 +764,12 @@ SARCLI_INLINE void rp_pulse(const Args& A, const PT* fre, const PT* fim, long p,
   }
 }
 
+template <typename PT, int K, int ISA>
+SARCLI_INLINE void rp_pulse(const Args& A, const PT* fre, const PT* fim, long p, PT* h) {
+  SARCLI_BY_MODEL(rp_pulse_model, A, fre, fim, p, h);
+}
+#undef SARCLI_BY_MODEL
+
 // The SIMD-dispatched workers, one per instance and instruction set, picked per call. Explicit
 // targets rather than SARCLI_CLONES: each copy uses the stencil loads of its own instruction set
 // (Taps<..., ISA>), and $SARCLI_BP_ISA can cap the level so that tests and benchmarks run the
@@ -627,7 +781,7 @@ SARCLI_INLINE void rp_pulse(const Args& A, const PT* fre, const PT* fim, long p,
     bp_row<PT, K, ISA>(A, prof, row, p0, p1, an, ore, oim);                                     \
   }                                                                                             \
   ATTR void rp_pulse_##SUF(const Args& A, const PT* fre, const PT* fim, long p, PT* h) {        \
-    rp_pulse<PT, K>(A, fre, fim, p, h);                                                         \
+    rp_pulse<PT, K, ISA>(A, fre, fim, p, h);                                                         \
   }                                                                                             \
   ATTR void bp_contract_row_##SUF(const Args& A, const PT* prof, const PT* gre, const PT* gim,  \
                                   long row, long p0, long p1, Anchors& an, double* acc) {       \
@@ -691,7 +845,7 @@ ContractFn<double> contract_fn<double>(int kind) { const int level = isa_level()
 #undef SARCLI_PICK
 
 Args make_args(in<double, 1> x, in<double, 1> y, in<double, 2> geo, long lp, long n_len, long pad,
-               long width, bool bist) {
+               long width, bool bist, bool exact) {
   Args A;
   A.x = x.data();
   A.y = y.data();
@@ -705,6 +859,7 @@ Args make_args(in<double, 1> x, in<double, 1> y, in<double, 2> geo, long lp, lon
   A.width = width;
   A.half_len = static_cast<double>(n_len / 2);
   A.bist = bist;
+  A.exact = exact;
   if (geo.shape(0) != kGeoRows) throw nb::value_error("backprojection: geo must have 11 rows");
   if (width < 1 || width > kLanes * kGroups)
     throw nb::value_error("backprojection: tile width must be 1..64");
@@ -715,9 +870,9 @@ Args make_args(in<double, 1> x, in<double, 1> y, in<double, 2> geo, long lp, lon
 
 template <typename PT>
 void bp_tiles(in<PT, 3> prof, in<double, 1> x, in<double, 1> y, in<double, 2> geo, long n_len,
-              long pad, int kind, bool bist, long width, long block, out<double, 2> ore,
+              long pad, int kind, bool bist, long width, bool exact, long block, out<double, 2> ore,
               out<double, 2> oim) {
-  Args A = make_args(x, y, geo, static_cast<long>(prof.shape(1)), n_len, pad, width, bist);
+  Args A = make_args(x, y, geo, static_cast<long>(prof.shape(1)), n_len, pad, width, bist, exact);
   if (prof.shape(0) != static_cast<size_t>(A.B) || prof.shape(2) != 2 ||
       ore.shape(0) != static_cast<size_t>(A.ny) || ore.shape(1) != static_cast<size_t>(A.nx) ||
       oim.shape(0) != ore.shape(0) || oim.shape(1) != ore.shape(1) || kind < 0 || kind > 2)
@@ -741,8 +896,8 @@ void bp_tiles(in<PT, 3> prof, in<double, 1> x, in<double, 1> y, in<double, 2> ge
 
 template <typename PT>
 void rp_tiles(in<PT, 2> fre, in<PT, 2> fim, in<double, 1> x, in<double, 1> y, in<double, 2> geo,
-              long n_len, long pad, int kind, bool bist, long width, out<PT, 3> h) {
-  Args A = make_args(x, y, geo, static_cast<long>(h.shape(1)), n_len, pad, width, bist);
+              long n_len, long pad, int kind, bool bist, long width, bool exact, out<PT, 3> h) {
+  Args A = make_args(x, y, geo, static_cast<long>(h.shape(1)), n_len, pad, width, bist, exact);
   if (h.shape(0) != static_cast<size_t>(A.B) || h.shape(2) != 2 ||
       fre.shape(0) != static_cast<size_t>(A.ny) || fre.shape(1) != static_cast<size_t>(A.nx) ||
       fim.shape(0) != fre.shape(0) || fim.shape(1) != fre.shape(1) || kind < 0 || kind > 2)
@@ -757,9 +912,9 @@ void rp_tiles(in<PT, 2> fre, in<PT, 2> fim, in<double, 1> x, in<double, 1> y, in
 
 template <typename PT>
 void bp_contract(in<PT, 3> prof, in<PT, 2> gre, in<PT, 2> gim, in<double, 1> x, in<double, 1> y,
-                 in<double, 2> geo, long n_len, long pad, int kind, bool bist, long width, long block,
-                 out<double, 2> acc) {
-  Args A = make_args(x, y, geo, static_cast<long>(prof.shape(1)), n_len, pad, width, bist);
+                 in<double, 2> geo, long n_len, long pad, int kind, bool bist, long width, bool exact,
+                 long block, out<double, 2> acc) {
+  Args A = make_args(x, y, geo, static_cast<long>(prof.shape(1)), n_len, pad, width, bist, exact);
   if (prof.shape(0) != static_cast<size_t>(A.B) || prof.shape(2) != 2 ||
       gre.shape(0) != static_cast<size_t>(A.ny) || gre.shape(1) != static_cast<size_t>(A.nx) ||
       gim.shape(0) != gre.shape(0) || gim.shape(1) != gre.shape(1) ||
@@ -824,20 +979,20 @@ NB_MODULE(_backprojection, m) {
       "offset, 1/bin, kc.";
   const char* rp_doc = "Adjoint of bp_tiles: h[p, :] += transposed interpolation of f exp(-i kc Δr).";
   m.def("bp_tiles", &bp_tiles<float>, "profiles"_a, "x"_a, "y"_a, "geo"_a, "n_len"_a, "pad"_a,
-        "kind"_a, "bist"_a, "width"_a, "block"_a, "out_re"_a, "out_im"_a, bp_doc);
+        "kind"_a, "bist"_a, "width"_a, "exact"_a, "block"_a, "out_re"_a, "out_im"_a, bp_doc);
   m.def("bp_tiles", &bp_tiles<double>, "profiles"_a, "x"_a, "y"_a, "geo"_a, "n_len"_a, "pad"_a,
-        "kind"_a, "bist"_a, "width"_a, "block"_a, "out_re"_a, "out_im"_a, bp_doc);
+        "kind"_a, "bist"_a, "width"_a, "exact"_a, "block"_a, "out_re"_a, "out_im"_a, bp_doc);
   m.def("rp_tiles", &rp_tiles<float>, "fre"_a, "fim"_a, "x"_a, "y"_a, "geo"_a, "n_len"_a, "pad"_a,
-        "kind"_a, "bist"_a, "width"_a, "h"_a, rp_doc);
+        "kind"_a, "bist"_a, "width"_a, "exact"_a, "h"_a, rp_doc);
   m.def("rp_tiles", &rp_tiles<double>, "fre"_a, "fim"_a, "x"_a, "y"_a, "geo"_a, "n_len"_a, "pad"_a,
-        "kind"_a, "bist"_a, "width"_a, "h"_a, rp_doc);
+        "kind"_a, "bist"_a, "width"_a, "exact"_a, "h"_a, rp_doc);
   const char* ct_doc =
       "acc[p] = sum over pixels of g · (pulse p's part of bp_tiles), (re, im): the per-pulse "
       "derivative of an image functional with gradient g, by gathering from the profiles.";
   m.def("bp_contract", &bp_contract<float>, "profiles"_a, "gre"_a, "gim"_a, "x"_a, "y"_a, "geo"_a,
-        "n_len"_a, "pad"_a, "kind"_a, "bist"_a, "width"_a, "block"_a, "acc"_a.noconvert(), ct_doc);
+        "n_len"_a, "pad"_a, "kind"_a, "bist"_a, "width"_a, "exact"_a, "block"_a, "acc"_a.noconvert(), ct_doc);
   m.def("bp_contract", &bp_contract<double>, "profiles"_a, "gre"_a, "gim"_a, "x"_a, "y"_a, "geo"_a,
-        "n_len"_a, "pad"_a, "kind"_a, "bist"_a, "width"_a, "block"_a, "acc"_a.noconvert(), ct_doc);
+        "n_len"_a, "pad"_a, "kind"_a, "bist"_a, "width"_a, "exact"_a, "block"_a, "acc"_a.noconvert(), ct_doc);
   m.def("isa_level", &isa_level, "The kernels' instruction set here: 2 AVX-512, 1 AVX2, 0 baseline.");
   m.def("carrier_values", &carrier_values, "phase"_a, "cos"_a, "sin"_a,
         "(cos, sin) of float64 phases as the kernels evaluate them (float32).");
