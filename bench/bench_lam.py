@@ -230,11 +230,10 @@ def evaluate_disk(ph, truth, priors=("ptv",), sweep=SWEEP, sweep_priors=None):
             fixed_img = regularize(ph, prior=prior, lam=img.parameters["lam"])
             fixed = time.process_time() - t0
         sel = img.parameters["lam_selection"]
-        # AᴴA applications (machine-independent cost): power iterations, per path point one product per
-        # solver at its start and one per iteration and solver, then the final solve (same for fixed)
-        power = img.parameters["scale_power_iterations"]
-        grams = power + 2 * (sum(sel["path_iterations"]) + len(sel["path_iterations"])) + 1 + img.parameters["iterations"]
-        grams_fixed = power + 1 + fixed_img.parameters["iterations"]
+        # AᴴA applications (machine-independent cost), as regularize counts them: the scaling's power
+        # iterations, both path solvers, the final solve
+        grams = img.parameters["gram_products"]["total"]
+        grams_fixed = fixed_img.parameters["gram_products"]["total"]
         row = {"err": gain_error(img.image, truth), "lam": img.parameters["lam"], "s": secs, "fixed_s": fixed,
                "grams": grams / grams_fixed,
                "criterion": sel["criterion"], "status": sel["status"], "sigma2": sel["noise_power"],

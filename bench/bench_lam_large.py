@@ -73,9 +73,8 @@ def on_terminal(log: Path, argv: list[str]) -> tuple[float, float]:
 
 
 def products(params: dict) -> int:
-    sel = params.get("lam_selection")
-    path = 2 * (sum(sel["path_iterations"]) + len(sel["path_iterations"])) if sel else 0
-    return params["scale_power_iterations"] + path + 1 + params["iterations"]
+    """AᴴA products of a run, as regularize counts them (scaling, λ path, final solve)."""
+    return params["gram_products"]["total"]
 
 
 def main(argv=None):
@@ -103,6 +102,9 @@ def main(argv=None):
     print(f"AᴴA products {products(pa)} vs {products(pf)} ({products(pa) / products(pf):.2f} x); CPU "
           f"{cpu_a:.0f} s vs {cpu_f:.0f} s ({cpu_a / cpu_f:.2f} x); wall {wall_a:.0f} s vs {wall_f:.0f} s "
           f"({wall_a / wall_f:.2f} x)")
+    for name, p, wall in (("auto", pa, wall_a), ("fixed", pf, wall_f)):
+        print(f"{name}: predicted {p['predicted_s']:.0f} s (up to {p['predicted_max_s']:.0f} s), took "
+              f"{wall:.0f} s wall (predicted / measured {p['predicted_s'] / wall:.2f})")
 
 
 if __name__ == "__main__":

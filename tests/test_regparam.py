@@ -17,9 +17,10 @@ from sarcli.cli.main import cli
 from sarcli.errors import AliasingWarning, ConvergenceWarning, SarcliWarning
 from sarcli.io.hdf5 import read_image, write_phase_history
 from sarcli.regularize import PRIORS, matched_filter, regularize
-from sarcli.regularize.driver import PATH_ITERS
-from sarcli.regularize.regparam import (GCV_GAMMA, LAM_PATH, STOP_AFTER, discrepancy_lambda, estimate_noise_power,
-                                        gcv_score, mc_dof, noise_power, select_lambda, sure_score)
+from sarcli.regularize.driver import PATH_FIRST_ITERS, PATH_ITERS
+from sarcli.regularize.regparam import (FLAT_REL, GCV_GAMMA, LAM_MIN, LAM_PATH, SPECKLE_FRACTION, STOP_AFTER,
+                                        discrepancy_lambda, estimate_noise_power, gcv_score, mc_dof, noise_power,
+                                        select_lambda, speckle_fraction, sure_score)
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "bench"))
 from bench_lam import disk_scene, gain_error, mag_error, scene  # noqa: E402
@@ -174,6 +175,66 @@ def test_select_lambda_extends_upwards_when_the_largest_lambda_wins():
     assert top.lam == 0.3 and len(top.lams) == 3                 # no lam_max: no extension
 
 
+def test_select_lambda_extends_downwards_while_the_criterion_falls():
+    # SURE = r2 − nσ² + 2σ² dof with r2 = λ, dof = 0: falls all the way down; the path goes on by its
+    # ratio (10) below its end (1e-2) to the floor, each point warm from the previous one
+    starts = []
+
+    def solve(lam, start):
+        starts.append(start)
+        return lam, lam, 0.0
+
+    choice = select_lambda(solve, 100, lams=[1.0, 0.1, 0.01], sigma2=0.0, lam_min=1e-5)
+    assert choice.lams == pytest.approx([1.0, 0.1, 0.01, 1e-3, 1e-4, 1e-5])
+    assert choice.status == "at the smallest λ" and choice.at_limit and choice.lam == pytest.approx(1e-5)
+    assert all(s is None for s in starts)
+    # a minimum below the path's end: found by the extension, interior, not at a limit
+    inner = select_lambda(lambda lam, start: (lam, (np.log10(lam) + 3.3) ** 2, 0.0), 100,
+                          lams=[1.0, 0.1, 0.01], sigma2=0.0, lam_min=1e-5)
+    assert inner.status == "interior" and not inner.at_limit
+    assert inner.lams == pytest.approx([1.0, 0.1, 0.01, 1e-3, 1e-4])
+    assert inner.lam == pytest.approx(10 ** -3.3, rel=1e-6)       # the parabola is exact here
+    # a criterion gone flat stops the extension above the floor (at a limit all the same)
+    flat = select_lambda(lambda lam, start: (lam, 1.0 + FLAT_REL * 1e-3 * lam, 0.0), 100,
+                         lams=[1.0, 0.1, 0.01], sigma2=0.0, lam_min=1e-5)
+    assert flat.at_limit and flat.status == "at the smallest λ" and len(flat.lams) == 4
+    # no floor: the path's own end is the limit, as before
+    plain = select_lambda(solve, 100, lams=[1.0, 0.1, 0.01], sigma2=0.0)
+    assert plain.lams == [1.0, 0.1, 0.01] and plain.at_limit
+
+
+def test_speckle_is_counted_as_noise_in_sure_and_after_gcv():
+    a, b, sigma2, exact = _diagonal_problem()
+    n = a.size
+    power = float(np.vdot(b, b).real) / n
+    kappa = 0.2
+    eff = sigma2 + kappa * (power - sigma2)
+    grid = np.linspace(np.log(1e-6), 0.0, 20001)
+    best = float(np.exp(grid[int(np.argmin([sure_score(*exact(np.exp(v)), n, eff) for v in grid]))]))
+    solve = lambda lam, start: (None, *exact(lam))  # noqa: E731
+    lams = np.geomspace(1.0, 1e-6, 121)
+    sure = select_lambda(solve, n, lams=lams, sigma2=sigma2, speckle_fraction=kappa, data_power=power)
+    assert sure.lam == pytest.approx(best, rel=0.02) and sure.speckle == pytest.approx(kappa * (power - sigma2))
+    plain = select_lambda(solve, n, lams=lams, sigma2=sigma2)
+    assert plain.lam < 0.5 * sure.lam                               # speckle asks for more smoothing
+    # no σ²: GCV walks the path, its minimum gives Wahba's σ̂², then SURE with σ̂² + speckle chooses
+    gcv = select_lambda(solve, n, lams=lams, speckle_fraction=kappa, data_power=power)
+    gcv_only = select_lambda(solve, n, lams=lams)
+    i = gcv_only.index
+    s2 = gcv_only.residuals[i] / (n - gcv_only.dofs[i])
+    assert gcv.noise_power == pytest.approx(s2) and gcv.walk_scores == pytest.approx(gcv_only.scores)
+    assert gcv.scores == pytest.approx([sure_score(r, d, n, s2 + kappa * (power - s2))
+                                        for r, d in zip(gcv.residuals, gcv.dofs)])
+    assert gcv.lam > gcv_only.lam and gcv.scores[gcv.index] == min(gcv.scores)
+
+
+def test_speckle_fraction_follows_the_pixels_the_data_do_not_fix():
+    assert SPECKLE_FRACTION == pytest.approx(1 - np.pi / 4)
+    assert speckle_fraction(1000, 3000) == 0.0 == speckle_fraction(3000, 3000)   # every pixel fixed by the data
+    assert speckle_fraction(4000, 1000) == pytest.approx(0.75 * (1 - np.pi / 4))
+    assert speckle_fraction(0, 10) == 0.0
+
+
 def test_auto_on_a_scene_filling_the_disk_uses_gcv_and_beats_the_matched_filter(disk):
     ph, truth, sigma2 = disk
     assert noise_power(ph, ph.acquisition.grid)[0] is None          # no range bin outside the scene
@@ -191,7 +252,7 @@ def test_auto_on_a_scene_filling_the_disk_uses_gcv_and_beats_the_matched_filter(
     assert 0.2 < sel["noise_power"] / sigma2 < 5
     json.dumps(sel)
     assert len(sel["lams"]) == len(sel["scores"]) == len(sel["dofs"]) == len(sel["path_iterations"])
-    assert max(sel["path_iterations"]) <= PATH_ITERS
+    assert max(sel["path_iterations"][1:]) <= PATH_ITERS and sel["path_iterations"][0] <= PATH_FIRST_ITERS
     # cost, counted in AᴴA applications: two solvers per path iteration, then the warm final solve,
     # against one solve from zero at the chosen λ
     fx, _ = _quiet(regularize, ph, prior="ptv", lam=img.parameters["lam"])
@@ -242,8 +303,15 @@ def test_noiseless_data_get_a_small_lambda_and_no_warning():
     img, warns = _quiet(regularize, ph, prior="ptv", iters=60)
     ref, _ = _quiet(regularize, noisy, prior="ptv", iters=60)
     assert not warns
-    assert img.parameters["lam"] == min(img.parameters["lam_selection"]["lams"])
+    sel = img.parameters["lam_selection"]
+    assert img.parameters["lam"] == min(sel["lams"])
     assert img.parameters["lam"] < 0.1 * ref.parameters["lam"]
+    # the path went below its nominal end (1e-3) while SURE still fell, and says where it stopped
+    assert min(sel["lams"]) < 1e-3 and min(sel["lams"]) >= LAM_MIN * (1 - 1e-9)
+    assert sel["at_path_end"] == "smallest" and sel["at_limit"] and sel["speckle_fraction"] == 0.0
+    assert [a["code"] for a in img.parameters["advice"]][:1] == ["lam_at_smallest"]
+    assert ref.parameters["lam_selection"]["at_path_end"] is None
+    assert "lam_at_smallest" not in [a["code"] for a in ref.parameters["advice"]]
 
 
 def test_progress_and_notice_cover_the_path_and_the_final_solve(disk, monkeypatch):
@@ -276,8 +344,17 @@ def test_progress_and_notice_cover_the_path_and_the_final_solve(disk, monkeypatc
     assert bar.n == power + 2 * sum(sel["path_iterations"]) + img.parameters["iterations"] <= bar.total
     assert "lam=" in bar.desc
     assert len(notes) == 1 and "predicted" in notes[0] and "--lam" in notes[0]
-    assert ticks_at_notice == [1]  # announced after the first AᴴA product, before the rest of the scaling
-    assert img.parameters["predicted_s"] > 0
+    # announced after the second AᴴA product (the first carries one-time set-up), before the rest
+    # of the scaling
+    assert ticks_at_notice == [2]
+    assert 0 < img.parameters["predicted_s"] < img.parameters["predicted_max_s"]
+    # every AᴴA product is counted: the scaling's, two solvers per path point (one at the start and
+    # one per iteration each), the final solve's (one at the start and one per iteration)
+    counts = img.parameters["gram_products"]
+    assert counts["scaling"] == power
+    assert counts["path"] == 2 * (sum(sel["path_iterations"]) + len(sel["path_iterations"]))
+    assert counts["final"] == img.parameters["iterations"] + 1
+    assert counts["total"] == counts["scaling"] + counts["path"] + counts["final"]
     notes.clear()
     _quiet(regularize, ph, prior="tv", iters=5, lam=0.1, notice=notes.append)
     assert len(notes) == 1 and "--lam" not in notes[0]
@@ -296,6 +373,18 @@ def test_cli_lam_auto_is_the_default_and_recorded(tmp_path, disk):
     assert len(line) == 1 and "gcv" in line[0] and "path lam" in line[0]
     res = CliRunner().invoke(cli, ["regularize", str(src), "-o", str(out), "--iters", "40"])
     assert "lam selection:" not in res.output
+    # the final solve stopped at its cap: the final line says so, one note says what to do, and the
+    # file's parameters carry both as fields
+    res = CliRunner().invoke(cli, ["regularize", str(src), "-o", str(out), "--iters", "3"])
+    assert res.exit_code == 0, res.output
+    p = read_image(out).parameters
+    assert p["iteration_cap_reached"] is True and p["final_relative_change"] > p["tol"]
+    assert [a["code"] for a in p["advice"]] == ["iteration_cap"]
+    assert "(cap reached)" in res.output
+    notes = [ln for ln in res.output.splitlines() if ln.startswith("note:")]
+    assert len(notes) == 1 and "--iters 6" in notes[0]
+    res = CliRunner().invoke(cli, ["-q", "regularize", str(src), "-o", str(out), "--iters", "3"])
+    assert res.exit_code == 0 and "note:" not in res.output and "wrote" not in res.output
     res = CliRunner().invoke(cli, ["regularize", str(src), "-o", str(out), "--lam", "0.05", "--iters", "5"])
     assert res.exit_code == 0 and read_image(out).parameters["lam"] == 0.05
     assert "lam_selection" not in read_image(out).parameters

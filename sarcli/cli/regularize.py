@@ -110,7 +110,13 @@ def command(ctx, input_path, output, prior, order, lam, beta, iters, tol, operat
     how = f"lam {p['lam']:.4g}" + (f" by {sel['criterion']}" if sel else "")
     op = p["operator"] + (f", {p['subapertures']} sub-apertures, predicted error {p['operator_predicted_error']:.2g}"
                           if p["operator"] == "warped" else "")
-    wrote(output, f"{prior} ({op}), {how}, {p.get('iterations', 0)} iterations, {img.runtime_s:.3g} s")
+    if sel and sel.get("at_path_end"):
+        how += f" at the {sel['at_path_end']} lam of its path"
+    cap = " (cap reached)" if p.get("iteration_cap_reached") else ""
+    wrote(output, f"{prior} ({op}), {how}, {p.get('iterations', 0)} iterations{cap}, {img.runtime_s:.3g} s")
+    if not quiet:
+        for item in p.get("advice", []):
+            click.echo(f"note: {item['line']}")
     if sel and (ctx.find_root().obj or {}).get("verbose") and not quiet:
         click.echo(lam_selection_line(sel))
 

@@ -3,6 +3,8 @@
 - :mod:`.driver` — :func:`regularize` (phase history -> regularised :class:`~sarcli.core.types.Image`:
   TV, HOTV, ℓ1, phase-corrected TV by ADMM, Tikhonov by CG), the scaling that gives λ its meaning,
   the matched filter of the same operator, and the λ path's solvers.
+- :mod:`.lampath` — the λ path of ``lam='auto'``: two solvers side by side (data, data plus a
+  probe) and the record of the choice.
 - :mod:`.regparam` — ``lam='auto'``: the noise power (file or range bins outside the scene),
   SURE and modified GCV with Monte-Carlo degrees of freedom on a warm-started path, and the
   discrepancy principle.

@@ -34,14 +34,16 @@ import warnings
 import numpy as np
 
 from ..core import geometry
-from ..errors import ConvergenceWarning, DefocusWarning, SarcliInputError
+from ..errors import DefocusWarning, SarcliInputError
 from ..core.grid import Grid, resolve_grid
 from ..core.types import Image, PhaseHistory
 from ..linops import (NufftOperator, SphericalOperator, gram_eigmax, normal_equations,
                      sparsifying_operator)
+from ..linops.base import Linop
 from ..linops.toeplitz import NormalEquations
 from ..linops.finite_diff import FiniteDifference
-from .regparam import SELECT_PATH
+from .lampath import PATH_FIRST_ITERS, PATH_ITERS, auto_lambda
+from .regparam import LAM_MIN, SELECT_PATH
 from ..solvers import ADMM, tikhonov
 
 __all__ = ["regularize", "PRIORS", "OPERATORS", "DEFAULT_LAM", "DEFAULT_BETA_RATIO",
@@ -137,100 +139,122 @@ def matched_filter(ph: PhaseHistory, grid: Grid | None = None, *, operator: str 
     return op.adjoint(ph.data) / ph.data.size
 
 
-#: Iteration cap and tolerance of each solve on the λ path of ``lam='auto'`` (each warm-started
-#: from the previous λ; CG for 'tikhonov' runs to its own tolerance, capped the same).
-PATH_ITERS, PATH_TOL, PATH_CG_TOL = 25, 1e-3, 1e-4
-#: Largest λ the path of ``lam='auto'`` extends to when its criterion is smallest at the top
-#: (ℓ1: λ ≥ 2 zeroes the image).
-LAM_MAX = {"l1": 1.0, "tv": 10.0, "hotv": 10.0, "ptv": 10.0, "tikhonov": 10.0}
-#: Monte-Carlo probe of the degrees of freedom: seed (the same λ for the same data) and the step δ
-#: relative to the RMS of the scaled data.
-PROBE_SEED, PROBE_STEP = 26, 1e-2
 #: A run predicted to last longer than this many seconds is announced (``notice``) with the
 #: estimate and what would shorten it.
 LONG_RUN_S = 60.0
+#: The forecast's λ path length (points) and final solve (share of ``iters``): the middle of what
+#: the benchmarks of docs/regularize.md show (paths of 4-6 points; final solves of 0.3-1 × the cap).
+PATH_POINTS, FINAL_SHARE = 5, 0.55
 
 
-class _PathSolver:
-    """``solve(lam) -> (u, ‖Âu − b̂‖², dof)`` for :func:`sarcli.regularize.regparam.select_lambda`.
+class _Counted(Linop):
+    """``AᴴA`` that counts its applications (``count``): the cost of a run in products, the same on
+    every machine, for the scaling's power iterations, the λ path and the final solve alike."""
 
-    Two solvers run iteration for iteration: one on the scaled data b̂, one on ``b̂ + δε`` (ε a
-    seeded complex circular probe); both warm-start from their own previous path solution, so the
-    Monte-Carlo degrees of freedom (:func:`sarcli.regularize.regparam.mc_dof`) are those of the path's map
-    from data to image. ``Âᴴε`` is computed once; no forward application of A is needed.
+    def __init__(self, op: Linop):
+        super().__init__(op.ishape, op.oshape, op.dtype)
+        self.op, self.count = op, 0
+
+    def _forward(self, x):
+        self.count += 1
+        return self.op.forward(x)
+
+    def _adjoint(self, y):
+        self.count += 1
+        return self.op.adjoint(y)
+
+    def _forward_scaled(self, x, scale):
+        self.count += 1
+        return self.op._forward_scaled(x, scale)
+
+    def _adjoint_scaled(self, y, scale):
+        self.count += 1
+        return self.op._adjoint_scaled(y, scale)
+
+
+class _Forecast:
+    """The run's time from its second AᴴA product (the first carries one-time set-up), announced by
+    ``notice`` when it exceeds :data:`LONG_RUN_S`.
+
+    Each product stands for one iteration (one product per ADMM iteration and solver, two per
+    iteration of CG, which logs its residual). Expected: the scaling, a λ path of
+    :data:`PATH_POINTS` points of ``PATH_ITERS + 1`` products for each of its two solvers (the first
+    point ``PATH_FIRST_ITERS + 1``), and a
+    final solve of :data:`FINAL_SHARE` of ``iters``; the bound: the path down to its floor and
+    the final solve to its cap.
     """
 
-    def __init__(self, op, data, scaled, s_a, s_b, D, T, beta_ratio, isotropic, u0, path_iters, tick):
-        rng = np.random.default_rng(PROBE_SEED)
-        eps = (rng.standard_normal(data.shape) + 1j * rng.standard_normal(data.shape)) / np.sqrt(2.0)
-        self.delta = PROBE_STEP * float(np.sqrt(scaled.bnorm2 / data.size))
-        self.probe_adjoint = np.asarray(op.adjoint(eps), np.complex128) / s_a
-        b_pert = data / s_b + self.delta * eps
-        self.perturbed = NormalEquations(scaled.gram, scaled.atb + self.delta * self.probe_adjoint,
-                                         float(np.vdot(b_pert, b_pert).real))
-        self.scaled, self.D, self.T, self.beta_ratio, self.isotropic = scaled, D, T, beta_ratio, isotropic
-        self.u = self.up = u0
-        self.path_iters, self.tick = int(path_iters), tick
-        self.iterations = []
-        self.solutions = []  # (u, u perturbed) of every call, for warm starts out of order
+    def __init__(self, prior, operator, power_iters, iters, auto, notice, tick):
+        per = 2 if prior == "tikhonov" else 1
+        path_points = len(SELECT_PATH) + int(np.floor(np.log(min(SELECT_PATH) / LAM_MIN) /
+                                                      np.log(SELECT_PATH[0] / SELECT_PATH[1]) + 1e-9))
+        first = min(iters, PATH_FIRST_ITERS) - min(iters, PATH_ITERS)  # the first point's extra iterations
+        path = (lambda pts: 2 * per * ((PATH_ITERS + 1) * pts + first)) if auto else (lambda pts: 0)  # noqa: E731
+        self.expected = power_iters + path(PATH_POINTS) + per * FINAL_SHARE * iters
+        self.bound = power_iters + path(path_points) + per * iters
+        self.path_points, self.final = path_points, (path(0), per * iters)
+        self.prior, self.operator, self.iters, self.auto = prior, operator, iters, auto
+        self.notice, self.tick, self.estimate, self.t = notice, tick, {}, [time.perf_counter()]
 
-    def __call__(self, lam, start=None):
-        from .regparam import mc_dof
-
-        if start is not None:
-            self.u, self.up = self.solutions[start]
-
-        if self.D is not None:
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore", ConvergenceWarning)  # a path point need not converge
-                u, hist = tikhonov(self.scaled, self.D, lam, x0=self.u, tol=PATH_CG_TOL, max_iter=self.path_iters)
-                up, hp = tikhonov(self.perturbed, self.D, lam, x0=self.up, tol=PATH_CG_TOL,
-                                  max_iter=self.path_iters)
-            its = len(hist.get("objective", []))
-            self.tick(its + len(hp.get("objective", [])))
-            r2 = self.scaled.residual_norm2(u, self.scaled.gram.forward(u))
-        else:
-            a = ADMM(self.scaled, self.T, lam, self.beta_ratio * lam, x0=self.u, isotropic=self.isotropic,
-                     tol=PATH_TOL, max_iter=self.path_iters)
-            b = ADMM(self.perturbed, self.T, lam, self.beta_ratio * lam, x0=self.up, isotropic=self.isotropic,
-                     tol=PATH_TOL, max_iter=self.path_iters)
-            while not a.done():
-                a.step()
-                b.step()
-                self.tick(2)
-            u, up, its, r2 = a.f, b.f, a.iteration, a.data_residual2()
-        self.u, self.up = u, up
-        self.solutions.append((u, up))
-        self.iterations.append(int(its))
-        return u, r2, mc_dof(self.probe_adjoint, self.delta, u, up)
+    def on_power(self, i):
+        self.tick(1)
+        if i > 2:
+            return
+        self.t.append(time.perf_counter())
+        if i != 2:
+            return
+        gram_s = self.t[2] - self.t[1]
+        predicted, bound = gram_s * self.expected, gram_s * self.bound
+        self.estimate.update(predicted_s=predicted, predicted_max_s=bound, seconds_per_product=gram_s)
+        if self.notice is None or predicted <= LONG_RUN_S:
+            return
+        faster = [f"give --lam (skips the lam path, about {gram_s * FINAL_SHARE * self.iters:.0f} s)"] \
+            if self.auto else []
+        faster += ["fewer --iters", "a coarser --pixel-size or a smaller --extent"]
+        if self.operator == "spherical":
+            faster.append("--operator warped (sub-aperture NUFFTs held to --tolerance)")
+        elif self.operator == "warped":
+            faster.append("a larger --tolerance (fewer sub-apertures)")
+        path = (f"a lam path of about {PATH_POINTS} and up to {self.path_points} points of up to {PATH_ITERS} "
+                f"iterations x 2 solvers, then " if self.auto else "")
+        self.notice(f"regularize {self.prior}: about {predicted:.0f} s predicted, up to {bound:.0f} s ({path}"
+                    f"up to {self.iters} iterations, {gram_s:.2g} s per AhA product); "
+                    f"faster: {', '.join(faster)}")
 
 
-def _auto(ph, grid, op, scaled, s_a, s_b, D, T, prior, beta_ratio, isotropic, u0, iters, params, tick):
-    """λ by SURE (noise power known) or modified GCV (:func:`sarcli.regularize.regparam.select_lambda`);
-    records the choice in ``params['lam_selection']``. Returns ``(lam, beta, warm start)``."""
-    from . import regparam
+def _outcome(params: dict, hist: dict, prior: str) -> None:
+    """What a user should know of the run, as fields and as one line each.
 
-    sigma2, source = regparam.noise_power(ph, grid)
-    n = ph.data.size
-    path = _PathSolver(op, ph.data, scaled, s_a, s_b, D, T, beta_ratio, isotropic, u0,
-                       min(int(iters), PATH_ITERS), tick)
-    s2_scaled = None if sigma2 is None else sigma2 / s_b**2
-    choice = regparam.select_lambda(path, n, sigma2=s2_scaled, lam_max=LAM_MAX[prior])
-    criterion = "sure" if sigma2 is not None else "gcv"
-    record = {"criterion": criterion,
-              "gamma": None if sigma2 is not None else regparam.GCV_GAMMA,
-              "noise_power": sigma2 if sigma2 is not None else choice.noise_power * s_b**2,
-              "noise_source": source if sigma2 is not None else
-              "GCV residual ||Af-b||^2 / (n - dof) at the chosen lam (no range bin outside the scene)",
-              "status": choice.status, "lam": choice.lam, "lams": list(choice.lams),
-              "scores": [float(v) if np.isfinite(v) else None for v in choice.scores],
-              "dofs": list(choice.dofs), "residuals": [r * s_b**2 for r in choice.residuals],
-              "n_data": int(n), "path_iters": min(int(iters), PATH_ITERS),
-              "path_iterations": list(path.iterations), "probe_step": path.delta * s_b}
-    if sigma2 is None and choice.status == "at the smallest λ" and np.isfinite(choice.noise_power):
-        record["note"] = "criterion still falling at the smallest lam: data explained to their noise (noiseless?)"
-    params["lam_selection"] = record
-    return choice.lam, beta_ratio * choice.lam, choice.start
+    Sets ``params['iteration_cap_reached']`` (the final solve stopped at ``iters`` before ``tol``),
+    ``params['final_relative_change']`` and ``params['advice']``: a list of ``{'code', 'line'}`` with
+    the codes ``'lam_at_smallest'`` / ``'lam_at_largest'`` (λ auto sits at a path end it could not
+    extend past) and ``'iteration_cap'``; each line says what it means and what to do.
+    """
+    its, iters, tol = params["iterations"], params["iters"], params["tol"]
+    change = hist.get("relative_change")
+    last = float(change[-1]) if change is not None and len(change) else float("nan")
+    # CG (tikhonov) stops on its residual: reaching the cap is not converging
+    capped = its >= iters and (prior == "tikhonov" or not last < tol)
+    params["iteration_cap_reached"], params["final_relative_change"] = bool(capped), last
+    advice = []
+    sel = params.get("lam_selection")
+    if sel is not None and sel.get("at_path_end") == "smallest":
+        advice.append({"code": "lam_at_smallest", "line": (
+            f"lam {sel['lam']:.3g} is the smallest the path tried (floor {sel['lam_floor']:g}) and the "
+            f"{sel['criterion']} criterion still falls there: the data are fitted down to their noise "
+            f"(nearly noiseless, or noise underestimated); check the image for noise, give --lam to choose, "
+            f"or store the data's noise power in the file (attribute noise_power)")})
+    if sel is not None and sel.get("at_path_end") == "largest":
+        advice.append({"code": "lam_at_largest", "line": (
+            f"lam {sel['lam']:.3g} is the largest the path tried (ceiling {sel['lam_ceiling']:g}): the "
+            f"{sel['criterion']} criterion prefers a smoother image still, the prior may not suit the "
+            f"scene; try --prior ptv or give --lam")})
+    if capped:
+        more = f" (relative change {last:.2g} > --tol {tol:g})" if np.isfinite(last) else ""
+        advice.append({"code": "iteration_cap", "line": (
+            f"the final solve stopped at its {iters}-iteration cap{more}: give --iters {2 * iters} "
+            f"(the image may still change) or a larger --tol")})
+    params["advice"] = advice
 
 
 def regularize(ph: PhaseHistory, *, prior: str = "ptv", order: int = 1, lam: float | str | None = "auto",
@@ -251,10 +275,11 @@ def regularize(ph: PhaseHistory, *, prior: str = "ptv", order: int = 1, lam: flo
     lam : float, 'auto' or None
         λ in the normalised units of the module docstring. 'auto' (default): chosen on a short
         warm-started path by SURE when the noise power is known (file attribute, or the range
-        bins outside the scene) and by modified generalised cross-validation otherwise, with
-        Monte-Carlo degrees of freedom (:mod:`sarcli.regularize.regparam`); the choice, the noise estimate
-        and its source, the criterion and the path are recorded in
-        ``parameters['lam_selection']``. None: :data:`DEFAULT_LAM`.
+        bins outside the scene) and otherwise by SURE with the noise power that modified
+        generalised cross-validation's minimum implies, speckle counted as noise, with
+        Monte-Carlo degrees of freedom (:mod:`sarcli.regularize.regparam`); the choice, the noise
+        estimate and its source, the criterion, the path and whether λ sits at its end are
+        recorded in ``parameters['lam_selection']``. None: :data:`DEFAULT_LAM`.
     beta : float, optional
         ADMM penalty β (default ``DEFAULT_BETA_RATIO · λ``; with ``lam='auto'`` the ratio β/λ
         of a given β at the default λ is kept).
@@ -292,13 +317,16 @@ def regularize(ph: PhaseHistory, *, prior: str = "ptv", order: int = 1, lam: flo
         ``total``) advanced once per power iteration of the scaling, per iteration of the λ path
         (both of its solvers) and of the final solve.
     notice : callable, optional
-        ``notice(line)`` once, right after the first (timed) AᴴA product, when the run is predicted
-        to last longer than :data:`LONG_RUN_S`: the estimate and what would shorten it.
+        ``notice(line)`` once, right after the second (timed) AᴴA product, when the run is
+        predicted to last longer than :data:`LONG_RUN_S`: the estimate, its bound and what would
+        shorten it.
 
     Returns
     -------
     Image
         ``method = 'regularize-<prior>'``, ``parameters`` with every setting and the scalings,
+        the AᴴA products counted (``gram_products``), the time forecast (``predicted_s``,
+        ``predicted_max_s``), ``iteration_cap_reached`` and ``advice`` (:func:`_outcome`);
         ``history`` (objective, data_residual, reg_norm, relative_change, step_size, elapsed_s).
 
     Warns
@@ -344,57 +372,40 @@ def regularize(ph: PhaseHistory, *, prior: str = "ptv", order: int = 1, lam: flo
         raise SarcliInputError(f"tolerance must be in (0, 1), got {tolerance}")
     operator, phase_err, runs = _choose_operator(ph, grid, operator, tolerance)
     op, normal = _build(ph, grid, operator, eps, tolerance, runs)
+    counter = _Counted(normal.gram)
+    normal = NormalEquations(counter, normal.atb, normal.bnorm2)
     n_samples = ph.data.size
     mf = normal.atb / n_samples
     # the spherical AᴴA is two backprojections: fewer power iterations (the far-field forms share 30
     # so that 'nufft' and 'toeplitz' scale identically)
     power_iters = 10 if operator in ("spherical", "warped") else 30
-    path_budget = 2 * PATH_ITERS * len(SELECT_PATH) if auto else 0  # two solvers per path iteration
     if progress is not None:
-        progress.reset(total=power_iters + path_budget + int(iters))
+        path_cap = 2 * (PATH_ITERS * (len(SELECT_PATH) - 1) + PATH_FIRST_ITERS) if auto else 0
+        progress.reset(total=power_iters + path_cap + int(iters))
         progress.set_description(f"regularize {prior}: scaling")
 
     def tick(k):
         if progress is not None:
             progress.update(k)
 
-    estimate = {}
-    t_scale = time.perf_counter()
-
-    def on_power(i):
-        # the first AᴴA product, timed, predicts the run; a long one is announced before it goes on
-        tick(1)
-        if i != 1:
-            return
-        gram_s = time.perf_counter() - t_scale
-        predicted = gram_s * (power_iters + path_budget + int(iters))
-        estimate.update(predicted_s=predicted)
-        if notice is not None and predicted > LONG_RUN_S:
-            faster = [f"give --lam (skips the lam path, about {gram_s * int(iters):.0f} s)"] if auto else []
-            faster += ["fewer --iters", "a coarser --pixel-size or a smaller --extent"]
-            if operator == "spherical":
-                faster.append("--operator warped (sub-aperture NUFFTs held to --tolerance)")
-            elif operator == "warped":
-                faster.append("a larger --tolerance (fewer sub-apertures)")
-            path = f"a lam path of up to {path_budget} and " if auto else ""
-            notice(f"regularize {prior}: up to {predicted:.0f} s predicted ({path}{int(iters)} iterations at "
-                   f"{gram_s:.2g} s); faster: {', '.join(faster)}")
-
-    scaled, s_a, s_b = scale_problem(normal, power_iters=power_iters, callback=on_power)
+    forecast = _Forecast(prior, operator, power_iters, int(iters), auto, notice, tick)
+    scaled, s_a, s_b = scale_problem(normal, power_iters=power_iters, callback=forecast.on_power)
     params = {"prior": prior, "order": int(order), "lam": lam, "beta": beta, "iters": int(iters),
               "tol": float(tol), "operator": operator, "isotropic": bool(isotropic),
               "inner_iters": int(inner_iters), "reestimate_every": int(reestimate_every), "eps": eps,
               "grid": grid.as_dict(), "init": init is not None, "scale_operator": s_a,
               "scale_data": s_b, "scale_power_iterations": power_iters,
-              "farfield_phase_error_rad": phase_err, "model": ph.model, **estimate,
+              "farfield_phase_error_rad": phase_err, "model": ph.model, **forecast.estimate,
               **({"operator_tolerance": tolerance, "subapertures": op.subapertures,
                   "operator_predicted_error": op.predicted_error} if operator == "warped" else {}),
               "normalisation": "pixel-model reflectivity f = u * scale_data / scale_operator: a unit point "
                                "at a pixel centre recovered exactly is 1, the matched filter's peak"}
     if scaled is None:
         # no data (or no operator): the solution of every prior is 0
+        params["gram_products"] = {"scaling": counter.count, "path": 0, "final": 0, "total": counter.count}
         return Image(np.zeros(grid.shape, np.complex128), grid.x, grid.y, method=f"regularize-{prior}",
                      parameters=params, runtime_s=time.perf_counter() - t0, history={})
+    products = {"scaling": counter.count}
     u0 = None if init is None else init * (s_a / s_b)
     D = FiniteDifference(grid.shape, order) if prior == "tikhonov" else None
     f0 = init if init is not None else mf
@@ -403,13 +414,14 @@ def regularize(ph: PhaseHistory, *, prior: str = "ptv", order: int = 1, lam: flo
     if progress is not None:
         progress.set_description(f"regularize {prior}" + (": lam path" if auto else ""))
     if auto:
-        lam, beta, u0 = _auto(ph, grid, op, scaled, s_a, s_b, D, T, prior, beta_ratio, isotropic, u0, iters,
+        lam, beta, u0 = auto_lambda(ph, grid, op, scaled, s_a, s_b, D, T, prior, beta_ratio, isotropic, u0, iters,
                               params, tick)
         if progress is not None:
             # the path stopped early: the total shrinks to what is left (not reset, so the bar's rate
             # and time estimate carry on)
             progress.total = getattr(progress, "n", 0) + int(iters)
             progress.set_description(f"regularize {prior} lam={lam:.3g}")
+    products["path"] = counter.count - products["scaling"]
     if prior == "tikhonov":
         def cg_cb(i, obj):
             tick(1)
@@ -434,5 +446,8 @@ def regularize(ph: PhaseHistory, *, prior: str = "ptv", order: int = 1, lam: flo
     f = u * (s_b / s_a)
     params["lam"], params["beta"] = lam, beta
     params["iterations"] = int(len(hist.get("objective", [])))
+    products["final"] = counter.count - products["scaling"] - products["path"]
+    params["gram_products"] = {**products, "total": counter.count}
+    _outcome(params, hist, prior)
     return Image(f, grid.x, grid.y, method=f"regularize-{prior}", parameters=params,
                  runtime_s=time.perf_counter() - t0, history=hist)

@@ -8,15 +8,25 @@ units of :mod:`sarcli.regularize.driver`), each solve warm-started from the prev
 the degrees of freedom by one Monte-Carlo probe (Ramani, Blu & Unser 2008): the same solver,
 iteration for iteration, on ``b + δε``, and ``dof ≈ Re εᴴ A (f(b + δε) − f(b)) / δ``.
 
-* **SURE** (the noise power σ² known): ``‖A f_λ − b‖² − n σ² + 2 σ² dof(λ)``, an unbiased
-  estimate of the prediction error ``E‖A f_λ − A f‖²``.
+* **SURE** (the noise power σ² known): ``‖A f_λ − b‖² − n σ_e² + 2 σ_e² dof(λ)``, an unbiased
+  estimate of the prediction error ``E‖A f_λ − A f‖²`` when the noise power is σ_e².
 * **Modified GCV** (no noise power needed): ``n ‖A f_λ − b‖² / (n − γ dof(λ))²`` with
   γ = 1.4 (Kim & Gu 2004; γ = 1 is Wahba's GCV, which picks too small a λ when the image has
-  more unknowns than the data, as SAR grids at half the resolution do).
+  more unknowns than the data, as SAR grids at half the resolution do). It walks the path; its
+  minimum gives Wahba's ``σ̂² = ‖A f_λ − b‖² / (n − dof(λ))``, and λ* minimises SURE with σ̂².
+
+Speckle counts as noise: ``σ_e² = σ² + κ (‖b‖²/n − σ²)`` with ``κ = (1 − π/4) max(0, 1 − n/N)``
+(:func:`speckle_fraction`; N pixels, n data). The prediction error is that of the complex data;
+an image is read for its magnitude, the local mean reflectivity, about which fully developed
+speckle is a zero-mean fluctuation carrying 1 − π/4 of the power (Goodman). The N − n image
+dimensions the data do not fix hold that speckle at the pixel scale; an image should average it as
+it averages noise. Without the term the prediction error's minimum lies 10-100 × below the
+magnitude error's on scenes that fill the default grid (docs/regularize.md).
 
 λ* minimises the criterion: a parabola in log λ through the smallest path value and its two
-neighbours. The path stops once the criterion has risen twice in a row past its minimum. The
-criterion's curve is returned for the image file.
+neighbours. The path stops once the criterion has risen twice in a row past its minimum; when the
+minimum is at an end the path extends past it by the same ratio (up to ``lam_max``, down to
+``lam_min``) while the criterion still falls. The criterion's curve is returned for the image file.
 
 The discrepancy principle (:func:`discrepancy_lambda`, ``‖A f_λ − b‖² = target · n σ²``) is kept
 as a function; it needs σ² and the whole path down to the least-squares end, and its
@@ -33,8 +43,9 @@ Noise power σ²
    over ln 2 (the median of an exponential variable), divided by ``Σ w²``. Needs uniformly spaced
    frequencies and a range window wider than the scene; scatterers outside the image (real
    clutter) raise the estimate, hence λ.
-3. Else no σ² is assumed: GCV chooses λ, and the residual estimate
-   ``σ̂² = ‖A f_λ* − b‖² / (n − dof(λ*))`` (Wahba) is recorded. It needs no empty range bin; it
+3. Else no σ² is assumed: GCV walks the path, and its residual estimate at GCV's minimum
+   ``σ̂² = ‖A f_λ − b‖² / (n − dof(λ))`` (Wahba) takes σ²'s place in SURE (with the speckle
+   term). It needs no empty range bin; it
    counts everything the image does not explain as noise (clutter outside the image, model
    error), and it is biased low where the image has as many degrees of freedom as the data.
    A scale of the data's fine-scale part (MAD along frequency or pulses) is not used: a
@@ -56,7 +67,8 @@ from ..errors import SarcliInputError
 
 __all__ = ["LAM_PATH", "SELECT_PATH", "GCV_GAMMA", "STOP_AFTER", "DISCREPANCY_TAU", "DISCREPANCY_KAPPA",
            "FLOOR_MARGIN", "UNFITTABLE_RATIO", "LamChoice", "PathChoice", "estimate_noise_power",
-           "noise_power", "discrepancy_lambda", "select_lambda", "gcv_score", "sure_score", "mc_dof"]
+           "noise_power", "discrepancy_lambda", "select_lambda", "speckle_fraction", "SPECKLE_FRACTION",
+           "gcv_score", "sure_score", "mc_dof"]
 
 #: Decreasing λ path (normalised units of :mod:`sarcli.regularize.driver`; ℓ1 zeroes the image at λ ≥ 2).
 LAM_PATH = tuple(float(v) for v in np.geomspace(1.0, 1e-3, 13))
@@ -238,8 +250,37 @@ def discrepancy_lambda(solve: Callable, residual2: Callable, noise_energy: float
 SELECT_PATH = tuple(float(v) for v in np.geomspace(0.3, 1e-3, 6))
 #: Modified GCV weight γ of the degrees of freedom (Kim & Gu's γ = 1.4; γ = 1 is Wahba's GCV).
 GCV_GAMMA = 1.4
+#: Fraction of the scene's power that is speckle to the image's magnitude: fully developed speckle
+#: (many scatterers per resolution cell, or random-phase pixels finer than the resolution) has a
+#: Rayleigh magnitude whose mean squared is π/4 of its power, so 1 − π/4 of the power is the
+#: zero-mean fluctuation around the local mean reflectivity (Goodman 1976), which an image read for
+#: its magnitude should average away as it does noise.
+SPECKLE_FRACTION = 1.0 - np.pi / 4.0
 #: Consecutive rises of the criterion past its minimum that end the path.
 STOP_AFTER = 2
+#: Smallest λ the path extends down to while its criterion still falls at the bottom (normalised units
+#: of :mod:`sarcli.regularize.driver`; two decades below ``SELECT_PATH``'s end: there the prior weighs
+#: less than 1e-5 of the data term's scale, and the fit is the least-squares fit of the data).
+LAM_MIN = 1e-5
+#: Relative change of the criterion between two path points below which it is flat: the path stops
+#: extending (smaller λ would change nothing measurable).
+FLAT_REL = 1e-3
+
+
+def speckle_fraction(n_pixels: int, n_data: int) -> float:
+    """κ of :func:`select_lambda`: the fraction of the scene's power counted as speckle noise.
+
+    ``SPECKLE_FRACTION · max(0, 1 − n/N)`` for N pixels and n data. The data fix n of the image's
+    N dimensions; when N > n the prior fills the other N − n, and at the pixel scale those carry
+    the random phases of the pixels within each resolution cell, so that share of the image is
+    fully developed speckle to the magnitude (the default grid has 4 pixels per resolution cell:
+    N ≈ 4n, κ ≈ 0.75 · 0.21). With N ≤ n every pixel is fixed by the data and λ follows the noise
+    alone: whether a pixel's own magnitude is speckled (several scatterers in it) cannot be seen in
+    the data, whose second-order statistics are the same either way.
+    """
+    if n_pixels <= 0 or n_data <= 0:
+        return 0.0
+    return float(SPECKLE_FRACTION * max(0.0, 1.0 - n_data / n_pixels))
 
 
 def gcv_score(residual2: float, dof: float, n_data: int, gamma: float = GCV_GAMMA) -> float:
@@ -276,8 +317,17 @@ class PathChoice:
         That solution.
     status : str
         'interior' (a minimum between two path points), 'at the largest λ' or 'at the smallest λ'.
+    at_limit : bool
+        λ* sits at a path end that could not be extended further: the floor ``lam_min`` or the
+        ceiling ``lam_max`` was reached (or the criterion went flat there) with the criterion still
+        lower than at the path's other points.
     noise_power : float
-        ``‖A f_λ − b‖² / (n − dof)`` at the path point ``index`` (Wahba's residual estimate of σ²).
+        ``‖A f_λ − b‖² / (n − dof)`` (Wahba's residual estimate of σ²) at the minimum of GCV.
+    walk_scores : list of float
+        The criterion that walked the path (GCV, or SURE when σ² is known; equal to ``scores``
+        unless GCV walked and speckle was then added).
+    speckle : float
+        The speckle power counted as noise.
     """
 
     lam: float
@@ -288,12 +338,15 @@ class PathChoice:
     index: int = 0
     start: np.ndarray | None = None
     status: str = "interior"
+    at_limit: bool = False
     noise_power: float = float("nan")
+    walk_scores: list = field(default_factory=list)
+    speckle: float = 0.0
 
 
 def select_lambda(solve: Callable, n_data: int, *, lams=SELECT_PATH, sigma2: float | None = None,
-                  gamma: float = GCV_GAMMA, stop_after: int = STOP_AFTER, lam_max: float | None = None,
-                  callback=None) -> PathChoice:
+                  speckle_fraction: float = 0.0, data_power: float = 0.0, gamma: float = GCV_GAMMA, stop_after: int = STOP_AFTER,
+                  lam_max: float | None = None, lam_min: float | None = None, callback=None) -> PathChoice:
     """λ minimising GCV (``sigma2`` None) or SURE (``sigma2`` given) on a decreasing path.
 
     Parameters
@@ -310,12 +363,21 @@ def select_lambda(solve: Callable, n_data: int, *, lams=SELECT_PATH, sigma2: flo
     sigma2 : float, optional
         Noise power in the units of ``residual2`` per sample: SURE; None: modified GCV
         (:func:`gcv_score`).
+    speckle_fraction, data_power : float
+        κ and ``‖b‖² / n``: the speckle the image should average away, ``κ (‖b‖²/n − σ²)`` per
+        sample (:data:`SPECKLE_FRACTION`), counts as noise: SURE with ``σ² + κ (‖b‖²/n − σ²)``.
+        With ``sigma2`` None the path is walked by GCV, whose minimum gives Wahba's
+        ``σ̂² = ‖A f − b‖² / (n − dof)``; λ* then minimises that SURE with σ̂² on the same path.
     stop_after : int
         Stop once the score has risen this many consecutive times after its running minimum.
     lam_max : float, optional
         When the smallest score is at the largest λ, the path is extended upwards by the path's
         ratio, warm-started from the largest λ's solution, until the score rises or λ would
         exceed ``lam_max``.
+    lam_min : float, optional
+        Likewise downwards: when the smallest score is at the smallest λ, the path goes on by its
+        ratio, each point warm-started from the previous one, until the score rises, goes flat
+        (relative change below :data:`FLAT_REL`) or λ would fall below ``lam_min``.
     callback : callable, optional
         ``callback(index, lam, score)`` after each path point.
 
@@ -327,16 +389,20 @@ def select_lambda(solve: Callable, n_data: int, *, lams=SELECT_PATH, sigma2: flo
     if not lams or n_data < 1:
         raise ValueError("select_lambda needs a λ path and data")
     out = PathChoice(lam=lams[0])
-    sols = []
-    calls = []  # call number of each path point (the order of out.lams)
+    sols, calls = [], []  # solutions, and the call number of each path point (both in the order of out.lams)
+    kappa = float(speckle_fraction)
+    if sigma2 is not None:
+        out.speckle = kappa * max(float(data_power) - sigma2, 0.0)
+    walk = (lambda r2, dof: gcv_score(r2, dof, n_data, gamma)) if sigma2 is None else \
+        (lambda r2, dof: sure_score(r2, dof, n_data, sigma2 + out.speckle))
+    crit = [walk]  # the criterion λ* minimises (it changes once, from GCV to SURE, when speckle > 0)
 
     def point(lam, start, at):
         f, r2, dof = solve(lam, start)
         dof = float(np.clip(dof, 0.0, n_data))
-        score = (gcv_score(r2, dof, n_data, gamma) if sigma2 is None
-                 else sure_score(r2, dof, n_data, sigma2))
+        score = crit[0](r2, dof)
         for lst, val in ((out.lams, lam), (out.residuals, float(r2)), (out.dofs, dof), (out.scores, score),
-                         (sols, f), (calls, len(calls))):
+                         (out.walk_scores, walk(r2, dof)), (sols, f), (calls, len(calls))):
             lst.insert(at, val)
         if callback is not None:
             callback(len(calls) - 1, lam, score)
@@ -350,16 +416,45 @@ def select_lambda(solve: Callable, n_data: int, *, lams=SELECT_PATH, sigma2: flo
         if rises >= stop_after:
             break
     ratio = lams[0] / lams[1] if len(lams) > 1 else 10.0 ** 0.5
+    flat = _extend_down(point, out, ratio, lam_min)
+    if sigma2 is None and kappa > 0:
+        i = int(np.argmin(out.scores))
+        room = n_data - out.dofs[i]
+        s2 = float(out.residuals[i] / room) if room > 0 else float("nan")
+        if np.isfinite(s2):
+            out.noise_power, out.speckle = s2, kappa * max(float(data_power) - s2, 0.0)
+            crit[0] = lambda r2, dof: sure_score(r2, dof, n_data, s2 + out.speckle)  # noqa: E731
+            out.scores = [crit[0](r, d) for r, d in zip(out.residuals, out.dofs)]
     while lam_max is not None and int(np.argmin(out.scores)) == 0 and out.lams[0] * ratio <= lam_max * (1 + 1e-9):
         point(out.lams[0] * ratio, calls[0], 0)
+    return _vertex(out, sols, n_data, ratio, flat, lam_min, lam_max)
+
+
+def _extend_down(point, out, ratio, lam_min) -> bool:
+    """Go on down the path while its smallest score is at its smallest λ; True when it went flat."""
+    flat = False
+    while lam_min is not None and int(np.argmin(out.scores)) == len(out.scores) - 1 and not flat \
+            and out.lams[-1] / ratio >= lam_min * (1 - 1e-9):
+        prev = out.scores[-1]
+        score = point(out.lams[-1] / ratio, None, len(out.lams))
+        flat = bool(np.isfinite(prev) and abs(prev - score) <= FLAT_REL * max(abs(prev), abs(score)))
+    return flat
+
+
+def _vertex(out, sols, n_data, ratio, flat, lam_min, lam_max) -> PathChoice:
+    """λ* of a walked path: the smallest score, refined by a parabola in log λ when interior."""
     s = np.asarray(out.scores)
     i = int(np.argmin(s))
     out.index, out.start = i, sols[i]
-    room = n_data - out.dofs[i]
-    out.noise_power = float(out.residuals[i] / room) if room > 0 else float("nan")
+    if not np.isfinite(out.noise_power):
+        room = n_data - out.dofs[i]
+        out.noise_power = float(out.residuals[i] / room) if room > 0 else float("nan")
     if i == 0 or i == len(s) - 1 or not np.all(np.isfinite(s[i - 1:i + 2])):
         out.lam = out.lams[i]
         out.status = "at the largest λ" if i == 0 else ("at the smallest λ" if i == len(s) - 1 else "interior")
+        # an end is a limit when the path could not (or need not) go further that way
+        out.at_limit = (i == 0 and (lam_max is None or out.lams[0] * ratio > lam_max * (1 + 1e-9))) or \
+            (i == len(s) - 1 and i > 0 and (flat or lam_min is None or out.lams[-1] / ratio < lam_min * (1 - 1e-9)))
         return out
     # parabola through (log λ, score) at i-1, i, i+1; its vertex lies between the outer two
     x = np.log(np.asarray(out.lams[i - 1:i + 2]))

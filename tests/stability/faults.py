@@ -338,7 +338,7 @@ def _interrupt(key, case, ws, args, out, sig, *, after=2.0, expect=None, tolerat
     # another process's lines (multiprocessing's resource tracker) may land anywhere in the stream
     extra = [ln for ln in lines if tolerate and re.search(tolerate, ln)]
     # a long regularize announces its predicted time (and what would make it faster) before the signal
-    announced = [ln for ln in lines if re.match(r"regularize \S+: up to \d+ s predicted", ln)]
+    announced = [ln for ln in lines if re.match(r"regularize \S+: about \d+ s predicted", ln)]
     lines = [ln for ln in lines if ln not in extra and ln not in announced]
     untouched = out.read_bytes() == b"previous output"
     temps = _temps(ws.tmp) + _temps(out.parent)
