@@ -45,7 +45,7 @@ def main():
             try:
                 with warnings.catch_warnings():
                     warnings.simplefilter("ignore", ConvergenceWarning)
-                    img = regularize(ph, prior="ptv", lam=lam)
+                    img = regularize(ph, prior="ptv", lam=lam, operator="spherical" if spherical else "auto")
                 end = time.perf_counter()
             finally:
                 driver._Forecast.on_power = orig
