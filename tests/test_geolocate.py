@@ -163,12 +163,12 @@ def test_vectorised_shapes_broadcast():
 
 @pytest.mark.parametrize("call,message", [
     (lambda img, acq: sarcli.geolocate(img, np.nan, 3), "row must be finite"),
-    (lambda img, acq: sarcli.geolocate(img, 5, 1e6), "col 1e+06 is far outside the 120 x 200 image"),
+    (lambda img, acq: sarcli.geolocate(img, 5, 1e6), "pixel (row, col) = (5, 1e+06) is far outside the 120 x 200 image: col 1e+06"),
     (lambda img, acq: sarcli.geolocate(img, 5, 5, 100.0), "needs the collection"),
     (lambda img, acq: sarcli.geolocate(img, 5, 5, [np.nan], phase_history=acq), "height must be finite"),
     (lambda img, acq: sarcli.geolocate(img, 5, 5, 1e9, phase_history=acq), "does not reach"),
     (lambda img, acq: sarcli.pixel_of(img, 95.0, 0.0), "latitude 95 is outside"),
-    (lambda img, acq: sarcli.pixel_of(img, 34.0, -106.52), "far outside"),
+    (lambda img, acq: sarcli.pixel_of(img, 34.0, -106.52), "point (lat, lon) = (34, -106.52) is far outside"),
     (lambda img, acq: sarcli.pixel_of(img, 34.95, np.nan), "longitude must be finite"),
 ])
 def test_bad_input_is_one_clear_line(call, message):

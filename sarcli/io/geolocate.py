@@ -145,21 +145,21 @@ def _finite(name, value) -> np.ndarray:
     a = np.asarray(value, dtype=np.float64)
     bad = ~np.isfinite(a)
     if bad.any():
-        raise SarcliInputError(f"{name} must be finite numbers, got {a[bad].flat[0]} "
-                               f"(at index {np.argwhere(bad)[0].tolist()})")
+        where = f" at index {tuple(np.argwhere(bad)[0].tolist())}" if a.ndim else ""
+        raise SarcliInputError(f"{name} must be finite numbers, got {a[bad].flat[0]}{where}")
     return a
 
 
-def _check_inside(geo: ImageGeometry, row, col, what: str) -> None:
-    """Refuse pixels more than OUTSIDE_MARGIN image sizes beyond an edge."""
+def _check_inside(geo: ImageGeometry, row, col, label) -> None:
+    """Refuse pixels more than OUTSIDE_MARGIN image sizes beyond an edge; ``label(index)`` names
+    the offending input in the message."""
     for name, v, n in (("row", row, geo.ny), ("col", col, geo.nx)):
         lo, hi = -OUTSIDE_MARGIN * n - 0.5, (1 + OUTSIDE_MARGIN) * n - 0.5
         out = (v < lo) | (v > hi)
         if np.any(out):
-            i = np.argwhere(out)[0]
-            raise SarcliInputError(
-                f"{what} {name} {float(v[tuple(i)]):.6g} is far outside the {geo.ny} x {geo.nx} image "
-                f"(expected {name}s within {lo:g} .. {hi:g})")
+            i = tuple(np.argwhere(out)[0])
+            raise SarcliInputError(f"{label(i)} is far outside the {geo.ny} x {geo.nx} image: {name} "
+                                   f"{float(v[i]):.6g} (expected {lo:g} .. {hi:g})")
 
 
 def _sets(geo: ImageGeometry, points_ecf):
@@ -224,7 +224,7 @@ def geolocate(image, row, col, height=None, *, phase_history=None):
     """
     geo = image if isinstance(image, ImageGeometry) else image_geometry(image, phase_history)
     row, col = np.broadcast_arrays(_finite("row", row), _finite("col", col))
-    _check_inside(geo, row, col, "pixel")
+    _check_inside(geo, row, col, lambda i: f"pixel (row, col) = ({float(row[i]):.6g}, {float(col[i]):.6g})")
     plane = geo.plane_ecf(row, col)
     if height is None:
         llh = wgs84.cartesian_to_geodetic(plane)
@@ -308,5 +308,6 @@ def pixel_of(image, lat, lon, height=None, *, phase_history=None):
             raise SarcliInputError("a point's range/Doppler contour does not meet the image plane "
                                    "(is the height or position beyond the collection's view?)")
     row, col = geo.pixel_of_ecf(points)
-    _check_inside(geo, row, col, "point's")
+    lat, lon = np.broadcast_to(lat, row.shape), np.broadcast_to(lon, row.shape)
+    _check_inside(geo, row, col, lambda i: f"point (lat, lon) = ({float(lat[i]):.9g}, {float(lon[i]):.9g})")
     return _scalar(row), _scalar(col)
