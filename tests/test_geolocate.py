@@ -163,7 +163,8 @@ def test_vectorised_shapes_broadcast():
 
 @pytest.mark.parametrize("call,message", [
     (lambda img, acq: sarcli.geolocate(img, np.nan, 3), "row must be finite"),
-    (lambda img, acq: sarcli.geolocate(img, 5, 1e6), "pixel (row, col) = (5, 1e+06) is far outside the 120 x 200 image: col 1e+06"),
+    (lambda img, acq: sarcli.geolocate(img, 5, 1e6),
+     "pixel (row, col) = (5, 1e+06) is far outside the 120 x 200 image: col 1e+06"),
     (lambda img, acq: sarcli.geolocate(img, 5, 5, 100.0), "needs the collection"),
     (lambda img, acq: sarcli.geolocate(img, 5, 5, [np.nan], phase_history=acq), "height must be finite"),
     (lambda img, acq: sarcli.geolocate(img, 5, 5, 1e9, phase_history=acq), "does not reach"),

@@ -39,7 +39,7 @@ import numpy as np
 from sarkit import wgs84
 
 from ..errors import SarcliInputError
-from .georef import enu_basis, ecf_to_enu, enu_to_ecf, reference_point
+from .georef import ReferencePoint, ecf_to_enu, enu_basis, enu_to_ecf, reference_point
 
 __all__ = ["ImageGeometry", "image_geometry", "geolocate", "pixel_of"]
 
@@ -68,7 +68,7 @@ class ImageGeometry:
         +1 left-looking, -1 right-looking (SICD ``SCPCOA/SideOfTrack``), 0 without a collection.
     """
 
-    ref: object
+    ref: ReferencePoint
     x0: float
     y0: float
     dx: float
@@ -189,7 +189,8 @@ def geolocate(image, row, col, height=None, *, phase_history=None):
     Parameters
     ----------
     image : Image, str, Path or ImageGeometry
-        The image (see :func:`image_geometry`).
+        The image (see :func:`image_geometry`); an :class:`ImageGeometry` (built once for many
+        calls) already holds its collection, and ``phase_history`` is then not used.
     row, col : array_like
         Fractional pixel indices in sarcli's order (row 0 the southern edge, pixel centres at
         integers); broadcast together.
