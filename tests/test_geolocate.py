@@ -216,3 +216,12 @@ def test_spaceborne_cphd_collection_agrees_with_sarkit(tmp_path, site):
         errs.append(np.linalg.norm(ours - theirs, axis=-1).max())
     print(f"spaceborne {site}: max distance to sarkit {max(errs):.2e} m")
     assert max(errs) < 0.01, errs
+
+
+def test_an_image_file_is_read_and_geolocated_like_the_image(tmp_path):
+    img = _image(60.0, 25.0, 30.0)
+    sarcli.write_image(tmp_path / "img.h5", img)
+    row, col = np.array([0.0, 17.5, 119.0]), np.array([199.0, 3.25, 0.0])
+    np.testing.assert_array_equal(sarcli.geolocate(tmp_path / "img.h5", row, col), sarcli.geolocate(img, row, col))
+    with pytest.raises(SarcliInputError, match="no such file"):
+        sarcli.geolocate(tmp_path / "missing.h5", 0, 0)
