@@ -8,6 +8,7 @@ Public API (function-first; the ``sar`` CLI only calls these):
 - :func:`read_image`, :func:`write_image` — the HDF5 image contract
 - :func:`open_input` — any file sarcli reads, recognised by its content
 - :func:`form_image` — phase history -> :class:`Image` (direct, nufft, pfa, backprojection)
+- :func:`geolocate`, :func:`pixel_of` — image pixel -> latitude, longitude, height, and back
 - :func:`sarcli.regularize.regularize` — phase history -> regularised :class:`Image` (TV, HOTV, ℓ1,
   ptv, Tikhonov; λ chosen automatically by default)
 
@@ -46,6 +47,8 @@ _LAZY = {
     "simulate": "simulation.simulator",
     "form_image": "formers.formation",
     "regrid": "formers.formation",
+    "geolocate": "io.geolocate",
+    "pixel_of": "io.geolocate",
 }
 
 _SUBPACKAGES = ("core", "io", "simulation", "formers", "linops", "solvers", "regularize", "analysis", "batch",

@@ -153,6 +153,17 @@ def test_the_own_data_page_runs_as_a_doctest(tmp_path, monkeypatch):
     assert "own-data.md" in (REPO / "README.md").read_text()
 
 
+def test_the_geolocation_example_in_formats_runs_as_a_doctest():
+    """docs/formats.md's geolocation example: every printed number as the library gives it."""
+    import doctest
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        result = doctest.testfile(str(REPO / "docs" / "formats.md"), module_relative=False, encoding="utf-8",
+                                  report=True, optionflags=doctest.NORMALIZE_WHITESPACE)
+    assert result.attempted >= 15 and result.failed == 0, result
+
+
 def _readme_python() -> str:
     blocks = re.findall(r"```python\n(.*?)```", (REPO / "README.md").read_text(), flags=re.S)
     assert blocks, "the README has a Python example"

@@ -42,7 +42,7 @@ from ..errors import SarcliInputError
 from ..core.types import Image
 from .georef import enu_basis, enu_to_ecf, reference_point
 
-__all__ = ["write_sicd", "read_sicd", "sicd_orientation", "nominal_acquisition", "SICD_NS"]
+__all__ = ["write_sicd", "read_sicd", "sicd_orientation", "nominal_acquisition", "arp_polynomial", "SICD_NS"]
 
 SICD_NS = "urn:SICD:1.4.0"
 _UP = np.array([0.0, 0.0, 1.0])
@@ -208,6 +208,42 @@ def _pulse_times(acq: Acquisition):
     return pulse_times(pos)[0], pos, False
 
 
+def arp_polynomial(acq: Acquisition, ref):
+    """The aperture reference point as SICD writes it (``Position/ARPPoly``) and the COA time.
+
+    Parameters
+    ----------
+    acq : Acquisition
+        With antenna positions.
+    ref : ReferencePoint
+        Where the local frame sits on the Earth.
+
+    Returns
+    -------
+    t : ndarray (P,)
+        Pulse times (s from the collection start), see :func:`_pulse_times`.
+    coefs : ndarray (3, order + 1)
+        ECF X, Y, Z polynomial coefficients in t (increasing powers), order ``min(5, P - 1)``,
+        fitted by least squares about the mid time.
+    t_coa : float
+        The centre-of-aperture time (the middle of the collection, ``Grid/TimeCOAPoly``).
+    true_times : bool
+        Whether the times are the collection's own (CPHD) or synthetic.
+    """
+    t, pos, true_times = _pulse_times(acq)
+    P = pos.shape[0]
+    if P < 2:
+        raise SarcliInputError("SICD export needs a collection of at least two pulses")
+    pos_ecf = enu_to_ecf(pos, ref)
+    order = int(min(5, P - 1))
+    t_mid = 0.5 * float(t[0] + t[-1])  # fit about the middle (conditioning), then shift back
+    arp = [np.polynomial.Polynomial.fit(t - t_mid, pos_ecf[:, axis], order).convert() for axis in range(3)]
+    shift = np.polynomial.Polynomial([-t_mid, 1.0])
+    arp = [a(shift).coef for a in arp]
+    coefs = np.stack([np.pad(c, (0, order + 1 - c.size)) for c in arp])
+    return t, coefs, t_mid, true_times
+
+
 def _build_xml(img: Image, acq: Acquisition, ref, orient, *, nominal: bool, ph_attrs=None):
     from sarkit import wgs84
 
@@ -230,19 +266,9 @@ def _build_xml(img: Image, acq: Acquisition, ref, orient, *, nominal: bool, ph_a
                + (c - scol) * orient["col_ss"] * orient["col_enu"])
         corners.append(wgs84.cartesian_to_geodetic(enu_to_ecf(enu, ref)))
     # timing and ARP polynomial
-    t, pos, true_times = _pulse_times(acq)
-    P = pos.shape[0]
-    if P < 2:
-        raise SarcliInputError("SICD export needs a collection of at least two pulses")
+    t, arp, t_coa, true_times = arp_polynomial(acq, ref)
+    P = t.size
     duration = float(t[-1] + (t[1] - t[0]) if not true_times else t[-1] + (t[-1] - t[-2]))
-    pos_ecf = enu_to_ecf(pos, ref)
-    order = int(min(5, P - 1))
-    t_mid = 0.5 * float(t[0] + t[-1])  # fit about the middle (conditioning), then shift back
-    arp = [np.polynomial.Polynomial.fit(t - t_mid, pos_ecf[:, axis], order).convert() for axis in range(3)]
-    shift = np.polynomial.Polynomial([-t_mid, 1.0])
-    arp = [a(shift).coef for a in arp]
-    arp = [np.pad(c, (0, order + 1 - c.size)) for c in arp]
-    t_coa = 0.5 * float(t[0] + t[-1])
     f = acq.frequency_hz
     fmin, fmax = float(f.min()), float(f.max())
     kctr_r, ext_r = _support(acq, orient["row_enu"])
