@@ -239,7 +239,7 @@ def pga(ph, *, grid: Grid | None = None, n_scatterers: int | None = None, separa
     """
     _check_estimator(estimator)
     acq = ph.acquisition
-    grid = estimation_grid(grid or acq.grid)
+    grid = estimation_grid(grid or acq.grid, acq=acq)
     P = ph.data.shape[0]
     n = n_scatterers or int(np.clip(grid.ny, 32, 256))
     phi = np.zeros(P) if start is None else np.asarray(start, np.float64).copy()
