@@ -13,14 +13,19 @@ field, monostatic or bistatic. Then, per iteration:
 2. *Centre shift*: the FFT across pulses of each scatterer's signal is its cross-range line
    (pulse angle and cross-range are a Fourier pair over a small aperture); its peak is shifted to
    zero frequency (removes the scatterer's linear phase).
-3. *Windowing*: a window about zero frequency whose width is where the scatterers' summed,
+3. *Weighting* (:func:`scatterer_weights`): a line whose peak stands no higher over its clutter
+   (the median of its centred intensity) than speckle does is dropped, the others weigh
+   ``1/clutter``.
+   *Windowing*: a window about zero frequency whose width is where the scatterers' summed,
    centred intensity stays above ``window_db`` of its peak (it narrows as the image focuses),
    never narrower than ``min_window`` resolution cells; the first iteration uses the full width.
    The FFTs are zero-padded four times so the centre shift is good to a quarter cell.
 4. *Phase-gradient estimate*: the inverse FFT gives each scatterer's windowed phase history
    ``g_k[p]``; by default the maximum-likelihood estimate (Jakowatz and Wahl 1993), the phase of
    the principal eigenvector of ``Σ_k g_k g_kᴴ``, whose successive differences are the phase
-   gradient; ``estimator='gradient'`` is the classic ``Δε_p = arg Σ_k g_k[p] conj(g_k[p-1])``.
+   gradient, recomputed :data:`REWEIGHT` times with each line weighted by ``1/σ_k²``, the power
+   per pulse the model ``a_k v`` leaves of it; ``estimator='gradient'`` is the classic
+   ``Δε_p = arg Σ_k g_k[p] conj(g_k[p-1])``.
 5. *Integration*: ``ε_p = Σ_{q ≤ p} Δε_q`` (the eigenvector's phase is already integrated),
    constant and linear part removed (unobservable).
 6. *Iteration*: apply, re-image, repeat until the rms increment is below ``tol`` rad; the
@@ -31,8 +36,10 @@ The decision (``guard``, ``validate``). The estimate is applied only if it leave
 less sharp (entropy not up, peak-to-mean not down, :func:`~sarcli.autofocus._common.keep_if_sharper`)
 *and* passes a cross-validation like minimum entropy's (:mod:`sarcli.autofocus.entropy`): PGA is
 run on each of two disjoint halves of the scene alone (across range, with a band between them);
-the two estimates must correlate beyond chance (:func:`~sarcli.autofocus._common.agreement_threshold`)
-and, each applied to the other half, lower the entropy in sum. A phase error is common to the
+the two estimates must agree modulo ``2π`` (:func:`halves_agreement`) with a correlation above
+``max(1/3, chance)`` (:func:`~sarcli.autofocus._common.agreement_threshold`), predict a residual
+of at most :data:`MAX_PREDICTED_RESIDUAL_RAD`, and, each applied to the other half, lower the
+entropy in sum. A phase error is common to the
 scene; what PGA fits to one half's clutter is not, and on a focused scene it can still pass the
 sharpness test alone. (Each half's own gain is not required: a half's PGA estimate, from half
 the scatterers, carries noise of its own that can cost the other half more than the common error
@@ -127,13 +134,16 @@ def phase_gradient_estimate(signals, window_db=-10.0, min_window=4, full=False, 
         # maximum likelihood (Jakowatz and Wahl 1993): the phase of the principal eigenvector of
         # Σ_k g_k g_kᴴ, i.e. the first left singular vector of [g_1 ... g_K]
         v = principal_vector(g)
+        # then each line weighted by what the model a_k v leaves of it (a second scatterer on
+        # the line, clutter in the window): maximum likelihood with unequal, estimated noise
         for _ in range(REWEIGHT):
-            v = principal_vector(g * np.sqrt(_model_weights(g, v))[None, :])
+            v = principal_vector(g * np.sqrt(_model_weights(g, v))[None, :], start=v)
         return np.unwrap(np.angle(v * np.conj(v[0]))), width
     grad = np.angle(np.sum(g[1:] * np.conj(g[:-1]), axis=1))
     return np.concatenate([[0.0], np.cumsum(grad)]), width
 
 
+#: Eigenvectors recomputed with each line weighted by the power the model leaves of it.
 REWEIGHT = 3
 
 
@@ -178,13 +188,15 @@ def dominance(n_pulses: int) -> float:
     return 2.0 * np.log2(max(n_pulses, 2))
 
 
-def principal_vector(g, tol: float = 1e-12, max_iter: int = 1000) -> np.ndarray:
+def principal_vector(g, tol: float = 1e-12, max_iter: int = 1000, start=None) -> np.ndarray:
     """The first left singular vector of ``g`` (P × K) by power iteration on ``g gᴴ``.
 
     Two matrix-vector products per step instead of a full SVD (a LAPACK call whose threads
-    contend on a loaded machine); stops when ``1 - |⟨u_k, u_{k+1}⟩|`` is below ``tol``.
+    contend on a loaded machine); stops when ``1 - |⟨u_k, u_{k+1}⟩|`` is below ``tol``. ``start``:
+    the first vector (a previous estimate; default ``g gᴴ e_0``).
     """
-    u = g @ np.conj(g[0])  # g gᴴ e_0: a start with a component along the principal vector
+    # g gᴴ e_0 (a start with a component along the principal vector), or the one given
+    u = g @ np.conj(g[0]) if start is None else np.asarray(start, dtype=g.dtype).copy()
     if not np.any(u):
         u = np.ones(g.shape[0], dtype=g.dtype)
     u = u / np.linalg.norm(u)
