@@ -38,7 +38,7 @@ from ..errors import SarcliInputError, SarcliWarning
 from ._common import MAX_GUARDED_PIXELS, guarded_grid, pulse_images
 
 __all__ = ["Imager", "BlockImager", "entropy_of", "split_grid", "check_splittable", "every_nth_line",
-           "range_axis", "sharpness_imager", "single_threaded_blas"]
+           "range_axis", "single_threaded_blas"]
 
 #: Backprojection options of the estimator: the pair backproject/reproject is an exact adjoint
 #: for any of them, and the estimate only needs the image to a few per cent.
@@ -125,8 +125,8 @@ class Imager:
         are shared (:meth:`sarcli.formers._bp_prepared.Backprojector.on`).
     stack : bool
         Where the backprojector does not take the data, hold the stack of single-pulse images
-        (False: neither, and the imager forms no image; :func:`sharpness_imager` then uses
-        :func:`~sarcli.autofocus._common.form`).
+        (False: neither, and the imager forms no image;
+        :func:`~sarcli.autofocus._sharpness.sharpness_imager` then uses :func:`~sarcli.autofocus._common.form`).
     """
 
     def __init__(self, ph, grid: Grid, order: float = 1.0, *, like=None, stack: bool = True):
@@ -190,28 +190,6 @@ class Imager:
         h, _, w = entropy_of(f, self.order)
         v = self._contract(w * np.conj(f))
         return h, 2.0 * np.imag(np.exp(-1j * phi) * v)
-
-
-class _Formed:
-    """Images of ``d · exp(-iφ)`` by :func:`~sarcli.autofocus._common.form` (no prepared backprojector)."""
-
-    def __init__(self, ph, grid: Grid):
-        self._ph, self.grid = ph, grid
-
-    def image(self, phi) -> np.ndarray:
-        from ._common import form
-
-        return form(self._ph, self.grid, phi)
-
-
-def sharpness_imager(ph, grid: Grid, *, like=None):
-    """The images whose sharpness both autofocus methods report and guard: the estimator's
-    single-precision backprojection (:data:`ESTIMATION_BP`, :class:`Imager`, sharing ``like``'s
-    range profiles) where the data take one, else :func:`~sarcli.autofocus._common.form`. One
-    choice for both methods, so that PGA and minimum entropy report the same entropy "before" for
-    the same data and grid."""
-    im = Imager(ph, grid, like=like, stack=False)
-    return im if im._bp is not None else _Formed(ph, grid)
 
 
 def range_axis(acq) -> int:

@@ -86,8 +86,9 @@ from ._common import (MAX_ESTIMATION_PIXELS, MAX_GUARDED_PIXELS, AutofocusResult
                       agreement_threshold, estimation_grid, guarded_grid, sharpness)
 from ._common import correlation as _corr
 from ._imager import (SPLIT_GAP, BlockImager, Imager, check_splittable, every_nth_line, range_axis,
-                      sharpness_imager, single_threaded_blas, split_grid)
+                      single_threaded_blas, split_grid)
 from ._lbfgs import minimize
+from ._sharpness import sharpness_imager
 from ._levels import LEVELS, dof, gauge_basis, level_basis, phase_mean, spacing, without_gauge
 
 __all__ = ["min_entropy", "coarse_to_fine", "level_basis", "LEVELS"]

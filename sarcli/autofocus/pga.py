@@ -283,7 +283,9 @@ def pga(ph, *, grid: Grid | None = None, n_scatterers: int | None = None, separa
     # the iterate of lowest entropy (a narrowing window can drift once the image is focused)
     res = AutofocusResult(best_phi, "pga", iterations=it, history=hist)
     if guard:
-        res = keep_if_sharper(ph, grid, res, [phi])
+        from ._sharpness import sharpness_imager
+
+        res = keep_if_sharper(ph, grid, res, [phi], sharpness_imager(ph, grid))
         if validate and np.any(res.phase_rad):
             _crossvalidate(ph, grid, res, dict(n_scatterers=n_scatterers, separation=separation,
                                                window_db=window_db, min_window=min_window, max_iter=max_iter,
