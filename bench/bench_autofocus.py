@@ -17,8 +17,8 @@ For the four files on the default grid (400 × 400 at 0.25 m):
 
 Entropies are of backprojected images (:func:`sarcli.autofocus._common.form`) on the full grid.
 
-Usage: ``python bench/bench_autofocus.py [--seeds 0,1,2] [--repeats 3] [--files DIR]`` (says it skipped, and exits 0,
-when the files are absent).
+Usage: ``python bench/bench_autofocus.py [--seeds 0,1,2] [--repeats 3] [--files DIR] [--method pga]``
+(says it skipped, and exits 0, when the files are absent).
 """
 
 from __future__ import annotations
@@ -66,6 +66,7 @@ def main():
     ap.add_argument("--seeds", default="0,1,2")
     ap.add_argument("--repeats", type=int, default=3, help="alternating runs of form-image and autofocus")
     ap.add_argument("--files", default=str(GOTCHA_DIR))
+    ap.add_argument("--method", default="min-entropy", choices=("min-entropy", "pga"))
     a = ap.parse_args()
     files = gotcha_files(a.files)
     if len(files) < 4:  # nothing to measure without the data set; `make bench` goes on
@@ -80,7 +81,8 @@ def main():
         pairs = []
         for _ in range(max(1, a.repeats)):  # A B A B
             pairs.append((_run("form-image", raw_h5, "-o", tmp / "img.h5", cpu=True),
-                          _run("-v", "autofocus", raw_h5, "-o", tmp / "af.h5", cpu=True)))
+                          _run("-v", "autofocus", raw_h5, "-o", tmp / "af.h5", "--method", a.method,
+                               cpu=True)))
         wall = [b[0] / f[0] for f, b in pairs]
         cpu = [b[1] / f[1] for f, b in pairs]
         t_form, t_af, msg = pairs[-1][0][0], pairs[-1][1][0], pairs[-1][1][2]
@@ -88,7 +90,8 @@ def main():
         est_raw = np.asarray(af_raw.attrs.get("autofocus_phase_rad", np.zeros(P)))
         h_raw = image_entropy(form(ph, grid))
         img_af_raw = np.abs(form(af_raw, grid))
-        print(f"GOTCHA pass 1 HH, {P} pulses, grid {grid.ny} x {grid.nx} at {grid.dx} m")
+        print(f"GOTCHA pass 1 HH, {P} pulses, grid {grid.ny} x {grid.nx} at {grid.dx} m, "
+              f"sar autofocus --method {a.method}")
         print(f"raw: {msg}")
         print()
         print("| case | sar autofocus (s) | / sar form-image | entropy / raw | magnitude error vs raw's correction "
@@ -100,7 +103,7 @@ def main():
             bad = PhaseHistory(ph.data * np.exp(1j * err)[:, None].astype(ph.data.dtype), ph.acquisition,
                                None, dict(ph.attrs))
             write_phase_history(tmp / "bad.h5", bad)
-            t, msg = _run("-v", "autofocus", tmp / "bad.h5", "-o", tmp / "bad_af.h5")
+            t, msg = _run("-v", "autofocus", tmp / "bad.h5", "-o", tmp / "bad_af.h5", "--method", a.method)
             out = read_phase_history(tmp / "bad_af.h5")
             est = np.asarray(out.attrs.get("autofocus_phase_rad", np.zeros(P)))
             # the images may differ by a cross-range shift (an unobservable linear phase): align it

@@ -274,14 +274,18 @@ def sharpness(image):
     return image_entropy(image), peak_to_mean(image)
 
 
-def keep_if_sharper(ph: PhaseHistory, grid: Grid, result: AutofocusResult, candidates) -> AutofocusResult:
+def keep_if_sharper(ph: PhaseHistory, grid: Grid, result: AutofocusResult, candidates,
+                    imager=None) -> AutofocusResult:
     """Pick, among zero and the candidate estimates, the one with the lowest entropy whose
     peak-to-mean ratio is not below the uncorrected image's: autofocus never leaves an image
-    less sharp than it found it (by either measure)."""
-    h0, m0 = sharpness(form(ph, grid))
+    less sharp than it found it (by either measure). The images are ``imager.image(φ)`` (PGA
+    passes :func:`sarcli.autofocus._sharpness.sharpness_imager`'s, which minimum entropy reports
+    too), else :func:`form`'s on ``grid``."""
+    image = imager.image if imager is not None else (lambda phi: form(ph, grid, phi))
+    h0, m0 = sharpness(image(np.zeros(ph.data.shape[0])))
     best, best_h, best_m = np.zeros(ph.data.shape[0]), h0, m0
     for phi in candidates:
-        h, m = sharpness(form(ph, grid, phi))
+        h, m = sharpness(image(phi))
         if h < best_h and m >= m0:
             best, best_h, best_m = phi, h, m
     result.entropy_before, result.peak_to_mean_before = h0, m0

@@ -123,9 +123,13 @@ class Imager:
     like : Imager or BlockImager, optional
         An imager of the same ``ph`` on another grid: its prepared backprojector's range profiles
         are shared (:meth:`sarcli.formers._bp_prepared.Backprojector.on`).
+    stack : bool
+        Where the backprojector does not take the data, hold the stack of single-pulse images
+        (False: neither, and the imager forms no image;
+        :func:`~sarcli.autofocus._sharpness.sharpness_imager` then uses :func:`~sarcli.autofocus._common.form`).
     """
 
-    def __init__(self, ph, grid: Grid, order: float = 1.0, *, like=None):
+    def __init__(self, ph, grid: Grid, order: float = 1.0, *, like=None, stack: bool = True):
         self.grid = grid
         self.order = float(order)
         self.stack = self._bp = None
@@ -150,7 +154,8 @@ class Imager:
                 return
             except SarcliInputError:  # unequally spaced frequencies: the stack below
                 pass
-        self.stack = pulse_images(ph, grid)
+        if stack:
+            self.stack = pulse_images(ph, grid)
 
     def image(self, phi) -> np.ndarray:
         """``f(φ)``, shape ``grid.shape``."""

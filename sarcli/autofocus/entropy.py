@@ -88,6 +88,7 @@ from ._common import correlation as _corr
 from ._imager import (SPLIT_GAP, BlockImager, Imager, check_splittable, every_nth_line, range_axis,
                       single_threaded_blas, split_grid)
 from ._lbfgs import minimize
+from ._sharpness import sharpness_imager
 from ._levels import LEVELS, dof, gauge_basis, level_basis, phase_mean, spacing, without_gauge
 
 __all__ = ["min_entropy", "coarse_to_fine", "level_basis", "LEVELS"]
@@ -421,23 +422,25 @@ def _min_entropy(ph, grid, start, levels, max_iter, pulse_iter, pulse_lines, ful
     res = AutofocusResult(phi, "min-entropy", iterations=evals, history=hist)
     # the uncorrected image from the stack (exact for a zero phase; sharpness ignores pixel order)
     (h0, m0), (h1, m1) = sharpness(full.image(zero)), sharpness(judge.image(phi))
-    res.entropy_before, res.peak_to_mean_before = h0, m0
-    res.entropy_after, res.peak_to_mean_after = h1, m1
+    hist["guarded_sharpness"] = {"before": (h0, m0), "after": (h1, m1)}
+    # what is reported, and judged last: the images of the grid asked for (the estimation grid),
+    # formed as PGA forms them (sharpness_imager), so both methods report the same numbers
+    mine = sharpness_imager(ph, est, like=full)
+    (u0, n0), (u1, n1) = sharpness(mine.image(zero)), sharpness(mine.image(phi))
+    res.entropy_before, res.peak_to_mean_before = u0, n0
+    res.entropy_after, res.peak_to_mean_after = u1, n1
     if guard and np.any(phi) and not (h1 < h0 and m1 >= m0):
         # never less sharp, on the images the estimate was made on (exact for its block phases)
         res.reject("; but it left the image less sharp (entropy or peak-to-mean): not applied")
         warnings.warn(f"autofocus (min-entropy) did not sharpen the image (entropy {h0:.4f}, peak-to-mean "
                       f"{m0:.4g} before): no correction applied", AutofocusWarning, stacklevel=3)
-    elif guard and np.any(phi) and est.shape != full.grid.shape:
+    elif guard and np.any(phi) and not (u1 < u0 and n1 >= n0):
         # and on the grid asked for, inside the guard band: on a grid of a few pixels a search
         # can sharpen the band by moving energy that the grid itself loses
-        mine = Imager(ph, est, like=full)
-        (u0, n0), (u1, n1) = sharpness(mine.image(zero)), sharpness(mine.image(phi))
         which = f"{est.nx} x {est.ny} pixel " + (
             "grid asked for" if (est.dx, est.dy) == (asked.dx, asked.dy) else "estimation grid")
-        if not (u1 < u0 and n1 >= n0):
-            res.reject(f"; but it left the {which} less sharp (entropy {u0:.4f} -> {u1:.4f}, peak-to-mean "
-                       f"{n0:.4g} -> {n1:.4g}): not applied")
-            warnings.warn(f"autofocus (min-entropy) did not sharpen the {which} (entropy {u0:.4f}, peak-to-mean "
-                          f"{n0:.4g} before): no correction applied", AutofocusWarning, stacklevel=3)
+        res.reject(f"; but it left the {which} less sharp (entropy {u0:.4f} -> {u1:.4f}, peak-to-mean "
+                   f"{n0:.4g} -> {n1:.4g}): not applied")
+        warnings.warn(f"autofocus (min-entropy) did not sharpen the {which} (entropy {u0:.4f}, peak-to-mean "
+                      f"{n0:.4g} before): no correction applied", AutofocusWarning, stacklevel=3)
     return res
