@@ -89,6 +89,19 @@ def test_ffbp_merges_in_stages():
     assert plan.n_stages >= 3
 
 
+@pytest.mark.parametrize("os_range, os_angle, tol", [(3.0, 1.5, 1e-3), (1.5, 2.5, 5e-4), (2.0, 2.5, 1e-4)])
+# measured 5.5e-4, 2.5e-4, 4.2e-5 (4 stages)
+def test_ffbp_unequal_oversampling_over_several_stages(os_range, os_angle, tol):
+    """Unequal range and angle oversampling through several merges (the planner's sweep offers
+    such pairs): each stage's range and angle kernels are their own, so a merge that interpolated
+    in angle with the range kernel (or the reverse) leaves the exact matched filter."""
+    a, r0 = circle(P=256, aperture_deg=8.0)
+    err, plan = check(point_data(a, r0), a, r0, os_range=os_range, os_angle=os_angle, base=8, merge=2,
+                      final=4, tol=tol)
+    assert plan.n_stages >= 3
+    assert (plan.knobs["os_range"], plan.knobs["os_angle"]) == (os_range, os_angle)
+
+
 def test_ffbp_bistatic_positions():
     a, r0 = circle()
     rcv = a + np.array([0.0, 40.0, 5.0])
@@ -463,11 +476,13 @@ def _merge_reference(cre, cim, cf, pf, first, count, tab_q, tab_t, dq, kref, n_u
     return out
 
 
-def test_merge_matches_its_numpy_reference():
+@pytest.mark.parametrize("tables", ["optimal 2.0 2.0", "optimal 3.0 1.5", "deapodized 1.5 3.0"])
+def test_merge_matches_its_numpy_reference(tables):
     """The compiled merge (each column's segment found by walking the row, run boundaries listed
     by blocks) equals its NumPy twin to float32 rounding, on random sub-images of two levels of the
-    tests' circle."""
+    tests' circle; with equal range and angle tables and with unequal ones (each pass its own)."""
     import sarcli.formers._ffbp_kernels as kern
+    from sarcli.formers.ffbp_model import deapodized_kernel
 
     a, r0 = circle(P=192)
     plan = plan_stages(a, FREQ, GRID, base=4)
@@ -476,7 +491,9 @@ def test_merge_matches_its_numpy_reference():
     cre, cim = (rng.standard_normal((child.n, child.n_u, child.n_q)).astype(np.float32) for _ in range(2))
     first, count = parent.children
     cf, pf = kern.frame(child), kern.frame(parent)
-    tab_q, tab_t = optimal_kernel(2.0), optimal_kernel(2.0)
+    name, beta_q, beta_t = tables.split()
+    make = optimal_kernel if name == "optimal" else deapodized_kernel
+    tab_q, tab_t = make(float(beta_q)), make(float(beta_t))
     out_re, out_im = (np.zeros((parent.n, parent.n_u, parent.n_q), np.float32) for _ in range(2))
     kern.merge(cre, cim, cf, pf, first, count, 3, tab_q, tab_t, plan.dq, plan.kref, out_re, out_im)
     ref = _merge_reference(cre, cim, cf, pf, first, count, tab_q, tab_t, plan.dq, plan.kref, parent.n_u,
