@@ -110,9 +110,11 @@ def test_float32_precision_at_100_km_keeps_phase():
     ref = exact_mf(data, freq, a, r0, GRID)
     strong = np.abs(ref) > 0.1
     phase_err = np.max(np.abs(np.angle(f32[strong] / f64[strong])))
-    assert phase_err < 2e-6  # measured 2.3e-7 rad
-    assert rel_err(f32, ref) < 2e-4   # measured 2.6e-5, float64's own error
-    assert rel_err(f32, f64) < 1e-6   # measured 1.4e-7
+    # measured on AVX-512 / AVX2 / baseline kernels (SARCLI_BP_ISA=2, 1, 0): 2.3e-7, 2.3e-7, 2.5e-7 rad
+    assert phase_err < 5e-7
+    assert np.max(np.abs(np.angle(f32[strong] / ref[strong]))) < 1.2e-4   # measured 7.1e-5 (interpolation)
+    assert rel_err(f32, ref) < 4e-5   # measured 2.6e-5, float64's own error
+    assert rel_err(f32, f64) < 2e-7   # measured 8.7e-8 (1.0e-7 baseline)
 
 
 @pytest.mark.parametrize("precision,tol", [("float64", 1e-14), ("float32", 2e-6)])
@@ -205,7 +207,7 @@ def test_polynomial_carrier_matches_libm():
     c = np.empty(x.size, np.float32)
     s = np.empty(x.size, np.float32)
     k.carrier_values(x, c, s)
-    assert np.max(np.abs(c + 1j * s - np.exp(1j * x))) < 1e-6  # measured 3.9e-7
+    assert np.max(np.abs(c + 1j * s - np.exp(1j * x))) < 6e-7  # measured 3.9e-7
 
 
 def test_interpolation_weights_match_their_formulas():
@@ -255,8 +257,9 @@ def test_orbit_range_keeps_phase():
     for prec in ("float64", "float32"):
         img = backproject(data, freq, a, r0, grid, precision=prec)
         strong = np.abs(ref) > 0.1
-        assert np.max(np.abs(np.angle(img[strong] / ref[strong]))) < 2.5e-4  # measured 2.4e-5 rad
-        assert rel_err(img, ref) < 2e-4, prec                                 # measured 1.9e-5
+        # measured 2.4e-5 rad (2.5e-5 on the baseline kernels), 1.9e-5 on every instruction set
+        assert np.max(np.abs(np.angle(img[strong] / ref[strong]))) < 4e-5
+        assert rel_err(img, ref) < 3e-5, prec
 
 
 def test_tiles_narrow_near_the_antenna():
@@ -269,7 +272,7 @@ def test_tiles_narrow_near_the_antenna():
     ref = exact_mf(data, freq, a, r0, GRID)
     img = backproject(data, freq, a, r0, GRID, upsample=32)
     near = np.abs(ref) > 0.05 * np.abs(ref).max()
-    assert rel_err(img[near], ref[near]) < 2e-5   # measured 1.9e-6
+    assert rel_err(img[near], ref[near]) < 4e-6   # measured 1.9e-6
 
 
 def test_range_profiles_are_the_padded_inverse_fft():
