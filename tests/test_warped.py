@@ -18,8 +18,8 @@ from sarcli.core.types import PhaseHistory
 from sarcli.errors import SarcliInputError
 from sarcli.io.hdf5 import read_image, write_phase_history
 from sarcli.linops import SphericalOperator
-from sarcli.linops.warped import (SUBAPERTURE_COUNTS, WarpedNufftOperator, choose_subapertures, predict_error,
-                                  predict_gram_error)
+from sarcli.linops.warped import (MEASURE_ABOVE, SUBAPERTURE_COUNTS, WarpedNufftOperator, choose_subapertures,
+                                  measured_gram_error, predict_error, predict_gram_error)
 from sarcli.regularize import regularize
 
 C = 299_792_458.0
@@ -102,6 +102,24 @@ def test_adjoint_pair_and_error_within_prediction(name, runs):
         assert rel(got, op.adjoint(op.forward(f))) <= 10 * op.eps
 
 
+@pytest.mark.parametrize("name", sorted(GEOMETRIES))
+def test_measured_gram_error_bounds_the_true_one(name):
+    """The a-posteriori estimate (the difference from four times the runs, plus the reference's own
+    predicted error) is at least the true AᴴA error against the exact model, on a random image and
+    a corner point; measured 1.2-2.1 x it, where the forward bound is 1.0-8 x."""
+    acq = GEOMETRIES[name]()
+    grid = acq.grid
+    A = exact(acq, grid)
+    rng = np.random.default_rng(5)
+    point = np.zeros(grid.shape, np.complex128)
+    point[0, 0] = 1.0
+    op = WarpedNufftOperator(acq, grid, subapertures=1, eps=1e-4)
+    true = max(rel(op.gram().forward(f), (A.conj().T @ (A @ f.ravel())).reshape(grid.shape))
+               for f in (rng.standard_normal(grid.shape) + 1j * rng.standard_normal(grid.shape), point))
+    bound = measured_gram_error(acq, grid, 1, eps=1e-4)
+    assert true <= bound <= 3 * true, (true, bound)
+
+
 def test_gram_is_hermitian_and_positive():
     acq = circle()
     op = WarpedNufftOperator(acq, acq.grid, subapertures=2)
@@ -135,7 +153,12 @@ def test_choose_subapertures_meets_the_tolerance_or_says_none():
     for tol in (1e-2, 1e-3):
         n, err = choose_subapertures(acq, acq.grid, tol)
         fewer = SUBAPERTURE_COUNTS[SUBAPERTURE_COUNTS.index(n) - 1] if n > 1 else None
-        assert err <= tol and (fewer is None or predict_gram_error(acq, acq.grid, fewer, eps=tol / 10) > tol)
+        # the count before it is not predicted to meet the tolerance, nor measured to where it was measured
+        assert err <= tol
+        if fewer is not None:
+            pred = predict_gram_error(acq, acq.grid, fewer, eps=tol / 10)
+            assert pred > tol
+            assert pred > MEASURE_ABOVE * tol or measured_gram_error(acq, acq.grid, fewer, eps=tol / 10) > tol
     few = circle(R=200.0, deg=10.0, P=16, grid=Grid.square(4.0, 40))
     n, err = choose_subapertures(few, few.grid, 1e-5)
     assert n is None and err > 1e-5
@@ -157,8 +180,9 @@ def _data(acq, scene_seed=0):
 
 def test_regularize_auto_takes_warped_and_matches_the_exact_pair():
     """Spherical data (1 km, the far field off by more than 0.1 rad at the corner): auto takes the
-    warped operator; at a fixed λ and iteration count its image is the exact pair's within 1e-3
-    (measured 7.7e-5; the grid lies within the alias-free disk, where the exact pair is exact)."""
+    warped operator; at a fixed λ and iteration count its image is the exact pair's within 1e-2
+    (measured 3.2e-3 with AᴴA measured within 1e-3; the grid lies within the alias-free disk, where
+    the exact pair is exact)."""
     acq = circle(P=128, M=128, grid=Grid.square(10.0, 48))
     ph = _data(acq)
     kw = dict(prior="ptv", lam=0.02, iters=40, tol=1e-12)
@@ -168,7 +192,7 @@ def test_regularize_auto_takes_warped_and_matches_the_exact_pair():
     assert auto.parameters["operator_predicted_error"] <= 1e-3
     with pytest.warns(Warning):
         ref = regularize(ph, operator="spherical", **kw)
-    assert rel(auto.image, ref.image) <= 1e-3
+    assert rel(auto.image, ref.image) <= 1e-2
 
 
 def test_cli_operator_warped_and_bad_tolerance(tmp_path):

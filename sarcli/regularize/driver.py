@@ -66,7 +66,7 @@ DEFOCUS_WARN_RAD = geometry.DEFOCUS_WARN_RAD
 
 
 def _choose_operator(ph: PhaseHistory, grid: Grid, operator: str, tolerance: float):
-    """``(operator, far-field phase error, sub-apertures of 'warped' or None)``: 'auto' takes the
+    """``(operator, far-field phase error, (sub-apertures, AᴴA error) of 'warped' or None)``: 'auto' takes the
     Toeplitz form where the far-field model holds (phase error at the grid corner at most
     :data:`DEFOCUS_WARN_RAD`), else the warped operator where it meets ``tolerance`` with at least
     :data:`MIN_PULSES_PER_RUN` pulses per sub-aperture, else the exact spherical pair."""
@@ -78,8 +78,8 @@ def _choose_operator(ph: PhaseHistory, grid: Grid, operator: str, tolerance: flo
     if operator == "auto":
         operator = "spherical" if err > DEFOCUS_WARN_RAD else "toeplitz"
         if operator == "spherical" and acq.n_pulses >= MIN_PULSES_PER_RUN:
-            runs, _ = choose_subapertures(acq, grid, tolerance)
-            if runs is not None and acq.n_pulses // runs >= MIN_PULSES_PER_RUN:
+            runs = choose_subapertures(acq, grid, tolerance)
+            if runs[0] is not None and acq.n_pulses // runs[0] >= MIN_PULSES_PER_RUN:
                 operator = "warped"
             else:
                 runs = None
@@ -103,7 +103,9 @@ def _build(ph: PhaseHistory, grid: Grid, operator: str, eps: float, tolerance: f
         from ..linops.warped import WarpedNufftOperator
         from ..linops._reduce import norm2
 
-        op = WarpedNufftOperator(acq, grid, subapertures="auto" if runs is None else runs, tolerance=tolerance)
+        count, err = (None, None) if runs is None else runs   # the chooser's count and its AᴴA error
+        op = WarpedNufftOperator(acq, grid, subapertures="auto" if count is None else count, tolerance=tolerance,
+                                 predicted_error=err)
         atb = SphericalOperator.from_acquisition(acq, grid).adjoint(ph.data)
         return op, NormalEquations(op.gram(), atb, norm2(np.asarray(ph.data)))
     op = NufftOperator.from_acquisition(acq, grid, eps=eps)
