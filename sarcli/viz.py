@@ -98,7 +98,7 @@ def plot_psf_cuts(img, path=None, *, at=None, oversample=8, dynamic_range_db=60.
         ``figure``, ``peak_xy_m``, and ``x`` / ``y`` cuts each with ``s_m``, ``db`` (arrays),
         ``irw_m``, ``peak_position_m``, ``half_power_m`` (the two -3 dB crossings marked).
     """
-    from .analysis.ipr import _crossing, _upsample, profile_metrics
+    from .analysis.ipr import level_crossing, upsample_patch, profile_metrics
 
     im = _as_image(img, grid)
     a = np.asarray(im.image, dtype=np.complex128)
@@ -111,7 +111,7 @@ def plot_psf_cuts(img, path=None, *, at=None, oversample=8, dynamic_range_db=60.
         mag = np.where(d2 <= np.min(d2) + (4 * max(x[1] - x[0], y[1] - y[0])) ** 2, mag, -1.0)
     r0, c0 = np.unravel_index(int(np.argmax(mag)), mag.shape)
     ov = max(1, int(oversample))
-    fine = _upsample(a, ov) if ov > 1 else a
+    fine = upsample_patch(a, ov) if ov > 1 else a
     fx = x[0] + np.arange(fine.shape[1]) * (x[1] - x[0]) / ov
     fy = y[0] + np.arange(fine.shape[0]) * (y[1] - y[0]) / ov
     fmag = np.abs(fine)
@@ -132,7 +132,7 @@ def plot_psf_cuts(img, path=None, *, at=None, oversample=8, dynamic_range_db=60.
         ax.axhline(_HALF_POWER_DB, color="0.5", ls="--", lw=0.8)
         i0 = int(np.argmax(amp))
         level = amp[i0] / np.sqrt(2.0)
-        lo, hi = _crossing(s, amp, i0, 0, level), _crossing(s, amp, i0, amp.size - 1, level)
+        lo, hi = level_crossing(s, amp, i0, 0, level), level_crossing(s, amp, i0, amp.size - 1, level)
         irw = m["irw_m"]
         if irw is not None:
             ax.axvline(lo, color="C3", lw=0.8)

@@ -186,3 +186,42 @@ def test_figures_only_in_viz():
             continue
         text = path.read_text()
         assert "matplotlib.use(" not in text and "pyplot" not in text, f"{name} draws a figure: move it to sarcli.viz"
+
+
+#: Private modules every package may use: the version string, the compiled-kernel loader, helpers.
+SHARED_PRIVATE = ("sarcli._version", "sarcli._native", "sarcli._util")
+
+
+def _private_crossings(name: str, path: Path) -> list[str]:
+    """Imports in ``name`` that take a private name (``_x``) from another module, or any name from a
+    private module of another package (lazy imports count)."""
+    is_pkg = path.name == "__init__.py"
+    package = name if is_pkg else name.rsplit(".", 1)[0]
+    out = []
+    for node in ast.walk(ast.parse(path.read_text(), str(path))):
+        if not isinstance(node, ast.ImportFrom) or node.module == "__future__":
+            continue
+        base = package.split(".")
+        base = base[:len(base) - (node.level - 1)] if node.level else []
+        mod = ".".join(base + ([node.module] if node.module else []))
+        for a in node.names:
+            target = f"{mod}.{a.name}"
+            private = [p for p in target.split(".") if p.startswith("_") and not p.startswith("__")]
+            if not private or target.startswith(SHARED_PRIVATE):
+                continue
+            home = target.split("." + private[0])[0]   # the package that holds the private part
+            if a.name.startswith("_") or not (package + ".").startswith(home + "."):
+                out.append(f"{path.name}:{node.lineno} {target}")
+    return out
+
+
+def test_the_private_checker_finds_a_crossing(tmp_path):
+    p = tmp_path / "m.py"
+    p.write_text("from ..linops._reduce import norm2\nfrom ._samples import _check\nfrom ._samples import ok\n")
+    assert _private_crossings("sarcli.solvers.m", p) == ["m.py:1 sarcli.linops._reduce.norm2",
+                                                         "m.py:2 sarcli.solvers._samples._check"]
+
+
+def test_no_private_name_crosses_a_module():
+    bad = [c for name, path in MODULES.items() for c in _private_crossings(name, path)]
+    assert not bad, bad

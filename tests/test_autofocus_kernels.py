@@ -141,12 +141,12 @@ def test_group_images_add_up_to_the_backprojection():
 
 
 def test_lbfgs_driver_refuses_a_routine_of_another_interface():
-    from sarcli.autofocus._lbfgs import _setulb, _works
+    from sarcli.autofocus._lbfgs import find_setulb, _works
 
     def wrong_arguments(*args):
         raise TypeError("setulb() takes 18 arguments")
 
-    assert _setulb() is not None and _works(_setulb())
+    assert find_setulb() is not None and _works(find_setulb())
     assert not _works(wrong_arguments)
     assert not _works(lambda *args: None)  # asks for nothing: never reaches the minimum
 

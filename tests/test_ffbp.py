@@ -152,7 +152,7 @@ def test_ffbp_farfield_through_form_image():
     from sarcli.formers.formation import _positions
     pos, _, r0 = _positions(ph, GRID)
     plan = plan_stages(pos, FREQ, GRID)
-    assert not mod._series_inputs(pos, pos, r0, plan.levels[0], plan.dq, 4 * np.pi * FREQ.max() / geometry.C)[1].any()
+    assert not mod.series_inputs(pos, pos, r0, plan.levels[0], plan.dq, 4 * np.pi * FREQ.max() / geometry.C)[1].any()
     pred = img.parameters["predicted_error"]
     assert pred / 3 <= err <= 3 * pred
     assert img.parameters["virtual_range_m"] > 1e6 and img.method == "ffbp"
@@ -231,7 +231,7 @@ def test_polar_kernels_deapodized_only_where_the_mismatch_allows():
 
 def test_tone_weights_match_the_mean_responses():
     """The compiled weights are ``Π_l 1/Ψ(k_j a[l, p] + b)`` (NumPy's table of Ψ), per pulse."""
-    from sarcli.formers._ffbp_stage0 import _tone_weights
+    from sarcli.formers._ffbp_stage0 import tone_weights
     from sarcli.formers.ffbp_model import deapodized_inverse
 
     rng = np.random.default_rng(2)
@@ -240,7 +240,7 @@ def test_tone_weights_match_the_mean_responses():
     b = -0.1
     h, inv = deapodized_inverse(1.5)
     out = np.full((5, FREQ.size), 2.0)
-    _tone_weights(k, a, b, 1.0 / h, inv, out)
+    tone_weights(k, a, b, 1.0 / h, inv, out)
     ref = 2.0 / np.prod(deapodized_response(1.5, k[None, 0, :] * a[:, :, None] + b), axis=0)
     np.testing.assert_allclose(out, ref, rtol=1e-6)
 
@@ -380,7 +380,7 @@ def test_cli_form_image_ffbp(tmp_path):
 
 @pytest.mark.parametrize("bistatic", [False, True])
 def test_stage0_range_series_matches_exact_ranges(monkeypatch, bistatic):
-    """Stage 0's range series (``_series_inputs``) gives the image of the exact square roots."""
+    """Stage 0's range series (``series_inputs``) gives the image of the exact square roots."""
     import sarcli.formers._ffbp_stage0 as mod
 
     a, r0 = circle(P=128)
@@ -390,7 +390,7 @@ def test_stage0_range_series_matches_exact_ranges(monkeypatch, bistatic):
     data = point_data(a, r0, rcv=rcv)
     fast = ffbp(data, FREQ, a, r0, GRID, receive_position_m=rcv)
     plan = plan_stages(a if rcv is None else 0.5 * (a + rcv), FREQ, GRID)
-    _, series = mod._series_inputs(a, a if rcv is None else rcv, r0, plan.levels[0], plan.dq,
+    _, series = mod.series_inputs(a, a if rcv is None else rcv, r0, plan.levels[0], plan.dq,
                                    4 * np.pi * FREQ.max() / geometry.C)
     assert series.all()            # 3 km range, short sub-apertures: the series holds everywhere
     monkeypatch.setattr(mod, "SERIES_PHASE", -1.0)   # no tail is small enough: exact everywhere
@@ -405,9 +405,9 @@ def test_stage0_range_series_falls_back_in_the_near_field():
     a, r0 = circle(P=1024, r0=100.0, aperture_deg=40.0)
     kmax = 4 * np.pi * FREQ.max() / geometry.C
     plan = plan_stages(a, FREQ, GRID, base=256)
-    _, series = mod._series_inputs(a, a, r0, plan.levels[0], plan.dq, kmax)
+    _, series = mod.series_inputs(a, a, r0, plan.levels[0], plan.dq, kmax)
     assert not series.any()
-    _, series = mod._series_inputs(a, a, r0, plan_stages(a, FREQ, GRID, base=16).levels[0], plan.dq, kmax)
+    _, series = mod.series_inputs(a, a, r0, plan_stages(a, FREQ, GRID, base=16).levels[0], plan.dq, kmax)
     assert series.all()
     check(point_data(a, r0), a, r0, base=256, tol=2e-2)
 

@@ -45,7 +45,7 @@ def center_azimuth(azimuth_rad) -> float:
     return float(np.angle(np.mean(np.exp(1j * az))))
 
 
-def _crossing(s, amp, i_from, i_to, level):
+def level_crossing(s, amp, i_from, i_to, level):
     """Position where ``amp`` first drops below ``level`` walking from ``i_from`` towards ``i_to``."""
     step = 1 if i_to > i_from else -1
     i = i_from
@@ -118,8 +118,8 @@ def profile_metrics(s, amplitude, *, sidelobe_extent=None, peak_near=None) -> di
         if den < 0:
             pos = float(s[i0] + 0.5 * (a - c) / den * ds)
     level = peak / math.sqrt(2.0)
-    left = _crossing(s, amp, i0, 0, level)
-    right = _crossing(s, amp, i0, amp.size - 1, level)
+    left = level_crossing(s, amp, i0, 0, level)
+    right = level_crossing(s, amp, i0, amp.size - 1, level)
     irw = None if left is None or right is None else right - left
     nl = _first_null(amp, i0, -1)
     nr = _first_null(amp, i0, +1)
@@ -153,7 +153,7 @@ def _spectral_centre_bin(power_1d) -> int:
     return int(np.rint(np.angle(z) * n / (2 * np.pi))) % n
 
 
-def _upsample(patch: np.ndarray, oversample: int) -> np.ndarray:
+def upsample_patch(patch: np.ndarray, oversample: int) -> np.ndarray:
     """Band-limited (FFT zero-padding) interpolation of a complex band-pass patch.
 
     The spectrum is first rolled so its circular centroid sits at zero frequency (an exact
@@ -258,7 +258,7 @@ def measure_ipr(image, x_m, y_m, at=None, *, range_direction_rad=0.0, resolution
     clo, chi = max(0, c0 - hx), min(nx, c0 + hx + 1)
     truncated = bool(rlo > r0 - hy or rhi < r0 + hy + 1 or clo > c0 - hx or chi < c0 + hx + 1)
     patch = img[rlo:rhi, clo:chi]
-    fine = _upsample(patch, oversample)
+    fine = upsample_patch(patch, oversample)
     fdx, fdy = dx / oversample, dy / oversample
 
     # 3. fine peak near the coarse one, parabolic refinement in each axis

@@ -145,7 +145,7 @@ class Imager:
         if acq.model == "spherical" and data.shape[1] >= 2:
             t, q, r0 = acq.range_geometry()
             try:  # the backprojector's checks; its range profiles once for every image and contraction
-                from ..formers._bp_prepared import Backprojector
+                from ..formers import Backprojector
 
                 with warnings.catch_warnings():  # a guard band may reach the unambiguous window: harmless
                     warnings.simplefilter("ignore", SarcliWarning)
@@ -351,7 +351,7 @@ class BlockImager:
 
         data = np.asarray(ph.data, dtype=np.complex128)
         if acq.model == "spherical" and data.shape[1] >= 2:
-            from ..formers._bp_prepared import Backprojector
+            from ..formers import Backprojector
 
             t, q, r0 = acq.range_geometry()
             try:

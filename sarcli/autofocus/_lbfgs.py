@@ -27,7 +27,7 @@ __all__ = ["lbfgs", "minimize", "LEVEL_FTOL"]
 _SETULB = []
 
 
-def _setulb():
+def find_setulb():
     """scipy's compiled ``setulb``, loaded from its extension file; ``None`` if that fails."""
     if not _SETULB:
         fn = None
@@ -76,7 +76,7 @@ def lbfgs(fun, x0, *, max_iter: int, max_fun: int, ftol: float = 1e-12, gtol: fl
     bounds, for at most ``max_iter`` iterations (``maxfun`` = ``max_fun``, checked between
     iterations as scipy does). Returns nothing: the caller keeps what it needs from ``fun``'s calls
     (an exception raised by ``fun`` ends the search)."""
-    setulb = _setulb()
+    setulb = find_setulb()
     x = np.array(np.asarray(x0, np.float64).ravel())
     if setulb is None:
         from scipy.optimize import minimize

@@ -246,11 +246,11 @@ def min_entropy(ph, *, grid: Grid | None = None, start="zero", levels=LEVELS, ma
         estimates per level, the held-out gains and the correlation between the halves per level,
         the level kept and why (``'decision'``).
     """
-    from ._lbfgs import _setulb
+    from ._lbfgs import find_setulb
 
     # L-BFGS-B's BLAS (scipy's own OpenBLAS) is loaded first, so that the one-thread limit reaches
     # it too: its idle threads spin after every call, on cores shared with other jobs
-    _setulb()
+    find_setulb()
     with single_threaded_blas():
         return _min_entropy(ph, grid, start, levels, max_iter, pulse_iter, pulse_lines, full_pulse_iter, max_blocks,
                             max_stack_mib, validate, guard, pga_options, order)

@@ -183,7 +183,7 @@ def _frame(geo: _FrameGeometry, first, count, kmax, os_angle, band_scale=1.0) ->
                   float(np.max(geo.geo[2] + geo.q_max)))
 
 
-def _level(fr: _Frame, dq, ext_q, ext_u, children=None) -> _Level:
+def level_grid(fr: _Frame, dq, ext_q, ext_u, children=None) -> _Level:
     """The polar grids of a frame, extended by ``ext_q``/``ext_u`` samples on each side (``ext_u``
     may differ between sub-apertures; the grids share the largest shape)."""
     n_u = int(np.max(np.ceil((fr.u_max - fr.u_min) / fr.du) + 2 * np.asarray(ext_u))) + 1
@@ -261,7 +261,7 @@ def deapodization(freq_hz, plan, n_len):
     """Weights [1, M] that divide the range profiles' deapodized kernel's mean response out of the
     data (:func:`sarcli.formers.ffbp_model.deapodized_kernel`) where the plan says: bin ``j − j_c``
     of the FFT of length L is the frequency ``(j − j_c)/L``, exactly. (The polar grids' kernels read
-    a frequency per pulse and level: :func:`decide_deapodization`, ``_ffbp_stage0._tone_weights``.)"""
+    a frequency per pulse and level: :func:`decide_deapodization`, ``_ffbp_stage0.tone_weights``.)"""
     m = np.shape(freq_hz)[-1]
     if not plan.profiles_deapodized:
         return np.ones((1, m))
@@ -438,7 +438,7 @@ def decide_deapodization(rates, frames, kmax, kref, dq, os_range, os_angle):
     Pulse p's component at ``k_j`` is read by level l's interpolations at
     ``ν_q = k_j a_q[l, p] + b_q`` and ``ν_u = k_j a_u[l, p]`` cycles per sample, with
     ``a_q = ∂R_p/∂q · Δq/2π``, ``b_q = −k_ref Δq/2π`` and ``a_u = ∂R_p/∂u · Δu_l/2π``, so
-    ``Π_l Ψ(ν)`` can be divided out of the data (``_ffbp_stage0._tone_weights``). What the spread of
+    ``Π_l Ψ(ν)`` can be divided out of the data (``_ffbp_stage0.tone_weights``). What the spread of
     the derivatives over a grid leaves costs ``rms_ν (d ln Ψ/dν) · k_max · rms_p (half-spread · Δ/2π)``
     per level (the mismatch: rms over the band and the pulses, as the aliases,
     :func:`sarcli.formers.ffbp_model.deapodized_error`). An axis is deapodized where its mismatch

@@ -16,7 +16,7 @@ from ..core.grid import Grid
 from ..errors import SarcliInputError
 from .ffbp_model import INTERPOLATORS, NTAPS as _NTAPS, angle_interp_error, deapodized_edge_error, deapodized_error
 from .ffbp_model import default_upsample, frequency_error, interp_error, predict_error
-from ._ffbp_grids import _level, apertures, band_excess, decide_deapodization
+from ._ffbp_grids import level_grid, apertures, band_excess, decide_deapodization
 
 #: Default knobs (see docs/ffbp.md for the error-vs-time frontier behind them); ``upsample`` not
 #: given is :func:`default_upsample` for ``optimal``, :data:`UPSAMPLE_ANALYTIC` for the others.
@@ -145,7 +145,7 @@ class StageLayout:
             ext_q = int(math.ceil(half * (n_lev - l))) + EXTRA_SAMPLES
             ext_u = np.ceil(half * reach / fr.du + U_FOR_Q_EXTENSION * ext_q * dq / (fr.metres_per_u * fr.du)
                             ).astype(np.int64) + EXTRA_SAMPLES
-            levels.append(_level(fr, dq, ext_q, ext_u, children[l]))
+            levels.append(level_grid(fr, dq, ext_q, ext_u, children[l]))
         return levels
 
     @functools.cached_property
@@ -279,7 +279,7 @@ def layout_stages(antenna_position_m, freq_hz, grid: Grid, *, base=None, merge=N
     while frames[-1].first.size > 1:   # merge while it costs less than it saves in the final stage
         n_cur = frames[-1].first.size
         nxt = ap.frame(len(frames), kmax, knobs["os_angle"], bu)
-        lv = _level(nxt, dq, MERGE_TEST_EXTENSION * half, MERGE_TEST_EXTENSION * half)
+        lv = level_grid(nxt, dq, MERGE_TEST_EXTENSION * half, MERGE_TEST_EXTENSION * half)
         if final is not None:
             if n_cur <= int(final):
                 break

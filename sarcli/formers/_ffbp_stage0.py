@@ -1,8 +1,8 @@
 """Stage 0 of fast factorised backprojection (:mod:`sarcli.formers.ffbp`): the pulses of each base
 sub-aperture backprojected onto its polar grid (:func:`stage0`, compiled in ``src/native/ffbp.cpp``),
 with ranges from a short series about the sub-aperture centre where its truncation allows (the
-series' inputs and where it holds from :func:`_series_inputs`); and the deapodized kernels' mean
-responses at each pulse's tones, divided out of the data (:func:`_tone_weights`).
+series' inputs and where it holds from :func:`series_inputs`); and the deapodized kernels' mean
+responses at each pulse's tones, divided out of the data (:func:`tone_weights`).
 """
 
 from __future__ import annotations
@@ -11,7 +11,7 @@ import numpy as np
 
 from ._ffbp_kernels import native, table
 
-#: Largest phase (radians) the truncated range series of stage 0 may cost (:func:`_series_inputs`).
+#: Largest phase (radians) the truncated range series of stage 0 may cost (:func:`series_inputs`).
 SERIES_PHASE = 1e-7
 #: Whether stage 0 forms a row's 6-tap weights in a pass of their own before the sums (True), or
 #: inside the sums' blocks (False); None: as suits the CPU's copy of the kernel (a pass on AVX2 and
@@ -81,12 +81,12 @@ def stage0(pre, pim, first, count, pulses, series, frame, tab, kind, bistatic, h
 
 
 def pulse_table(geo, dlt, inv_bin, kc):
-    """Stage 0's per-pulse rows, float64 ``[20, B]``: :func:`_pulse_geometry` (exact ranges),
-    :func:`_series_inputs`' rows (the series), the inverse profile bin and the carrier wavenumber."""
+    """Stage 0's per-pulse rows, float64 ``[20, B]``: :func:`pulse_geometry` (exact ranges),
+    :func:`series_inputs`' rows (the series), the inverse profile bin and the carrier wavenumber."""
     return np.ascontiguousarray(np.vstack([geo, dlt, inv_bin[None, :], kc[None, :]]), dtype=np.float64)
 
 
-def _series_inputs(t, rcv, r0, lev, dq, kmax):
+def series_inputs(t, rcv, r0, lev, dq, kmax):
     """Per-pulse rows of stage 0's range series (:func:`stage0`: Δ = position − centre
     and |Δ|² for transmit and receive, ``|c| − r0``) and, per sub-aperture, whether the series'
     truncated tail stays below :data:`SERIES_PHASE` radians of phase at every node of its grid.
@@ -118,7 +118,7 @@ def _series_inputs(t, rcv, r0, lev, dq, kmax):
     return np.ascontiguousarray(dlt), series
 
 
-def _pulse_geometry(t, rcv, r0):
+def pulse_geometry(t, rcv, r0):
     """Rows tx, ty, |t|², |t|, rx, ry, |r|², |r|, offset of the per-pulse range (stage 0's exact
     range; ``t`` transmit, ``rcv`` (r) receive positions)."""
     norm_t = np.sqrt(np.sum(t.astype(np.longdouble) ** 2, axis=1))
@@ -129,7 +129,7 @@ def _pulse_geometry(t, rcv, r0):
                                           norm_r * norm_r, norm_r, off]))
 
 
-def _tone_weights(k, a, b, inv_h, inv_psi, out):
+def tone_weights(k, a, b, inv_h, inv_psi, out):
     """``out[p, j] *= Π_l 1/Ψ(k_j a[l, p] + b)``: a deapodized kernel's mean response at each
     pulse's tone on every level it passes (:func:`sarcli.formers._ffbp_grids.decide_deapodization`),
     divided out of the data in place.

@@ -41,7 +41,7 @@ def weighted_samples(data, weights=None):
     return d * w, total
 
 
-def _check_kspace(data_shape, kx, ky):
+def check_kspace(data_shape, kx, ky):
     kx = np.asarray(kx, dtype=np.float64)
     ky = np.asarray(ky, dtype=np.float64)
     if kx.shape != tuple(data_shape) or ky.shape != tuple(data_shape):

@@ -11,7 +11,7 @@ import numpy as np
 
 from ..core import geometry, sampling
 from .._util.progress import progress
-from ._samples import WeightedSamples, _check_kspace, weighted_samples
+from ._samples import WeightedSamples, check_kspace, weighted_samples
 
 __all__ = ["weighted_samples", "direct_farfield", "direct_spherical"]
 
@@ -54,7 +54,7 @@ def direct_farfield(data, kx, ky, grid, weights=None, *, chunk=None) -> np.ndarr
     image : ndarray, shape (ny, nx), complex128
     """
     wd, total = weighted_samples(data, weights)
-    kx, ky = _check_kspace(wd.shape, kx, ky)
+    kx, ky = check_kspace(wd.shape, kx, ky)
     x, y = grid.x, grid.y
     c, kxf, kyf = wd.ravel(), kx.ravel(), ky.ravel()
     n = c.size

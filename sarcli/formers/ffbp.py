@@ -76,7 +76,7 @@ interpolations:
   coordinate).
 
 So ``Π_l Ψ(ν)`` over the levels a pulse passes is divided out of its data before the profiles' FFT
-(``_ffbp_stage0._tone_weights``). Each pulse's ``∂R_p/∂q`` and ``∂R_p/∂u`` on every level's grid come
+(``_ffbp_stage0.tone_weights``). Each pulse's ``∂R_p/∂q`` and ``∂R_p/∂u`` on every level's grid come
 from its rays to the grown grid's edge and centre (``_ffbp_grids.pulse_rates``); their spread over a
 grid (a climbing path, a near-field aperture) leaves a *mismatch*, ``rms_ν (d ln Ψ/dν)`` times the
 rms over the pulses of the half-spread, in the predicted error. An axis is deapodized only where its
@@ -192,8 +192,8 @@ def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weigh
     image : ndarray, shape (ny, nx), complex128
         ``(1/W) Σ w d e_pj(x)`` to within the predicted error (unit point peaks ≈ 1).
     """
-    from . import _ffbp_kernels as kern
-    from ._ffbp_stage0 import _pulse_geometry, _series_inputs, _tone_weights, pulse_table, stage0
+    from ._ffbp_kernels import final as final_stage, frame, merge as merge_stage
+    from ._ffbp_stage0 import pulse_geometry, series_inputs, tone_weights, pulse_table, stage0
     from .._native import using_threads
     from ._bp_setup import PAD, check_data, profile_length, range_profiles
 
@@ -230,8 +230,8 @@ def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weigh
     inv_bin = 1.0 / bin_m
     kc = range_wavenumbers(alpha_ref)
     lev = plan.levels[0]
-    dlt, series = _series_inputs(t, rcv, r0, lev, plan.dq, 4.0 * np.pi * float(f.max()) / C)
-    pulses = pulse_table(_pulse_geometry(t, rcv, r0), dlt, inv_bin, kc)
+    dlt, series = series_inputs(t, rcv, r0, lev, plan.dq, 4.0 * np.pi * float(f.max()) / C)
+    pulses = pulse_table(pulse_geometry(t, rcv, r0), dlt, inv_bin, kc)
     deapodize = plan.profiles_deapodized or plan.range_deapodized or plan.angle_deapodized
     # each interpolation's weight polynomials (profiles, range, angle): the deapodized kernel where
     # the plan says, else the minimax one for ``optimal``; the analytic kernels read none
@@ -239,7 +239,7 @@ def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weigh
                            optimal_kernel(float(knobs[name])) if knobs["interp"] == "optimal" else None
                            for on, name in ((plan.profiles_deapodized, "upsample"), (plan.range_deapodized, "os_range"),
                                             (plan.angle_deapodized, "os_angle")))
-    # the polar grids' deapodized kernels: 1/Ψ at each pulse's tones on every level (_tone_weights)
+    # the polar grids' deapodized kernels: 1/Ψ at each pulse's tones on every level (tone_weights)
     tones = [(rates, off, deapodized_inverse(float(knobs[os]))) for on, rates, off, os in
              ((plan.range_deapodized, plan.range_rates, plan.range_offset, "os_range"),
               (plan.angle_deapodized, plan.angle_rates, 0.0, "os_angle")) if on]
@@ -266,11 +266,11 @@ def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weigh
                     if tones:   # per pulse: a [pulses, M] block of its own
                         wb = np.array(np.broadcast_to(wb, (p1 - p0, M)), order="C")
                     for rates, off, (h_psi, inv_psi) in tones:
-                        _tone_weights(k_all if k_all.shape[0] == 1 else k_all[p0:p1], rates[:, p0:p1], off,
+                        tone_weights(k_all if k_all.shape[0] == 1 else k_all[p0:p1], rates[:, p0:p1], off,
                                      1.0 / h_psi, inv_psi, wb)
                 pre, pim = range_profiles(d[p0:p1], wb, total, n_len, nthr, dtype=np.complex64)
                 stage0(pre, pim, lev.first[s0:s1] - p0, lev.count[s0:s1], np.ascontiguousarray(pulses[:, p0:p1]),
-                       series[s0:s1], kern.frame(lev, s0, s1), tab_p, kind, bistatic, n_len // 2, n_len, PAD,
+                       series[s0:s1], frame(lev, s0, s1), tab_p, kind, bistatic, n_len // 2, n_len, PAD,
                        plan.dq, plan.kref, cur_re[s0 - lo:s1 - lo], cur_im[s0 - lo:s1 - lo])
                 del pre, pim
             for l in range(1, len(levels)):
@@ -279,14 +279,14 @@ def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weigh
                 pf, pc = parent.children
                 nxt_re = np.empty((u1 - u0, parent.n_u, parent.n_q), dtype=_STORE)
                 nxt_im = np.empty((u1 - u0, parent.n_u, parent.n_q), dtype=_STORE)
-                kern.merge(cur_re, cur_im, kern.frame(child, c0, c1), kern.frame(parent, u0, u1), pf[u0:u1] - c0,
+                merge_stage(cur_re, cur_im, frame(child, c0, c1), frame(parent, u0, u1), pf[u0:u1] - c0,
                            pc[u0:u1], kind, tab_q, tab_t, plan.dq, plan.kref, nxt_re, nxt_im)
                 cur_re, cur_im = nxt_re, nxt_im
                 del nxt_re, nxt_im
             last = levels[-1]
             if img is None:
                 img = np.zeros(grid.shape, dtype=np.complex128)
-            kern.final(cur_re, cur_im, kern.frame(last, a0, b0), grid.x, grid.y, kind, tab_q, tab_t, plan.dq,
+            final_stage(cur_re, cur_im, frame(last, a0, b0), grid.x, grid.y, kind, tab_q, tab_t, plan.dq,
                        plan.kref, img)
             del cur_re, cur_im
     return (img, plan) if return_plan else img

@@ -18,7 +18,7 @@ import numpy as np
 
 from ..core import geometry
 from ..errors import SarcliInputError
-from ._samples import _check_kspace, weighted_samples
+from ._samples import check_kspace, weighted_samples
 
 __all__ = ["nufft_farfield", "nufft_options", "FFTW_FLAGS"]
 
@@ -91,7 +91,7 @@ def nufft_farfield(data, kx, ky, grid, weights=None, *, eps=1e-9, nthreads=None,
     image : ndarray, shape (ny, nx), complex128
     """
     wd, total = weighted_samples(data, weights)
-    kx, ky = _check_kspace(wd.shape, kx, ky)
+    kx, ky = check_kspace(wd.shape, kx, ky)
     flag = FFTW_FLAGS.get(fftw, fftw) if isinstance(fftw, str) else int(fftw)
     if isinstance(flag, str):
         raise ValueError(f"unknown fftw planner {fftw!r}; choose one of {', '.join(FFTW_FLAGS)}")

@@ -41,7 +41,7 @@ from ..core import geometry
 from ..core.types import KGrid
 from ..errors import SarcliInputError, SarcliWarning
 from .._util.progress import progress
-from ._samples import _check_kspace, weighted_samples
+from ._samples import check_kspace, weighted_samples
 
 __all__ = ["regrid_polar", "pfa_image", "check_aperture", "PFA_KERNELS", "MAX_KGRID_CELLS"]
 
@@ -158,7 +158,7 @@ def regrid_polar(data, kx, ky, weights=None, *, pixel_m, shape, center_m=(0.0, 0
     if not 2 <= width <= 16:
         raise SarcliInputError(f"PFA kernel width must be 2..16 cells, got {width}")
     wd, _ = weighted_samples(data, weights)
-    kx, ky = _check_kspace(wd.shape, kx, ky)
+    kx, ky = check_kspace(wd.shape, kx, ky)
     w = np.ones(wd.shape) if weights is None else np.asarray(weights, dtype=np.float64)
     if density == "area":
         rho = _area_density(kx, ky)

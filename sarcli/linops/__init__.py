@@ -16,7 +16,12 @@ _LAZY = {
     "PRIORS": "finite_diff", "NufftOperator": "fourier", "SubsampledDFT": "fourier",
     "wrapped_pixel_frequencies": "fourier", "ToeplitzGram": "toeplitz", "NormalEquations": "toeplitz",
     "normal_equations": "toeplitz", "SphericalOperator": "spherical",
+    "WarpedNufftOperator": "warped",
 }
+#: The compiled reductions of ``_reduce`` that the solvers and the regulariser use, public here.
+_LAZY.update({name: "_reduce" for name in (
+    "empty", "rdot", "norm2", "rdot_diff", "norm2_diff", "rdot_diff2", "shrink_update", "axpy",
+    "add_twice_diff", "step_dots")})
 
 __all__ = list(_LAZY)
 

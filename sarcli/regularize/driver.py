@@ -101,7 +101,7 @@ def _build(ph: PhaseHistory, grid: Grid, operator: str, eps: float, tolerance: f
         # AᴴA by the warped operator; Aᴴb by the exact pair (one backprojection), so that the only
         # approximation in the normal equations is AᴴA's, whose error the tolerance bounds
         from ..linops.warped import WarpedNufftOperator
-        from ..linops._reduce import norm2
+        from ..linops import norm2
 
         count, err = (None, None) if runs is None else runs   # the chooser's count and its AᴴA error
         op = WarpedNufftOperator(acq, grid, subapertures="auto" if count is None else count, tolerance=tolerance,

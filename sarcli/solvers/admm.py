@@ -30,8 +30,8 @@ from typing import Callable
 import numpy as np
 
 from ..errors import ConvergenceWarning
-from ..linops._reduce import (add_twice_diff, axpy, empty, norm2, norm2_diff, rdot, rdot_diff, rdot_diff2,
-                              shrink_update, step_dots)
+from ..linops import (add_twice_diff, axpy, empty, norm2, norm2_diff, rdot, rdot_diff, rdot_diff2,
+                     shrink_update, step_dots)
 from ..linops.base import Linop
 from ..linops.toeplitz import NormalEquations
 from .shrink import shrink

@@ -13,7 +13,7 @@ import numpy as np
 from scipy.sparse.linalg import LinearOperator, cg
 
 from ..errors import ConvergenceWarning
-from ..linops._reduce import norm2
+from ..linops import norm2
 from ..linops.base import Linop
 from ..linops.toeplitz import NormalEquations
 
