@@ -240,7 +240,7 @@ def choose_subapertures(acq, grid: Grid, tolerance: float, *, eps: float | None 
     return None, err
 
 
-def _kernel_series(n: int, eps: float, t: np.ndarray) -> np.ndarray:
+def _kernel_series(eps: float, t: np.ndarray) -> np.ndarray:
     """``Φ̂(t) = Σ_j φ(j) e^{i t j}``: the Fourier series of FINUFFT's spreading kernel (its values
     at the grid nodes around a point on a node, read back from the spreader itself) at ``t``."""
     m = 64
@@ -272,8 +272,8 @@ class _Run:
         o = 0.5 * (lo + hi)
         tau = 2 * np.pi * (u - o) / (n * h)                 # spreader coordinates in [-π, π)
         s = xi * h                                          # dimensionless frequencies, |s| ≤ π/σ
-        phi = _kernel_series(int(n[0]), eps, s[..., 0].ravel()) * \
-            _kernel_series(int(n[1]), eps, s[..., 1].ravel())
+        phi = _kernel_series(eps, s[..., 0].ravel()) * \
+            _kernel_series(eps, s[..., 1].ravel())
         off = fit.offset
         self.image_phase = np.exp(1j * (w @ kbar))          # E
         self.sample = (np.exp(1j * (xi @ o)).ravel() / phi
@@ -294,7 +294,6 @@ class _Run:
         self._s = (s0, s1)
         self._eps = eps
         self._toeplitz = None
-        self.n_samples = s0.size
 
     def spread(self, f):
         return self._spread.execute(np.ascontiguousarray(self.image_phase * f))
