@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from sarcli._native import load, using_threads
-from sarcli.linops.warped import SIGMA, kernel_table, kernel_weights
+from sarcli.linops.spreading import SIGMA, kernel_table, kernel_weights
 
 SHAPE = (70, 52)
 

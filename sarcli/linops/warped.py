@@ -54,6 +54,7 @@ from ..core import geometry
 from ..core.grid import Grid
 from ..errors import SarcliInputError
 from .base import Linop
+from .spreading import SIGMA, kernel_series, kernel_table, kernel_weights
 from .toeplitz import ToeplitzGram
 
 __all__ = ["WarpedNufftOperator", "WarpedGram", "predict_error", "predict_gram_error", "measured_gram_error",
@@ -67,8 +68,6 @@ REFERENCE_FACTOR = 4
 MEASURE_ABOVE = 4.0
 #: The smallest NUFFT tolerance: the Gram spreads in single precision with the same kernel.
 EPS_MIN = 1e-6
-#: Grid oversampling over the band (FINUFFT's kernel is designed for it).
-SIGMA = 2.0
 #: Pixels along each side of the lattice on which the fit's residual is evaluated.
 LATTICE = 9
 #: Pulses of a run the per-pixel fit uses (evenly spread, ends included).
@@ -241,81 +240,6 @@ def choose_subapertures(acq, grid: Grid, tolerance: float, *, eps: float | None 
     return None, err
 
 
-def _kernel_series(eps: float, t: np.ndarray) -> np.ndarray:
-    """``Φ̂(t) = Σ_j φ(j) e^{i t j}``: the Fourier series of FINUFFT's spreading kernel (its values
-    at the grid nodes around a point on a node, read back from the spreader itself) at ``t``."""
-    m = 64
-    g = finufft.nufft1d1(np.zeros(1), np.ones(1, np.complex128), m, eps=eps, spreadinterponly=1,
-                         upsampfac=SIGMA, modeord=0)
-    j = np.arange(m) - m // 2
-    keep = np.abs(g) > 0
-    return np.real(np.exp(1j * np.outer(t, j[keep])) @ g[keep])
-
-
-def kernel_table(eps: float, per_unit: int = 8192) -> tuple[int, np.ndarray, np.ndarray]:
-    """FINUFFT's spreading kernel at ``eps`` (σ = 2), read back from its interpolator: its taps
-    ``w`` and its values ``φ(z)`` at ``z = −w/2 … w/2`` (node minus point) in steps of ``1/per_unit`` grid cells
-    (linear interpolation between them is exact to ~4e-8 of the peak)."""
-    n, reach = 64, 8
-    z = np.arange(-reach * per_unit, reach * per_unit + 1) / per_unit
-    delta = np.zeros(n, np.complex128)
-    delta[n // 2] = 1.0
-    v = finufft.nufft1d2(2 * np.pi * (n // 2 + z) / n - np.pi, delta, eps=eps, spreadinterponly=1,
-                         upsampfac=SIGMA, modeord=0).real
-    v = v[::-1]  # v was φ(node − point) at node − point = −z
-    support = z[v != 0]
-    taps = int(round(support[-1] - support[0]))
-    keep = np.abs(z) <= taps / 2
-    return taps, z[keep], v[keep]
-
-
-def kernel_weights(x: np.ndarray, table) -> tuple[np.ndarray, np.ndarray]:
-    """The first node ``⌈x − w/2⌉`` (int32) and the ``w`` kernel weights ``φ(node + j − x)``
-    (float32, ``[len(x), w]``) of points at grid coordinates ``x`` (:func:`kernel_table`)."""
-    taps, z, v = table
-    first = np.ceil(x - taps / 2)
-    off = first[:, None] + np.arange(taps) - x[:, None]
-    return first.astype(np.int32), np.interp(off, z, v, left=0.0, right=0.0).astype(np.float32)
-
-
-def _kernel_series(eps: float, t: np.ndarray) -> np.ndarray:
-    """``Φ̂(t) = Σ_j φ(j) e^{i t j}``: the Fourier series of FINUFFT's spreading kernel (its values
-    at the grid nodes around a point on a node, read back from the spreader itself) at ``t``."""
-    m = 64
-    g = finufft.nufft1d1(np.zeros(1), np.ones(1, np.complex128), m, eps=eps, spreadinterponly=1,
-                         upsampfac=SIGMA, modeord=0)
-    j = np.arange(m) - m // 2
-    keep = np.abs(g) > 0
-    return np.real(np.exp(1j * np.outer(t, j[keep])) @ g[keep])
-
-
-def es_kernel(eps: float) -> tuple[int, float]:
-    """Taps and shape ``(w, β)`` of the exponential-of-semicircle kernel
-    ``ψ(z) = exp(β (√(1 − (2z/w)²) − 1))`` (Barnett, Magland & af Klinteberg 2019) for relative
-    accuracy ``eps`` on a grid oversampled by σ = 2: ``w = ⌈log₁₀(1/eps)⌉ + 1``, ``β = 2.3 w``."""
-    taps = int(min(16, max(2, math.ceil(-math.log10(eps)) + 1)))
-    return taps, 2.3 * taps
-
-
-def es_weights(x: np.ndarray, taps: int, beta: float) -> tuple[np.ndarray, np.ndarray]:
-    """The first node ``⌈x − w/2⌉`` (int32) and the ``w`` weights ``ψ(node + j − x)`` (float32,
-    ``[len(x), w]``) of points at grid coordinates ``x``."""
-    first = np.ceil(x - taps / 2)
-    z = 2.0 * (first[:, None] + np.arange(taps) - x[:, None]) / taps
-    v = np.exp(beta * (np.sqrt(np.maximum(1.0 - z * z, 0.0)) - 1.0))
-    v[np.abs(z) >= 1.0] = 0.0
-    return first.astype(np.int32), v.astype(np.float32)
-
-
-def es_series(t: np.ndarray, taps: int, beta: float) -> np.ndarray:
-    """``Ψ̂(t) = Σ_j ψ(j) e^{i t j}``, the Fourier series of ψ sampled at the integers (real: ψ is
-    even), which deconvolves the spreading at the dimensionless frequencies ``t``, ``|t| ≤ π/σ``."""
-    j = np.arange(-(taps // 2), taps // 2 + 1)
-    z = 2.0 * j / taps
-    v = np.where(np.abs(z) < 1.0, np.exp(beta * (np.sqrt(np.maximum(1.0 - z * z, 0.0)) - 1.0)), 0.0)
-    return np.cos(np.outer(t, j)) @ v
-
-
 class _Run:
     """One run of pulses: its warp, grid, plans and per-sample factors (module docstring, 1-4)."""
 
@@ -337,8 +261,7 @@ class _Run:
         o = 0.5 * (lo + hi)
         tau = 2 * np.pi * (u - o) / (n * h)                 # spreader coordinates in [-π, π)
         s = xi * h                                          # dimensionless frequencies, |s| ≤ π/σ
-        phi = _kernel_series(eps, s[..., 0].ravel()) * \
-            _kernel_series(eps, s[..., 1].ravel())
+        phi = kernel_series(eps, s[..., 0].ravel()) * kernel_series(eps, s[..., 1].ravel())
         off = fit.offset
         self.image_phase = np.exp(1j * (w @ kbar))          # E
         self.sample = (np.exp(1j * (xi @ o)).ravel() / phi
