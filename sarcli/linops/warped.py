@@ -48,6 +48,7 @@ import math
 
 import finufft
 import numpy as np
+import scipy.fft
 
 from .. import _native
 from ..core import geometry
@@ -240,6 +241,15 @@ def choose_subapertures(acq, grid: Grid, tolerance: float, *, eps: float | None 
     return None, err
 
 
+def _fast_size(n: int) -> int:
+    """The smallest even size ≥ ``n`` whose Toeplitz embedding ``2n`` FFTs fast (2, 3, 5, 7, 11
+    only: a large prime factor makes the Gram's FFTs several times slower)."""
+    m = scipy.fft.next_fast_len(2 * n)
+    while m % 4:
+        m = scipy.fft.next_fast_len(m + 1)
+    return m // 2
+
+
 class _Run:
     """One run of pulses: its warp, grid, plans and per-sample factors (module docstring, 1-4)."""
 
@@ -257,7 +267,7 @@ class _Run:
         h = np.pi / (SIGMA * half)
         lo, hi = u.min(axis=0), u.max(axis=0)
         width = int(math.ceil(-math.log10(eps))) + 2
-        n = (np.ceil((hi - lo) / h).astype(int) + 2 * width + 2) // 2 * 2
+        n = np.array([_fast_size(int(m)) for m in np.ceil((hi - lo) / h) + 2 * width + 2])
         o = 0.5 * (lo + hi)
         tau = 2 * np.pi * (u - o) / (n * h)                 # spreader coordinates in [-π, π)
         s = xi * h                                          # dimensionless frequencies, |s| ≤ π/σ
