@@ -195,6 +195,37 @@ def test_regularize_auto_takes_warped_and_matches_the_exact_pair():
     assert rel(auto.image, ref.image) <= 1e-2
 
 
+def test_lam_path_runs_on_half_the_sub_apertures(monkeypatch):
+    """Automatic λ on a warped operator of several sub-apertures: the path's Gram has half of them
+    (recorded, its products counted with the path's), the final solve the operator held to the
+    tolerance; the λ chosen is within 10 % of the one a path on the full operator chooses."""
+    from sarcli.regularize import driver
+
+    acq = circle(P=128, M=64, grid=Grid.square(10.0, 40))
+    ph = _data(acq)
+    kw = dict(prior="ptv", operator="warped", tolerance=2e-4, iters=30)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        img = regularize(ph, **kw)
+    p = img.parameters
+    n = p["subapertures"]
+    assert n >= 2 and p["path_operator"]["subapertures"] == n // 2
+    assert p["path_operator"]["predicted_error"] > p["operator_predicted_error"]
+    g = p["gram_products"]
+    assert g["total"] == g["scaling"] + g["path"] + g["final"] and g["final"] >= 1
+    sel = p["lam_selection"]
+    assert g["path"] == 2 * sum(sel["path_iterations"]) + 2 * len(sel["path_iterations"])
+
+    def full(op, normal, s_a, s_b, params):
+        return normal.scaled(s_a, s_b), normal.gram   # the final operator's own (counted) Gram
+    monkeypatch.setattr(driver, "_path_normal_equations", full)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        ref = regularize(ph, **kw)
+    assert "path_operator" not in ref.parameters
+    assert abs(np.log(p["lam"] / ref.parameters["lam"])) <= np.log(1.1), (p["lam"], ref.parameters["lam"])
+
+
 def test_cli_operator_warped_and_bad_tolerance(tmp_path):
     acq = circle(P=64, grid=Grid.square(8.0, 32))
     write_phase_history(tmp_path / "ph.h5", _data(acq))

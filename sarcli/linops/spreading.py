@@ -13,6 +13,8 @@ from __future__ import annotations
 import finufft
 import numpy as np
 
+from .. import _native
+
 __all__ = ["SIGMA", "kernel_table", "kernel_weights", "kernel_series"]
 
 #: Grid oversampling over the band (FINUFFT's kernel is designed for it).
@@ -38,49 +40,14 @@ def kernel_table(eps: float, per_unit: int = 8192) -> tuple[int, np.ndarray, np.
 
 def kernel_weights(x: np.ndarray, table) -> tuple[np.ndarray, np.ndarray]:
     """The first node ``⌈x − w/2⌉`` (int32) and the ``w`` kernel weights ``φ(node + j − x)``
-    (float32, ``[len(x), w]``) of points at grid coordinates ``x`` (:func:`kernel_table`)."""
+    (float32, ``[len(x), w]``) of points at grid coordinates ``x`` (:func:`kernel_table`,
+    interpolated linearly; compiled: ``sarcli._native._spread``)."""
     taps, z, v = table
-    first = np.ceil(x - taps / 2)
-    off = first[:, None] + np.arange(taps) - x[:, None]
-    return first.astype(np.int32), np.interp(off, z, v, left=0.0, right=0.0).astype(np.float32)
-
-
-def _kernel_series(eps: float, t: np.ndarray) -> np.ndarray:
-    """``Φ̂(t) = Σ_j φ(j) e^{i t j}``: the Fourier series of FINUFFT's spreading kernel (its values
-    at the grid nodes around a point on a node, read back from the spreader itself) at ``t``."""
-    m = 64
-    g = finufft.nufft1d1(np.zeros(1), np.ones(1, np.complex128), m, eps=eps, spreadinterponly=1,
-                         upsampfac=SIGMA, modeord=0)
-    j = np.arange(m) - m // 2
-    keep = np.abs(g) > 0
-    return np.real(np.exp(1j * np.outer(t, j[keep])) @ g[keep])
-
-
-def es_kernel(eps: float) -> tuple[int, float]:
-    """Taps and shape ``(w, β)`` of the exponential-of-semicircle kernel
-    ``ψ(z) = exp(β (√(1 − (2z/w)²) − 1))`` (Barnett, Magland & af Klinteberg 2019) for relative
-    accuracy ``eps`` on a grid oversampled by σ = 2: ``w = ⌈log₁₀(1/eps)⌉ + 1``, ``β = 2.3 w``."""
-    taps = int(min(16, max(2, math.ceil(-math.log10(eps)) + 1)))
-    return taps, 2.3 * taps
-
-
-def es_weights(x: np.ndarray, taps: int, beta: float) -> tuple[np.ndarray, np.ndarray]:
-    """The first node ``⌈x − w/2⌉`` (int32) and the ``w`` weights ``ψ(node + j − x)`` (float32,
-    ``[len(x), w]``) of points at grid coordinates ``x``."""
-    first = np.ceil(x - taps / 2)
-    z = 2.0 * (first[:, None] + np.arange(taps) - x[:, None]) / taps
-    v = np.exp(beta * (np.sqrt(np.maximum(1.0 - z * z, 0.0)) - 1.0))
-    v[np.abs(z) >= 1.0] = 0.0
-    return first.astype(np.int32), v.astype(np.float32)
-
-
-def es_series(t: np.ndarray, taps: int, beta: float) -> np.ndarray:
-    """``Ψ̂(t) = Σ_j ψ(j) e^{i t j}``, the Fourier series of ψ sampled at the integers (real: ψ is
-    even), which deconvolves the spreading at the dimensionless frequencies ``t``, ``|t| ≤ π/σ``."""
-    j = np.arange(-(taps // 2), taps // 2 + 1)
-    z = 2.0 * j / taps
-    v = np.where(np.abs(z) < 1.0, np.exp(beta * (np.sqrt(np.maximum(1.0 - z * z, 0.0)) - 1.0)), 0.0)
-    return np.cos(np.outer(t, j)) @ v
+    x = np.ascontiguousarray(x, np.float64)
+    first, w = np.empty(x.size, np.int32), np.empty((x.size, taps), np.float32)
+    _native.load("spread").kernel_weights(x, taps, np.ascontiguousarray(v, np.float64), float(z[0]),
+                                          float((z[-1] - z[0]) / (z.size - 1)), first, w)
+    return first, w
 
 
 def kernel_series(eps: float, t: np.ndarray) -> np.ndarray:

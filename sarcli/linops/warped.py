@@ -371,7 +371,7 @@ class WarpedNufftOperator(Linop):
                  eps: float | None = None, nthreads: int | None = None, predicted_error: float | None = None):
         t, q, r0, k = _geometry(acq)
         super().__init__(grid.shape, (t.shape[0], k.shape[1]), np.complex128)
-        self.grid = grid
+        self.grid, self.acquisition = grid, acq
         # the Gram's single-precision spreader needs eps >= 1e-6, and every piece one kernel
         self.eps = max(tolerance / 10 if eps is None else float(eps), EPS_MIN)
         if subapertures == "auto":

@@ -112,6 +112,21 @@ def _build(ph: PhaseHistory, grid: Grid, operator: str, eps: float, tolerance: f
     return op, normal_equations(op, ph.data, form=operator)
 
 
+def _path_normal_equations(op, normal, s_a: float, s_b: float, params: dict):
+    """The scaled normal equations the λ path of a warped operator solves, and their counted Gram:
+    the same ``Aᴴb`` and scaling, ``AᴴA`` from half the sub-apertures (a product at about half the
+    final one's cost, an error about 4 × the tolerance: the residual grows as the square of a
+    sub-aperture's angle). The path only ranks λ and warm-starts the final solve,
+    which runs on the operator held to the tolerance."""
+    from ..linops.warped import WarpedNufftOperator
+
+    path_op = WarpedNufftOperator(op.acquisition, op.grid, subapertures=max(1, op.subapertures // 2), eps=op.eps)
+    counter = _Counted(path_op.gram())
+    params["path_operator"] = {"subapertures": path_op.subapertures,
+                               "predicted_error": path_op.predicted_error}
+    return NormalEquations(counter, normal.atb, normal.bnorm2).scaled(s_a, s_b), counter
+
+
 def scale_problem(normal, *, power_iters: int = 30, callback=None):
     """Normalise ``‖A‖₂ = 1`` and ``max |Âᴴ b̂| = 1`` (module docstring).
 
@@ -183,15 +198,17 @@ class _Forecast:
     :data:`PATH_POINTS` points of ``PATH_ITERS + 1`` products for each of its two solvers (the first
     point ``PATH_FIRST_ITERS + 1``), and a
     final solve of :data:`FINAL_SHARE` of ``iters``; the bound: the path down to its floor and
-    the final solve to its cap.
+    the final solve to its cap. ``path_cost``: a path product's cost in final products (the warped
+    operator's path runs on half the sub-apertures).
     """
 
-    def __init__(self, prior, operator, power_iters, iters, auto, notice, tick):
+    def __init__(self, prior, operator, power_iters, iters, auto, notice, tick, path_cost=1.0):
         per = 2 if prior == "tikhonov" else 1
         path_points = len(SELECT_PATH) + int(np.floor(np.log(min(SELECT_PATH) / LAM_MIN) /
                                                       np.log(SELECT_PATH[0] / SELECT_PATH[1]) + 1e-9))
         first = min(iters, PATH_FIRST_ITERS) - min(iters, PATH_ITERS)  # the first point's extra iterations
-        path = (lambda pts: 2 * per * ((PATH_ITERS + 1) * pts + first)) if auto else (lambda pts: 0)  # noqa: E731
+        path = (lambda pts: 2 * per * path_cost * ((PATH_ITERS + 1) * pts + first)) if auto \
+            else (lambda pts: 0)  # noqa: E731
         self.expected = power_iters + path(PATH_POINTS) + per * FINAL_SHARE * iters
         self.bound = power_iters + path(path_points) + per * iters
         self.path_points, self.final = path_points, (path(0), per * iters)
@@ -390,7 +407,8 @@ def regularize(ph: PhaseHistory, *, prior: str = "ptv", order: int = 1, lam: flo
         if progress is not None:
             progress.update(k)
 
-    forecast = _Forecast(prior, operator, power_iters, int(iters), auto, notice, tick)
+    path_cost = max(1, op.subapertures // 2) / op.subapertures if operator == "warped" else 1.0
+    forecast = _Forecast(prior, operator, power_iters, int(iters), auto, notice, tick, path_cost=path_cost)
     scaled, s_a, s_b = scale_problem(normal, power_iters=power_iters, callback=forecast.on_power)
     params = {"prior": prior, "order": int(order), "lam": lam, "beta": beta, "iters": int(iters),
               "tol": float(tol), "operator": operator, "isotropic": bool(isotropic),
@@ -416,14 +434,19 @@ def regularize(ph: PhaseHistory, *, prior: str = "ptv", order: int = 1, lam: flo
     if progress is not None:
         progress.set_description(f"regularize {prior}" + (": lam path" if auto else ""))
     if auto:
-        lam, beta, u0 = auto_lambda(ph, grid, op, scaled, s_a, s_b, D, T, prior, beta_ratio, isotropic, u0, iters,
-                              params, tick)
+        path_normal, path_counter = scaled, counter
+        if operator == "warped" and op.subapertures > 1:
+            path_normal, path_counter = _path_normal_equations(op, normal, s_a, s_b, params)
+        lam, beta, u0 = auto_lambda(ph, grid, op, path_normal, s_a, s_b, D, T, prior, beta_ratio, isotropic, u0,
+                                    iters, params, tick)
+        if path_counter is not counter:
+            products["path_subapertures"] = path_counter.count
         if progress is not None:
             # the path stopped early: the total shrinks to what is left (not reset, so the bar's rate
             # and time estimate carry on)
             progress.total = getattr(progress, "n", 0) + int(iters)
             progress.set_description(f"regularize {prior} lam={lam:.3g}")
-    products["path"] = counter.count - products["scaling"]
+    products["path"] = counter.count - products["scaling"] + products.get("path_subapertures", 0)
     if prior == "tikhonov":
         def cg_cb(i, obj):
             tick(1)
@@ -448,8 +471,8 @@ def regularize(ph: PhaseHistory, *, prior: str = "ptv", order: int = 1, lam: flo
     f = u * (s_b / s_a)
     params["lam"], params["beta"] = lam, beta
     params["iterations"] = int(len(hist.get("objective", [])))
-    products["final"] = counter.count - products["scaling"] - products["path"]
-    params["gram_products"] = {**products, "total": counter.count}
+    products["final"] = counter.count - products["scaling"] - products["path"] + products.pop("path_subapertures", 0)
+    params["gram_products"] = {**products, "total": products["scaling"] + products["path"] + products["final"]}
     _outcome(params, hist, prior)
     return Image(f, grid.x, grid.y, method=f"regularize-{prior}", parameters=params,
                  runtime_s=time.perf_counter() - t0, history=hist)

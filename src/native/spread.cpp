@@ -12,6 +12,7 @@
 // a grid of its own (the first thread's is the output, the others' the caller's scratch), then
 // adds them row by row in thread order: the result depends on the thread count only through the
 // order of float32 additions.
+#include <cmath>
 #include <complex>
 #include <algorithm>
 #include <cstring>
@@ -187,6 +188,42 @@ void interp(in<int, 1> i0, in<int, 1> j0, in<float, 2> wy, in<float, 2> wx, in<c
   by_taps<Interp>(w, p, grid.data(), static_cast<long>(o.shape(0)), n1, o.data());
 }
 
+SARCLI_CLONES void weights_range(const double* x, long lo, long hi, int taps, const double* v, long nv, double z0,
+                                 double step, int* first, float* w) {
+  for (long n = lo; n < hi; ++n) {
+    const double f = std::ceil(x[n] - 0.5 * taps);
+    first[n] = static_cast<int>(f);
+    for (int j = 0; j < taps; ++j) {
+      const double pos = (f + j - x[n] - z0) / step;
+      long i = static_cast<long>(pos);
+      i = i < 0 ? 0 : (i > nv - 2 ? nv - 2 : i);
+      const double t = pos - static_cast<double>(i);
+      w[n * taps + j] = static_cast<float>((1.0 - t) * v[i] + t * v[i + 1]);
+    }
+  }
+}
+
+// first[n] = ceil(x[n] - taps/2) and w[n, j] = the table's value at node - x = first + j - x,
+// interpolated linearly in the uniform table v of z = z0 + k step
+void kernel_weights(in<double, 1> x, int taps, in<double, 1> v, double z0, double step, out<int, 1> first,
+                    out<float, 2> w) {
+  const long n = static_cast<long>(x.shape(0));
+  if (first.shape(0) != x.shape(0) || w.shape(0) != x.shape(0) || w.shape(1) != static_cast<std::size_t>(taps) ||
+      taps < 2 || taps > kMaxTaps || v.shape(0) < 2 || !(step > 0))
+    throw nb::value_error("kernel_weights: inconsistent arguments");
+  const double* px = x.data();
+  const double* pv = v.data();
+  int* pf = first.data();
+  float* pw = w.data();
+  const long nv = static_cast<long>(v.shape(0));
+  nb::gil_scoped_release nogil;
+#pragma omp parallel
+  {
+    const int t = omp_get_thread_num(), nt = omp_get_num_threads();
+    weights_range(px, n * t / nt, n * (t + 1) / nt, taps, pv, nv, z0, step, pf, pw);
+  }
+}
+
 }  // namespace
 }  // namespace sarcli
 
@@ -198,6 +235,8 @@ NB_MODULE(_spread, m) {
         "scratch"_a.noconvert(),
         "grid[i0+a, j0+b] = sum over points of phase f wy[a] wx[b] (grid overwritten); scratch: "
         "(threads - 1, n0, n1) grids for the other threads' shares.");
+  m.def("kernel_weights", &s::kernel_weights, "x"_a, "taps"_a, "v"_a, "z0"_a, "step"_a, "first"_a.noconvert(),
+        "w"_a.noconvert(), "first = ceil(x - taps/2); w[n, j] = table v (z = z0 + k step) at first + j - x, linearly.");
   m.def("interp", &s::interp, "i0"_a, "j0"_a, "wy"_a, "wx"_a, "phase"_a, "grid"_a, "out"_a.noconvert(),
         "out[n] = conj(phase[n]) sum_ab grid[i0+a, j0+b] wy[n, a] wx[n, b]: the adjoint of spread.");
 }
