@@ -52,10 +52,11 @@ def kernel_weights(x: np.ndarray, table) -> tuple[np.ndarray, np.ndarray]:
 
 def kernel_series(eps: float, t: np.ndarray) -> np.ndarray:
     """``Φ̂(t) = Σ_j φ(j) e^{i t j}``: the Fourier series of FINUFFT's spreading kernel (its values
-    at the grid nodes around a point on a node, read back from the spreader itself) at ``t``."""
+    at the grid nodes around a point on a node, read back from the spreader itself) at ``t``; real
+    part only (the values are real), so a sum of cosines."""
     m = 64
     g = finufft.nufft1d1(np.zeros(1), np.ones(1, np.complex128), m, eps=eps, spreadinterponly=1,
-                         upsampfac=SIGMA, modeord=0)
+                         upsampfac=SIGMA, modeord=0).real
     j = np.arange(m) - m // 2
-    keep = np.abs(g) > 0
-    return np.real(np.exp(1j * np.outer(t, j[keep])) @ g[keep])
+    keep = g != 0
+    return np.cos(np.multiply.outer(np.asarray(t, np.float64), j[keep])) @ g[keep]

@@ -189,13 +189,14 @@ def predict_gram_error(acq, grid: Grid, subapertures: int, *, eps: float = 1e-6)
     return predict_error(acq, grid, subapertures, eps=eps)
 
 
-def measured_gram_error(acq, grid: Grid, subapertures: int, *, eps: float = 1e-6) -> float:
+def measured_gram_error(acq, grid: Grid, subapertures: int, *, eps: float = 1e-6, built: dict | None = None) -> float:
     """An a-posteriori bound on the ``AᴴA`` error with ``subapertures`` runs: its relative
     difference from the operator with :data:`REFERENCE_FACTOR` times as many runs, on two probes
     (a seeded random image, and a point at the grid's corner pixel, where the residual is largest),
     plus the reference's own predicted forward error (16 times smaller, the residual falling as the
     square of the run). Costs building both operators and four ``AᴴA`` products; inf where the
-    reference would have runs of fewer than 8 pulses."""
+    reference would have runs of fewer than 8 pulses. ``built``: a dict that receives the operator
+    with ``subapertures`` runs under that key, for a caller that goes on to use it."""
     ref_runs = REFERENCE_FACTOR * subapertures
     if acq.n_pulses // ref_runs < 8:
         return math.inf
@@ -203,7 +204,10 @@ def measured_gram_error(acq, grid: Grid, subapertures: int, *, eps: float = 1e-6
     x = rng.standard_normal(grid.shape) + 1j * rng.standard_normal(grid.shape)
     point = np.zeros(grid.shape, np.complex128)
     point[0, 0] = 1.0
-    gram = WarpedNufftOperator(acq, grid, subapertures=subapertures, eps=eps).gram()
+    op = WarpedNufftOperator(acq, grid, subapertures=subapertures, eps=eps)
+    gram = op.gram()
+    if built is not None:
+        built[subapertures] = op
     ref = WarpedNufftOperator(acq, grid, subapertures=ref_runs, eps=eps).gram()
     worst = 0.0
     for f in (x, point):
@@ -212,12 +216,13 @@ def measured_gram_error(acq, grid: Grid, subapertures: int, *, eps: float = 1e-6
     return worst + predict_error(acq, grid, ref_runs, eps=eps)
 
 
-def choose_subapertures(acq, grid: Grid, tolerance: float, *, eps: float | None = None):
+def choose_subapertures(acq, grid: Grid, tolerance: float, *, eps: float | None = None, built: dict | None = None):
     """The fewest sub-apertures (of :data:`SUBAPERTURE_COUNTS`, at least 8 pulses each) whose
     ``AᴴA`` error is within ``tolerance``: predicted by the forward error
     (:func:`predict_gram_error`), or, where that bound is at most :data:`MEASURE_ABOVE` times the
     tolerance, measured (:func:`measured_gram_error`; ``AᴴA`` sees the residual only through its
-    differences between pixels, and is often 3-10 times better than the bound).
+    differences between pixels, and is often 3-10 times better than the bound). ``built``: a dict
+    that receives the operators the measurement built, by their count (the chosen one among them).
 
     Returns
     -------
@@ -235,7 +240,7 @@ def choose_subapertures(acq, grid: Grid, tolerance: float, *, eps: float | None 
         if err <= tolerance:
             return n, err
         if err <= MEASURE_ABOVE * tolerance:
-            measured = measured_gram_error(acq, grid, n, eps=eps)
+            measured = measured_gram_error(acq, grid, n, eps=eps, built=built)
             if measured <= tolerance:
                 return n, measured
     return None, err
@@ -374,8 +379,9 @@ class WarpedNufftOperator(Linop):
         self.grid, self.acquisition = grid, acq
         # the Gram's single-precision spreader needs eps >= 1e-6, and every piece one kernel
         self.eps = max(tolerance / 10 if eps is None else float(eps), EPS_MIN)
+        built = {}
         if subapertures == "auto":
-            n, err = choose_subapertures(acq, grid, tolerance, eps=self.eps)
+            n, err = choose_subapertures(acq, grid, tolerance, eps=self.eps, built=built)
             if n is None:
                 raise SarcliInputError(
                     f"the warped operator cannot meet tolerance {tolerance:g} on this grid (predicted "
@@ -387,7 +393,9 @@ class WarpedNufftOperator(Linop):
             err = predict_gram_error(acq, grid, n, eps=self.eps) if predicted_error is None else predicted_error
         self.subapertures, self.predicted_error = n, float(err)
         self._blocks = _blocks(t.shape[0], n)
-        self._runs = [_Run(t[b], q[b], r0[b], k[b], grid, self.eps, nthreads) for b in self._blocks]
+        same = built.get(n)   # the chooser built this operator to measure it
+        self._runs = same._runs if same is not None and same.eps == self.eps else \
+            [_Run(t[b], q[b], r0[b], k[b], grid, self.eps, nthreads) for b in self._blocks]
 
     @property
     def n_samples(self) -> int:

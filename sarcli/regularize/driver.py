@@ -66,8 +66,8 @@ DEFOCUS_WARN_RAD = geometry.DEFOCUS_WARN_RAD
 
 
 def _choose_operator(ph: PhaseHistory, grid: Grid, operator: str, tolerance: float):
-    """``(operator, far-field phase error, (sub-apertures, AᴴA error) of 'warped' or None)``: 'auto' takes the
-    Toeplitz form where the far-field model holds (phase error at the grid corner at most
+    """``(operator, far-field phase error, runs)``, ``runs`` of 'warped' the chooser's
+    ``(sub-apertures, AᴴA error, {count: operator it built})``, else None: 'auto' takes the Toeplitz form where the far-field model holds (phase error at the grid corner at most
     :data:`DEFOCUS_WARN_RAD`), else the warped operator where it meets ``tolerance`` with at least
     :data:`MIN_PULSES_PER_RUN` pulses per sub-aperture, else the exact spherical pair."""
     from ..linops.warped import choose_subapertures
@@ -78,11 +78,10 @@ def _choose_operator(ph: PhaseHistory, grid: Grid, operator: str, tolerance: flo
     if operator == "auto":
         operator = "spherical" if err > DEFOCUS_WARN_RAD else "toeplitz"
         if operator == "spherical" and acq.n_pulses >= MIN_PULSES_PER_RUN:
-            runs = choose_subapertures(acq, grid, tolerance)
-            if runs[0] is not None and acq.n_pulses // runs[0] >= MIN_PULSES_PER_RUN:
-                operator = "warped"
-            else:
-                runs = None
+            built = {}
+            count, err_gram = choose_subapertures(acq, grid, tolerance, built=built)
+            if count is not None and acq.n_pulses // count >= MIN_PULSES_PER_RUN:
+                operator, runs = "warped", (count, err_gram, built)
     if operator in ("nufft", "toeplitz") and err > DEFOCUS_WARN_RAD:
         warnings.warn(f"far-field operator '{operator}' on spherical data: predicted phase error {err:.3g} rad "
                       f"at the grid corner ({grid.half_diagonal:.3g} m from the centre); use --operator "
@@ -100,13 +99,19 @@ def _build(ph: PhaseHistory, grid: Grid, operator: str, eps: float, tolerance: f
     if operator == "warped":
         # AᴴA by the warped operator; Aᴴb by the exact pair (one backprojection), so that the only
         # approximation in the normal equations is AᴴA's, whose error the tolerance bounds
-        from ..linops.warped import WarpedNufftOperator
         from ..linops import norm2
+        from ..linops.warped import EPS_MIN, WarpedNufftOperator
 
-        count, err = (None, None) if runs is None else runs   # the chooser's count and its AᴴA error
-        op = WarpedNufftOperator(acq, grid, subapertures="auto" if count is None else count, tolerance=tolerance,
-                                 predicted_error=err)
+        # the chooser's count, its AᴴA error and the operators it measured on
+        count, err, built = (None, None, {}) if runs is None else runs
+        op = built.get(count)
+        if op is None or op.eps != max(tolerance / 10, EPS_MIN):
+            op = WarpedNufftOperator(acq, grid, subapertures="auto" if count is None else count,
+                                     tolerance=tolerance, predicted_error=err)
+        else:
+            op.predicted_error = float(err)
         atb = SphericalOperator.from_acquisition(acq, grid).adjoint(ph.data)
+        op.built = built   # for the λ path's operator (half the sub-apertures), if the chooser made it
         return op, NormalEquations(op.gram(), atb, norm2(np.asarray(ph.data)))
     op = NufftOperator.from_acquisition(acq, grid, eps=eps)
     return op, normal_equations(op, ph.data, form=operator)
@@ -120,7 +125,10 @@ def _path_normal_equations(op, normal, s_a: float, s_b: float, params: dict):
     which runs on the operator held to the tolerance."""
     from ..linops.warped import WarpedNufftOperator
 
-    path_op = WarpedNufftOperator(op.acquisition, op.grid, subapertures=max(1, op.subapertures // 2), eps=op.eps)
+    half = max(1, op.subapertures // 2)
+    path_op = getattr(op, "built", {}).get(half)
+    if path_op is None or path_op.eps != op.eps:
+        path_op = WarpedNufftOperator(op.acquisition, op.grid, subapertures=half, eps=op.eps)
     counter = _Counted(path_op.gram())
     params["path_operator"] = {"subapertures": path_op.subapertures,
                                "predicted_error": path_op.predicted_error}
