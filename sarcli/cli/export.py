@@ -22,8 +22,12 @@ from .options import handle_errors, prepare_outputs, wrote
 @click.option("--annotate", is_flag=True, hidden=True, help="Deprecated: the annotated figure is the default.")
 @click.option("--phase-history", "phase_history", type=click.Path(dir_okay=False), default=None,
               help="SICD: the phase-history file the image was formed from (collection geometry).")
+@click.option("--crs", default=None, metavar="EPSG:NNNN",
+              help="GeoTIFF of a map image (sar form-image --dem): the CRS to write, which must be the one it was "
+                   "formed in (default that one, the scene's UTM zone unless chosen); a plane image is written in "
+                   "the scene's tangent-plane orthographic CRS.")
 @handle_errors
-def command(image, output, kind, dynamic_range_db, cmap, bare, annotate, phase_history):
+def command(image, output, kind, dynamic_range_db, cmap, bare, annotate, phase_history, crs):
     """Export IMAGE (a sarcli image file, a SICD or a GeoTIFF) to GeoTIFF, PNG or SICD."""
     from ..errors import SarcliInputError
     from ..io import open_input
@@ -40,6 +44,24 @@ def command(image, output, kind, dynamic_range_db, cmap, bare, annotate, phase_h
     annotate = fmt == "png" and not bare
     source, img = open_input(image, expect=IMAGE_FORMATS)
     ph = open_input(phase_history, expect="phase-history", truth=False)[1] if phase_history else None
+    from ..io.geotiff import map_info
+
+    mp = map_info(img)
+    if crs is not None:
+        from ..io.dem import parse_crs
+
+        epsg = parse_crs(crs)
+        if fmt != "geotiff":
+            raise SarcliInputError(f"--crs applies to GeoTIFF output, not {fmt}")
+        if mp is None:
+            raise SarcliInputError(f"--crs EPSG:{epsg}: {image} is a plane image (the scene's tangent plane); a map "
+                                   "image in a CRS comes from sar form-image --dem DEM.tif --crs EPSG:NNNN")
+        if mp["crs"] != f"EPSG:{epsg}":
+            raise SarcliInputError(f"--crs EPSG:{epsg}: {image} is a map grid in {mp['crs']}; form it in EPSG:{epsg} "
+                                   f"(sar form-image --dem DEM.tif --crs EPSG:{epsg}) rather than resample it")
+    if mp is not None and fmt == "sicd":
+        raise SarcliInputError(f"{image} is a map image on a DEM ({mp['crs']}), not a SICD's slant or ground plane; "
+                               "export it as GeoTIFF or PNG")
     if fmt == "sicd" and ph is None and source != "sicd":
         import warnings
 

@@ -27,8 +27,9 @@ from ..core.grid import Grid
 from ..errors import AliasingWarning, SarcliInputError
 from ._bp_kernels import kernels
 from ._bp_setup import PAD, Setup, check_data, profiles
+from .direct import direct_points
 
-__all__ = ["backproject_points", "reproject_points", "HEIGHT_METHODS"]
+__all__ = ["backproject_points", "reproject_points", "form_map", "HEIGHT_METHODS"]
 
 #: the formers that form at per-pixel heights (``form_image(..., heights)``)
 HEIGHT_METHODS = ("backprojection", "direct")
@@ -144,3 +145,47 @@ def reproject_points(image, freq_hz, antenna_position_m, range_to_center_m, poin
     if st.weights is not None:
         out *= st.weights
     return out
+
+
+def form_map(ph, method, grid: Grid, dem, *, crs=None, weights=None, upsample=None, interp=None,
+             precision=None, nthreads=None):
+    """A map image on terrain: the map grid covering ``grid`` (:func:`sarcli.io.dem.map_grid`, in
+    EPSG ``crs``, default the scene centre's UTM zone), each pixel at its DEM height
+    (:func:`sarcli.io.dem.map_points`), formed there by ``method`` ('backprojection' or 'direct').
+
+    Returns
+    -------
+    image : ndarray (ny, nx) complex128
+    map_grid : sarcli.io.dem.MapGrid
+    info : dict
+        What ``parameters['map']`` of the image records (CRS, DEM, datum, height range).
+    """
+    from ..io.dem import map_grid, map_points
+    from ..io.georef import reference_point
+    from . import backprojection as bp
+
+    if method not in HEIGHT_METHODS:
+        raise SarcliInputError(f"method {method!r} forms the plane z = 0 only and cannot form at DEM heights; "
+                               f"use {', '.join(HEIGHT_METHODS)} or auto")
+    acq = ph.acquisition
+    if ph.model != "spherical" or not acq.has_positions:
+        raise SarcliInputError("forming on a DEM needs spherical data with antenna positions "
+                               "(far-field data have no range to a height)")
+    ref = reference_point(ph.attrs)
+    mg = map_grid(ref, grid.x, grid.y, min(grid.dx, grid.dy), crs)
+    pts, hae = map_points(mg, dem, ref)
+    t, q, r0 = acq.range_geometry()
+    rcv = q if acq.is_bistatic else None
+    info = {"crs": f"EPSG:{mg.epsg}", "dem": str(dem.path), "dem_datum": dem.datum, "dem_geoid": dem.geoid,
+            "dem_epsg": dem.epsg, "height_min_m": float(np.min(hae)), "height_max_m": float(np.max(hae)),
+            "pixel_m": float(mg.easting[1] - mg.easting[0]) if mg.easting.size > 1 else float(grid.dx)}
+    if method == "direct":
+        img = direct_points(ph.data, acq.frequency_hz, t, r0, pts, weights, receive_position_m=rcv)
+    else:
+        up = bp.DEFAULT_UPSAMPLE if upsample is None else upsample
+        it = bp.DEFAULT_INTERP if interp is None else interp
+        pr = bp.DEFAULT_PRECISION if precision is None else precision
+        img = backproject_points(ph.data, acq.frequency_hz, t, r0, pts, weights, upsample=up, interp=it,
+                                 precision=pr, nthreads=nthreads, receive_position_m=rcv)
+        info.update({"upsample": up, "interp": it, "precision": pr})
+    return img, mg, info
