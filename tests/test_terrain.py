@@ -300,3 +300,16 @@ def test_export_crs_of_a_plane_image_or_another_crs_is_refused(cli_case):
     assert res.exit_code == 2 and "EPSG:32632" in res.output and not (tmp / "m.tif").exists()
     res = _sar(["export", mapped, "-o", tmp / "m.sicd"])
     assert res.exit_code == 2 and "not a SICD" in res.output and not (tmp / "m.sicd").exists()
+
+
+def test_geolocate_refuses_a_map_image(tmp_path):
+    from sarcli.errors import SarcliInputError
+    from sarcli.formers.formation import form_image
+    from sarcli.io.geolocate import geolocate
+
+    enu, _ = target_position(*TARGETS["30° slope"])
+    img = form_image(collection(enu, P=8, M=8), "direct", dem=str(write_dem(tmp_path / "d.tif")),
+                     center=(enu[0], enu[1]), extent=2.0, pixel_size=0.5)
+    assert img.image.shape == (img.y_m.size, img.x_m.size) and img.method == "direct"
+    with pytest.raises(SarcliInputError, match="map CRS"):
+        geolocate(img, 0, 0)

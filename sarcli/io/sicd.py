@@ -40,9 +40,9 @@ from .._version import __version__
 from ..core.acquisition import Acquisition
 from ..errors import SarcliInputError
 from ..core.types import Image
-from .georef import ReferencePoint, ecf_to_enu, enu_basis, enu_to_ecf, reference_point
+from .georef import enu_basis, enu_to_ecf, plane_reference, reference_point
 
-__all__ = ["write_sicd", "read_sicd", "sicd_orientation", "nominal_acquisition", "arp_polynomial", "plane_reference", "SICD_NS"]
+__all__ = ["write_sicd", "read_sicd", "sicd_orientation", "nominal_acquisition", "arp_polynomial", "SICD_NS"]
 
 SICD_NS = "urn:SICD:1.4.0"
 _UP = np.array([0.0, 0.0, 1.0])
@@ -418,7 +418,7 @@ def read_sicd(path) -> Image:
     """Read a ground-plane SICD whose rows run along a cardinal direction (as :func:`write_sicd` writes).
 
     The pixels are put back in our ``[y, x]`` order (row 0 south). The local origin is the point
-    whose tangent plane is the image plane (:func:`plane_reference`; its latitude / longitude /
+    whose tangent plane is the image plane (:func:`.georef.plane_reference`; its latitude / longitude /
     height go to ``attrs``), so a grid :func:`write_sicd` wrote off-centre comes back with the
     coordinates and the scene centre it had.
 
@@ -441,43 +441,6 @@ def read_sicd(path) -> Image:
     except Exception as exc:  # noqa: BLE001 - jbpy/lxml/numpy raise many kinds on a broken file
         msg = str(exc).splitlines()[0][:100] if str(exc) else ""
         raise InputFileError(path, f"truncated or corrupt SICD file ({type(exc).__name__}: {msg})") from None
-
-
-def plane_reference(scp_ecf, row_ecf, col_ecf):
-    """The reference point whose tangent plane is a ground-plane SICD's image plane, and the SCP's
-    east / north offset from it.
-
-    :func:`write_sicd` writes a grid of the local frame (the tangent plane of the scene-centre
-    reference point, :mod:`.georef`): its row and column vectors are that point's cardinal
-    directions and the SCP is the grid's centre, metres away from the reference point when the
-    grid is off-centre. The plane's unit normal ``n = ±(row × col)`` is the ellipsoid normal of the
-    reference point, ``n = (cos φ cos λ, cos φ sin λ, sin φ)`` for geodetic latitude φ and longitude
-    λ; its height h puts the point on the plane, ``(P(φ, λ, h) - SCP)·n = 0``, i.e.
-    ``h = (SCP - P(φ, λ, 0))·n``.
-
-    Parameters
-    ----------
-    scp_ecf, row_ecf, col_ecf : array_like (3,)
-        ``GeoData/SCP/ECF`` and the ``Grid`` row and column unit vectors (ECF).
-
-    Returns
-    -------
-    (ReferencePoint, (float, float))
-        The reference point and the SCP's (east, north) in its frame, metres.
-    """
-    from sarkit import wgs84
-
-    scp = np.asarray(scp_ecf, dtype=np.float64)
-    n = np.cross(np.asarray(row_ecf, dtype=np.float64), np.asarray(col_ecf, dtype=np.float64))
-    n /= np.linalg.norm(n)
-    if n @ scp < 0:   # the upward normal
-        n = -n
-    lat = float(np.degrees(np.arctan2(n[2], np.hypot(n[0], n[1]))))
-    lon = float(np.degrees(np.arctan2(n[1], n[0])))
-    hae = float((scp - wgs84.geodetic_to_cartesian([lat, lon, 0.0])) @ n)
-    ref = ReferencePoint(lat, lon, hae)
-    east_north = ecf_to_enu(scp, ref)[:2]
-    return ref, (float(east_north[0]), float(east_north[1]))
 
 
 def _read_sicd(p) -> Image:
