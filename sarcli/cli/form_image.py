@@ -97,6 +97,9 @@ def command(ctx, input_path, output, method, autofocus_method, window, taylor_nb
                                    "autofocus a plane image first (sar autofocus)")
         if crs is not None:
             parse_crs(crs)
+        if Path(output).suffix.lower() in SICD_SUFFIXES:
+            raise click.BadParameter("a map image on a DEM is not a SICD (a slant or ground plane); write .h5 "
+                                     "or --geotiff, or sar export it to .sidd", param_hint="--output")
         dem = read_dem(dem_path, dem_datum)
     # the samples stay on disk until a former reads them (by blocks of pulses where it can);
     # autofocus rewrites them, so it reads them whole
@@ -120,9 +123,6 @@ def command(ctx, input_path, output, method, autofocus_method, window, taylor_nb
     if Path(output).suffix.lower() in SICD_SUFFIXES:
         from ..io.sicd import write_sicd
 
-        if dem is not None:
-            raise click.BadParameter("a map image on a DEM is not a SICD (a slant or ground plane); write .h5 "
-                                     "or --geotiff", param_hint="--output")
         if acq is None:
             raise click.BadParameter("SICD output needs a phase history (the collection geometry); "
                                      "a k-grid file has none", param_hint="--output")
