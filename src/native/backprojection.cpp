@@ -959,91 +959,147 @@ struct PointArgs {
   bool bist;
 };
 
-SARCLI_INLINE double one_end(const double* p, double ax, double ay, double az, double na) {
-  const double num = p[0] * (p[0] - 2.0 * ax) + p[1] * (p[1] - 2.0 * ay) + p[2] * (p[2] - 2.0 * az);
-  const double dx = ax - p[0], dy = ay - p[1], dz = az - p[2];
-  return num / (std::sqrt(dx * dx + dy * dy + dz * dz) + na);
-}
 
 // Lanes of pixels [i0, i0 + kLanes) for pulse q: first tap index, weights, masked carrier.
+// (Loops over the lanes the compiler vectorises: the ranges in float64, then the profile position.)
 template <int K>
 SARCLI_INLINE void point_lanes(const PointArgs& A, long i0, long q, Lanes<K>& L) {
   const double* g = A.geo;
   const long B = A.B;
   const double ax = g[PAX * B + q], ay = g[PAY * B + q], az = g[PAZ * B + q], na = g[PNA * B + q];
+  const double bx = g[PBX * B + q], by = g[PBY * B + q], bz = g[PBZ * B + q], nb = g[PNB * B + q];
   const double ib = g[PIB * B + q], kc = g[PKC * B + q], off = g[POFF * B + q];
   const double n_len = static_cast<double>(A.n_len);
-  float t[kLanes];
+  const long last = A.n - 1;
+  double px[kLanes], py[kLanes], pz[kLanes], dr[kLanes];
   for (int i = 0; i < kLanes; ++i) {
-    const long k = std::min(i0 + i, A.n - 1);
-    const double* p = A.pts + 3 * k;
-    double dr = one_end(p, ax, ay, az, na);
-    if (A.bist) dr = 0.5 * (dr + one_end(p, g[PBX * B + q], g[PBY * B + q], g[PBZ * B + q], g[PNB * B + q]));
-    dr += off;
-    double sc = dr * ib + A.half_len;
-    const float m = (sc >= 0.0 && sc < n_len && i0 + i < A.n) ? 1.0f : 0.0f;
+    const double* p = A.pts + 3 * std::min(i0 + i, last);
+    px[i] = p[0];
+    py[i] = p[1];
+    pz[i] = p[2];
+  }
+#pragma omp simd
+  for (int i = 0; i < kLanes; ++i) {
+    const double num = px[i] * (px[i] - 2.0 * ax) + py[i] * (py[i] - 2.0 * ay) + pz[i] * (pz[i] - 2.0 * az);
+    const double dx = ax - px[i], dy = ay - py[i], dz = az - pz[i];
+    dr[i] = num / (std::sqrt(dx * dx + dy * dy + dz * dz) + na);
+  }
+  if (A.bist) {
+#pragma omp simd
+    for (int i = 0; i < kLanes; ++i) {
+      const double num = px[i] * (px[i] - 2.0 * bx) + py[i] * (py[i] - 2.0 * by) + pz[i] * (pz[i] - 2.0 * bz);
+      const double dx = bx - px[i], dy = by - py[i], dz = bz - pz[i];
+      dr[i] = 0.5 * (dr[i] + num / (std::sqrt(dx * dx + dy * dy + dz * dz) + nb));
+    }
+  }
+  float t[kLanes], m[kLanes];
+#pragma omp simd
+  for (int i = 0; i < kLanes; ++i) {
+    dr[i] += off;
+    double sc = dr[i] * ib + A.half_len;
+    m[i] = (sc >= 0.0 && sc < n_len && i0 + i <= last) ? 1.0f : 0.0f;
     sc = std::min(std::max(sc, 0.0), n_len - 1.0);
     const double fl = std::floor(sc);
     t[i] = static_cast<float>(sc - fl);
     L.idx[i] = static_cast<int>(fl) + static_cast<int>(A.pad) - Kernel<K>::first;
+  }
+#pragma omp simd
+  for (int i = 0; i < kLanes; ++i) {
     float c, s;
-    carrier(kc * dr, c, s);
-    L.c[i] = m * c;
-    L.s[i] = m * s;
+    carrier(kc * dr[i], c, s);
+    L.c[i] = m[i] * c;
+    L.s[i] = m[i] * s;
   }
   Kernel<K>::weights(t, L.w);
 }
 
-template <typename PT, int K>
-void bp_points_k(const PointArgs& A, const PT* prof, double* ore, double* oim) {
-  const long groups = (A.n + kLanes - 1) / kLanes;
-#pragma omp parallel for schedule(static)
-  for (long gi = 0; gi < groups; ++gi) {
-    const long i0 = gi * kLanes;
-    Lanes<K> L;
-    PT ar[kLanes] = {}, ai[kLanes] = {};
-    for (long q = 0; q < A.B; ++q) {
-      point_lanes<K>(A, i0, q, L);
-      PT tp[2 * Kernel<K>::taps][kLanes];
-      Taps<PT, K, 0>::load(prof + 2 * q * A.lp, L.idx, tp);
-      for (int i = 0; i < kLanes; ++i) {
-        PT vr = 0, vi = 0;
-        for (int k = 0; k < Kernel<K>::taps; ++k) {
-          vr += static_cast<PT>(L.w[k][i]) * tp[2 * k][i];
-          vi += static_cast<PT>(L.w[k][i]) * tp[2 * k + 1][i];
-        }
-        ar[i] += vr * L.c[i] - vi * L.s[i];
-        ai[i] += vr * L.s[i] + vi * L.c[i];
+// One group of kLanes pixels over every pulse (forward), and one pulse over every pixel (adjoint).
+template <typename PT, int K, int ISA>
+SARCLI_INLINE void bp_points_group(const PointArgs& A, const PT* prof, long i0, double* ore, double* oim) {
+  Lanes<K> L;
+  PT ar[kLanes] = {}, ai[kLanes] = {};
+  for (long q = 0; q < A.B; ++q) {
+    point_lanes<K>(A, i0, q, L);
+    PT tp[2 * Kernel<K>::taps][kLanes];
+    Taps<PT, K, ISA>::load(prof + 2 * q * A.lp, L.idx, tp);
+#pragma omp simd
+    for (int i = 0; i < kLanes; ++i) {
+      PT vr = 0, vi = 0;
+      for (int k = 0; k < Kernel<K>::taps; ++k) {
+        vr += static_cast<PT>(L.w[k][i]) * tp[2 * k][i];
+        vi += static_cast<PT>(L.w[k][i]) * tp[2 * k + 1][i];
       }
+      ar[i] += vr * L.c[i] - vi * L.s[i];
+      ai[i] += vr * L.s[i] + vi * L.c[i];
     }
-    for (int i = 0; i < kLanes && i0 + i < A.n; ++i) {
-      ore[i0 + i] += static_cast<double>(ar[i]);
-      oim[i0 + i] += static_cast<double>(ai[i]);
+  }
+  for (int i = 0; i < kLanes && i0 + i < A.n; ++i) {
+    ore[i0 + i] += static_cast<double>(ar[i]);
+    oim[i0 + i] += static_cast<double>(ai[i]);
+  }
+}
+
+template <typename PT, int K, int ISA>
+SARCLI_INLINE void rp_points_pulse(const PointArgs& A, const PT* fre, const PT* fim, long q, PT* h) {
+  Lanes<K> L;
+  PT* hq = h + 2 * q * A.lp;
+  for (long i0 = 0; i0 < A.n; i0 += kLanes) {
+    point_lanes<K>(A, i0, q, L);
+    for (int i = 0; i < kLanes && i0 + i < A.n; ++i) {  // f · exp(-i kc Δr) (masked)
+      const PT c = L.c[i], s = L.s[i], fr = fre[i0 + i], fi = fim[i0 + i];
+      const PT ur = fr * c + fi * s, ui = fi * c - fr * s;
+      const int j = L.idx[i];
+      for (int k = 0; k < Kernel<K>::taps; ++k) {
+        const PT w = static_cast<PT>(L.w[k][i]);
+        hq[2 * (j + k)] += w * ur;
+        hq[2 * (j + k) + 1] += w * ui;
+      }
     }
   }
 }
 
-template <typename PT, int K>
-void rp_points_k(const PointArgs& A, const PT* fre, const PT* fim, PT* h) {
-#pragma omp parallel for schedule(static)
-  for (long q = 0; q < A.B; ++q) {
-    Lanes<K> L;
-    PT* hq = h + 2 * q * A.lp;
-    for (long i0 = 0; i0 < A.n; i0 += kLanes) {
-      point_lanes<K>(A, i0, q, L);
-      for (int i = 0; i < kLanes && i0 + i < A.n; ++i) {  // f · exp(-i kc Δr) (masked)
-        const PT c = L.c[i], s = L.s[i], fr = fre[i0 + i], fi = fim[i0 + i];
-        const PT ur = fr * c + fi * s, ui = fi * c - fr * s;
-        const int j = L.idx[i];
-        for (int k = 0; k < Kernel<K>::taps; ++k) {
-          const PT w = static_cast<PT>(L.w[k][i]);
-          hq[2 * (j + k)] += w * ur;
-          hq[2 * (j + k) + 1] += w * ui;
-        }
-      }
-    }
+// Workers per precision, interpolator and instruction set, as the tiled kernel's.
+#define SARCLI_PT_WORKER(PT, K, SUF, ATTR, ISA)                                                       \
+  ATTR void bp_points_##SUF(const PointArgs& A, const PT* prof, long i0, double* ore, double* oim) { \
+    bp_points_group<PT, K, ISA>(A, prof, i0, ore, oim);                                              \
+  }                                                                                                   \
+  ATTR void rp_points_##SUF(const PointArgs& A, const PT* fre, const PT* fim, long q, PT* h) {       \
+    rp_points_pulse<PT, K, ISA>(A, fre, fim, q, h);                                                  \
   }
-}
+#define SARCLI_PT_ISA(SUF, ATTR, ISA)              \
+  SARCLI_PT_WORKER(float, 0, f0_##SUF, ATTR, ISA)  \
+  SARCLI_PT_WORKER(float, 1, f1_##SUF, ATTR, ISA)  \
+  SARCLI_PT_WORKER(float, 2, f2_##SUF, ATTR, ISA)  \
+  SARCLI_PT_WORKER(double, 0, d0_##SUF, ATTR, ISA) \
+  SARCLI_PT_WORKER(double, 1, d1_##SUF, ATTR, ISA) \
+  SARCLI_PT_WORKER(double, 2, d2_##SUF, ATTR, ISA)
+SARCLI_PT_ISA(v4, SARCLI_BP_V4, 2)
+SARCLI_PT_ISA(v3, SARCLI_BP_V3, 1)
+SARCLI_PT_ISA(v1, , 0)
+#undef SARCLI_PT_ISA
+#undef SARCLI_PT_WORKER
+
+#define SARCLI_PT_PICK(NAME, P)                                                                   \
+  (level == 2 ? (kind == 0 ? NAME##_##P##0_v4 : kind == 1 ? NAME##_##P##1_v4 : NAME##_##P##2_v4) \
+   : level == 1 ? (kind == 0 ? NAME##_##P##0_v3 : kind == 1 ? NAME##_##P##1_v3 : NAME##_##P##2_v3) \
+                : (kind == 0 ? NAME##_##P##0_v1 : kind == 1 ? NAME##_##P##1_v1 : NAME##_##P##2_v1))
+template <typename PT>
+using PointFn = void (*)(const PointArgs&, const PT*, long, double*, double*);
+template <typename PT>
+using PointAdjFn = void (*)(const PointArgs&, const PT*, const PT*, long, PT*);
+template <typename PT>
+PointFn<PT> point_fn(int kind);
+template <>
+PointFn<float> point_fn<float>(int kind) { const int level = isa_level(); return SARCLI_PT_PICK(bp_points, f); }
+template <>
+PointFn<double> point_fn<double>(int kind) { const int level = isa_level(); return SARCLI_PT_PICK(bp_points, d); }
+template <typename PT>
+PointAdjFn<PT> point_adj_fn(int kind);
+template <>
+PointAdjFn<float> point_adj_fn<float>(int kind) { const int level = isa_level(); return SARCLI_PT_PICK(rp_points, f); }
+template <>
+PointAdjFn<double> point_adj_fn<double>(int kind) { const int level = isa_level(); return SARCLI_PT_PICK(rp_points, d); }
+#undef SARCLI_PT_PICK
 
 PointArgs point_args(in<double, 2> pts, in<double, 2> geo, long lp, long n_len, long pad, bool bist, int kind,
                      const char* name) {
@@ -1072,10 +1128,11 @@ void bp_points(in<PT, 3> prof, in<double, 2> pts, in<double, 2> geo, long n_len,
     throw nb::value_error("bp_points: inconsistent shapes or options");
   const PT* pr = prof.data();
   double *o_r = ore.data(), *o_i = oim.data();
+  const PointFn<PT> fn = point_fn<PT>(kind);
+  const long groups = (A.n + kLanes - 1) / kLanes;
   nb::gil_scoped_release nogil;
-  if (kind == 0) bp_points_k<PT, 0>(A, pr, o_r, o_i);
-  else if (kind == 1) bp_points_k<PT, 1>(A, pr, o_r, o_i);
-  else bp_points_k<PT, 2>(A, pr, o_r, o_i);
+#pragma omp parallel for schedule(static)
+  for (long gi = 0; gi < groups; ++gi) fn(A, pr, gi * kLanes, o_r, o_i);
 }
 
 template <typename PT>
@@ -1087,10 +1144,10 @@ void rp_points(in<PT, 1> fre, in<PT, 1> fim, in<double, 2> pts, in<double, 2> ge
     throw nb::value_error("rp_points: inconsistent shapes or options");
   const PT *f_r = fre.data(), *f_i = fim.data();
   PT* hp = h.data();
+  const PointAdjFn<PT> fn = point_adj_fn<PT>(kind);
   nb::gil_scoped_release nogil;
-  if (kind == 0) rp_points_k<PT, 0>(A, f_r, f_i, hp);
-  else if (kind == 1) rp_points_k<PT, 1>(A, f_r, f_i, hp);
-  else rp_points_k<PT, 2>(A, f_r, f_i, hp);
+#pragma omp parallel for schedule(static)
+  for (long q = 0; q < A.B; ++q) fn(A, f_r, f_i, q, hp);
 }
 
 // The carrier and interpolation weights as the kernels evaluate them (for tests).
