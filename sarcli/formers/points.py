@@ -9,11 +9,12 @@ plane. Two formers take them:
   ``Δr = (|x|² - 2 a·x) / (|a - x| + |a|) + |a| - r0`` (the bistatic mean of both ends when the
   receiver moves), then the range profiles, interpolation and carrier of
   :mod:`.backprojection` (``src/native/backprojection.cpp``, ``bp_points``). No tiles share a
-  range model, so it costs a square root a pixel and pulse more than the tiled kernel (1.7 × its
-  time, ``bench/bench_points.py``); its workers are compiled per instruction set as the tiled ones.
+  range model, so it costs a square root a pixel and pulse more than the tiled kernel
+  (``bench/bench_points.py`` measures the ratio); its workers are compiled per instruction set
+  as the tiled ones.
   :func:`reproject_points` is its exact adjoint.
-* :func:`sarcli.formers.direct.direct_spherical` with ``height_m``: the exact matched filter
-  (the reference).
+* :func:`sarcli.formers.direct.direct_points`: the exact matched filter at the points (the
+  reference).
 
 The other formers (nufft, pfa, ffbp, subimage) form a plane z = 0 and refuse pixel heights.
 """
