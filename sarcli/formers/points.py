@@ -33,6 +33,8 @@ from .direct import direct_points
 
 __all__ = ["backproject_points", "reproject_points", "form_map", "HEIGHT_METHODS"]
 
+#: points whose ranges the window check takes at once (bounds its memory)
+_CHECK_POINTS = 1 << 16
 #: the formers that form at per-pixel heights (``form_image(..., heights)``)
 HEIGHT_METHODS = ("backprojection", "direct")
 
@@ -68,9 +70,10 @@ def _setup(shape, freq_hz, antenna_position_m, range_to_center_m, pts, weights, 
     sel = np.unique(np.r_[np.arange(0, st.n_pulses, max(1, st.n_pulses // 16)), st.n_pulses - 1])
     r0 = np.asarray(range_to_center_m, dtype=np.float64)
     half = np.abs(1.0 / st.geo[9][sel]) * st.n_len / 2.0
-    excess = np.abs(bistatic_differential_range(a[sel], b[sel], r0[sel], flat)) / half[:, None]
-    if np.max(excess) >= 1.0:
-        warnings.warn(f"the pixels reach {np.max(excess):.3g} times the unambiguous range window "
+    excess = max(float(np.max(np.abs(bistatic_differential_range(a[sel], b[sel], r0[sel], flat[k:k + _CHECK_POINTS]))
+                                / half[:, None])) for k in range(0, flat.shape[0], _CHECK_POINTS))
+    if excess >= 1.0:
+        warnings.warn(f"the pixels reach {excess:.3g} times the unambiguous range window "
                       f"|Δr| < c/(4Δα) = {half.min():.4g} m; backprojection leaves pixels outside it out of "
                       "those pulses", AliasingWarning, stacklevel=3)
     return st, np.ascontiguousarray(geo)

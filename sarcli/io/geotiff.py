@@ -240,15 +240,13 @@ def read_geotiff(path) -> Image:
     se, sn = 1.0, 1.0
     latlon = meta.get("scene_center_lat_lon_deg")
     ours = str(meta.get("software", "")).startswith("sarcli")
-    mp = meta.get("map") if ours and isinstance(meta.get("map"), dict) else None
-    if mp:   # a map image: eastings and northings stay as they are
-        pass
-    elif latlon and ours and str(meta.get("crs", "")).startswith("EPSG:"):
+    mp = meta.get("map") if ours and isinstance(meta.get("map"), dict) else None   # map image: eastings, northings
+    if latlon and ours and not mp and str(meta.get("crs", "")).startswith("EPSG:"):
         from pyproj import Transformer  # an earlier sarcli's file: UTM, our x, y added to the centre's
 
         epsg = utm_epsg(*latlon)
         e0, n0 = Transformer.from_crs("EPSG:4326", f"EPSG:{epsg}", always_xy=True).transform(latlon[1], latlon[0])
-    elif latlon and ours:
+    elif latlon and ours and not mp:
         se, sn = (float(v) for v in meta.get("scale_east_north") or (1.0, 1.0))
     x = (x0 - e0 + dx / 2 + dx * np.arange(nx)) / se
     y = ((y0 - n0 - dy / 2 - dy * np.arange(ny))[::-1]) / sn
