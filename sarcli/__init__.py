@@ -7,7 +7,9 @@ Public API (function-first; the ``sar`` CLI only calls these):
 - :func:`read_phase_history`, :func:`write_phase_history` — the HDF5 phase-history contract
 - :func:`read_image`, :func:`write_image` — the HDF5 image contract
 - :func:`open_input` — any file sarcli reads, recognised by its content
-- :func:`form_image` — phase history -> :class:`Image` (direct, nufft, pfa, backprojection)
+- :func:`form_image` — phase history -> :class:`Image` (direct, nufft, pfa, backprojection); with
+  ``dem=`` a map image on terrain (:func:`read_dem`: a GeoTIFF of heights)
+- :func:`export_image` — an image to GeoTIFF, PNG, SICD or SIDD
 - :func:`geolocate`, :func:`pixel_of` — image pixel -> latitude, longitude, height, and back
 - :func:`sarcli.regularize.regularize` — phase history -> regularised :class:`Image` (TV, HOTV, ℓ1,
   ptv, Tikhonov; λ chosen automatically by default)
@@ -49,6 +51,8 @@ _LAZY = {
     "regrid": "formers.formation",
     "geolocate": "io.geolocate",
     "pixel_of": "io.geolocate",
+    "read_dem": "io.dem",
+    "export_image": "io.export",
 }
 
 _SUBPACKAGES = ("core", "io", "simulation", "formers", "linops", "solvers", "regularize", "analysis", "batch",

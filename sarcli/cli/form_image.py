@@ -48,6 +48,13 @@ _METHOD_KNOBS = ("eps", "kernel", "oversample", "width", "upsample", "interp", "
               help="Target relative error against the exact matched filter (auto, and ffbp given no ffbp knob: default 1e-3; subimage: 1e-2).")
 @click.option("--autofocus", "autofocus_method", type=click.Choice(AUTOFOCUS_METHODS), default=None,
               help="First estimate and remove per-pulse phase errors on the image grid (see sar autofocus).")
+@click.option("--dem", "dem_path", type=click.Path(dir_okay=False), default=None,
+              help="A GeoTIFF of heights: form a map image, each pixel of a map grid at its DEM height "
+                   "(backprojection or direct; auto takes backprojection).")
+@click.option("--dem-datum", type=click.Choice(["ellipsoid", "geoid"]), default=None,
+              help="The DEM's heights: above the WGS-84 ellipsoid or the EGM96/EGM2008 geoid (default: its metadata, else ellipsoid).")
+@click.option("--crs", default=None, metavar="EPSG:NNNN",
+              help="The map grid's CRS with --dem (default: the UTM zone of the scene centre).")
 @threads_option
 @cphd_options
 @export_options
@@ -56,7 +63,7 @@ _METHOD_KNOBS = ("eps", "kernel", "oversample", "width", "upsample", "interp", "
 def command(ctx, input_path, output, method, autofocus_method, window, taylor_nbar, taylor_sll_db, center, extent,
             pixel_size,
             eps, kernel, oversample, width, upsample, interp, precision, base, merge, os_range, os_angle, tile,
-            tolerance, nthreads, channel, sgn, troposphere, png_path, tif_path):
+            tolerance, dem_path, dem_datum, crs, nthreads, channel, sgn, troposphere, png_path, tif_path):
     """Form the matched-filter image of a phase history (or of a k-grid file with --method pfa)."""
     from ..formers.formation import form_image
     from pathlib import Path
@@ -72,7 +79,28 @@ def command(ctx, input_path, output, method, autofocus_method, window, taylor_nb
         if given:
             raise click.UsageError(f"--{given[0].replace('_', '-')} sets a knob of one method; give --method too "
                                    "(auto picks its own knobs: see `sar plan`)")
-    prepare_outputs([("input", input_path)], [("output", output), ("--png", png_path), ("--geotiff", tif_path)])
+    prepare_outputs([("input", input_path), ("--dem", dem_path)],
+                    [("output", output), ("--png", png_path), ("--geotiff", tif_path)])
+    dem = None
+    if dem_path is not None or dem_datum is not None or crs is not None:
+        from ..errors import SarcliInputError
+        from ..formers.points import HEIGHT_METHODS
+        from ..io.dem import parse_crs, read_dem
+
+        if dem_path is None:
+            raise SarcliInputError(f"{'--crs' if crs else '--dem-datum'} belongs to a map image: give --dem DEM.tif too")
+        if method not in HEIGHT_METHODS + ("auto",):
+            raise SarcliInputError(f"--dem: method {method} forms the plane z = 0 only; use backprojection, "
+                                   "direct or auto")
+        if autofocus_method is not None:
+            raise SarcliInputError("--dem and --autofocus: autofocus on a map grid is not available; "
+                                   "autofocus a plane image first (sar autofocus)")
+        if crs is not None:
+            parse_crs(crs)
+        if Path(output).suffix.lower() in SICD_SUFFIXES:
+            raise click.BadParameter("a map image on a DEM is not a SICD (a slant or ground plane); write .h5 "
+                                     "or --geotiff, or sar export it to .sidd", param_hint="--output")
+        dem = read_dem(dem_path, dem_datum)
     # the samples stay on disk until a former reads them (by blocks of pulses where it can);
     # autofocus rewrites them, so it reads them whole
     _, src = open_input(input_path, expect=("phase-history", "kgrid", "gotcha", "cphd"), truth=False,
@@ -91,7 +119,7 @@ def command(ctx, input_path, output, method, autofocus_method, window, taylor_nb
                      pixel_size=pixel_size, window=window, taylor_nbar=taylor_nbar, taylor_sll_db=taylor_sll_db,
                      eps=eps, kernel=kernel, oversample=oversample, width=width, upsample=upsample,
                      interp=interp, precision=precision, nthreads=nthreads, base=base, merge=merge,
-                     os_range=os_range, os_angle=os_angle, tile=tile, tolerance=tolerance)
+                     os_range=os_range, os_angle=os_angle, tile=tile, tolerance=tolerance, dem=dem, crs=crs)
     if Path(output).suffix.lower() in SICD_SUFFIXES:
         from ..io.sicd import write_sicd
 

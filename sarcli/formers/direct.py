@@ -13,7 +13,7 @@ from ..core import geometry, sampling
 from .._util.progress import progress
 from ._samples import WeightedSamples, check_kspace, weighted_samples
 
-__all__ = ["weighted_samples", "direct_farfield", "direct_spherical"]
+__all__ = ["weighted_samples", "direct_farfield", "direct_spherical", "direct_points"]
 
 #: complex128 elements a chunk of the far-field exponentials may hold (~32 MiB each)
 _FARFIELD_BUDGET = 1 << 21
@@ -102,6 +102,14 @@ def direct_spherical(data, freq_hz, antenna_position_m, range_to_center_m, grid,
     -------
     image : ndarray, shape (ny, nx), complex128
     """
+    return direct_points(data, freq_hz, antenna_position_m, range_to_center_m, grid.points(), weights,
+                         chunk=chunk, receive_position_m=receive_position_m)
+
+
+def direct_points(data, freq_hz, antenna_position_m, range_to_center_m, points_m, weights=None, *,
+                  chunk=None, receive_position_m=None) -> np.ndarray:
+    """:func:`direct_spherical` at pixels anywhere in 3-D: ``points_m`` (..., 3) in the local frame
+    (a map grid on terrain, :mod:`sarcli.formers.points`); returns shape ``points_m.shape[:-1]``."""
     wd = WeightedSamples(data, weights)  # read by blocks of pulses when the data are on disk
     total = wd.total
     n_p, n_f = wd.shape
@@ -118,7 +126,8 @@ def direct_spherical(data, freq_hz, antenna_position_m, range_to_center_m, grid,
     if freq.shape not in ((n_f,), (n_p, n_f)):
         raise ValueError(f"frequencies of shape {freq.shape} do not match the data {wd.shape}")
     k4 = np.ascontiguousarray(np.broadcast_to(sampling.range_wavenumbers(freq), (n_p, n_f)))
-    pts = grid.points().reshape(-1, 3)
+    pts_in = np.asarray(points_m, dtype=np.float64)
+    pts = pts_in.reshape(-1, 3)
     n_pix = pts.shape[0]
     if chunk is None:
         chunk = max(1, min(_SPHERICAL_BUDGET // n_pix, _SPHERICAL_WORK // max(1, n_pix * n_f)))
@@ -134,4 +143,4 @@ def direct_spherical(data, freq_hz, antenna_position_m, range_to_center_m, grid,
         dr = np.ascontiguousarray(dr)
         wd_sl, k4_sl = np.ascontiguousarray(wd[sl]), k4[sl]
         _kernel().accumulate_spherical(out, dr, k4_sl, wd_sl)
-    return (out / total).reshape(grid.shape)
+    return (out / total).reshape(pts_in.shape[:-1])

@@ -121,7 +121,7 @@ def form_image(ph, method: str = "auto", *, grid: Grid | None = None, center=Non
                upsample: float | None = None, interp: str | None = None, precision: str | None = None,
                nthreads: int | None = None, base: int | None = None, merge: int | None = None,
                os_range: float | None = None, os_angle: float | None = None, tile: int | None = None,
-               tolerance: float | None = None) -> Image:
+               tolerance: float | None = None, dem=None, dem_datum: str | None = None, crs=None) -> Image:
     """Form the matched-filter image of a phase history.
 
     Parameters
@@ -161,6 +161,14 @@ def form_image(ph, method: str = "auto", *, grid: Grid | None = None, center=Non
         the largest predicted to meet ``tolerance`` (default 1e-2); its NUFFT runs at
         ``eps = tolerance/10`` unless ``eps`` is set to other than its default. ``ffbp``: the
         tolerance its knobs are picked for when none is given.
+    dem, dem_datum, crs : optional
+        A map image on terrain (:func:`sarcli.formers.points.form_map`): ``dem`` a GeoTIFF of
+        heights (path, or a :class:`sarcli.io.dem.Dem`), ``dem_datum`` 'ellipsoid' or 'geoid'
+        (default: the file's own), ``crs`` the map CRS ('EPSG:NNNN'; default the UTM zone of
+        the scene centre). The grid then covers ``grid``'s rectangle; its pixels are the map
+        CRS's, each formed at its DEM height. Only backprojection and direct form at heights
+        (``auto`` takes backprojection); ``x_m``/``y_m`` are eastings/northings and
+        ``parameters['map']`` records the CRS and the DEM.
 
     Returns
     -------
@@ -183,6 +191,12 @@ def form_image(ph, method: str = "auto", *, grid: Grid | None = None, center=Non
         raise TypeError(f"form_image expects a PhaseHistory or a KGrid, got {type(ph).__name__}")
     acq = ph.acquisition
     grid = resolve_grid(grid or acq.grid, center=center, extent=extent, pixel_size=pixel_size)
+    if dem is not None:
+        return _form_map_image(ph, method, grid, dem, dem_datum, crs, window, taylor_nbar, taylor_sll_db,
+                               upsample, interp, precision, nthreads)
+    if crs is not None:
+        raise SarcliInputError("--crs sets a map grid's CRS: give --dem too (a plane image stays in the scene's "
+                               "tangent plane)")
     if method == "auto":   # the cheapest former predicted to meet the tolerance (formers/planner.py)
         from .planner import recommend
 
@@ -289,6 +303,28 @@ def form_image(ph, method: str = "auto", *, grid: Grid | None = None, center=Non
     attrs["source_name"] = acq.name
     return Image(image=np.asarray(img), x_m=grid.x, y_m=grid.y, method=method, parameters=params,
                  runtime_s=runtime, attrs=attrs)
+
+
+def _form_map_image(ph, method, grid, dem, dem_datum, crs, window, nbar, sll_db, upsample, interp, precision,
+                    nthreads) -> Image:
+    """:func:`form_image` with a DEM: the map grid on terrain (:func:`sarcli.formers.points.form_map`)."""
+    from ..io.dem import Dem, parse_crs, read_dem
+    from .points import form_map
+
+    dem = dem if isinstance(dem, Dem) else read_dem(dem, dem_datum)
+    epsg = parse_crs(crs) if crs is not None else None
+    params: dict = {"method": method, "window": window, "data_model": ph.model, "grid": grid.as_dict()}
+    if method == "auto":   # the one fast former that forms at heights
+        method = "backprojection"
+        params["auto"] = {"choice": method, "reason": "the fast former that forms at per-pixel heights"}
+    t0 = time.perf_counter()
+    img, mg, info = form_map(ph, method, grid, dem, crs=epsg, weights=_weights(ph, window, nbar, sll_db),
+                             upsample=upsample, interp=interp, precision=precision, nthreads=nthreads)
+    params["map"] = info
+    attrs = {k: v for k, v in ph.attrs.items() if str(k).startswith("scene_center")}
+    attrs["source_name"] = ph.acquisition.name
+    return Image(image=np.asarray(img), x_m=mg.easting, y_m=mg.northing, method=method, parameters=params,
+                 runtime_s=time.perf_counter() - t0, attrs=attrs)
 
 
 def _form_from_kgrid(kg, grid, center, extent, pixel_size) -> Image:

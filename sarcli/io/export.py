@@ -1,4 +1,4 @@
-"""Export images to other formats: GeoTIFF, PNG, SICD (NITF).
+"""Export images to other formats: GeoTIFF, PNG, SICD and SIDD (NITF).
 
 Public API
 ----------
@@ -8,7 +8,7 @@ export_image(img, path, *, kind=None, dynamic_range_db=50, cmap='gray', fmt=None
 format_from_suffix(path) -> str  (the export format an output name asks for)
 
 The format written is chosen from the output's suffix (:data:`EXPORT_FORMATS`: ``.tif``/``.tiff``
-GeoTIFF, ``.png`` PNG, :data:`SICD_SUFFIXES` SICD) unless ``fmt`` names it; a file read is
+GeoTIFF, ``.png`` PNG, :data:`SICD_SUFFIXES` SICD, ``.sidd`` SIDD) unless ``fmt`` names it; a file read is
 recognised by its content (:func:`sarcli.io.open_input`). ``docs/formats.md`` gives every mapping. The annotated PNG figure (metre axes,
 colour bar) is a figure: :func:`sarcli.viz.image_figure`.
 """
@@ -20,16 +20,19 @@ from pathlib import Path
 from ..errors import SarcliInputError
 from ..core.types import Image
 
-__all__ = ["export_image", "load_image", "format_from_suffix", "EXPORT_FORMATS", "SICD_SUFFIXES", "IMAGE_FORMATS"]
+__all__ = ["export_image", "load_image", "format_from_suffix", "EXPORT_FORMATS", "SICD_SUFFIXES", "SIDD_SUFFIXES",
+           "IMAGE_FORMATS"]
 
 #: output names that ask for a SICD (NITF) file, here and in ``sar form-image -o``
 SICD_SUFFIXES = (".sicd", ".nitf", ".ntf")
+#: output names that ask for a SIDD (NITF) file, a detected product
+SIDD_SUFFIXES = (".sidd",)
 #: export format name -> the output suffixes that choose it (what is *written*; the formats sarcli
 #: *reads* are :data:`sarcli.io.FORMATS`, recognised by content)
-EXPORT_FORMATS = {"geotiff": (".tif", ".tiff"), "png": (".png",), "sicd": SICD_SUFFIXES}
+EXPORT_FORMATS = {"geotiff": (".tif", ".tiff"), "png": (".png",), "sicd": SICD_SUFFIXES, "sidd": SIDD_SUFFIXES}
 
 #: kind used when none is given
-DEFAULT_KIND = {"geotiff": "magnitude", "png": "db", "sicd": "complex"}
+DEFAULT_KIND = {"geotiff": "magnitude", "png": "db", "sicd": "complex", "sidd": "db"}
 
 
 def format_from_suffix(path) -> str:
@@ -46,7 +49,7 @@ def format_from_suffix(path) -> str:
 def export_image(img: Image, path, *, kind: str | None = None, dynamic_range_db: float = 50.0,
                  cmap: str = "gray", fmt: str | None = None,
                  phase_history=None):
-    """Write an image to GeoTIFF, PNG or SICD.
+    """Write an image to GeoTIFF, PNG, SICD or SIDD.
 
     Parameters
     ----------
@@ -54,15 +57,15 @@ def export_image(img: Image, path, *, kind: str | None = None, dynamic_range_db:
     path : str or Path
     kind : {'magnitude', 'db', 'complex'}, optional
         What is written; default per format: GeoTIFF 'magnitude', PNG 'db', SICD 'complex'
-        (the only kind SICD takes; PNG takes 'db' or 'magnitude').
+        (the only kind SICD takes; PNG and SIDD take 'db' or 'magnitude').
     dynamic_range_db : float
         Displayed range of dB pictures (PNG) and the floor of dB GeoTIFFs.
     cmap : str
         PNG colormap ('gray' or a matplotlib name).
-    fmt : {'geotiff', 'png', 'sicd'}, optional
+    fmt : {'geotiff', 'png', 'sicd', 'sidd'}, optional
         Overrides the suffix.
     phase_history : sarcli.core.types.PhaseHistory or Acquisition, optional
-        SICD only: the collection the image came from (antenna positions, frequencies).
+        SICD and SIDD: the collection the image came from (antenna positions, frequencies).
 
     Returns
     -------
@@ -80,6 +83,10 @@ def export_image(img: Image, path, *, kind: str | None = None, dynamic_range_db:
         from .png import write_png
 
         write_png(img, path, kind=kind, dynamic_range_db=dynamic_range_db, cmap=cmap)
+    elif name == "sidd":
+        from .sidd import write_sidd
+
+        write_sidd(img, path, phase_history=phase_history, kind=kind, dynamic_range_db=dynamic_range_db)
     else:
         if kind != "complex":
             raise SarcliInputError(f"SICD holds complex pixels only; kind {kind!r} is not available")

@@ -120,6 +120,10 @@ def image_geometry(image, phase_history=None) -> ImageGeometry:
 
         image = load_image(image)
     acq = getattr(phase_history, "acquisition", phase_history)
+    mp = (image.parameters or {}).get("map")
+    if isinstance(mp, dict):
+        raise SarcliInputError(f"a map image on a DEM ({mp.get('crs')}) is georeferenced by its map CRS: each pixel "
+                               "is at its easting, northing and DEM height, not on the scene's plane")
     ref = reference_point(image.attrs, image.parameters, getattr(phase_history, "attrs", None))
     if ref.is_default:
         raise SarcliInputError("image has no georeference: scene_center_lat_deg / scene_center_lon_deg are "

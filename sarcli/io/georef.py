@@ -18,7 +18,7 @@ import numpy as np
 from sarkit import wgs84
 
 __all__ = ["GeometryWarning", "ReferencePoint", "DEFAULT_REFERENCE", "reference_point", "enu_to_ecf", "ecf_to_enu",
-           "enu_basis", "utm_epsg"]
+           "enu_basis", "utm_epsg", "plane_reference"]
 
 from ..errors import SarcliWarning
 
@@ -113,3 +113,38 @@ def utm_epsg(lat_deg: float, lon_deg: float) -> int:
     GeoTIFFs an earlier sarcli wrote in UTM."""
     zone = int(np.floor((lon_deg + 180.0) / 6.0)) % 60 + 1
     return (32600 if lat_deg >= 0 else 32700) + zone
+
+
+def plane_reference(scp_ecf, row_ecf, col_ecf):
+    """The reference point whose tangent plane is a ground-plane SICD's image plane, and the SCP's
+    east / north offset from it.
+
+    :func:`sarcli.io.sicd.write_sicd` writes a grid of the local frame (the tangent plane of the scene-centre
+    reference point, :mod:`.georef`): its row and column vectors are that point's cardinal
+    directions and the SCP is the grid's centre, metres away from the reference point when the
+    grid is off-centre. The plane's unit normal ``n = ±(row × col)`` is the ellipsoid normal of the
+    reference point, ``n = (cos φ cos λ, cos φ sin λ, sin φ)`` for geodetic latitude φ and longitude
+    λ; its height h puts the point on the plane, ``(P(φ, λ, h) - SCP)·n = 0``, i.e.
+    ``h = (SCP - P(φ, λ, 0))·n``.
+
+    Parameters
+    ----------
+    scp_ecf, row_ecf, col_ecf : array_like (3,)
+        ``GeoData/SCP/ECF`` and the ``Grid`` row and column unit vectors (ECF).
+
+    Returns
+    -------
+    (ReferencePoint, (float, float))
+        The reference point and the SCP's (east, north) in its frame, metres.
+    """
+    scp = np.asarray(scp_ecf, dtype=np.float64)
+    n = np.cross(np.asarray(row_ecf, dtype=np.float64), np.asarray(col_ecf, dtype=np.float64))
+    n /= np.linalg.norm(n)
+    if n @ scp < 0:   # the upward normal
+        n = -n
+    lat = float(np.degrees(np.arctan2(n[2], np.hypot(n[0], n[1]))))
+    lon = float(np.degrees(np.arctan2(n[1], n[0])))
+    hae = float((scp - wgs84.geodetic_to_cartesian([lat, lon, 0.0])) @ n)
+    ref = ReferencePoint(lat, lon, hae)
+    east_north = ecf_to_enu(scp, ref)[:2]
+    return ref, (float(east_north[0]), float(east_north[1]))

@@ -33,7 +33,8 @@ from .georef import DEFAULT_REFERENCE, reference_point, utm_epsg
 
 _WGS84_A, _WGS84_E2 = 6378137.0, 6.69437999014e-3
 
-__all__ = ["write_geotiff", "read_geotiff", "LOCAL_CITATION", "geotiff_frame", "ortho_proj4", "height_scale"]
+__all__ = ["write_geotiff", "read_geotiff", "LOCAL_CITATION", "geotiff_frame", "ortho_proj4", "height_scale",
+           "map_info"]
 
 LOCAL_CITATION = "sarcli local ENU frame, origin at scene centre, metres"
 
@@ -75,6 +76,11 @@ def geotiff_frame(img: Image) -> dict:
     """
     grid = img.grid
     ref = reference_point(img.attrs, img.parameters)
+    mp = map_info(img)
+    if mp is not None:   # a map image: its axes are the map CRS's eastings and northings
+        x0, y0 = float(img.x_m[0]) - grid.dx / 2, float(img.y_m[-1]) + grid.dy / 2
+        return {"crs": "epsg", "proj4": mp["crs"], "epsg": int(str(mp["crs"]).split(":")[1]), "origin": (x0, y0),
+                "pixel": (grid.dx, grid.dy), "scale": (1.0, 1.0), "reference": ref}
     if ref is DEFAULT_REFERENCE:
         crs, proj4, (se, sn) = "local", None, (1.0, 1.0)
     else:
@@ -86,10 +92,25 @@ def geotiff_frame(img: Image) -> dict:
             "scale": (se, sn), "reference": ref}
 
 
+def map_info(img: Image):
+    """``parameters['map']`` of a map image on terrain (pixels in a map CRS), else None."""
+    mp = (img.parameters or {}).get("map")
+    return mp if isinstance(mp, dict) and str(mp.get("crs", "")).startswith("EPSG:") else None
+
+
 def _geokeys(frame):
     """GeoKeyDirectoryTag entries, GeoDoubleParamsTag values and GeoAsciiParamsTag text."""
     doubles = []
-    if frame["crs"] == "local":
+    if frame["crs"] == "epsg":
+        ascii_ = f"{frame['proj4']} map grid, pixels formed at DEM heights (sarcli)|"
+        keys = [
+            (_GT_MODEL_TYPE, 0, 1, _MODEL_PROJECTED),
+            (_GT_RASTER_TYPE, 0, 1, _PIXEL_IS_AREA),
+            (_GT_CITATION, _TAG_GEOASCII, len(ascii_), 0),
+            (_PROJECTED_CS_TYPE, 0, 1, frame["epsg"]),
+            (_PROJ_LINEAR_UNITS, 0, 1, _LINEAR_METER),
+        ]
+    elif frame["crs"] == "local":
         ascii_ = LOCAL_CITATION + "|"
         keys = [
             (_GT_MODEL_TYPE, 0, 1, _USER_DEFINED),
@@ -168,6 +189,7 @@ def write_geotiff(img: Image, path, *, kind: str = "magnitude", dynamic_range_db
         "scale_east_north": list(frame["scale"]),
         "method": img.method,
         "dynamic_range_db": dr if kind == "db" else None,
+        **({"map": map_info(img)} if map_info(img) else {}),
     })
     extratags = [
         (_TAG_PIXEL_SCALE, "d", 3, (dx, dy, 0.0), True),
@@ -218,18 +240,20 @@ def read_geotiff(path) -> Image:
     se, sn = 1.0, 1.0
     latlon = meta.get("scene_center_lat_lon_deg")
     ours = str(meta.get("software", "")).startswith("sarcli")
-    if latlon and ours and str(meta.get("crs", "")).startswith("EPSG:"):
+    mp = meta.get("map") if ours and isinstance(meta.get("map"), dict) else None   # map image: eastings, northings
+    if latlon and ours and not mp and str(meta.get("crs", "")).startswith("EPSG:"):
         from pyproj import Transformer  # an earlier sarcli's file: UTM, our x, y added to the centre's
 
         epsg = utm_epsg(*latlon)
         e0, n0 = Transformer.from_crs("EPSG:4326", f"EPSG:{epsg}", always_xy=True).transform(latlon[1], latlon[0])
-    elif latlon and ours:
+    elif latlon and ours and not mp:
         se, sn = (float(v) for v in meta.get("scale_east_north") or (1.0, 1.0))
     x = (x0 - e0 + dx / 2 + dx * np.arange(nx)) / se
     y = ((y0 - n0 - dy / 2 - dy * np.arange(ny))[::-1]) / sn
     image = np.asarray(data[::-1])
     image = image.astype(np.complex128 if np.iscomplexobj(image) else np.float64)
-    params = {"kind": meta.get("kind", "unknown"), "crs": meta.get("crs"), "source": "geotiff"}
+    params = {"kind": meta.get("kind", "unknown"), "crs": meta.get("crs"), "source": "geotiff",
+              **({"map": mp} if mp else {})}
     attrs = {}
     if latlon:
         attrs = {"scene_center_lat_deg": float(latlon[0]), "scene_center_lon_deg": float(latlon[1])}

@@ -40,7 +40,7 @@ from .._version import __version__
 from ..core.acquisition import Acquisition
 from ..errors import SarcliInputError
 from ..core.types import Image
-from .georef import enu_basis, enu_to_ecf, reference_point
+from .georef import enu_basis, enu_to_ecf, plane_reference, reference_point
 
 __all__ = ["write_sicd", "read_sicd", "sicd_orientation", "nominal_acquisition", "arp_polynomial", "SICD_NS"]
 
@@ -417,8 +417,10 @@ _INVERSE = {  # row direction name -> SICD array back to our [y, x] order
 def read_sicd(path) -> Image:
     """Read a ground-plane SICD whose rows run along a cardinal direction (as :func:`write_sicd` writes).
 
-    The pixels are put back in our ``[y, x]`` order (row 0 south) on a grid centred at the SCP,
-    which becomes the local origin (its latitude / longitude go to ``attrs``).
+    The pixels are put back in our ``[y, x]`` order (row 0 south). The local origin is the point
+    whose tangent plane is the image plane (:func:`.georef.plane_reference`; its latitude / longitude /
+    height go to ``attrs``), so a grid :func:`write_sicd` wrote off-centre comes back with the
+    coordinates and the scene centre it had.
 
     Raises
     ------
@@ -445,7 +447,6 @@ def _read_sicd(p) -> Image:
     import sarkit.sicd as sksicd
 
     from ..errors import InputFileError
-    from .georef import ReferencePoint
 
     with open(p, "rb") as f:
         if f.read(4) != b"NITF":
@@ -465,10 +466,10 @@ def _read_sicd(p) -> Image:
     if xml.findtext("{*}Grid/{*}ImagePlane") != "GROUND":
         raise InputFileError(p, "only ground-plane SICD images can be read into a sarcli image "
                                 f"(ImagePlane is {xml.findtext('{*}Grid/{*}ImagePlane')})")
-    scp_llh = xh.load("{*}GeoData/{*}SCP/{*}LLH")
-    ref = ReferencePoint(float(scp_llh[0]), float(scp_llh[1]), float(scp_llh[2]))
+    row_ecf, col_ecf = xh.load("{*}Grid/{*}Row/{*}UVectECF"), xh.load("{*}Grid/{*}Col/{*}UVectECF")
+    ref, (cx, cy) = plane_reference(xh.load("{*}GeoData/{*}SCP/{*}ECF"), row_ecf, col_ecf)
     basis = enu_basis(ref)
-    row = basis @ xh.load("{*}Grid/{*}Row/{*}UVectECF")
+    row = basis @ row_ecf
     names = {"south": (0, -1, 0), "north": (0, 1, 0), "east": (1, 0, 0), "west": (-1, 0, 0)}
     name = next((n for n, v in names.items() if np.allclose(row, v, atol=1e-6)), None)
     if name is None:
@@ -482,8 +483,8 @@ def _read_sicd(p) -> Image:
     row_ss, col_ss = float(xh.load("{*}Grid/{*}Row/{*}SS")), float(xh.load("{*}Grid/{*}Col/{*}SS"))
     dx, dy = (col_ss, row_ss) if name in ("south", "north") else (row_ss, col_ss)
     ny, nx = img.shape
-    x = (np.arange(nx) - c0) * dx
-    y = (np.arange(ny) - r0) * dy
+    x = cx + (np.arange(nx) - c0) * dx
+    y = cy + (np.arange(ny) - r0) * dy
     attrs = {**ref.as_attrs(), "source_format": "SICD",
              "sicd_version": lxml.etree.QName(xml.getroot()).namespace}
     method, runtime, params = _image_metadata(xml)

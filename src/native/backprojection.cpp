@@ -23,6 +23,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdlib>
+#include <string>
 #include <vector>
 
 #if defined(__x86_64__)
@@ -943,6 +944,212 @@ void bp_contract(in<PT, 3> prof, in<PT, 2> gre, in<PT, 2> gim, in<double, 1> x, 
     for (long k = 0; k < 2 * A.B; ++k) o[k] += rows[row * 2 * A.B + k];
 }
 
+// Backprojection onto pixels anywhere in 3-D (a map grid on terrain): no tiles, each pixel's
+// differential range exact in float64, Δr = (|p|² - 2 a·p) / (|a - p| + |a|) + offset (and the
+// mean of both ends when bistatic), then the same profile position, mask, interpolation weights
+// and carrier as the tiled kernel. geo rows [kPtRows, B]: ax, ay, az, bx, by, bz, |a|, |b|,
+// offset, 1/bin, kc.
+enum PtGeo { PAX, PAY, PAZ, PBX, PBY, PBZ, PNA, PNB, POFF, PIB, PKC, kPtRows };
+
+struct PointArgs {
+  const double* pts;  // [N, 3]
+  const double* geo;  // [kPtRows, B]
+  long n, B, lp, n_len, pad;
+  double half_len;
+  bool bist;
+};
+
+
+// Lanes of pixels [i0, i0 + kLanes) for pulse q: first tap index, weights, masked carrier.
+// (Loops over the lanes the compiler vectorises: the ranges in float64, then the profile position.)
+template <int K>
+SARCLI_INLINE void point_lanes(const PointArgs& A, long i0, long q, Lanes<K>& L) {
+  const double* g = A.geo;
+  const long B = A.B;
+  const double ax = g[PAX * B + q], ay = g[PAY * B + q], az = g[PAZ * B + q], na = g[PNA * B + q];
+  const double bx = g[PBX * B + q], by = g[PBY * B + q], bz = g[PBZ * B + q], nb = g[PNB * B + q];
+  const double ib = g[PIB * B + q], kc = g[PKC * B + q], off = g[POFF * B + q];
+  const double n_len = static_cast<double>(A.n_len);
+  const long last = A.n - 1;
+  double px[kLanes], py[kLanes], pz[kLanes], dr[kLanes];
+  for (int i = 0; i < kLanes; ++i) {
+    const double* p = A.pts + 3 * std::min(i0 + i, last);
+    px[i] = p[0];
+    py[i] = p[1];
+    pz[i] = p[2];
+  }
+#pragma omp simd
+  for (int i = 0; i < kLanes; ++i) {
+    const double num = px[i] * (px[i] - 2.0 * ax) + py[i] * (py[i] - 2.0 * ay) + pz[i] * (pz[i] - 2.0 * az);
+    const double dx = ax - px[i], dy = ay - py[i], dz = az - pz[i];
+    dr[i] = num / (std::sqrt(dx * dx + dy * dy + dz * dz) + na);
+  }
+  if (A.bist) {
+#pragma omp simd
+    for (int i = 0; i < kLanes; ++i) {
+      const double num = px[i] * (px[i] - 2.0 * bx) + py[i] * (py[i] - 2.0 * by) + pz[i] * (pz[i] - 2.0 * bz);
+      const double dx = bx - px[i], dy = by - py[i], dz = bz - pz[i];
+      dr[i] = 0.5 * (dr[i] + num / (std::sqrt(dx * dx + dy * dy + dz * dz) + nb));
+    }
+  }
+  float t[kLanes], m[kLanes];
+#pragma omp simd
+  for (int i = 0; i < kLanes; ++i) {
+    dr[i] += off;
+    double sc = dr[i] * ib + A.half_len;
+    m[i] = (sc >= 0.0 && sc < n_len && i0 + i <= last) ? 1.0f : 0.0f;
+    sc = std::min(std::max(sc, 0.0), n_len - 1.0);
+    const double fl = std::floor(sc);
+    t[i] = static_cast<float>(sc - fl);
+    L.idx[i] = static_cast<int>(fl) + static_cast<int>(A.pad) - Kernel<K>::first;
+  }
+#pragma omp simd
+  for (int i = 0; i < kLanes; ++i) {
+    float c, s;
+    carrier(kc * dr[i], c, s);
+    L.c[i] = m[i] * c;
+    L.s[i] = m[i] * s;
+  }
+  Kernel<K>::weights(t, L.w);
+}
+
+// One group of kLanes pixels over every pulse (forward), and one pulse over every pixel (adjoint).
+template <typename PT, int K, int ISA>
+SARCLI_INLINE void bp_points_group(const PointArgs& A, const PT* prof, long i0, double* ore, double* oim) {
+  Lanes<K> L;
+  PT ar[kLanes] = {}, ai[kLanes] = {};
+  for (long q = 0; q < A.B; ++q) {
+    point_lanes<K>(A, i0, q, L);
+    PT tp[2 * Kernel<K>::taps][kLanes];
+    Taps<PT, K, ISA>::load(prof + 2 * q * A.lp, L.idx, tp);
+#pragma omp simd
+    for (int i = 0; i < kLanes; ++i) {
+      PT vr = 0, vi = 0;
+      for (int k = 0; k < Kernel<K>::taps; ++k) {
+        vr += static_cast<PT>(L.w[k][i]) * tp[2 * k][i];
+        vi += static_cast<PT>(L.w[k][i]) * tp[2 * k + 1][i];
+      }
+      ar[i] += vr * L.c[i] - vi * L.s[i];
+      ai[i] += vr * L.s[i] + vi * L.c[i];
+    }
+  }
+  for (int i = 0; i < kLanes && i0 + i < A.n; ++i) {
+    ore[i0 + i] += static_cast<double>(ar[i]);
+    oim[i0 + i] += static_cast<double>(ai[i]);
+  }
+}
+
+template <typename PT, int K, int ISA>
+SARCLI_INLINE void rp_points_pulse(const PointArgs& A, const PT* fre, const PT* fim, long q, PT* h) {
+  Lanes<K> L;
+  PT* hq = h + 2 * q * A.lp;
+  for (long i0 = 0; i0 < A.n; i0 += kLanes) {
+    point_lanes<K>(A, i0, q, L);
+    for (int i = 0; i < kLanes && i0 + i < A.n; ++i) {  // f · exp(-i kc Δr) (masked)
+      const PT c = L.c[i], s = L.s[i], fr = fre[i0 + i], fi = fim[i0 + i];
+      const PT ur = fr * c + fi * s, ui = fi * c - fr * s;
+      const int j = L.idx[i];
+      for (int k = 0; k < Kernel<K>::taps; ++k) {
+        const PT w = static_cast<PT>(L.w[k][i]);
+        hq[2 * (j + k)] += w * ur;
+        hq[2 * (j + k) + 1] += w * ui;
+      }
+    }
+  }
+}
+
+// Workers per precision, interpolator and instruction set, as the tiled kernel's.
+#define SARCLI_PT_WORKER(PT, K, SUF, ATTR, ISA)                                                       \
+  ATTR void bp_points_##SUF(const PointArgs& A, const PT* prof, long i0, double* ore, double* oim) { \
+    bp_points_group<PT, K, ISA>(A, prof, i0, ore, oim);                                              \
+  }                                                                                                   \
+  ATTR void rp_points_##SUF(const PointArgs& A, const PT* fre, const PT* fim, long q, PT* h) {       \
+    rp_points_pulse<PT, K, ISA>(A, fre, fim, q, h);                                                  \
+  }
+#define SARCLI_PT_ISA(SUF, ATTR, ISA)              \
+  SARCLI_PT_WORKER(float, 0, f0_##SUF, ATTR, ISA)  \
+  SARCLI_PT_WORKER(float, 1, f1_##SUF, ATTR, ISA)  \
+  SARCLI_PT_WORKER(float, 2, f2_##SUF, ATTR, ISA)  \
+  SARCLI_PT_WORKER(double, 0, d0_##SUF, ATTR, ISA) \
+  SARCLI_PT_WORKER(double, 1, d1_##SUF, ATTR, ISA) \
+  SARCLI_PT_WORKER(double, 2, d2_##SUF, ATTR, ISA)
+SARCLI_PT_ISA(v4, SARCLI_BP_V4, 2)
+SARCLI_PT_ISA(v3, SARCLI_BP_V3, 1)
+SARCLI_PT_ISA(v1, , 0)
+#undef SARCLI_PT_ISA
+#undef SARCLI_PT_WORKER
+
+#define SARCLI_PT_PICK(NAME, P)                                                                   \
+  (level == 2 ? (kind == 0 ? NAME##_##P##0_v4 : kind == 1 ? NAME##_##P##1_v4 : NAME##_##P##2_v4) \
+   : level == 1 ? (kind == 0 ? NAME##_##P##0_v3 : kind == 1 ? NAME##_##P##1_v3 : NAME##_##P##2_v3) \
+                : (kind == 0 ? NAME##_##P##0_v1 : kind == 1 ? NAME##_##P##1_v1 : NAME##_##P##2_v1))
+template <typename PT>
+using PointFn = void (*)(const PointArgs&, const PT*, long, double*, double*);
+template <typename PT>
+using PointAdjFn = void (*)(const PointArgs&, const PT*, const PT*, long, PT*);
+template <typename PT>
+PointFn<PT> point_fn(int kind);
+template <>
+PointFn<float> point_fn<float>(int kind) { const int level = isa_level(); return SARCLI_PT_PICK(bp_points, f); }
+template <>
+PointFn<double> point_fn<double>(int kind) { const int level = isa_level(); return SARCLI_PT_PICK(bp_points, d); }
+template <typename PT>
+PointAdjFn<PT> point_adj_fn(int kind);
+template <>
+PointAdjFn<float> point_adj_fn<float>(int kind) { const int level = isa_level(); return SARCLI_PT_PICK(rp_points, f); }
+template <>
+PointAdjFn<double> point_adj_fn<double>(int kind) { const int level = isa_level(); return SARCLI_PT_PICK(rp_points, d); }
+#undef SARCLI_PT_PICK
+
+PointArgs point_args(in<double, 2> pts, in<double, 2> geo, long lp, long n_len, long pad, bool bist, int kind,
+                     const char* name) {
+  if (pts.shape(1) != 3 || geo.shape(0) != kPtRows || kind < 0 || kind > 2 || n_len < 2 || pad < 3 ||
+      lp != n_len + 2 * pad)
+    throw nb::value_error((std::string(name) + ": inconsistent shapes or options").c_str());
+  PointArgs A;
+  A.pts = pts.data();
+  A.geo = geo.data();
+  A.n = static_cast<long>(pts.shape(0));
+  A.B = static_cast<long>(geo.shape(1));
+  A.lp = lp;
+  A.n_len = n_len;
+  A.pad = pad;
+  A.half_len = static_cast<double>(n_len / 2);
+  A.bist = bist;
+  return A;
+}
+
+template <typename PT>
+void bp_points(in<PT, 3> prof, in<double, 2> pts, in<double, 2> geo, long n_len, long pad, int kind, bool bist,
+               out<double, 1> ore, out<double, 1> oim) {
+  const PointArgs A = point_args(pts, geo, static_cast<long>(prof.shape(1)), n_len, pad, bist, kind, "bp_points");
+  if (prof.shape(0) != static_cast<size_t>(A.B) || prof.shape(2) != 2 ||
+      ore.shape(0) != static_cast<size_t>(A.n) || oim.shape(0) != static_cast<size_t>(A.n))
+    throw nb::value_error("bp_points: inconsistent shapes or options");
+  const PT* pr = prof.data();
+  double *o_r = ore.data(), *o_i = oim.data();
+  const PointFn<PT> fn = point_fn<PT>(kind);
+  const long groups = (A.n + kLanes - 1) / kLanes;
+  nb::gil_scoped_release nogil;
+#pragma omp parallel for schedule(static)
+  for (long gi = 0; gi < groups; ++gi) fn(A, pr, gi * kLanes, o_r, o_i);
+}
+
+template <typename PT>
+void rp_points(in<PT, 1> fre, in<PT, 1> fim, in<double, 2> pts, in<double, 2> geo, long n_len, long pad, int kind,
+               bool bist, out<PT, 3> h) {
+  const PointArgs A = point_args(pts, geo, static_cast<long>(h.shape(1)), n_len, pad, bist, kind, "rp_points");
+  if (h.shape(0) != static_cast<size_t>(A.B) || h.shape(2) != 2 || fre.shape(0) != static_cast<size_t>(A.n) ||
+      fim.shape(0) != static_cast<size_t>(A.n))
+    throw nb::value_error("rp_points: inconsistent shapes or options");
+  const PT *f_r = fre.data(), *f_i = fim.data();
+  PT* hp = h.data();
+  const PointAdjFn<PT> fn = point_adj_fn<PT>(kind);
+  nb::gil_scoped_release nogil;
+#pragma omp parallel for schedule(static)
+  for (long q = 0; q < A.B; ++q) fn(A, f_r, f_i, q, hp);
+}
+
 // The carrier and interpolation weights as the kernels evaluate them (for tests).
 void carrier_values(in<double, 1> ph, out<float, 1> c, out<float, 1> s) {
   const size_t n = ph.shape(0);
@@ -993,6 +1200,18 @@ NB_MODULE(_backprojection, m) {
         "n_len"_a, "pad"_a, "kind"_a, "bist"_a, "width"_a, "exact"_a, "block"_a, "acc"_a.noconvert(), ct_doc);
   m.def("bp_contract", &bp_contract<double>, "profiles"_a, "gre"_a, "gim"_a, "x"_a, "y"_a, "geo"_a,
         "n_len"_a, "pad"_a, "kind"_a, "bist"_a, "width"_a, "exact"_a, "block"_a, "acc"_a.noconvert(), ct_doc);
+  const char* pt_doc =
+      "out[i] += sum_p w(Δr) profile_p(Δr) exp(+i kc_p Δr) at 3-D pixels pts[i] (exact float64 ranges); "
+      "geo rows: ax, ay, az, bx, by, bz, |a|, |b|, offset, 1/bin, kc.";
+  const char* rpt_doc = "Adjoint of bp_points: h[p, :] += transposed interpolation of f exp(-i kc Δr).";
+  m.def("bp_points", &bp_points<float>, "profiles"_a, "pts"_a, "geo"_a, "n_len"_a, "pad"_a, "kind"_a, "bist"_a,
+        "out_re"_a.noconvert(), "out_im"_a.noconvert(), pt_doc);
+  m.def("bp_points", &bp_points<double>, "profiles"_a, "pts"_a, "geo"_a, "n_len"_a, "pad"_a, "kind"_a, "bist"_a,
+        "out_re"_a.noconvert(), "out_im"_a.noconvert(), pt_doc);
+  m.def("rp_points", &rp_points<float>, "fre"_a, "fim"_a, "pts"_a, "geo"_a, "n_len"_a, "pad"_a, "kind"_a,
+        "bist"_a, "h"_a.noconvert(), rpt_doc);
+  m.def("rp_points", &rp_points<double>, "fre"_a, "fim"_a, "pts"_a, "geo"_a, "n_len"_a, "pad"_a, "kind"_a,
+        "bist"_a, "h"_a.noconvert(), rpt_doc);
   m.def("isa_level", &isa_level, "The kernels' instruction set here: 2 AVX-512, 1 AVX2, 0 baseline.");
   m.def("carrier_values", &carrier_values, "phase"_a, "cos"_a, "sin"_a,
         "(cos, sin) of float64 phases as the kernels evaluate them (float32).");
