@@ -19,9 +19,12 @@ def _render():
 
 
 def test_cli_reference_in_sync(monkeypatch):
+    import difflib
+
     monkeypatch.setenv("COLUMNS", "80")
-    assert (REPO / "docs" / "cli.md").read_text() == _render(), \
-        "docs/cli.md is stale: run .venv/bin/python scripts/cli_reference.py docs/cli.md"
+    want, got = (REPO / "docs" / "cli.md").read_text(), _render()
+    diff = "".join(list(difflib.unified_diff(want.splitlines(True), got.splitlines(True), n=1))[:12])
+    assert want == got, f"docs/cli.md is stale: run .venv/bin/python scripts/cli_reference.py docs/cli.md\n{diff}"
 
 
 def test_every_command_has_help():
