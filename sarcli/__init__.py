@@ -55,8 +55,8 @@ _LAZY = {
     "export_image": "io.export",
 }
 
-_SUBPACKAGES = ("core", "io", "simulation", "formers", "linops", "solvers", "regularize", "analysis", "batch",
-                "cli", "viz", "errors")
+_SUBPACKAGES = ("core", "io", "simulation", "formers", "linops", "solvers", "regularize", "analysis", "autofocus",
+                "batch", "cli", "viz", "errors")
 
 __all__ = ["__version__", *_LAZY]
 
@@ -71,4 +71,4 @@ def __getattr__(name):
 
 
 def __dir__():
-    return sorted(__all__)
+    return sorted({*__all__, *_SUBPACKAGES})

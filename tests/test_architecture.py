@@ -225,3 +225,13 @@ def test_the_private_checker_finds_a_crossing(tmp_path):
 def test_no_private_name_crosses_a_module():
     bad = [c for name, path in MODULES.items() for c in _private_crossings(name, path)]
     assert not bad, bad
+
+
+def test_the_facade_reaches_every_subpackage():
+    """``import sarcli; sarcli.<subpackage>`` works for every subpackage on disk (lazily)."""
+    import sarcli
+
+    on_disk = {p.parent.name for p in PKG.glob("*/__init__.py") if not p.parent.name.startswith("_")}
+    for name in sorted(on_disk):
+        assert getattr(sarcli, name).__name__ == f"sarcli.{name}", name
+        assert name in dir(sarcli), name
