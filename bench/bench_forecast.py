@@ -21,7 +21,7 @@ from bench_lam import disk_scene  # noqa: E402
 
 
 def main():
-    import sarcli.regularize.driver as driver
+    import sarcli.regularize.forecast as forecast
     from sarcli.errors import ConvergenceWarning
     from sarcli.regularize import regularize
 
@@ -34,21 +34,21 @@ def main():
         ph, _, _ = disk_scene("shapes", 10.0, spherical=spherical, seed=3001, **kw)
         for lam in ("auto", 0.05):
             marks = []
-            orig = driver._Forecast.on_power
+            orig = forecast.Forecast.on_power
 
             def on_power(self, i, _orig=orig):
                 _orig(self, i)
                 if i == 2:
                     marks.append(time.perf_counter())
 
-            driver._Forecast.on_power = on_power
+            forecast.Forecast.on_power = on_power
             try:
                 with warnings.catch_warnings():
                     warnings.simplefilter("ignore", ConvergenceWarning)
                     img = regularize(ph, prior="ptv", lam=lam, operator="spherical" if spherical else "auto")
                 end = time.perf_counter()
             finally:
-                driver._Forecast.on_power = orig
+                forecast.Forecast.on_power = orig
             p = img.parameters
             g = p["gram_products"]
             measured = end - marks[0]

@@ -315,7 +315,7 @@ def test_noiseless_data_get_a_small_lambda_and_no_warning():
 
 
 def test_progress_and_notice_cover_the_path_and_the_final_solve(disk, monkeypatch):
-    import sarcli.regularize.driver as R
+    import sarcli.regularize.forecast as F
 
     class Bar:
         n, total, desc = 0, None, ""
@@ -331,7 +331,7 @@ def test_progress_and_notice_cover_the_path_and_the_final_solve(disk, monkeypatc
 
     ph, _, _ = disk
     bar, notes = Bar(), []
-    monkeypatch.setattr(R, "LONG_RUN_S", 0.0)
+    monkeypatch.setattr(F, "LONG_RUN_S", 0.0)
     ticks_at_notice = []
 
     def note(line):
@@ -344,9 +344,9 @@ def test_progress_and_notice_cover_the_path_and_the_final_solve(disk, monkeypatc
     assert bar.n == power + 2 * sum(sel["path_iterations"]) + img.parameters["iterations"] <= bar.total
     assert "lam=" in bar.desc
     assert len(notes) == 1 and "predicted" in notes[0] and "--lam" in notes[0]
-    # announced after the second AᴴA product (the first carries one-time set-up), before the rest
-    # of the scaling
-    assert ticks_at_notice == [2]
+    # announced after the scaling (its second AᴴA product timed: the first carries one-time
+    # set-up), before the λ path
+    assert ticks_at_notice == [power]
     assert 0 < img.parameters["predicted_s"] < img.parameters["predicted_max_s"]
     # every AᴴA product is counted: the scaling's, two solvers per path point (one at the start and
     # one per iteration each), the final solve's (one at the start and one per iteration)

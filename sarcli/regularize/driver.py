@@ -39,11 +39,11 @@ from ..core.grid import Grid, resolve_grid
 from ..core.types import Image, PhaseHistory
 from ..linops import (NufftOperator, SphericalOperator, gram_eigmax, normal_equations,
                      sparsifying_operator)
-from ..linops.base import Linop
 from ..linops.toeplitz import NormalEquations
 from ..linops.finite_diff import FiniteDifference
+from .forecast import CountedGram, Forecast, solver_overhead
 from .lampath import PATH_FIRST_ITERS, PATH_ITERS, auto_lambda
-from .regparam import LAM_MIN, SELECT_PATH
+from .regparam import SELECT_PATH
 from ..solvers import ADMM, tikhonov
 
 __all__ = ["regularize", "PRIORS", "OPERATORS", "DEFAULT_LAM", "DEFAULT_BETA_RATIO",
@@ -129,7 +129,7 @@ def _path_normal_equations(op, normal, s_a: float, s_b: float, params: dict):
     path_op = getattr(op, "built", {}).get(half)
     if path_op is None or path_op.eps != op.eps:
         path_op = WarpedNufftOperator(op.acquisition, op.grid, subapertures=half, eps=op.eps)
-    counter = _Counted(path_op.gram())
+    counter = CountedGram(path_op.gram())
     params["path_operator"] = {"subapertures": path_op.subapertures,
                                "predicted_error": path_op.predicted_error}
     return NormalEquations(counter, normal.atb, normal.bnorm2).scaled(s_a, s_b), counter
@@ -162,91 +162,6 @@ def matched_filter(ph: PhaseHistory, grid: Grid | None = None, *, operator: str 
     op = SphericalOperator.from_acquisition(ph.acquisition, grid) if operator in ("spherical", "warped") \
         else NufftOperator.from_acquisition(ph.acquisition, grid, eps=eps)
     return op.adjoint(ph.data) / ph.data.size
-
-
-#: A run predicted to last longer than this many seconds is announced (``notice``) with the
-#: estimate and what would shorten it.
-LONG_RUN_S = 60.0
-#: The forecast's λ path length (points) and final solve (share of ``iters``): the middle of what
-#: the benchmarks of docs/regularize.md show (paths of 4-6 points; final solves of 0.3-1 × the cap).
-PATH_POINTS, FINAL_SHARE = 5, 0.55
-
-
-class _Counted(Linop):
-    """``AᴴA`` that counts its applications (``count``): the cost of a run in products, the same on
-    every machine, for the scaling's power iterations, the λ path and the final solve alike."""
-
-    def __init__(self, op: Linop):
-        super().__init__(op.ishape, op.oshape, op.dtype)
-        self.op, self.count = op, 0
-
-    def _forward(self, x):
-        self.count += 1
-        return self.op.forward(x)
-
-    def _adjoint(self, y):
-        self.count += 1
-        return self.op.adjoint(y)
-
-    def _forward_scaled(self, x, scale):
-        self.count += 1
-        return self.op._forward_scaled(x, scale)
-
-    def _adjoint_scaled(self, y, scale):
-        self.count += 1
-        return self.op._adjoint_scaled(y, scale)
-
-
-class _Forecast:
-    """The run's time from its second AᴴA product (the first carries one-time set-up), announced by
-    ``notice`` when it exceeds :data:`LONG_RUN_S`.
-
-    Each product stands for one iteration (one product per ADMM iteration and solver, two per
-    iteration of CG, which logs its residual). Expected: the scaling, a λ path of
-    :data:`PATH_POINTS` points of ``PATH_ITERS + 1`` products for each of its two solvers (the first
-    point ``PATH_FIRST_ITERS + 1``), and a
-    final solve of :data:`FINAL_SHARE` of ``iters``; the bound: the path down to its floor and
-    the final solve to its cap. ``path_cost``: a path product's cost in final products (the warped
-    operator's path runs on half the sub-apertures).
-    """
-
-    def __init__(self, prior, operator, power_iters, iters, auto, notice, tick, path_cost=1.0):
-        per = 2 if prior == "tikhonov" else 1
-        path_points = len(SELECT_PATH) + int(np.floor(np.log(min(SELECT_PATH) / LAM_MIN) /
-                                                      np.log(SELECT_PATH[0] / SELECT_PATH[1]) + 1e-9))
-        first = min(iters, PATH_FIRST_ITERS) - min(iters, PATH_ITERS)  # the first point's extra iterations
-        path = (lambda pts: 2 * per * path_cost * ((PATH_ITERS + 1) * pts + first)) if auto \
-            else (lambda pts: 0)  # noqa: E731
-        self.expected = power_iters + path(PATH_POINTS) + per * FINAL_SHARE * iters
-        self.bound = power_iters + path(path_points) + per * iters
-        self.path_points, self.final = path_points, (path(0), per * iters)
-        self.prior, self.operator, self.iters, self.auto = prior, operator, iters, auto
-        self.notice, self.tick, self.estimate, self.t = notice, tick, {}, [time.perf_counter()]
-
-    def on_power(self, i):
-        self.tick(1)
-        if i > 2:
-            return
-        self.t.append(time.perf_counter())
-        if i != 2:
-            return
-        gram_s = self.t[2] - self.t[1]
-        predicted, bound = gram_s * self.expected, gram_s * self.bound
-        self.estimate.update(predicted_s=predicted, predicted_max_s=bound, seconds_per_product=gram_s)
-        if self.notice is None or predicted <= LONG_RUN_S:
-            return
-        faster = [f"give --lam (skips the lam path, about {gram_s * FINAL_SHARE * self.iters:.0f} s)"] \
-            if self.auto else []
-        faster += ["fewer --iters", "a coarser --pixel-size or a smaller --extent"]
-        if self.operator == "spherical":
-            faster.append("--operator warped (sub-aperture NUFFTs held to --tolerance)")
-        elif self.operator == "warped":
-            faster.append("a larger --tolerance (fewer sub-apertures)")
-        path = (f"a lam path of about {PATH_POINTS} and up to {self.path_points} points of up to {PATH_ITERS} "
-                f"iterations x 2 solvers, then " if self.auto else "")
-        self.notice(f"regularize {self.prior}: about {predicted:.0f} s predicted, up to {bound:.0f} s ({path}"
-                    f"up to {self.iters} iterations, {gram_s:.2g} s per AhA product); "
-                    f"faster: {', '.join(faster)}")
 
 
 def _outcome(params: dict, hist: dict, prior: str) -> None:
@@ -344,8 +259,9 @@ def regularize(ph: PhaseHistory, *, prior: str = "ptv", order: int = 1, lam: flo
         ``total``) advanced once per power iteration of the scaling, per iteration of the λ path
         (both of its solvers) and of the final solve.
     notice : callable, optional
-        ``notice(line)`` once, right after the second (timed) AᴴA product, when the run is
-        predicted to last longer than :data:`LONG_RUN_S`: the estimate, its bound and what would
+        ``notice(line)`` once, after the scaling (its second AᴴA product timed) and before the
+        λ path, when the run is
+        predicted to last longer than :data:`~sarcli.regularize.forecast.LONG_RUN_S`: the estimate, its bound and what would
         shorten it.
 
     Returns
@@ -399,7 +315,7 @@ def regularize(ph: PhaseHistory, *, prior: str = "ptv", order: int = 1, lam: flo
         raise SarcliInputError(f"tolerance must be in (0, 1), got {tolerance}")
     operator, phase_err, runs = _choose_operator(ph, grid, operator, tolerance)
     op, normal = _build(ph, grid, operator, eps, tolerance, runs)
-    counter = _Counted(normal.gram)
+    counter = CountedGram(normal.gram)
     normal = NormalEquations(counter, normal.atb, normal.bnorm2)
     n_samples = ph.data.size
     mf = normal.atb / n_samples
@@ -416,14 +332,14 @@ def regularize(ph: PhaseHistory, *, prior: str = "ptv", order: int = 1, lam: flo
             progress.update(k)
 
     path_cost = max(1, op.subapertures // 2) / op.subapertures if operator == "warped" else 1.0
-    forecast = _Forecast(prior, operator, power_iters, int(iters), auto, notice, tick, path_cost=path_cost)
+    forecast = Forecast(prior, operator, power_iters, int(iters), auto, notice, tick, path_cost=path_cost)
     scaled, s_a, s_b = scale_problem(normal, power_iters=power_iters, callback=forecast.on_power)
     params = {"prior": prior, "order": int(order), "lam": lam, "beta": beta, "iters": int(iters),
               "tol": float(tol), "operator": operator, "isotropic": bool(isotropic),
               "inner_iters": int(inner_iters), "reestimate_every": int(reestimate_every), "eps": eps,
               "grid": grid.as_dict(), "init": init is not None, "scale_operator": s_a,
               "scale_data": s_b, "scale_power_iterations": power_iters,
-              "farfield_phase_error_rad": phase_err, "model": ph.model, **forecast.estimate,
+              "farfield_phase_error_rad": phase_err, "model": ph.model,
               **({"operator_tolerance": tolerance, "subapertures": op.subapertures,
                   "operator_predicted_error": op.predicted_error} if operator == "warped" else {}),
               "normalisation": "pixel-model reflectivity f = u * scale_data / scale_operator: a unit point "
@@ -439,6 +355,8 @@ def regularize(ph: PhaseHistory, *, prior: str = "ptv", order: int = 1, lam: flo
     f0 = init if init is not None else mf
     T = None if D is not None else sparsifying_operator(prior, grid.shape, order=order,
                                                         f0=f0 if prior == "ptv" else None)
+    forecast.announce(solver_overhead(T, D, mf))
+    params.update(forecast.estimate)
     if progress is not None:
         progress.set_description(f"regularize {prior}" + (": lam path" if auto else ""))
     if auto:
