@@ -3,7 +3,7 @@
 A phase history with an unknown per-pulse phase error ``ε_p`` (platform motion not measured to a
 fraction of a wavelength) is ``d[p, j] = d0[p, j] · exp(i ε_p)``; its image blurs in cross-range.
 Autofocus estimates ``ε̂`` and returns ``d · exp(-i ε̂_p)`` with the estimate recorded
-(``/autofocus/phase_rad`` and its ``method``, CONVENTIONS.md).
+(``/autofocus/phase_rad`` and its ``method``, docs/conventions.md).
 
 What the data cannot tell
 -------------------------
