@@ -79,7 +79,7 @@ class AutofocusResult:
         """One line: what was applied and why (the method's own decision when it records one)."""
         rms = float(np.sqrt(np.mean(self.phase_rad ** 2)))
         what = (f"{self.method}: {rms:.3g} rad rms applied" if self.accepted and np.any(self.phase_rad)
-                else f"{self.method}: no correction applied")
+                else f"{self.method}: no correction applied [{self.code}]")
         why = self.history.get("decision") or (
             "it lowers the entropy and does not lower the peak-to-mean ratio" if self.accepted and np.any(self.phase_rad)
             else "no estimate made the image sharper")

@@ -383,10 +383,10 @@ def _crossvalidate(ph, grid: Grid, res: AutofocusResult, options: dict) -> None:
     need = max(1.0 / 3.0, chance)
     res.history.update(heldout_gain=gains, halves_correlation=corr, predicted_residual_rad=trust["predicted_rad"],
                        trust=trust)
-    facts = (f"correlation {corr:.2f}, needed {need:.2f}; halves' spread {trust['spread_rad']:.3f} rad rms, at most "
-             f"{MAX_PREDICTED_RESIDUAL_RAD:g}; predicted residual {trust['predicted_rad']:.3f} (spread + departure "
-             f"{trust['departure_rad']:.3f}), below the {trust['signal_low_rad']:.3f} of error the halves are sure of; "
-             f"held-out gains {gains[0]:.4f}, {gains[1]:.4f} nats")
+    facts = (f"correlation {corr:.2f}, needed {need:.2f}; halves' spread {trust['spread_rad']:.3f} rad rms, needed at "
+             f"most {MAX_PREDICTED_RESIDUAL_RAD:g}; predicted residual {trust['predicted_rad']:.3f} (spread + departure "
+             f"{trust['departure_rad']:.3f}), needed below {trust['signal_low_rad']:.3f}, the error the halves are sure "
+             f"of; held-out gains {gains[0]:.4f}, {gains[1]:.4f} nats, needed positive in sum")
     if (sum(gains) > 0 and corr > need and trust["spread_rad"] <= MAX_PREDICTED_RESIDUAL_RAD
             and trust["trusted"]):
         res.history["decision"] = (f"it lowers the entropy and does not lower the peak-to-mean ratio, and PGA's "
@@ -397,6 +397,6 @@ def _crossvalidate(ph, grid: Grid, res: AutofocusResult, options: dict) -> None:
         why, code = "no error common to the scene", "no_common_error"
     else:
         why, code = "an error common to the scene, but PGA's estimate of it is too uncertain to apply", "untrusted"
-    res.history["decision"] = (f"{why}: PGA's estimates from the two halves of the scene ({facts}) do not agree "
-                               f"closely enough and lower each other's entropy in sum, so nothing is applied")
+    res.history["decision"] = (f"{why}: PGA's estimates from the two halves of the scene fail a test ({facts}), "
+                               f"so nothing is applied")
     res.reject(code=code)
