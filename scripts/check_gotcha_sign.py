@@ -1,6 +1,6 @@
 """Which phase sign do the GOTCHA files follow? Backproject both signs and compare focus.
 
-The spherical convention (CONVENTIONS.md) is ``d = Σ a exp(-i 4π α Δr / c)``. Conjugating the
+The spherical convention (docs/conventions.md) is ``d = Σ a exp(-i 4π α Δr / c)``. Conjugating the
 data flips the sign. Without autofocus both signs focus (the conjugate gives the scene mirrored
 through the centre), so the test uses AFRL's autofocus, ``exp(+i ph_correct)``: it only
 sharpens data of the sign it was estimated for.

@@ -1,6 +1,6 @@
 """Backprojection vs the exact spherical matched filter, and reprojection as its exact adjoint.
 
-The reference is a brute-force sum of CONVENTIONS.md's spherical matched filter
+The reference is a brute-force sum of docs/conventions.md's spherical matched filter
 ``(1/W) Σ_pj w d exp(+i 4π α Δr / c)`` with ``Δr`` from ``geometry.differential_range``; test data
 come from the closed form ``geometry.signal_phase``.
 """

@@ -47,7 +47,7 @@ def spherical_ph(P=48, M=40, *, attrs=None, r0_offset=0.0, dtype=np.complex128):
 
 
 def matched_filter(ph: PhaseHistory, grid: Grid) -> np.ndarray:
-    """Brute-force spherical matched filter (CONVENTIONS.md eq. mf, no window)."""
+    """Brute-force spherical matched filter (docs/conventions.md eq. mf, no window)."""
     acq = ph.acquisition
     pts = grid.points().reshape(-1, 3)
     psi = geometry.signal_phase(acq.frequency_hz, acq.azimuth_rad, acq.elevation_rad, pts,

@@ -38,7 +38,7 @@ def test_round_trip_exact(ph_file):
 
 
 def test_file_follows_conventions_exactly(ph_file):
-    """Read it with h5py alone, as another program knowing only CONVENTIONS.md would."""
+    """Read it with h5py alone, as another program knowing only docs/conventions.md would."""
     _, path = ph_file
     with h5py.File(path, "r") as f:
         assert f.attrs["format"] == "sarcli-phase-history" and int(f.attrs["version"]) == 1

@@ -7,7 +7,7 @@ pulse, the far-field matched filter is the convolution ``f_MF = f * K / (M P)`` 
 
 ``K_c = (k_1 + k_M) / 2`` and ``Δk`` the wavenumber step of the pulse (both per pulse here, so a
 varying elevation is allowed). Normalised by ``1/(M P)`` it *is* the matched-filter image of a
-unit point (CONVENTIONS.md), peak 1 at the point. With window weights ``w_pj`` no closed form
+unit point (docs/conventions.md), peak 1 at the point. With window weights ``w_pj`` no closed form
 exists; the kernel is then the weighted sum ``Σ w_pj e^{i k_pj ξ_θp·x} / W``, computed exactly
 (a matrix product of the separable phases) or with a type-1 NUFFT (FINUFFT, tolerance 1e-12).
 
@@ -366,7 +366,7 @@ def predicted_ipr(acq, *, window="none", nbar=4, sll_db=-35.0, samples_per_cell=
     -------
     dict
         ``range`` / ``cross_range``: ``irw_m``, ``pslr_db``, ``islr_db``, ``first_nulls_m``,
-        ``resolution_m`` (ρ of CONVENTIONS.md), ``cell_m`` (the resolution cell of the sidelobe
+        ``resolution_m`` (ρ of docs/conventions.md), ``cell_m`` (the resolution cell of the sidelobe
         extent: ``min(ρ, IRW / 0.886)``); ``textbook``: the continuous 1-D values of the window
         (:func:`window_textbook`; ``irw_factor`` × ρ; uniform: 0.886, -13.26 dB, -9.68 dB);
         ``range_direction_rad``, ``method`` ('theorem' or 'weighted sum'), ``window``.

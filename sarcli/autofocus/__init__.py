@@ -3,7 +3,7 @@
 A phase history with an unknown per-pulse phase error ``ε_p`` (platform motion not measured to a
 fraction of a wavelength) is ``d[p, j] = d0[p, j] · exp(i ε_p)``; its image blurs in cross-range.
 Autofocus estimates ``ε̂`` and returns ``d · exp(-i ε̂_p)`` with the estimate recorded
-(``/autofocus/phase_rad`` and its ``method``, CONVENTIONS.md).
+(``/autofocus/phase_rad`` and its ``method``, docs/conventions.md).
 
 What the data cannot tell
 -------------------------
@@ -28,16 +28,20 @@ Methods
 
 Both never return a correction that leaves the image less sharp than it was: the result is kept
 only when the image entropy does not rise and the peak-to-mean ratio does not fall (measured on
-the estimation grid); otherwise the estimate is zero and a warning says so. What was applied and
-why is recorded (``attrs['autofocus_decision']``, :meth:`AutofocusResult.describe`).
+the estimation grid); otherwise the estimate is zero and a warning says so. Nor one that the two
+halves of the scene cannot vouch for: their estimates must predict a residual below the error
+they find (:func:`~sarcli.autofocus._levels.predicted_residual`). What was applied and why is
+recorded (``attrs['autofocus_decision']``, :meth:`AutofocusResult.describe`; the decision's code,
+one of :data:`DECISION_CODES`, is ``AutofocusResult.code``).
 """
 
 from __future__ import annotations
 
-from ._common import (AutofocusResult, apply_phase_correction, estimation_grid, remove_linear_phase)
+from ._common import (DECISION_CODES, AutofocusResult, apply_phase_correction, estimation_grid,
+                      remove_linear_phase)
 
-__all__ = ["autofocus", "METHODS", "DEFAULT_METHOD", "AutofocusResult", "apply_phase_correction", "remove_linear_phase",
-           "estimation_grid"]
+__all__ = ["autofocus", "METHODS", "DEFAULT_METHOD", "AutofocusResult", "DECISION_CODES", "apply_phase_correction",
+           "remove_linear_phase", "estimation_grid"]
 
 #: Autofocus methods (``sar autofocus --method``, ``form-image --autofocus``).
 METHODS = ("pga", "min-entropy")

@@ -12,7 +12,7 @@ from ..core.grid import Grid
 from ..core.types import PhaseHistory
 from ..errors import SarcliInputError, SarcliWarning
 
-__all__ = ["AutofocusResult", "apply_phase_correction", "remove_linear_phase", "estimation_grid",
+__all__ = ["AutofocusResult", "DECISION_CODES", "apply_phase_correction", "remove_linear_phase", "estimation_grid",
            "pulse_signals", "pulse_images", "correlation", "agreement_threshold", "form", "sharpness",
            "keep_if_sharper", "guarded_grid", "MAX_ESTIMATION_PIXELS"]
 
@@ -21,6 +21,15 @@ __all__ = ["AutofocusResult", "apply_phase_correction", "remove_linear_phase", "
 MAX_ESTIMATION_PIXELS = 400 * 400
 #: Largest guarded grid of minimum entropy (pixels; its single-pulse image stack is P times this).
 MAX_GUARDED_PIXELS = 192 * 192
+
+
+#: What an autofocus run decided (:attr:`AutofocusResult.code`): ``applied`` (a correction is
+#: applied); ``no_common_error`` (the halves of the scene show no error common to both, so there is
+#: nothing to apply); ``untrusted`` (an error common to the scene, but the halves predict the estimate
+#: leaves no less than it removes, or more than the method's bound); ``less_sharp`` (the estimate
+#: would leave the image less sharp); ``not_cross_validated`` (the grid is too narrow for two
+#: halves, so the estimate cannot be checked).
+DECISION_CODES = ("applied", "no_common_error", "untrusted", "less_sharp", "not_cross_validated")
 
 
 @dataclass
@@ -38,7 +47,9 @@ class AutofocusResult:
     history : dict
         Per-iteration diagnostics (e.g. rms phase increment, window width, entropy).
     accepted : bool
-        False when the estimate would have made the image less sharp and was replaced by zero.
+        False when an estimate was made but replaced by zero (its code says why).
+    code : str
+        The decision, one of :data:`DECISION_CODES`.
     """
 
     phase_rad: np.ndarray
@@ -50,12 +61,16 @@ class AutofocusResult:
     peak_to_mean_after: float = float("nan")
     history: dict = field(default_factory=dict)
     accepted: bool = True
+    code: str = "applied"
 
-    def reject(self, why: str | None = None) -> None:
+    def reject(self, why: str | None = None, code: str = "less_sharp") -> None:
         """No correction after all: the estimate replaced by zero and the image left as it was
-        (``why`` appended to the decision, where given)."""
+        (``why`` appended to the decision, where given; ``code`` one of :data:`DECISION_CODES`)."""
+        if code not in DECISION_CODES:
+            raise ValueError(f"unknown autofocus decision code {code!r}")
         self.phase_rad = np.zeros_like(self.phase_rad)
         self.accepted = False
+        self.code = code
         self.entropy_after, self.peak_to_mean_after = self.entropy_before, self.peak_to_mean_before
         if why:
             self.history["decision"] = self.history.get("decision", "") + why
@@ -64,7 +79,7 @@ class AutofocusResult:
         """One line: what was applied and why (the method's own decision when it records one)."""
         rms = float(np.sqrt(np.mean(self.phase_rad ** 2)))
         what = (f"{self.method}: {rms:.3g} rad rms applied" if self.accepted and np.any(self.phase_rad)
-                else f"{self.method}: no correction applied")
+                else f"{self.method}: no correction applied [{self.code}]")
         why = self.history.get("decision") or (
             "it lowers the entropy and does not lower the peak-to-mean ratio" if self.accepted and np.any(self.phase_rad)
             else "no estimate made the image sharper")
@@ -72,7 +87,7 @@ class AutofocusResult:
                 f"peak-to-mean {self.peak_to_mean_before:.4g} -> {self.peak_to_mean_after:.4g}")
 
     def summary(self) -> dict:
-        return {"method": self.method, "iterations": self.iterations, "accepted": self.accepted,
+        return {"method": self.method, "iterations": self.iterations, "accepted": self.accepted, "code": self.code,
                 "entropy_before": self.entropy_before, "entropy_after": self.entropy_after,
                 "peak_to_mean_before": self.peak_to_mean_before, "peak_to_mean_after": self.peak_to_mean_after,
                 "rms_phase_rad": float(np.sqrt(np.mean(self.phase_rad ** 2)))}
@@ -290,8 +305,10 @@ def keep_if_sharper(ph: PhaseHistory, grid: Grid, result: AutofocusResult, candi
             best, best_h, best_m = phi, h, m
     result.entropy_before, result.peak_to_mean_before = h0, m0
     result.entropy_after, result.peak_to_mean_after = best_h, best_m
+    if not np.any(best) and not any(np.any(c) for c in candidates):
+        result.code = "no_common_error"   # the method estimated no error at all
     if not np.any(best) and any(np.any(c) for c in candidates):
-        result.accepted = False
+        result.accepted, result.code = False, "less_sharp"
         warnings.warn(f"autofocus ({result.method}) did not sharpen the image (entropy {h0:.4f}, "
                       f"peak-to-mean {m0:.4g} before): no correction applied", AutofocusWarning, stacklevel=3)
     result.phase_rad = best

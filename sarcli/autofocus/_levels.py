@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["LEVELS", "gauge_basis", "without_gauge", "phase_mean", "wrapped", "level_basis", "spacing", "dof"]
+__all__ = ["LEVELS", "gauge_basis", "without_gauge", "phase_mean", "predicted_residual", "wrapped", "level_basis", "spacing", "dof"]
 
 #: The levels of the search: a smooth polynomial subspace, knots every 16 and 4 pulses, every pulse.
 LEVELS = ("smooth", 16, 4, 1)
@@ -58,6 +58,39 @@ def phase_mean(a, b) -> np.ndarray:
     few whole turns apart on some pulses average to the estimate, not to it plus ``π``."""
     a = np.asarray(a, np.float64)
     return a + 0.5 * wrapped(np.asarray(b, np.float64) - a)
+
+
+def predicted_residual(phi, a, b, gauge) -> dict:
+    """What two halves' estimates ``a``, ``b`` of the scene say of the whole scene's estimate ``phi``
+    (rad rms, modulo ``2π`` and the unobservable constant and linear phase).
+
+    With ``a = ε + n_a`` and ``b = ε + n_b`` (a common error ``ε``, independent estimation noise):
+
+    - ``spread_rad``, half the rms of ``a - b``: the rms noise of their mean ``m``;
+    - ``departure_rad``: the rms of ``phi - m`` (how far the whole scene's estimate lies from the
+      halves' mean);
+    - ``predicted_rad = spread + departure``: at least the rms of ``phi - ε`` (triangle inequality)
+      when the halves are unbiased;
+    - ``signal_rad``: ``√mean(a_p b_p)``, an estimate of the rms of ``ε`` (the noise cancels in the
+      product), and ``signal_low_rad`` the same two standard errors lower
+      (``mean - 2 std(a_p b_p)/√P``, 0 when that is not positive): the least error the halves
+      are sure of.
+
+    ``phi`` nearer the truth than no correction is predicted when ``predicted_rad`` is below
+    ``signal_low_rad`` (``trusted``).
+    """
+    a = without_gauge(np.asarray(a, np.float64), gauge)
+    d = wrapped(without_gauge(wrapped(a - np.asarray(b, np.float64)), gauge))
+    b = a - d   # b, moved by whole turns (and the gauge) to lie nearest a
+    dep = wrapped(without_gauge(wrapped(np.asarray(phi, np.float64) - (a - 0.5 * d)), gauge))
+    spread = float(np.sqrt(np.mean(d ** 2)) / 2.0)
+    departure = float(np.sqrt(np.mean(dep ** 2)))
+    ab = a * b
+    low = float(np.mean(ab) - 2.0 * np.std(ab) / np.sqrt(ab.size))
+    out = {"spread_rad": spread, "departure_rad": departure, "predicted_rad": spread + departure,
+           "signal_rad": float(np.sqrt(max(float(np.mean(ab)), 0.0))), "signal_low_rad": float(np.sqrt(max(low, 0.0)))}
+    out["trusted"] = bool(out["predicted_rad"] < out["signal_low_rad"])
+    return out
 
 
 def _degree(P: int) -> int:

@@ -9,7 +9,12 @@ field, monostatic or bistatic. Then, per iteration:
 
 1. *Selection*: the ``n_scatterers`` brightest pixels of the current image, each at least
    ``separation`` pixels from the others (one per neighbourhood, the analogue of one per range
-   line).
+   line), each placed at its peak to a fraction of a pixel (:func:`peak_positions`): a
+   scatterer's signal compensated to a point ``δ`` away carries ``k δ·u_p``, the change of the look
+   direction ``u_p`` along ``δ``, which is linear in the look angle (removed by the centre shift)
+   only on a level path; where the elevation changes (a climbing path) an offset across range
+   adds a smooth phase of its own (2° of climb at 30° elevation, Ku band: about 12 rad per metre,
+   0.7 rad at the ends for half a pixel of 0.125 m).
 2. *Centre shift*: the FFT across pulses of each scatterer's signal is its cross-range line
    (pulse angle and cross-range are a Fourier pair over a small aperture); its peak is shifted to
    zero frequency (removes the scatterer's linear phase).
@@ -37,9 +42,12 @@ less sharp (entropy not up, peak-to-mean not down, :func:`~sarcli.autofocus._com
 *and* passes a cross-validation like minimum entropy's (:mod:`sarcli.autofocus.entropy`): PGA is
 run on each of two disjoint halves of the scene alone (across range, with a band between them);
 the two estimates must agree modulo ``2π`` (:func:`halves_agreement`) with a correlation above
-``max(1/3, chance)`` (:func:`~sarcli.autofocus._common.agreement_threshold`), predict a residual
-of at most :data:`MAX_PREDICTED_RESIDUAL_RAD`, and, each applied to the other half, lower the
-entropy in sum. A phase error is common to the
+``max(1/3, chance)`` (:func:`~sarcli.autofocus._common.agreement_threshold`), differ by at most
+:data:`MAX_PREDICTED_RESIDUAL_RAD` (the noise of their mean), predict for the whole scene's
+estimate a residual below the error they are sure of
+(:func:`~sarcli.autofocus._levels.predicted_residual`), and, each applied to the other half,
+lower the entropy in sum. What was decided is ``result.code``
+(:data:`~sarcli.autofocus._common.DECISION_CODES`). A phase error is common to the
 scene; what PGA fits to one half's clutter is not, and on a focused scene it can still pass the
 sharpness test alone. (Each half's own gain is not required: a half's PGA estimate, from half
 the scatterers, carries noise of its own that can cost the other half more than the common error
@@ -90,6 +98,23 @@ def select_scatterers(image, n: int, separation: int):
         if len(rows) == n:
             break
     return np.array(rows), np.array(cols)
+
+
+def peak_positions(image, rows, cols, grid: Grid) -> np.ndarray:
+    """x, y (m) of the selected pixels' peaks, each refined to a fraction of a pixel by a parabola
+    through the log magnitude of the pixel and its two neighbours along each axis."""
+    lm = np.log(np.abs(np.asarray(image)).astype(np.float64) + 1e-300)
+    ny, nx = lm.shape
+    out = np.column_stack([grid.x[cols], grid.y[rows]]).astype(np.float64)
+    for k, (r, c) in enumerate(zip(rows, cols)):
+        for axis, (i, n, d) in enumerate(((c, nx, grid.dx), (r, ny, grid.dy))):
+            if 0 < i < n - 1:
+                a, b, e = ((lm[r, i - 1], lm[r, i], lm[r, i + 1]) if axis == 0
+                           else (lm[i - 1, c], lm[i, c], lm[i + 1, c]))
+                den = a - 2.0 * b + e
+                if den < 0:
+                    out[k, axis] += d * float(np.clip(0.5 * (a - e) / den, -0.5, 0.5))
+    return out
 
 
 def phase_gradient_estimate(signals, window_db=-10.0, min_window=4, full=False, estimator="eigen",
@@ -265,7 +290,7 @@ def pga(ph, *, grid: Grid | None = None, n_scatterers: int | None = None, separa
         if h < best_h:
             best_h, best_phi = h, phi
         rows, cols = select_scatterers(img, n, separation)
-        pts = np.column_stack([grid.x[cols], grid.y[rows]])
+        pts = peak_positions(img, rows, cols, grid)
         z = pulse_signals(ph, pts) * np.exp(-1j * phi)[:, None]
         inc, width = phase_gradient_estimate(z, window_db, min_window, full=(it == 1 and start is None),
                                              estimator=estimator)
@@ -285,7 +310,7 @@ def pga(ph, *, grid: Grid | None = None, n_scatterers: int | None = None, separa
     if guard:
         from ._sharpness import sharpness_imager
 
-        res = keep_if_sharper(ph, grid, res, [phi], sharpness_imager(ph, grid))
+        res = keep_if_sharper(ph, grid, res, [best_phi, phi], sharpness_imager(ph, grid))
         if validate and np.any(res.phase_rad):
             _crossvalidate(ph, grid, res, dict(n_scatterers=n_scatterers, separation=separation,
                                                window_db=window_db, min_window=min_window, max_iter=max_iter,
@@ -293,9 +318,10 @@ def pga(ph, *, grid: Grid | None = None, n_scatterers: int | None = None, separa
     return res
 
 
-#: Largest rms residual (rad) the halves of the scene may predict for PGA's estimate for it to be
-#: applied (:func:`_crossvalidate`): below it the residual costs a point at most 4 % of its peak
-#: energy (``1 - exp(-σ²)``); above it the halves' own spread says the estimate is mostly noise.
+#: Largest rms noise (rad) the halves of the scene may predict for PGA's estimate for it to be
+#: applied (:func:`_crossvalidate`, half the rms of the halves' difference): below it the residual
+#: costs a point at most 4 % of its peak energy (``1 - exp(-σ²)``); above it the halves' own
+#: spread says the estimate is mostly noise.
 MAX_PREDICTED_RESIDUAL_RAD = 0.2
 
 
@@ -308,27 +334,32 @@ def halves_agreement(a, b, gauge) -> tuple[float, float]:
     scene's estimate carries noise of about ``N/2``, whose rms is half that of ``a - b``: the second
     number predicts the residual of the estimate that is applied.
     """
-    from ._levels import wrapped, without_gauge
+    from ._levels import predicted_residual, wrapped, without_gauge
 
     a = np.asarray(a, np.float64)
     d = wrapped(without_gauge(wrapped(a - np.asarray(b, np.float64)), gauge))
-    return correlation(a, a - d), float(np.sqrt(np.mean(d ** 2)) / 2.0)
+    return correlation(a, a - d), predicted_residual(a, a, b, gauge)["spread_rad"]
 
 
 def _crossvalidate(ph, grid: Grid, res: AutofocusResult, options: dict) -> None:
     """Keep ``res``'s estimate only if PGA's estimates from the two halves of ``grid`` agree (modulo
-    ``2π``) beyond chance and beyond ``1/3``, predict a residual of at most
-    :data:`MAX_PREDICTED_RESIDUAL_RAD`, and, each applied to the other half, lower the entropy in
-    sum; else reject it (in place).
+    ``2π``) beyond chance and beyond ``1/3``, lower each other's entropy in sum, differ by at most
+    :data:`MAX_PREDICTED_RESIDUAL_RAD` (half the rms of their difference, the noise of their
+    mean), and predict for it a residual below the least error they are sure of
+    (:func:`~sarcli.autofocus._levels.predicted_residual`: the spread plus the whole scene's
+    departure from their mean, against ``√⟨a, b⟩`` less two standard errors); else reject it (in
+    place), the reason in ``res.code`` and the decision.
 
     The correlation ``ρ = s/(s + n)`` of two halves (``s`` the common error's power, ``n`` one
     half's noise) says the whole scene's estimate (noise about ``n/2``) is nearer the error than
     no correction only when ``ρ > 1/3``; chance alone (``2/√dof``) lets through estimates that are
     mostly noise (on a scene of five points in extended clutter the halves correlated 0.27,
-    chance 0.13, and the estimate left more error than it removed).
+    chance 0.13, and the estimate left more error than it removed). The departure counts what the
+    whole scene's iterations reach that neither half does (a drift of the window, a scatterer
+    one half lacks).
     """
     from ._imager import SPLIT_GAP, range_axis, split_grid
-    from ._levels import gauge_basis
+    from ._levels import gauge_basis, predicted_residual
 
     acq = ph.acquisition
     try:
@@ -339,26 +370,33 @@ def _crossvalidate(ph, grid: Grid, res: AutofocusResult, options: dict) -> None:
         why = (f"the grid of {grid.nx} x {grid.ny} pixels is too narrow across range to compare two halves of "
                f"the scene")
         res.history["decision"] = f"not cross-validated, so not applied: {why}"
-        res.reject()
+        res.reject(code="not_cross_validated")
         warnings.warn(f"autofocus (pga) applied no correction: {why}", AutofocusWarning, stacklevel=4)
         return
     ests = [pga(ph, grid=g, guard=False, validate=False, **options).phase_rad for g in halves]
     h0 = [image_entropy(form(ph, g)) for g in halves]
     gains = (h0[0] - image_entropy(form(ph, halves[0], ests[1])), h0[1] - image_entropy(form(ph, halves[1], ests[0])))
-    corr, spread = halves_agreement(ests[0], ests[1], gauge_basis(acq))
-    need = max(1.0 / 3.0, agreement_threshold(max(1, ph.data.shape[0] - 2)))
-    res.history.update(heldout_gain=gains, halves_correlation=corr, predicted_residual_rad=spread)
-    facts = (f"correlation {corr:.2f}, needed {need:.2f}; predicted residual {spread:.3f} rad rms, at most "
-             f"{MAX_PREDICTED_RESIDUAL_RAD:g}; held-out gains {gains[0]:.4f}, {gains[1]:.4f} nats")
-    if sum(gains) > 0 and corr > need and spread <= MAX_PREDICTED_RESIDUAL_RAD:
+    gauge = gauge_basis(acq)
+    corr, _ = halves_agreement(ests[0], ests[1], gauge)
+    trust = predicted_residual(res.phase_rad, ests[0], ests[1], gauge)
+    chance = agreement_threshold(max(1, ph.data.shape[0] - 2))
+    need = max(1.0 / 3.0, chance)
+    res.history.update(heldout_gain=gains, halves_correlation=corr, predicted_residual_rad=trust["predicted_rad"],
+                       trust=trust)
+    facts = (f"correlation {corr:.2f}, needed {need:.2f}; halves' spread {trust['spread_rad']:.3f} rad rms, needed at "
+             f"most {MAX_PREDICTED_RESIDUAL_RAD:g}; predicted residual {trust['predicted_rad']:.3f} (spread + departure "
+             f"{trust['departure_rad']:.3f}), needed below {trust['signal_low_rad']:.3f}, the error the halves are sure "
+             f"of; held-out gains {gains[0]:.4f}, {gains[1]:.4f} nats, needed positive in sum")
+    if (sum(gains) > 0 and corr > need and trust["spread_rad"] <= MAX_PREDICTED_RESIDUAL_RAD
+            and trust["trusted"]):
         res.history["decision"] = (f"it lowers the entropy and does not lower the peak-to-mean ratio, and PGA's "
                                    f"estimates from the two halves of the scene agree and lower each other's "
                                    f"entropy in sum ({facts})")
         return
-    if corr <= agreement_threshold(max(1, ph.data.shape[0] - 2)) or sum(gains) <= 0:
-        why = "no error common to the scene"
+    if corr <= chance or sum(gains) <= 0:
+        why, code = "no error common to the scene", "no_common_error"
     else:
-        why = "an error common to the scene, but PGA's estimate of it is too uncertain to apply"
-    res.history["decision"] = (f"{why}: PGA's estimates from the two halves of the scene ({facts}) do not agree "
-                               f"closely enough and lower each other's entropy in sum, so nothing is applied")
-    res.reject()
+        why, code = "an error common to the scene, but PGA's estimate of it is too uncertain to apply", "untrusted"
+    res.history["decision"] = (f"{why}: PGA's estimates from the two halves of the scene fail a test ({facts}), "
+                               f"so nothing is applied")
+    res.reject(code=code)

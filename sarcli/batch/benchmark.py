@@ -3,12 +3,12 @@
 For one phase history, :func:`run_benchmark` forms the image with each method over a sweep of its
 accuracy knobs and records, per setting,
 
-- ``error``: the relative error ``‖f − f_ref‖₂ / ‖f_ref‖₂`` (CONVENTIONS.md, :func:`sarcli.formers.formation.image_error`)
-  of the complex image against the exact matched filter ``f_ref = form_image(ph, 'direct')`` with
-  the same window. ``direct`` costs ``P·M·pixels`` exponentials; when that exceeds
-  ``max_reference_cost`` the reference is formed on a strided sub-grid (every ``s``-th pixel, over
-  the whole image) and every image is compared on those pixels only (``reference_grid`` in the
-  result says which);
+- ``error``: the relative error ``‖f − f_ref‖₂ / ‖f_ref‖₂`` (docs/conventions.md,
+  :func:`sarcli.formers.formation.image_error`) of the complex image against the exact matched
+  filter ``f_ref = form_image(ph, 'direct')`` with the same window. ``direct`` costs
+  ``P·M·pixels`` exponentials; when that exceeds ``max_reference_cost`` the reference is formed
+  on a strided sub-grid (every ``s``-th pixel, over the whole image) and every image is compared
+  on those pixels only (``reference_grid`` in the result says which);
 - ``error_truth``: for simulated data, ``‖|f| − |t|‖₂ / ‖t‖₂`` with ``t`` the truth on the image
   grid: for extended scenes ``|ph.truth.scene|`` over every pixel; for point-only scenes the target
   amplitudes at their nearest pixels (the peak-amplitude error; see :func:`truth_on_grid`). For

@@ -25,10 +25,11 @@ def command(ctx, input_path, output, method, center, extent, pixel_size):
     /autofocus/phase_rad with the method. Constant and linear phase (a cross-range shift) are not
     observable and are left out of the estimate. The grid options choose the scene part the
     estimate is made on (default the file's grid). No correction is applied when none makes the
-    image sharper (entropy and peak-to-mean), or when the estimates from two halves of the scene
-    do not agree beyond chance and sharpen the other half (min-entropy: each half; pga: in sum).
-    What was decided and why is stored in the file's attribute autofocus_decision and printed
-    with -v.
+    image sharper (entropy and peak-to-mean), when the estimates from two halves of the scene
+    do not agree beyond chance and sharpen the other half (min-entropy: each half; pga: in sum),
+    or when they predict the estimate leaves no less error than they find in the data. What was
+    decided and why (its code in brackets when nothing is applied) is stored in the file's
+    attribute autofocus_decision and printed with -v.
     """
     import numpy as np
 

@@ -1,5 +1,5 @@
 """``sar psf CONFIG.yaml|PH.h5 -o PSF.h5``: the matched filter's point spread function
-(CONVENTIONS.md "Image formation and its normalisation")."""
+(docs/conventions.md "Image formation and its normalisation")."""
 
 from __future__ import annotations
 

@@ -18,7 +18,7 @@ from .grid import Grid
 
 __all__ = ["Acquisition", "MODELS"]
 
-#: Data models a phase history can follow (CONVENTIONS.md "Data models").
+#: Data models a phase history can follow (docs/conventions.md "Data models").
 MODELS = ("farfield", "spherical")
 
 
@@ -39,7 +39,7 @@ class Acquisition:
     frequency_hz : ndarray, shape (M,) or (P, M)
         Frequencies α_j.
     azimuth_rad, elevation_rad : ndarray, shape (P,)
-        Look azimuth θ_p and elevation φ_p (CONVENTIONS.md "Geometry of a pulse").
+        Look azimuth θ_p and elevation φ_p (docs/conventions.md "Geometry of a pulse").
     grid : Grid
         The default image grid (R, N of the config, or derived from the sampling).
     antenna_position_m : ndarray, shape (P, 3), optional
@@ -55,7 +55,7 @@ class Acquisition:
     name, source, config_text : str, optional
         Provenance: a short name, the file it came from and its text.
     transmit_position_m, receive_position_m : ndarray, shape (P, 3), optional
-        Separate transmit and receive phase centres t_p, q_p (CONVENTIONS.md "Spherical with
+        Separate transmit and receive phase centres t_p, q_p (docs/conventions.md "Spherical with
         separate transmit and receive positions"): the platform moves while the echo travels, or
         a bistatic collection. Given together; then ``antenna_position_m`` defaults to their
         midpoint and ``range_to_center_m`` to half the two-way path ``(|t_p| + |q_p|)/2``, and

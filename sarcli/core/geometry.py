@@ -1,6 +1,6 @@
 """Geometry of a spotlight collection: the one home of every k-space and range formula.
 
-Frames and signs follow ``CONVENTIONS.md``: ground frame x east, y north, z up, scene centre at
+Frames and signs follow ``docs/conventions.md``: ground frame x east, y north, z up, scene centre at
 the origin; pulse ``p`` looks along ``u_p = (cos φ cos θ, cos φ sin θ, -sin φ)`` from its antenna
 phase centre ``a_p`` to the scene centre. Every other module (simulator, image formers,
 regularisers, PSF) takes its wavenumbers, k-space coordinates, ranges and sampling limits from
@@ -173,7 +173,7 @@ def alias_free_radii(freq_hz, azimuth_rad, elevation_rad):
 
 
 def resolutions(freq_hz, azimuth_rad, elevation_rad):
-    """Range and cross-range resolution (m), CONVENTIONS.md "Sampling limits".
+    """Range and cross-range resolution (m), docs/conventions.md "Sampling limits".
 
     ``ρ_r = c / (2 B cos φ)`` with ``B = α_M - α_1`` and ``ρ_cr = c / (4 α_c cos φ sin(Θ/2))``
     for a total aperture Θ; ``inf`` for a single frequency or a single pulse. Θ is capped at π
@@ -313,7 +313,7 @@ def bistatic_differential_range(transmit_position_m, receive_position_m, range_t
                                 points_m) -> np.ndarray:
     """Half the two-way path minus the reference: ``(|t_p - x| + |q_p - x|)/2 - r0_p`` (m).
 
-    CONVENTIONS.md "Spherical with separate transmit and receive positions": the platform moves
+    docs/conventions.md "Spherical with separate transmit and receive positions": the platform moves
     while the echo travels (or transmitter and receiver are different platforms, a bistatic
     collection). Each one-way term is taken cancellation-free as in :func:`differential_range`
     and the constant ``(|t_p| + |q_p|)/2 - r0_p`` in extended precision. When ``t = q`` this is
@@ -359,7 +359,7 @@ DEFOCUS_WARN_RAD = 0.1
 def farfield_phase_error(range_to_center_m, freq_max_hz, radius_m) -> float:
     """Predicted far-field phase error at distance ``radius_m`` from the centre (rad).
 
-    ``(4π α_max / c) |x|² / (2 r0)`` (CONVENTIONS.md "Data models"): what a far-field method
+    ``(4π α_max / c) |x|² / (2 r0)`` (docs/conventions.md "Data models"): what a far-field method
     loses on spherical data; a few tenths of a radian already defocus.
     """
     r0 = float(np.min(range_to_center_m))

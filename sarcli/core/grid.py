@@ -1,6 +1,6 @@
 """The image grid: pixel-centre coordinates of a Cartesian scene patch.
 
-CONVENTIONS.md: arrays are indexed ``[row, col] = [y, x]`` with ``x = cx + (col - nx/2) hx`` and
+docs/conventions.md: arrays are indexed ``[row, col] = [y, x]`` with ``x = cx + (col - nx/2) hx`` and
 ``y = cy + (row - ny/2) hy``; row 0 is the southern edge. The acquisition's own grid is square,
 ``h = 2R/N``, centred on the scene centre; image formers may be handed any other grid.
 """
@@ -59,7 +59,7 @@ class Grid:
     # -- constructors -------------------------------------------------------------------------
     @classmethod
     def square(cls, half_width_m: float, n: int, center=(0.0, 0.0)) -> "Grid":
-        """The paper's grid: N × N pixels of length ``h = 2R/N`` (CONVENTIONS.md)."""
+        """The paper's grid: N × N pixels of length ``h = 2R/N`` (docs/conventions.md)."""
         h = 2.0 * float(half_width_m) / int(n)
         return cls(int(n), int(n), h, h, float(center[0]), float(center[1]))
 

@@ -1,7 +1,7 @@
 """Window (taper) weights for the matched filter and every image former.
 
 The weights ``w_pj`` of eq. ``mf`` are the outer product of a cross-range window over pulses and a
-range window over frequencies. Every former divides by ``W = Σ w_pj`` (CONVENTIONS.md "Image
+range window over frequencies. Every former divides by ``W = Σ w_pj`` (docs/conventions.md "Image
 formation and its normalisation"), so a unit point scatterer keeps a peak of 1 whatever window is
 chosen; a window trades resolution for lower sidelobes.
 """

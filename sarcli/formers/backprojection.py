@@ -1,6 +1,6 @@
 """Backprojection for any flight path (spherical model) and its exact adjoint, reprojection.
 
-Backprojection evaluates the spherical matched filter (CONVENTIONS.md "Image formation", paper
+Backprojection evaluates the spherical matched filter (docs/conventions.md "Image formation", paper
 eq. ``mf`` with the spherical ``e_pj``)
 
 .. math::
@@ -94,7 +94,7 @@ def backproject(data, freq_hz, antenna_position_m, range_to_center_m, grid, weig
     Parameters
     ----------
     data : array_like, shape (P, M), complex
-        Phase history ``d[p, j]`` (spherical model, CONVENTIONS.md).
+        Phase history ``d[p, j]`` (spherical model, docs/conventions.md).
     freq_hz : array_like, shape (M,) or (P, M)
         Frequencies, equally spaced within each pulse (else use method ``direct``).
     antenna_position_m : array_like, shape (P, 3)

@@ -1,7 +1,7 @@
 """The exact matched filter (paper eq. ``mf``), the reference every faster former is measured against.
 
 ``f(x) = (1/W) Σ_p Σ_j w_pj d[p, j] e_pj(x)`` with ``e_pj(x) = exp(+i k_pj ξ_θp·x)`` (far-field) or
-``exp(+i (4π α_pj / c)(|a_p - x| - r0_p))`` (spherical) and ``W = Σ w_pj`` (CONVENTIONS.md), so a
+``exp(+i (4π α_pj / c)(|a_p - x| - r0_p))`` (spherical) and ``W = Σ w_pj`` (docs/conventions.md), so a
 unit point scatterer gives a peak of 1 at its own position. Phases are float64 throughout.
 """
 

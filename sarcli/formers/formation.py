@@ -1,6 +1,6 @@
 """Image formation: the public :func:`form_image` over the kernels in :mod:`sarcli.formers`.
 
-Every method computes the same quantity, the matched filter of CONVENTIONS.md (paper eq. ``mf``)
+Every method computes the same quantity, the matched filter of docs/conventions.md (paper eq. ``mf``)
 ``f(x) = (1/W) Σ_pj w_pj d_pj e_pj(x)``, so a unit point scatterer peaks at 1 whatever the method,
 window or grid:
 
@@ -48,7 +48,7 @@ VIRTUAL_RANGE_PER_M = 5.0e7
 
 
 def image_error(image, reference) -> float:
-    """Relative error ``‖f − f_ref‖₂ / ‖f_ref‖₂`` (CONVENTIONS.md), the measure used everywhere."""
+    """Relative error ``‖f − f_ref‖₂ / ‖f_ref‖₂`` (docs/conventions.md), the measure used everywhere."""
     ref = np.asarray(reference)
     return float(np.linalg.norm(np.asarray(image) - ref) / np.linalg.norm(ref))
 

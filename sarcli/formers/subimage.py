@@ -1,7 +1,7 @@
 """Sub-image NUFFT: the Fourier former that survives the spherical wavefront.
 
 A far-field former (one NUFFT) on spherical data loses the curvature phase
-``k (|δ|² − (û·δ)²) / (2 r)`` at a distance ``δ`` from the scene centre (CONVENTIONS.md "Data
+``k (|δ|² − (û·δ)²) / (2 r)`` at a distance ``δ`` from the scene centre (docs/conventions.md "Data
 models"), a radian already ~20 m from the centre of a 10 km X-band collection. Close to *any*
 point the far-field model holds again, so:
 

@@ -1,7 +1,7 @@
 """Geolocation of image pixels: pixel -> (latitude, longitude, height) and back.
 
 Every sarcli image is a ground-plane grid: its pixels lie in the plane z = 0 of the local frame
-(CONVENTIONS.md "Units and frames"), which :mod:`.georef` puts on the Earth as the tangent plane
+(docs/conventions.md "Units and frames"), which :mod:`.georef` puts on the Earth as the tangent plane
 of the scene-centre reference point (``scene_center_lat_deg`` / ``_lon_deg`` / ``_height_m``).
 A pixel ``(row, col)`` (row 0 the southern edge, fractional values allowed) is the plane point
 

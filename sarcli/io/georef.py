@@ -1,6 +1,6 @@
 """Where the local scene frame sits on the Earth: reference point, ENU <-> ECF, UTM zone.
 
-sarcli works in a local frame (CONVENTIONS.md "Units and frames": x east, y north, z up, origin at
+sarcli works in a local frame (docs/conventions.md "Units and frames": x east, y north, z up, origin at
 the scene centre). Formats that need Earth coordinates (GeoTIFF, SICD, CPHD) anchor that
 frame at a reference point read from the optional attributes ``scene_center_lat_deg``,
 ``scene_center_lon_deg`` (and ``scene_center_height_m``, default 0) of an image or phase history.

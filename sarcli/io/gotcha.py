@@ -1,7 +1,7 @@
 """Reader for the AFRL GOTCHA volumetric SAR data set (MATLAB ``.mat`` files).
 
 Each file holds one degree of azimuth of one pass and polarisation as a structure ``data`` with
-fields (CONVENTIONS.md "Real data"; AFRL's read-me ``07_Readme.pdf``):
+fields (docs/conventions.md "Real data"; AFRL's read-me ``07_Readme.pdf``):
 
 =================  ==========  ===============================================================
 ``fp``             [M, P]      complex phase history (spherical convention, motion-compensated

@@ -10,7 +10,7 @@ __all__ = ["KINDS", "north_up", "magnitude", "decibels", "db_to_uint8"]
 
 KINDS = ("magnitude", "db", "complex")
 
-#: What every north-up export records about the flip (CONVENTIONS.md: our row 0 is south).
+#: What every north-up export records about the flip (docs/conventions.md: our row 0 is south).
 FLIP_NOTE = "rows flipped to north-up: file row 0 is the northern edge (sarcli image row 0 is south)"
 
 

@@ -16,7 +16,7 @@ Mapping (``docs/formats.md`` has the table):
 * Spatial-frequency support (``Grid/Row|Col``): the k-space samples ``k ξ_θ / 2π`` (cycles/m) of
   the collection, projected on the row / column directions: ``KCtr`` at the centre of their extent,
   ``ImpRespBW`` the extent (at most ``1/SS``), ``DeltaK1/2 = ∓ ImpRespBW / 2``, ``Sgn = -1``
-  (our matched filter synthesises with ``exp(+i k ξ·x)``; CONVENTIONS.md eq. ``mf``).
+  (our matched filter synthesises with ``exp(+i k ξ·x)``; docs/conventions.md eq. ``mf``).
 * Collection geometry (``Position/ARPPoly``, ``Timeline``, ``SCPCOA``) from the phase history's
   antenna positions, timed as in :mod:`sarcli.io.cphd` (synthetic times at a nominal platform speed);
   ``SCPCOA`` is computed by sarkit. Without a phase history a NOMINAL collection is written
@@ -81,7 +81,7 @@ def sicd_orientation(image: np.ndarray, look_azimuth_rad: float, grid):
     ----------
     image : ndarray (ny, nx)
     look_azimuth_rad : float
-        Look azimuth θ at the aperture centre (direction antenna → scene, CONVENTIONS.md).
+        Look azimuth θ at the aperture centre (direction antenna → scene, docs/conventions.md).
     grid : Grid
 
     Returns

@@ -6,7 +6,7 @@ Pixel model (paper eqs. ``fund-freq`` and ``2D-DFT``): with ``x = cx + j1 hx``, 
     d[p, m] = exp(-i (kx cx + ky cy)) Σ_j f[j2, j1] exp(-i (k1 j1 + k2 j2)),
     (k1, k2) = (kx hx, ky hy) wrapped into [-π, π),
 
-which is the data model of CONVENTIONS.md evaluated at pixel centres; the wrap is exact on the
+which is the data model of docs/conventions.md evaluated at pixel centres; the wrap is exact on the
 grid (section ``sec: alias``). The forward map is a FINUFFT type-2 transform (sign -1), the adjoint
 a type-1 transform (sign +1) at the same points; both plans are made once and reused.
 ``Aᴴ d / (P M)`` is the matched filter image (eq. ``mf``) at the pixel centres.

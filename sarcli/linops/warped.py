@@ -1,6 +1,6 @@
 """The spherical forward operator at FFT speed: sub-aperture NUFFTs on warped pixel positions.
 
-The exact spherical model (CONVENTIONS.md "Data models") is
+The exact spherical model (docs/conventions.md "Data models") is
 ``A f (p, j) = Σ_x f(x) exp(−i k_pj d_p(x))``, ``k_pj = 4π α_pj / c`` and ``d_p(x)`` the
 differential range (:func:`sarcli.core.geometry.bistatic_differential_range`). Split it as
 ``d_p(x) = d_p(0) + ρ_p(x)``: the first term is a phase per sample, exact. Over a short run of

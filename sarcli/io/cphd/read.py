@@ -214,7 +214,7 @@ def _phase_history(p, xml, ch, pvp, data, freq) -> PhaseHistory:
     lat, lon, hae = wgs84.cartesian_to_geodetic(iarp)
     ref = ReferencePoint(float(lat), float(lon), float(hae))
     tx, rcv, srp = (ecf_to_enu(np.asarray(pvp[k], np.float64), ref) for k in ("TxPos", "RcvPos", "SRPPos"))
-    # the signal is referenced to the SRP: r0_p is half the two-way path to it (CONVENTIONS.md)
+    # the signal is referenced to the SRP: r0_p is half the two-way path to it (docs/conventions.md)
     r0 = geometry.bistatic_reference_range(tx - srp, rcv - srp)
     bistatic = not np.array_equal(tx, rcv)
     pos = 0.5 * (tx + rcv) if bistatic else tx
@@ -244,7 +244,7 @@ def _phase_history(p, xml, ch, pvp, data, freq) -> PhaseHistory:
 def grid_from_xml(xml, ref: ReferencePoint) -> Grid | None:
     """Our grid from ``SceneCoordinates/ImageGrid`` when its axes are local East and North.
 
-    Our frame is east-north-up at the IARP (CONVENTIONS.md). A planar image area whose
+    Our frame is east-north-up at the IARP (docs/conventions.md). A planar image area whose
     uIAX/uIAY are East/North (to :data:`AXES_TOLERANCE_RAD`) gives the grid exactly; other axes
     (a rotated or tilted image plane, or a HAE surface) cannot be an east/north-aligned grid, so
     a :class:`~sarcli.io.georef.GeometryWarning` says so and None is returned (the grid is then
