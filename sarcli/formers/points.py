@@ -4,7 +4,7 @@ A map product's pixels are the centres of a grid in a map CRS, each at the heigh
 (:mod:`sarcli.io.dem`), so in the local frame they are points ``x_i = (x, y, z)`` that lie on no
 plane. Two formers take them:
 
-* :func:`backproject_points`: backprojection (the matched filter of CONVENTIONS.md, paper eq.
+* :func:`backproject_points`: backprojection (the matched filter of docs/conventions.md, paper eq.
   ``mf`` with the spherical ``e_pj``) with each pixel's differential range exact in float64,
   ``Δr = (|x|² - 2 a·x) / (|a - x| + |a|) + |a| - r0`` (the bistatic mean of both ends when the
   receiver moves), then the range profiles, interpolation and carrier of
