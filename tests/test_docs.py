@@ -326,3 +326,11 @@ def test_the_table_check_sees_an_unescaped_bar():
     good = "| a | b |\n|---|---|\n| `x\\|y` | 1 |\n"
     assert _table_rows_with_the_wrong_width(good) == []
     assert _table_rows_with_the_wrong_width(good.replace("\\|", "|")) == ["| `x|y` | 1 |"]
+
+
+def test_the_code_names_the_repository_s_contract():
+    """Docstrings and comments point to docs/conventions.md, the contract a clone has; the shared
+    CONVENTIONS.md it is kept identical to is not in the repository."""
+    named = [str(p.relative_to(REPO)) for p in sorted((REPO / "sarcli").rglob("*.py"))
+             if "CONVENTIONS.md" in p.read_text()]
+    assert named == [], named
