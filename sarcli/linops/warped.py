@@ -262,53 +262,62 @@ class _Run:
         fit = _Fit(t, q, r0)
         xx, yy = np.meshgrid(grid.x, grid.y)
         sx, sy = fit.on_grid(grid)
-        w = np.stack([(xx + sx(grid.y, grid.x)).ravel(), (yy + sy(grid.y, grid.x)).ravel()], axis=1)  # (N, 2)
+        # pixel-length arrays as separate contiguous columns: (N, 2) @ (2, 2) products and axis-0
+        # reductions of (N, 2) arrays are several times slower than these element-wise passes
+        wx, wy = (xx + sx(grid.y, grid.x)).ravel(), (yy + sy(grid.y, grid.x)).ravel()   # w(x), (N,) each
         kap = k[:, :, None] * fit.v[:, None, :]             # (P_s, M, 2)
         kbar = kap.reshape(-1, 2).mean(axis=0)
         _, _, rot = np.linalg.svd(kap.reshape(-1, 2) - kbar, full_matrices=False)
         xi = (kap - kbar) @ rot.T                           # (P_s, M, 2) in the rotated frame
-        u = w @ rot.T                                       # (N, 2)
+        u = (rot[0, 0] * wx + rot[0, 1] * wy, rot[1, 0] * wx + rot[1, 1] * wy)   # R w
         half = np.maximum(np.abs(xi).reshape(-1, 2).max(axis=0), 1e-12)
         h = np.pi / (SIGMA * half)
-        lo, hi = u.min(axis=0), u.max(axis=0)
+        lo, hi = np.array([c.min() for c in u]), np.array([c.max() for c in u])
         width = int(math.ceil(-math.log10(eps))) + 2
         n = np.array([_fast_size(int(m)) for m in np.ceil((hi - lo) / h) + 2 * width + 2])
         o = 0.5 * (lo + hi)
-        tau = 2 * np.pi * (u - o) / (n * h)                 # spreader coordinates in [-π, π)
+        tau = tuple(2 * np.pi * (u[i] - o[i]) / (n[i] * h[i]) for i in (0, 1))   # spreader coordinates in [-π, π)
         s = xi * h                                          # dimensionless frequencies, |s| ≤ π/σ
         phi = kernel_series(eps, s[..., 0].ravel()) * kernel_series(eps, s[..., 1].ravel())
         off = fit.offset
-        self.image_phase = np.exp(1j * (w @ kbar))          # E
-        self.sample = (np.exp(1j * (xi @ o)).ravel() / phi
+        self.image_phase = np.exp(1j * (kbar[0] * wx + kbar[1] * wy))          # E
+        self.sample = (np.exp(1j * (xi[..., 0] * o[0] + xi[..., 1] * o[1])).ravel() / phi
                        * np.exp(-1j * k * off[:, None]).ravel())   # C
         self.weight2 = np.abs(self.sample) ** 2
         self.shape = (int(n[0]), int(n[1]))
-        kw = dict(eps=eps, nthreads=nthreads) if nthreads else dict(eps=eps)
-        self._spread = finufft.Plan(1, self.shape, spreadinterponly=1, upsampfac=SIGMA, modeord=0, **kw)
-        self._interp = finufft.Plan(2, self.shape, spreadinterponly=1, upsampfac=SIGMA, modeord=0, **kw)
-        for p in (self._spread, self._interp):
-            p.setpts(np.ascontiguousarray(tau[:, 0]), np.ascontiguousarray(tau[:, 1]))
         self._tau, self._nthreads = tau, nthreads
-        s0, s1 = np.ascontiguousarray(s[..., 0].ravel()), np.ascontiguousarray(s[..., 1].ravel())
-        self._fourier = finufft.Plan(2, self.shape, isign=+1, modeord=0, **kw)
-        self._fourier_h = finufft.Plan(1, self.shape, isign=-1, modeord=0, **kw)
-        for p in (self._fourier, self._fourier_h):
-            p.setpts(s0, s1)
-        self._s = (s0, s1)
+        self._s = tuple(np.ascontiguousarray(s[..., i].ravel()) for i in (0, 1))
         self._eps = eps
+        self._plans = None
         self._toeplitz = None
 
+    def plans(self):
+        """FINUFFT's spreader, interpolator and the grid's type-2 / type-1 transforms of ``A`` and
+        ``Aᴴ`` (made on first use: the Gram needs none of them)."""
+        if self._plans is None:
+            kw = dict(eps=self._eps, nthreads=self._nthreads) if self._nthreads else dict(eps=self._eps)
+            spread = finufft.Plan(1, self.shape, spreadinterponly=1, upsampfac=SIGMA, modeord=0, **kw)
+            interp = finufft.Plan(2, self.shape, spreadinterponly=1, upsampfac=SIGMA, modeord=0, **kw)
+            for p in (spread, interp):
+                p.setpts(*self._tau)
+            fourier = finufft.Plan(2, self.shape, isign=+1, modeord=0, **kw)
+            fourier_h = finufft.Plan(1, self.shape, isign=-1, modeord=0, **kw)
+            for p in (fourier, fourier_h):
+                p.setpts(*self._s)
+            self._plans = (spread, interp, fourier, fourier_h)
+        return self._plans
+
     def spread(self, f):
-        return self._spread.execute(np.ascontiguousarray(self.image_phase * f))
+        return self.plans()[0].execute(np.ascontiguousarray(self.image_phase * f))
 
     def interp(self, g):
-        return np.conj(self.image_phase) * self._interp.execute(np.ascontiguousarray(g, np.complex128))
+        return np.conj(self.image_phase) * self.plans()[1].execute(np.ascontiguousarray(g, np.complex128))
 
     def forward(self, f):
-        return self.sample * self._fourier.execute(self.spread(f))
+        return self.sample * self.plans()[2].execute(self.spread(f))
 
     def adjoint(self, y):
-        return self.interp(self._fourier_h.execute(np.ascontiguousarray(np.conj(self.sample) * y)))
+        return self.interp(self.plans()[3].execute(np.ascontiguousarray(np.conj(self.sample) * y)))
 
     def toeplitz(self) -> ToeplitzGram:
         """``T = Fᴴ|C|²F`` on the grid and the single-precision spreader around it (made on first
@@ -316,7 +325,7 @@ class _Run:
         spreading itself compiled (``sarcli._native._spread``)."""
         if self._toeplitz is None:
             table = kernel_table(self._eps)
-            pts = [kernel_weights((self._tau[:, i] + np.pi) * self.shape[i] / (2 * np.pi), table) for i in (0, 1)]
+            pts = [kernel_weights((self._tau[i] + np.pi) * self.shape[i] / (2 * np.pi), table) for i in (0, 1)]
             (self._i0, self._wy), (self._j0, self._wx) = pts
             s0, s1 = self._s
             # (FᴴWF)[m, m'] = Σ_l w_l e^{-i s_l·(m - m')}: ToeplitzGram's kernel at -s (k1 on columns)
