@@ -280,7 +280,7 @@ SARCLI_INLINE void anchors(const Args& A, long p0, long p1, double xc, double y,
 // Per lane: first tap index (into the padded profile), interpolation weights, masked carrier.
 template <int K>
 struct Lanes {
-  int idx[kLanes];
+  int idx[kLanes];  // where each lane's stencil starts in the profile (2 x its first tap's bin)
   float w[Kernel<K>::taps][kLanes];
   float c[kLanes], s[kLanes];
 };
@@ -328,7 +328,7 @@ SARCLI_INLINE void eval_lanes(const Anchor& an, const ExactAnchor* ex, const flo
     sp = std::min(std::max(sp, an.lo), an.top);
     const float fl = std::floor(sp);
     t[i] = sp - fl;
-    L.idx[i] = base + static_cast<int>(fl);
+    L.idx[i] = 2 * (base + static_cast<int>(fl));
   }
 #pragma omp simd
   for (int i = 0; i < kLanes; ++i) {
@@ -379,7 +379,7 @@ template <typename PT, int K, int ISA>
 struct Taps {
   static SARCLI_INLINE void load(const PT* pp, const int* idx, PT (*t)[kLanes]) {
     for (int i = 0; i < kLanes; ++i) {
-      const PT* q = pp + 2 * idx[i];
+      const PT* q = pp + idx[i];
       for (int k = 0; k < 2 * Kernel<K>::taps; ++k) t[k][i] = q[k];
     }
   }
@@ -439,8 +439,8 @@ struct Taps<float, 1, 2> {
   static SARCLI_V4_LOAD void load(const float* pp, const int* idx, float (*t)[kLanes]) {
     __m512 r[8];
     for (int i = 0; i < 8; ++i)
-      r[i] = _mm512_insertf32x8(_mm512_castps256_ps512(_mm256_loadu_ps(pp + 2 * idx[i])),
-                                _mm256_loadu_ps(pp + 2 * idx[i + 8]), 1);
+      r[i] = _mm512_insertf32x8(_mm512_castps256_ps512(_mm256_loadu_ps(pp + idx[i])),
+                                _mm256_loadu_ps(pp + idx[i + 8]), 1);
     transpose8_v4(r);
     for (int k = 0; k < 8; ++k) _mm512_storeu_ps(t[k], r[k]);
   }
@@ -452,10 +452,10 @@ struct Taps<float, 0, 2> {
   static SARCLI_V4_LOAD void load(const float* pp, const int* idx, float (*t)[kLanes]) {
     __m512 r[4];
     for (int i = 0; i < 4; ++i) {
-      __m512 v = _mm512_castps128_ps512(_mm_loadu_ps(pp + 2 * idx[i]));
-      v = _mm512_insertf32x4(v, _mm_loadu_ps(pp + 2 * idx[i + 4]), 1);
-      v = _mm512_insertf32x4(v, _mm_loadu_ps(pp + 2 * idx[i + 8]), 2);
-      r[i] = _mm512_insertf32x4(v, _mm_loadu_ps(pp + 2 * idx[i + 12]), 3);
+      __m512 v = _mm512_castps128_ps512(_mm_loadu_ps(pp + idx[i]));
+      v = _mm512_insertf32x4(v, _mm_loadu_ps(pp + idx[i + 4]), 1);
+      v = _mm512_insertf32x4(v, _mm_loadu_ps(pp + idx[i + 8]), 2);
+      r[i] = _mm512_insertf32x4(v, _mm_loadu_ps(pp + idx[i + 12]), 3);
     }
     const __m512 t0 = _mm512_unpacklo_ps(r[0], r[1]), t1 = _mm512_unpackhi_ps(r[0], r[1]);
     const __m512 t2 = _mm512_unpacklo_ps(r[2], r[3]), t3 = _mm512_unpackhi_ps(r[2], r[3]);
@@ -474,7 +474,7 @@ struct Taps<double, 1, 2> {
     const __m512i hi = _mm512_setr_epi64(2, 3, 10, 11, 6, 7, 14, 15);
     for (int g = 0; g < 2; ++g) {
       __m512d r[8], a[8], b[8];
-      for (int i = 0; i < 8; ++i) r[i] = _mm512_loadu_pd(pp + 2 * idx[8 * g + i]);
+      for (int i = 0; i < 8; ++i) r[i] = _mm512_loadu_pd(pp + idx[8 * g + i]);
       for (int i = 0; i < 4; ++i) {
         a[2 * i] = _mm512_unpacklo_pd(r[2 * i], r[2 * i + 1]);
         a[2 * i + 1] = _mm512_unpackhi_pd(r[2 * i], r[2 * i + 1]);
@@ -499,7 +499,7 @@ struct Taps<double, 1, 1> {
     for (int g = 0; g < 4; ++g)
       for (int h = 0; h < 2; ++h) {  // taps 0, 1 then 2, 3
         __m256d r[4];
-        for (int i = 0; i < 4; ++i) r[i] = _mm256_loadu_pd(pp + 2 * idx[4 * g + i] + 4 * h);
+        for (int i = 0; i < 4; ++i) r[i] = _mm256_loadu_pd(pp + idx[4 * g + i] + 4 * h);
         const __m256d t0 = _mm256_unpacklo_pd(r[0], r[1]), t1 = _mm256_unpackhi_pd(r[0], r[1]);
         const __m256d t2 = _mm256_unpacklo_pd(r[2], r[3]), t3 = _mm256_unpackhi_pd(r[2], r[3]);
         _mm256_storeu_pd(t[4 * h + 0] + 4 * g, _mm256_permute2f128_pd(t0, t2, 0x20));
@@ -516,7 +516,7 @@ struct Taps<float, 1, 1> {
   static SARCLI_V3_LOAD void load(const float* pp, const int* idx, float (*t)[kLanes]) {
     for (int g = 0; g < 2; ++g) {
       __m256 r[8];
-      for (int i = 0; i < 8; ++i) r[i] = _mm256_loadu_ps(pp + 2 * idx[8 * g + i]);
+      for (int i = 0; i < 8; ++i) r[i] = _mm256_loadu_ps(pp + idx[8 * g + i]);
       transpose8_v3(r);
       for (int k = 0; k < 8; ++k) _mm256_storeu_ps(t[k] + 8 * g, r[k]);
     }
@@ -530,8 +530,8 @@ struct Taps<float, 0, 1> {
     for (int g = 0; g < 2; ++g) {
       __m256 r[4];
       for (int i = 0; i < 4; ++i)
-        r[i] = _mm256_insertf128_ps(_mm256_castps128_ps256(_mm_loadu_ps(pp + 2 * idx[8 * g + i])),
-                                    _mm_loadu_ps(pp + 2 * idx[8 * g + i + 4]), 1);
+        r[i] = _mm256_insertf128_ps(_mm256_castps128_ps256(_mm_loadu_ps(pp + idx[8 * g + i])),
+                                    _mm_loadu_ps(pp + idx[8 * g + i + 4]), 1);
       const __m256 t0 = _mm256_unpacklo_ps(r[0], r[1]), t1 = _mm256_unpackhi_ps(r[0], r[1]);
       const __m256 t2 = _mm256_unpacklo_ps(r[2], r[3]), t3 = _mm256_unpackhi_ps(r[2], r[3]);
       _mm256_storeu_ps(t[0] + 8 * g, _mm256_shuffle_ps(t0, t2, 0x44));
@@ -596,6 +596,12 @@ template <typename PT, int K, int ISA, int NE>
 SARCLI_INLINE void carried_lanes(const Anchor& a, const ExactAnchor* ex, const float* uf, const double* ud,
                                  long pad, const PT* pp, Lanes<K>& L, PT* __restrict ur, PT* __restrict ui) {
   eval_lanes<K, NE, ISA>(a, ex, uf, ud, pad, L);
+#if defined(__GNUC__) || defined(__clang__)
+  // The stencil indices go through memory: one vector store, then one scalar load a lane (load
+  // ports). Left to itself the compiler extracts them from the vector register, three or four
+  // shuffle and integer instructions a lane that compete with the transposes for the shuffle port.
+  asm("" : "+m"(L.idx));
+#endif
   PT tp[2 * Kernel<K>::taps][kLanes];
   Taps<PT, K, ISA>::load(pp, L.idx, tp);
 #pragma omp simd
@@ -755,8 +761,8 @@ SARCLI_INLINE void rp_pulse_model(const Args& A, const PT* fre, const PT* fim, l
           const int j = L.idx[i];
           for (int k = 0; k < Kernel<K>::taps; ++k) {
             const PT w = static_cast<PT>(L.w[k][i]);
-            h[2 * (j + k)] += w * ur[i];
-            h[2 * (j + k) + 1] += w * ui[i];
+            h[j + 2 * k] += w * ur[i];
+            h[j + 2 * k + 1] += w * ui[i];
           }
         }
       }
