@@ -280,7 +280,11 @@ SARCLI_INLINE void anchors(const Args& A, long p0, long p1, double xc, double y,
 // Per lane: first tap index (into the padded profile), interpolation weights, masked carrier.
 template <int K>
 struct Lanes {
-  int idx[kLanes];  // where each lane's stencil starts in the profile (2 x its first tap's bin)
+  // where each lane's stencil starts in the profile (2 x its first tap's bin). The SIMD loaders
+  // (Taps) read it through a volatile pointer: one vector store, then one scalar load a lane on
+  // the load ports; left to itself the compiler extracts each index from the vector register,
+  // three or four shuffle and integer instructions a lane that compete with the transposes.
+  int idx[kLanes];
   float w[Kernel<K>::taps][kLanes];
   float c[kLanes], s[kLanes];
 };
@@ -436,7 +440,8 @@ SARCLI_V3_INLINE void transpose8_v3(__m256* r) {
 // float, 4 taps (8 floats a lane), AVX-512: lanes i and i + 8 share a register.
 template <>
 struct Taps<float, 1, 2> {
-  static SARCLI_V4_LOAD void load(const float* pp, const int* idx, float (*t)[kLanes]) {
+  static SARCLI_V4_LOAD void load(const float* pp, const int* idx_, float (*t)[kLanes]) {
+    const volatile int* idx = idx_;  // see Lanes::idx
     __m512 r[8];
     for (int i = 0; i < 8; ++i)
       r[i] = _mm512_insertf32x8(_mm512_castps256_ps512(_mm256_loadu_ps(pp + idx[i])),
@@ -449,7 +454,8 @@ struct Taps<float, 1, 2> {
 // float, 2 taps (4 floats a lane), AVX-512: lanes i, i + 4, i + 8, i + 12 share a register.
 template <>
 struct Taps<float, 0, 2> {
-  static SARCLI_V4_LOAD void load(const float* pp, const int* idx, float (*t)[kLanes]) {
+  static SARCLI_V4_LOAD void load(const float* pp, const int* idx_, float (*t)[kLanes]) {
+    const volatile int* idx = idx_;  // see Lanes::idx
     __m512 r[4];
     for (int i = 0; i < 4; ++i) {
       __m512 v = _mm512_castps128_ps512(_mm_loadu_ps(pp + idx[i]));
@@ -469,7 +475,8 @@ struct Taps<float, 0, 2> {
 // double, 4 taps (8 doubles a lane), AVX-512: one register a lane, two 8 x 8 transposes.
 template <>
 struct Taps<double, 1, 2> {
-  static SARCLI_V4_LOAD void load(const double* pp, const int* idx, double (*t)[kLanes]) {
+  static SARCLI_V4_LOAD void load(const double* pp, const int* idx_, double (*t)[kLanes]) {
+    const volatile int* idx = idx_;  // see Lanes::idx
     const __m512i lo = _mm512_setr_epi64(0, 1, 8, 9, 4, 5, 12, 13);
     const __m512i hi = _mm512_setr_epi64(2, 3, 10, 11, 6, 7, 14, 15);
     for (int g = 0; g < 2; ++g) {
@@ -495,7 +502,8 @@ struct Taps<double, 1, 2> {
 // double, 4 taps, AVX2: two registers a lane, 4 x 4 transposes of four lanes at a time.
 template <>
 struct Taps<double, 1, 1> {
-  static SARCLI_V3_LOAD void load(const double* pp, const int* idx, double (*t)[kLanes]) {
+  static SARCLI_V3_LOAD void load(const double* pp, const int* idx_, double (*t)[kLanes]) {
+    const volatile int* idx = idx_;  // see Lanes::idx
     for (int g = 0; g < 4; ++g)
       for (int h = 0; h < 2; ++h) {  // taps 0, 1 then 2, 3
         __m256d r[4];
@@ -513,7 +521,8 @@ struct Taps<double, 1, 1> {
 // float, 4 taps, AVX2: two groups of eight lanes.
 template <>
 struct Taps<float, 1, 1> {
-  static SARCLI_V3_LOAD void load(const float* pp, const int* idx, float (*t)[kLanes]) {
+  static SARCLI_V3_LOAD void load(const float* pp, const int* idx_, float (*t)[kLanes]) {
+    const volatile int* idx = idx_;  // see Lanes::idx
     for (int g = 0; g < 2; ++g) {
       __m256 r[8];
       for (int i = 0; i < 8; ++i) r[i] = _mm256_loadu_ps(pp + idx[8 * g + i]);
@@ -526,7 +535,8 @@ struct Taps<float, 1, 1> {
 // float, 2 taps, AVX2: lanes i and i + 4 of each group of eight share a register.
 template <>
 struct Taps<float, 0, 1> {
-  static SARCLI_V3_LOAD void load(const float* pp, const int* idx, float (*t)[kLanes]) {
+  static SARCLI_V3_LOAD void load(const float* pp, const int* idx_, float (*t)[kLanes]) {
+    const volatile int* idx = idx_;  // see Lanes::idx
     for (int g = 0; g < 2; ++g) {
       __m256 r[4];
       for (int i = 0; i < 4; ++i)
@@ -596,12 +606,6 @@ template <typename PT, int K, int ISA, int NE>
 SARCLI_INLINE void carried_lanes(const Anchor& a, const ExactAnchor* ex, const float* uf, const double* ud,
                                  long pad, const PT* pp, Lanes<K>& L, PT* __restrict ur, PT* __restrict ui) {
   eval_lanes<K, NE, ISA>(a, ex, uf, ud, pad, L);
-#if defined(__GNUC__) || defined(__clang__)
-  // The stencil indices go through memory: one vector store, then one scalar load a lane (load
-  // ports). Left to itself the compiler extracts them from the vector register, three or four
-  // shuffle and integer instructions a lane that compete with the transposes for the shuffle port.
-  asm("" : "+m"(L.idx));
-#endif
   PT tp[2 * Kernel<K>::taps][kLanes];
   Taps<PT, K, ISA>::load(pp, L.idx, tp);
 #pragma omp simd
