@@ -175,13 +175,39 @@ struct Anchors {
   double *ph0, *ph1, *ph2;
   // the contraction's per-pulse lane sums over a row, [n][2][kLanes] of the working precision
   std::vector<double> sums;
-  std::vector<ExactAnchor> ex;  // the exact model's terms (filled only when Args::exact)
-  explicit Anchors(size_t n) : store(10 * n), sums(2 * kLanes * n), ex(n) {
+  // the exact model's terms (filled only when Args::exact), one array a field so that the pulse
+  // loop vectorises: ExactEnd's seven fields of end e at xf[8 e + field], ExactAnchor::ib at
+  // xf[7], ::kc at xf[15]
+  std::vector<float> xstore;
+  float* xf[16];
+  explicit Anchors(size_t n) : store(10 * n), sums(2 * kLanes * n), xstore(16 * n) {
+    for (int k = 0; k < 16; ++k) xf[k] = xstore.data() + k * n;
     double* d = store.data();
     ph0 = d; ph1 = d + n; ph2 = d + 2 * n;
     j0 = reinterpret_cast<int*>(d + 3 * n);
     float* f = reinterpret_cast<float*>(d + 4 * n);
     f0 = f; s1 = f + n; s2 = f + 2 * n; lo = f + 3 * n; hi = f + 4 * n; top = f + 5 * n;
+  }
+  SARCLI_INLINE void put_exact(long i, const ExactAnchor& x, int ends) {
+    for (int e = 0; e < ends; ++e) {
+      const ExactEnd& q = x.e[e];
+      xf[8 * e + 0][i] = q.tdx; xf[8 * e + 1][i] = q.rc2; xf[8 * e + 2][i] = q.rc;
+      xf[8 * e + 3][i] = q.c; xf[8 * e + 4][i] = q.c2; xf[8 * e + 5][i] = q.s2;
+      xf[8 * e + 6][i] = q.i2r;
+    }
+    xf[7][i] = x.ib;
+    xf[15][i] = x.kc;
+  }
+  SARCLI_INLINE ExactAnchor exact(long i, int ends) const {
+    ExactAnchor x;
+    for (int e = 0; e < 2; ++e) {
+      const int f = e < ends ? 8 * e : 0;
+      x.e[e] = ExactEnd{xf[f][i], xf[f + 1][i], xf[f + 2][i], xf[f + 3][i], xf[f + 4][i],
+                        xf[f + 5][i], xf[f + 6][i]};
+    }
+    x.ib = xf[7][i];
+    x.kc = xf[15][i];
+    return x;
   }
   SARCLI_INLINE Anchor get(long i) const {
     return Anchor{j0[i], f0[i], s1[i], s2[i], lo[i], hi[i], top[i], ph0[i], ph1[i], ph2[i]};
@@ -253,15 +279,15 @@ SARCLI_INLINE void anchors(const Args& A, long p0, long p1, double xc, double y,
   float *__restrict f0 = an.f0, *__restrict s1 = an.s1, *__restrict s2 = an.s2;
   float *__restrict lo = an.lo, *__restrict hi = an.hi, *__restrict top = an.top;
   double *__restrict ph0 = an.ph0, *__restrict ph1 = an.ph1, *__restrict ph2 = an.ph2;
-  ExactAnchor* __restrict ex = an.ex.data();
 #define SARCLI_ANCHOR_LOOP(BIST, EX)                                                          \
+  _Pragma("omp simd")                                                                           \
   for (long p = p0; p < p1; ++p) {                                                              \
     ExactAnchor e;                                                                              \
     const Anchor a = anchor<BIST>(A, p, xc, y, he, e);                                          \
     const long i = p - p0;                                                                      \
     j0[i] = a.j0; f0[i] = a.f0; s1[i] = a.s1; s2[i] = a.s2; lo[i] = a.lo; hi[i] = a.hi;         \
     top[i] = a.top; ph0[i] = a.ph0; ph1[i] = a.ph1; ph2[i] = a.ph2;                             \
-    if (EX) ex[i] = e;                                                                          \
+    if (EX) an.put_exact(i, e, BIST ? 2 : 1);                                                   \
   }
   if (A.bist) {
     if (A.exact) {
@@ -638,7 +664,9 @@ SARCLI_INLINE void bp_row_model(const Args& A, const PT* prof, long row, long p0
     PT ar[kGroups][kLanes] = {}, ai[kGroups][kLanes] = {};
     for (long p = p0; p < p1; ++p) {
       const Anchor a = an.get(p - p0);
-      const ExactAnchor* ex = an.ex.data() + (p - p0);
+      ExactAnchor exv;
+      if (NE > 0) exv = an.exact(p - p0, NE);
+      const ExactAnchor* ex = &exv;
       const PT* pp = prof + 2 * p * A.lp;
       for (long g = 0; g < ng; ++g) {
         PT ur[kLanes], ui[kLanes];
@@ -701,7 +729,9 @@ SARCLI_INLINE void bp_contract_row_model(const Args& A, const PT* prof, const PT
     anchors(A, p0, p1, xc, y, NE > 0 ? 0.0 : he, an);
     for (long p = p0; p < p1; ++p) {
       const Anchor a = an.get(p - p0);
-      const ExactAnchor* ex = an.ex.data() + (p - p0);
+      ExactAnchor exv;
+      if (NE > 0) exv = an.exact(p - p0, NE);
+      const ExactAnchor* ex = &exv;
       const PT* pp = prof + 2 * p * A.lp;
       PT* __restrict sr = sums + 2 * kLanes * (p - p0);
       PT* __restrict si = sr + kLanes;
