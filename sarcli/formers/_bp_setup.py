@@ -186,9 +186,11 @@ class Setup:
         self.tiling = _tiling(grid, a, b, float(np.max(np.abs(self.geo[10]))), float(np.max(np.abs(self.geo[9]))))
         self.model, self.width = self.tiling.model, self.tiling.width
         self._check_window(a, b, r0, grid, np.abs(bin_m) * self.n_len / 2.0)
-        # pulses per pass over the image inside a kernel call: their profiles stay in cache
+        # pulses per pass over the image inside a kernel call: their profiles stay in cache; at
+        # least 8: one AVX-512 vector of the kernels' float64 pulse loop over a tile's anchors,
+        # and each pass adds every tile's accumulators into the image once
         row_bytes = (self.n_len + 2 * PAD) * 2 * np.dtype(dt).itemsize
-        self.cache_block = max(4, _CACHE_BYTES // row_bytes)
+        self.cache_block = max(8, _CACHE_BYTES // row_bytes)
         # pulses whose profiles live at once: at most BLOCK, and no more bytes than the phase
         # history and the image hold (complex128), so few long pulses onto a small image stay
         # within a few times the data and the image

@@ -176,13 +176,39 @@ struct Anchors {
   double *ph0, *ph1, *ph2;
   // the contraction's per-pulse lane sums over a row, [n][2][kLanes] of the working precision
   std::vector<double> sums;
-  std::vector<ExactAnchor> ex;  // the exact model's terms (filled only when Args::exact)
-  explicit Anchors(size_t n) : store(10 * n), sums(2 * kLanes * n), ex(n) {
+  // the exact model's terms (filled only when Args::exact), one array a field so that the pulse
+  // loop vectorises: ExactEnd's seven fields of end e at xf[8 e + field], ExactAnchor::ib at
+  // xf[7], ::kc at xf[15]
+  std::vector<float> xstore;
+  float* xf[16];
+  explicit Anchors(size_t n) : store(10 * n), sums(2 * kLanes * n), xstore(16 * n) {
+    for (int k = 0; k < 16; ++k) xf[k] = xstore.data() + k * n;
     double* d = store.data();
     ph0 = d; ph1 = d + n; ph2 = d + 2 * n;
     j0 = reinterpret_cast<int*>(d + 3 * n);
     float* f = reinterpret_cast<float*>(d + 4 * n);
     f0 = f; s1 = f + n; s2 = f + 2 * n; lo = f + 3 * n; hi = f + 4 * n; top = f + 5 * n;
+  }
+  SARCLI_INLINE void put_exact(long i, const ExactAnchor& x, int ends) {
+    for (int e = 0; e < ends; ++e) {
+      const ExactEnd& q = x.e[e];
+      xf[8 * e + 0][i] = q.tdx; xf[8 * e + 1][i] = q.rc2; xf[8 * e + 2][i] = q.rc;
+      xf[8 * e + 3][i] = q.c; xf[8 * e + 4][i] = q.c2; xf[8 * e + 5][i] = q.s2;
+      xf[8 * e + 6][i] = q.i2r;
+    }
+    xf[7][i] = x.ib;
+    xf[15][i] = x.kc;
+  }
+  SARCLI_INLINE ExactAnchor exact(long i, int ends) const {
+    ExactAnchor x;
+    for (int e = 0; e < 2; ++e) {
+      const int f = e < ends ? 8 * e : 0;
+      x.e[e] = ExactEnd{xf[f][i], xf[f + 1][i], xf[f + 2][i], xf[f + 3][i], xf[f + 4][i],
+                        xf[f + 5][i], xf[f + 6][i]};
+    }
+    x.ib = xf[7][i];
+    x.kc = xf[15][i];
+    return x;
   }
   SARCLI_INLINE Anchor get(long i) const {
     return Anchor{j0[i], f0[i], s1[i], s2[i], lo[i], hi[i], top[i], ph0[i], ph1[i], ph2[i]};
@@ -254,15 +280,15 @@ SARCLI_INLINE void anchors(const Args& A, long p0, long p1, double xc, double y,
   float *__restrict f0 = an.f0, *__restrict s1 = an.s1, *__restrict s2 = an.s2;
   float *__restrict lo = an.lo, *__restrict hi = an.hi, *__restrict top = an.top;
   double *__restrict ph0 = an.ph0, *__restrict ph1 = an.ph1, *__restrict ph2 = an.ph2;
-  ExactAnchor* __restrict ex = an.ex.data();
 #define SARCLI_ANCHOR_LOOP(BIST, EX)                                                          \
+  _Pragma("omp simd")                                                                           \
   for (long p = p0; p < p1; ++p) {                                                              \
     ExactAnchor e;                                                                              \
     const Anchor a = anchor<BIST>(A, p, xc, y, he, e);                                          \
     const long i = p - p0;                                                                      \
     j0[i] = a.j0; f0[i] = a.f0; s1[i] = a.s1; s2[i] = a.s2; lo[i] = a.lo; hi[i] = a.hi;         \
     top[i] = a.top; ph0[i] = a.ph0; ph1[i] = a.ph1; ph2[i] = a.ph2;                             \
-    if (EX) ex[i] = e;                                                                          \
+    if (EX) an.put_exact(i, e, BIST ? 2 : 1);                                                   \
   }
   if (A.bist) {
     if (A.exact) {
@@ -281,6 +307,10 @@ SARCLI_INLINE void anchors(const Args& A, long p0, long p1, double xc, double y,
 // Per lane: first tap index (into the padded profile), interpolation weights, masked carrier.
 template <int K>
 struct Lanes {
+  // where each lane's stencil starts in the profile (2 x its first tap's bin). The SIMD loaders
+  // (Taps) read it through a volatile pointer: one vector store, then one scalar load a lane on
+  // the load ports; left to itself the compiler extracts each index from the vector register,
+  // three or four shuffle and integer instructions a lane that compete with the transposes.
   int idx[kLanes];
   float w[Kernel<K>::taps][kLanes];
   float c[kLanes], s[kLanes];
@@ -329,7 +359,7 @@ SARCLI_INLINE void eval_lanes(const Anchor& an, const ExactAnchor* ex, const flo
     sp = std::min(std::max(sp, an.lo), an.top);
     const float fl = std::floor(sp);
     t[i] = sp - fl;
-    L.idx[i] = base + static_cast<int>(fl);
+    L.idx[i] = 2 * (base + static_cast<int>(fl));
   }
 #pragma omp simd
   for (int i = 0; i < kLanes; ++i) {
@@ -380,7 +410,7 @@ template <typename PT, int K, int ISA>
 struct Taps {
   static SARCLI_INLINE void load(const PT* pp, const int* idx, PT (*t)[kLanes]) {
     for (int i = 0; i < kLanes; ++i) {
-      const PT* q = pp + 2 * idx[i];
+      const PT* q = pp + idx[i];
       for (int k = 0; k < 2 * Kernel<K>::taps; ++k) t[k][i] = q[k];
     }
   }
@@ -437,11 +467,12 @@ SARCLI_V3_INLINE void transpose8_v3(__m256* r) {
 // float, 4 taps (8 floats a lane), AVX-512: lanes i and i + 8 share a register.
 template <>
 struct Taps<float, 1, 2> {
-  static SARCLI_V4_LOAD void load(const float* pp, const int* idx, float (*t)[kLanes]) {
+  static SARCLI_V4_LOAD void load(const float* pp, const int* idx_, float (*t)[kLanes]) {
+    const volatile int* idx = idx_;  // see Lanes::idx
     __m512 r[8];
     for (int i = 0; i < 8; ++i)
-      r[i] = _mm512_insertf32x8(_mm512_castps256_ps512(_mm256_loadu_ps(pp + 2 * idx[i])),
-                                _mm256_loadu_ps(pp + 2 * idx[i + 8]), 1);
+      r[i] = _mm512_insertf32x8(_mm512_castps256_ps512(_mm256_loadu_ps(pp + idx[i])),
+                                _mm256_loadu_ps(pp + idx[i + 8]), 1);
     transpose8_v4(r);
     for (int k = 0; k < 8; ++k) _mm512_storeu_ps(t[k], r[k]);
   }
@@ -450,13 +481,14 @@ struct Taps<float, 1, 2> {
 // float, 2 taps (4 floats a lane), AVX-512: lanes i, i + 4, i + 8, i + 12 share a register.
 template <>
 struct Taps<float, 0, 2> {
-  static SARCLI_V4_LOAD void load(const float* pp, const int* idx, float (*t)[kLanes]) {
+  static SARCLI_V4_LOAD void load(const float* pp, const int* idx_, float (*t)[kLanes]) {
+    const volatile int* idx = idx_;  // see Lanes::idx
     __m512 r[4];
     for (int i = 0; i < 4; ++i) {
-      __m512 v = _mm512_castps128_ps512(_mm_loadu_ps(pp + 2 * idx[i]));
-      v = _mm512_insertf32x4(v, _mm_loadu_ps(pp + 2 * idx[i + 4]), 1);
-      v = _mm512_insertf32x4(v, _mm_loadu_ps(pp + 2 * idx[i + 8]), 2);
-      r[i] = _mm512_insertf32x4(v, _mm_loadu_ps(pp + 2 * idx[i + 12]), 3);
+      __m512 v = _mm512_castps128_ps512(_mm_loadu_ps(pp + idx[i]));
+      v = _mm512_insertf32x4(v, _mm_loadu_ps(pp + idx[i + 4]), 1);
+      v = _mm512_insertf32x4(v, _mm_loadu_ps(pp + idx[i + 8]), 2);
+      r[i] = _mm512_insertf32x4(v, _mm_loadu_ps(pp + idx[i + 12]), 3);
     }
     const __m512 t0 = _mm512_unpacklo_ps(r[0], r[1]), t1 = _mm512_unpackhi_ps(r[0], r[1]);
     const __m512 t2 = _mm512_unpacklo_ps(r[2], r[3]), t3 = _mm512_unpackhi_ps(r[2], r[3]);
@@ -470,12 +502,13 @@ struct Taps<float, 0, 2> {
 // double, 4 taps (8 doubles a lane), AVX-512: one register a lane, two 8 x 8 transposes.
 template <>
 struct Taps<double, 1, 2> {
-  static SARCLI_V4_LOAD void load(const double* pp, const int* idx, double (*t)[kLanes]) {
+  static SARCLI_V4_LOAD void load(const double* pp, const int* idx_, double (*t)[kLanes]) {
+    const volatile int* idx = idx_;  // see Lanes::idx
     const __m512i lo = _mm512_setr_epi64(0, 1, 8, 9, 4, 5, 12, 13);
     const __m512i hi = _mm512_setr_epi64(2, 3, 10, 11, 6, 7, 14, 15);
     for (int g = 0; g < 2; ++g) {
       __m512d r[8], a[8], b[8];
-      for (int i = 0; i < 8; ++i) r[i] = _mm512_loadu_pd(pp + 2 * idx[8 * g + i]);
+      for (int i = 0; i < 8; ++i) r[i] = _mm512_loadu_pd(pp + idx[8 * g + i]);
       for (int i = 0; i < 4; ++i) {
         a[2 * i] = _mm512_unpacklo_pd(r[2 * i], r[2 * i + 1]);
         a[2 * i + 1] = _mm512_unpackhi_pd(r[2 * i], r[2 * i + 1]);
@@ -496,11 +529,12 @@ struct Taps<double, 1, 2> {
 // double, 4 taps, AVX2: two registers a lane, 4 x 4 transposes of four lanes at a time.
 template <>
 struct Taps<double, 1, 1> {
-  static SARCLI_V3_LOAD void load(const double* pp, const int* idx, double (*t)[kLanes]) {
+  static SARCLI_V3_LOAD void load(const double* pp, const int* idx_, double (*t)[kLanes]) {
+    const volatile int* idx = idx_;  // see Lanes::idx
     for (int g = 0; g < 4; ++g)
       for (int h = 0; h < 2; ++h) {  // taps 0, 1 then 2, 3
         __m256d r[4];
-        for (int i = 0; i < 4; ++i) r[i] = _mm256_loadu_pd(pp + 2 * idx[4 * g + i] + 4 * h);
+        for (int i = 0; i < 4; ++i) r[i] = _mm256_loadu_pd(pp + idx[4 * g + i] + 4 * h);
         const __m256d t0 = _mm256_unpacklo_pd(r[0], r[1]), t1 = _mm256_unpackhi_pd(r[0], r[1]);
         const __m256d t2 = _mm256_unpacklo_pd(r[2], r[3]), t3 = _mm256_unpackhi_pd(r[2], r[3]);
         _mm256_storeu_pd(t[4 * h + 0] + 4 * g, _mm256_permute2f128_pd(t0, t2, 0x20));
@@ -514,10 +548,11 @@ struct Taps<double, 1, 1> {
 // float, 4 taps, AVX2: two groups of eight lanes.
 template <>
 struct Taps<float, 1, 1> {
-  static SARCLI_V3_LOAD void load(const float* pp, const int* idx, float (*t)[kLanes]) {
+  static SARCLI_V3_LOAD void load(const float* pp, const int* idx_, float (*t)[kLanes]) {
+    const volatile int* idx = idx_;  // see Lanes::idx
     for (int g = 0; g < 2; ++g) {
       __m256 r[8];
-      for (int i = 0; i < 8; ++i) r[i] = _mm256_loadu_ps(pp + 2 * idx[8 * g + i]);
+      for (int i = 0; i < 8; ++i) r[i] = _mm256_loadu_ps(pp + idx[8 * g + i]);
       transpose8_v3(r);
       for (int k = 0; k < 8; ++k) _mm256_storeu_ps(t[k] + 8 * g, r[k]);
     }
@@ -527,12 +562,13 @@ struct Taps<float, 1, 1> {
 // float, 2 taps, AVX2: lanes i and i + 4 of each group of eight share a register.
 template <>
 struct Taps<float, 0, 1> {
-  static SARCLI_V3_LOAD void load(const float* pp, const int* idx, float (*t)[kLanes]) {
+  static SARCLI_V3_LOAD void load(const float* pp, const int* idx_, float (*t)[kLanes]) {
+    const volatile int* idx = idx_;  // see Lanes::idx
     for (int g = 0; g < 2; ++g) {
       __m256 r[4];
       for (int i = 0; i < 4; ++i)
-        r[i] = _mm256_insertf128_ps(_mm256_castps128_ps256(_mm_loadu_ps(pp + 2 * idx[8 * g + i])),
-                                    _mm_loadu_ps(pp + 2 * idx[8 * g + i + 4]), 1);
+        r[i] = _mm256_insertf128_ps(_mm256_castps128_ps256(_mm_loadu_ps(pp + idx[8 * g + i])),
+                                    _mm_loadu_ps(pp + idx[8 * g + i + 4]), 1);
       const __m256 t0 = _mm256_unpacklo_ps(r[0], r[1]), t1 = _mm256_unpackhi_ps(r[0], r[1]);
       const __m256 t2 = _mm256_unpacklo_ps(r[2], r[3]), t3 = _mm256_unpackhi_ps(r[2], r[3]);
       _mm256_storeu_ps(t[0] + 8 * g, _mm256_shuffle_ps(t0, t2, 0x44));
@@ -629,7 +665,9 @@ SARCLI_INLINE void bp_row_model(const Args& A, const PT* prof, long row, long p0
     PT ar[kGroups][kLanes] = {}, ai[kGroups][kLanes] = {};
     for (long p = p0; p < p1; ++p) {
       const Anchor a = an.get(p - p0);
-      const ExactAnchor* ex = an.ex.data() + (p - p0);
+      ExactAnchor exv;
+      if (NE > 0) exv = an.exact(p - p0, NE);
+      const ExactAnchor* ex = &exv;
       const PT* pp = prof + 2 * p * A.lp;
       for (long g = 0; g < ng; ++g) {
         PT ur[kLanes], ui[kLanes];
@@ -692,7 +730,9 @@ SARCLI_INLINE void bp_contract_row_model(const Args& A, const PT* prof, const PT
     anchors(A, p0, p1, xc, y, NE > 0 ? 0.0 : he, an);
     for (long p = p0; p < p1; ++p) {
       const Anchor a = an.get(p - p0);
-      const ExactAnchor* ex = an.ex.data() + (p - p0);
+      ExactAnchor exv;
+      if (NE > 0) exv = an.exact(p - p0, NE);
+      const ExactAnchor* ex = &exv;
       const PT* pp = prof + 2 * p * A.lp;
       PT* __restrict sr = sums + 2 * kLanes * (p - p0);
       PT* __restrict si = sr + kLanes;
@@ -756,8 +796,8 @@ SARCLI_INLINE void rp_pulse_model(const Args& A, const PT* fre, const PT* fim, l
           const int j = L.idx[i];
           for (int k = 0; k < Kernel<K>::taps; ++k) {
             const PT w = static_cast<PT>(L.w[k][i]);
-            h[2 * (j + k)] += w * ur[i];
-            h[2 * (j + k) + 1] += w * ui[i];
+            h[j + 2 * k] += w * ur[i];
+            h[j + 2 * k + 1] += w * ui[i];
           }
         }
       }
