@@ -1041,7 +1041,7 @@ SARCLI_INLINE void point_lanes(const PointArgs& A, long i0, long q, Lanes<K>& L)
     sc = std::min(std::max(sc, 0.0), n_len - 1.0);
     const double fl = std::floor(sc);
     t[i] = static_cast<float>(sc - fl);
-    L.idx[i] = static_cast<int>(fl) + static_cast<int>(A.pad) - Kernel<K>::first;
+    L.idx[i] = 2 * (static_cast<int>(fl) + static_cast<int>(A.pad) - Kernel<K>::first);  // as Lanes::idx
   }
 #pragma omp simd
   for (int i = 0; i < kLanes; ++i) {
@@ -1088,11 +1088,11 @@ SARCLI_INLINE void rp_points_pulse(const PointArgs& A, const PT* fre, const PT* 
     for (int i = 0; i < kLanes && i0 + i < A.n; ++i) {  // f · exp(-i kc Δr) (masked)
       const PT c = L.c[i], s = L.s[i], fr = fre[i0 + i], fi = fim[i0 + i];
       const PT ur = fr * c + fi * s, ui = fi * c - fr * s;
-      const int j = L.idx[i];
+      const int j = L.idx[i];  // 2 x the first tap's bin
       for (int k = 0; k < Kernel<K>::taps; ++k) {
         const PT w = static_cast<PT>(L.w[k][i]);
-        hq[2 * (j + k)] += w * ur;
-        hq[2 * (j + k) + 1] += w * ui;
+        hq[j + 2 * k] += w * ur;
+        hq[j + 2 * k + 1] += w * ui;
       }
     }
   }
