@@ -87,8 +87,9 @@ class ToeplitzGram(Linop):
     def _adjoint_scaled(self, y, scale):
         return self.apply(y, scale)
 
-    def apply(self, x, scale=1.0) -> np.ndarray:
-        """``scale · AᴴA x`` (complex128, image shape); the scale costs no extra pass.
+    def apply(self, x, scale=1.0, out=None) -> np.ndarray:
+        """``scale · AᴴA x`` (complex128, image shape, or written into ``out`` of any complex
+        dtype); the scale costs no extra pass.
 
         Columns first: the zero-padded input has only ``nx`` nonzero columns, so the transform
         along y touches ``nx`` columns of length ``2ny``; then, in blocks of rows small enough to
@@ -119,11 +120,12 @@ class ToeplitzGram(Linop):
                 z = scipy.fft.ifft(z, axis=1, workers=_WORKERS, overwrite_x=True)
                 y[r:r + m] = z[:, :nx]
             y = scipy.fft.ifft(y, axis=0, workers=_WORKERS, overwrite_x=True)
-            out = empty(self.ishape)
+            if out is None:
+                out = empty(self.ishape)
             if scale == 1.0:
                 out[...] = y[:ny]
             else:
-                np.multiply(y[:ny], scale, out=out, dtype=np.complex128)
+                np.multiply(y[:ny], scale, out=out, dtype=out.dtype)
             return out
         finally:
             if mine:

@@ -45,6 +45,7 @@ only approximation is ``AᴴA``'s.
 from __future__ import annotations
 
 import math
+import threading
 
 import finufft
 import numpy as np
@@ -335,18 +336,21 @@ class _Run:
             self._scratch = np.empty((0,) + self.shape, np.complex64)
         return self._toeplitz
 
-    def gram(self, f32):
-        """``Eᴴ Sᵀ T S E f`` in single precision (the Toeplitz form's own precision at this eps)."""
+    def gram(self, f32, out):
+        """``Eᴴ Sᵀ T S E f`` in single precision (the Toeplitz form's own precision at this eps),
+        into ``out`` (complex64, pixels). Every work array is the run's own, kept between calls:
+        fresh arrays of this size cost page faults that outweigh the arithmetic."""
         t = self.toeplitz()
         extra = max(0, _native.threads() - 1)
         if self._scratch.shape[0] < extra:
             self._scratch = np.empty((extra,) + self.shape, np.complex64)
+        if not hasattr(self, "_applied"):
+            self._applied = np.empty(self.shape, np.complex64)
         pts = (self._i0, self._j0, self._wy, self._wx, self._phase32)
         kernels = _native.load("spread")
         kernels.spread(*pts, f32, self._grid, self._scratch)
-        g = np.ascontiguousarray(t.apply(self._grid), np.complex64)
-        out = np.empty(f32.size, np.complex64)
-        kernels.interp(*pts, g, out)
+        t.apply(self._grid, out=self._applied)
+        kernels.interp(*pts, self._applied, out)
         return out
 
 
@@ -439,12 +443,21 @@ class WarpedGram(Linop):
         self.op = op
         for run in op._runs:
             run.toeplitz()
+        n = int(np.prod(op.ishape))
+        self._f32, self._part = np.empty(n, np.complex64), np.empty(n, np.complex64)   # kept between calls
+        self._lock = threading.Lock()   # the work arrays (here and the runs') serve one call at a time
 
     def _forward(self, x):
-        f = np.ascontiguousarray(x, np.complex64).ravel()
-        out = np.zeros(f.size, np.complex128)
-        for run in self.op._runs:
-            out += run.gram(f)
+        with self._lock:
+            f, part = self._f32, self._part
+            np.copyto(f, np.reshape(x, -1), casting="same_kind")
+            out = np.empty(f.size, np.complex128)
+            for i, run in enumerate(self.op._runs):
+                run.gram(f, part)
+                if i == 0:
+                    out[...] = part
+                else:
+                    out += part
         return out.reshape(self.ishape)
 
     def _adjoint(self, y):
