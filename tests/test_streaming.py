@@ -103,3 +103,17 @@ def test_library_checks_memory_before_allocating(ph_file, monkeypatch):
             sarcli.form_image(ph, "nufft", grid=grid)
     finally:
         resources.set_memory_limit(None)
+
+
+def test_memory_models_count_the_stored_sample_size():
+    """complex64 samples cost 8 bytes each where they are held as stored, not 16."""
+    from sarcli.formers.cost import form_image_bytes, regularize_bytes
+
+    grid = sarcli.Grid.square(2.0, 16)   # a small image: the samples dominate
+    for method in ("nufft", "pfa", "direct"):
+        wide = form_image_bytes(method, 1000, 1000, grid, itemsize=16)
+        narrow = form_image_bytes(method, 1000, 1000, grid, itemsize=8)
+        assert narrow < wide and wide - narrow == pytest.approx(8 * 1000 * 1000)
+    # regularisation copies narrow samples to complex128: the stored ones then cost 8 more, not less
+    assert regularize_bytes(1000, 1000, grid, itemsize=8) == pytest.approx(
+        regularize_bytes(1000, 1000, grid, itemsize=16) + 8 * 1000 * 1000)
