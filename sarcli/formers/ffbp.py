@@ -109,6 +109,7 @@ from ..core.geometry import C
 from ..core.sampling import equally_spaced, range_wavenumbers
 from ..core.grid import Grid
 from ..errors import SarcliInputError
+from .._util.progress import progress
 from .ffbp_model import INTERPOLATORS, interp_error, optimal_kernel, predict_error
 from .ffbp_model import deapodized_inverse, deapodized_kernel
 from ._ffbp_grids import deapodization as _deapodization
@@ -248,7 +249,9 @@ def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weigh
     deap = _deapodization(f, plan, n_len) if deapodize else None
     img = None   # made at the first final stage (when only the last level is alive); parts add in place
     work = None   # the profiles' buffers, made at the first block
-    with using_threads(nthreads) as nthr:
+    # the pulses through stage 0 (each group's merges and final stage follow its own pulses)
+    bar = progress(total=P, desc="ffbp", unit="pulse")
+    with bar, using_threads(nthreads) as nthr:
         # depth first: the last level's sub-images in groups, each group's whole subtree (stage 0,
         # merges) formed, added to the image and freed, so memory does not grow with the pulses
         for a0, b0 in _subtree_groups(plan):
@@ -277,6 +280,7 @@ def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weigh
                        series[s0:s1], frame(lev, s0, s1), tab_p, kind, bistatic, n_len // 2, n_len, PAD,
                        plan.dq, plan.kref, cur_re[s0 - lo:s1 - lo], cur_im[s0 - lo:s1 - lo])
                 del pre, pim
+                bar.update(p1 - p0)
             for l in range(1, len(levels)):
                 child, parent = levels[l - 1], levels[l]
                 (c0, c1), (u0, u1) = rng[l - 1], rng[l]
