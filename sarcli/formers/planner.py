@@ -373,7 +373,8 @@ def command_seconds(cand: Candidate, ph, grid: Grid, costs=None, *, auto=False) 
     planning too, from the calibrated constants (:func:`sarcli.formers.calibration.calibrate`)."""
     c = load_cost_model() if costs is None else costs
     P, M = ph.data.shape
-    io = c["read_per_byte"] * 8.0 * P * M + c["write_per_byte"] * 8.0 * grid.nx * grid.ny
+    # the samples at their stored size; the image written complex128, as the formers return it
+    io = c["read_per_byte"] * np.dtype(ph.data.dtype).itemsize * P * M + c["write_per_byte"] * 16.0 * grid.nx * grid.ny
     return c["startup"] + (c["planning"] if auto else 0.0) + io + cand.seconds
 
 
