@@ -54,18 +54,25 @@ def _no_user_calibration(tmp_path_factory):
 
 def spy_rows(monkeypatch) -> list:
     """Record the number of pulses of every block read from samples left on disk (HDF5 or CPHD:
-    both go through ``PulseSource.__getitem__``); returns the list it appends to."""
+    both go through ``PulseSource.__getitem__`` or ``PulseSource.read_into``); returns the list it
+    appends to."""
     from sarcli.io.pulses import PulseSource
 
     asked = []
-    real = PulseSource.__getitem__
+    real, real_into = PulseSource.__getitem__, PulseSource.read_into
 
     def spy(self, key):
         out = real(self, key)
         asked.append(out.shape[0])
         return out
 
+    def spy_into(self, rows, out):
+        got = real_into(self, rows, out)
+        asked.append(got.shape[0])
+        return got
+
     monkeypatch.setattr(PulseSource, "__getitem__", spy)
+    monkeypatch.setattr(PulseSource, "read_into", spy_into)
     return asked
 
 

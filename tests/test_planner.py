@@ -203,7 +203,8 @@ def test_command_seconds_adds_what_the_command_pays(sph):
     ph, _ = sph
     c = dict(load_cost_model(), startup=0.3, planning=0.02, read_per_byte=1e-9, write_per_byte=2e-9)
     cand = recommend(ph, GRID, 1e-3, costs=c)
-    io = 1e-9 * 8 * ph.data.size + 2e-9 * 8 * GRID.nx * GRID.ny
+    # the samples at their stored size, the image as written (complex128)
+    io = 1e-9 * ph.data.dtype.itemsize * ph.data.size + 2e-9 * 16 * GRID.nx * GRID.ny
     assert command_seconds(cand, ph, GRID, c) == pytest.approx(0.3 + io + cand.seconds)
     assert command_seconds(cand, ph, GRID, c, auto=True) == pytest.approx(0.32 + io + cand.seconds)
 

@@ -103,3 +103,33 @@ def test_library_checks_memory_before_allocating(ph_file, monkeypatch):
             sarcli.form_image(ph, "nufft", grid=grid)
     finally:
         resources.set_memory_limit(None)
+
+
+def test_memory_models_count_the_stored_sample_size():
+    """complex64 samples cost 8 bytes each where they are held as stored, not 16."""
+    from sarcli.formers.cost import form_image_bytes, regularize_bytes
+
+    grid = sarcli.Grid.square(2.0, 16)   # a small image: the samples dominate
+    for method in ("nufft", "pfa", "direct"):
+        wide = form_image_bytes(method, 1000, 1000, grid, itemsize=16)
+        narrow = form_image_bytes(method, 1000, 1000, grid, itemsize=8)
+        assert narrow < wide and wide - narrow == pytest.approx(8 * 1000 * 1000)
+    # regularisation copies narrow samples to complex128: the stored ones then cost 8 more, not less
+    assert regularize_bytes(1000, 1000, grid, itemsize=8) == pytest.approx(
+        regularize_bytes(1000, 1000, grid, itemsize=16) + 8 * 1000 * 1000)
+
+
+def test_plan_memory_counts_what_the_formers_hold(ph_file):
+    """The planner's memory column: the samples at their stored size, one block of them for the
+    formers that read samples left on disk by blocks."""
+    from sarcli.formers._bp_setup import BLOCK
+    from sarcli.formers.planner import candidates
+
+    eager, lazy = read_phase_history(ph_file), read_phase_history(ph_file, lazy=True)
+    P, M = eager.data.shape
+    item = eager.data.dtype.itemsize
+    assert item == 8 and P > BLOCK
+    grid = sarcli.Grid.square(2.0, 16)
+    mem = {name: {c.method: c.memory for c in candidates(ph, grid, 1e-2)} for name, ph in (("eager", eager), ("lazy", lazy))}
+    for method in ("ffbp", "backprojection"):
+        assert mem["eager"][method] - mem["lazy"][method] == pytest.approx((P - BLOCK) * M * item)

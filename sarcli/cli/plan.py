@@ -86,7 +86,8 @@ def command(input_path, center, extent, pixel_size, tolerance, as_json, calibrat
                    f"{calibration.user_cost_model_path()})", err=True)
         measure()
 
-    _, ph = open_input(input_path, expect=("phase-history", "gotcha", "cphd"), truth=False)
+    # the samples stay on disk, as `sar form-image` leaves them (planning needs only the geometry)
+    _, ph = open_input(input_path, expect=("phase-history", "gotcha", "cphd"), truth=False, lazy=True)
     grid = resolve_grid(ph.acquisition.grid, center=parse_pair(center, "--center"),
                         extent=parse_pair(extent, "--extent"), pixel_size=pixel_size)
     cands = candidates(ph, grid, tolerance, nthreads=nthreads)

@@ -18,7 +18,7 @@ from ..errors import AliasingWarning, SarcliInputError
 from ._bp_kernels import EXACT, GEO_ROWS, min_range, next_fast_len, tiling
 from ._samples import is_lazy
 
-__all__ = ["INTERPOLATORS", "PAD", "BLOCK", "profile_length", "profiles", "range_profiles", "TilingInputs", "tiling_for", "Setup",
+__all__ = ["INTERPOLATORS", "PAD", "BLOCK", "profile_length", "ProfileWork", "profiles", "range_profiles", "TilingInputs", "tiling_for", "Setup",
            "check_data"]
 
 #: Interpolation kernels for the range profiles and their codes in the compiled kernels.
@@ -28,9 +28,6 @@ PAD = 3
 _PRECISIONS = {"float64": np.float64, "float32": np.float32}
 #: Most pulses range-compressed and backprojected together (bounds the profile memory).
 BLOCK = 128
-#: Pulses per FFT call, at most, and the bytes their buffer may take (it stays in cache).
-_FFT_ROWS = 16
-_FFT_BYTES = 1 << 20
 #: Profile bytes one pass over the image works through (about a core's L2 cache).
 _CACHE_BYTES = 640 * 1024
 
@@ -41,32 +38,102 @@ def profile_length(n_frequencies: int, upsample: float) -> int:
     return 2 * next_fast_len(max(half, 1))
 
 
-def profiles(data, weights, total_weight, n_len, dtype):
+#: numpy's FFT writes into a given array from numpy 2.0 on (``out=``).
+_FFT_OUT = np.lib.NumpyVersion(np.__version__) >= "2.0.0"
+
+
+class ProfileWork:
+    """Reusable buffers of :func:`profiles` for blocks of up to ``rows`` pulses of ``m`` samples.
+
+    One former call makes one and hands it to every block, so that the FFT's input and output, the
+    profiles and (for samples left on disk) the block read from the file are allocated once, not
+    once per block: a block's arrays are megabytes, and arrays that size freed and allocated again
+    go back to the operating system each time (page faults on every first touch).
+
+    Parameters
+    ----------
+    rows : int
+        Most pulses per block.
+    m : int
+        Samples per pulse.
+    n_len : int
+        Profile (FFT) length ``L``.
+    dtype : numpy dtype
+        Complex dtype of the profiles.
+    """
+
+    def __init__(self, rows, m, n_len, dtype):
+        self.rows, self.m, self.n_len, self.dtype = int(rows), int(m), int(n_len), np.dtype(dtype)
+        # the samples' slots of every pulse, transformed in place; the zero padding between the
+        # slots is restored before each block (the transform overwrites it)
+        self.spectrum = np.zeros((self.rows, self.n_len), dtype=self.dtype)
+        self.out = np.empty((self.rows, self.n_len + 2 * PAD), dtype=self.dtype)
+        self.idx = (np.arange(self.n_len + 2 * PAD) - PAD - self.n_len // 2) % self.n_len
+        self.padded = True
+        self._samples = None
+        self._parts = None
+
+    def fits(self, rows, m, n_len, dtype) -> bool:
+        """True when blocks of ``rows`` pulses of this shape and dtype fit these buffers."""
+        return rows <= self.rows and m == self.m and n_len == self.n_len and np.dtype(dtype) == self.dtype
+
+    def samples(self, data, sl):
+        """Pulses ``sl`` of ``data``: a view of an in-memory array, or, for samples left on disk, read
+        into one buffer kept for every block (:meth:`sarcli.io.pulses.PulseSource.read_into`)."""
+        read_into = getattr(data, "read_into", None)
+        if read_into is None:
+            return data[sl]
+        n = sl.stop - sl.start
+        if self._samples is None or self._samples.dtype != data.dtype or self._samples.shape[0] < n:
+            self._samples = np.empty((max(n, self.rows), self.m), dtype=data.dtype)
+        return read_into(sl, self._samples[:n])
+
+    def parts(self, n):
+        """Two float arrays [n, L + 2 pad] for the real and imaginary parts (:func:`range_profiles`)."""
+        if self._parts is None:
+            real = self.out.real.dtype
+            self._parts = (np.empty((self.rows, self.n_len + 2 * PAD), real),
+                           np.empty((self.rows, self.n_len + 2 * PAD), real))
+        return self._parts[0][:n], self._parts[1][:n]
+
+
+def profiles(data, weights, total_weight, n_len, dtype, work=None):
     """Range profiles [B, n_len + 2·pad] of ``dtype`` (complex): :func:`range_profiles` unsplit.
 
-    The FFTs run up to :data:`_FFT_ROWS` pulses at a time, in a buffer of at most :data:`_FFT_BYTES`:
-    numpy's FFT of a few rows whose buffer stays in cache is several times faster per row than one
-    call on the whole block.
+    ``data`` may be complex64 or complex128; each sample is cast once, as it goes onto its FFT
+    slot, and the block's FFTs are one call. ``work`` (a :class:`ProfileWork`) supplies the buffers, and the result
+    is a view of ``work.out`` that the next call overwrites; without it, fresh buffers are made.
     """
     b, m = data.shape
-    fft_rows = max(1, min(_FFT_ROWS, _FFT_BYTES // (n_len * np.dtype(dtype).itemsize)))
+    if work is None or not work.fits(b, m, n_len, dtype):
+        work = ProfileWork(b, m, n_len, dtype)
     if weights is not None:
         weights = np.broadcast_to(weights, (b, m))   # (M,) or (1, M) weights serve every pulse
-    slots = (np.arange(m) - m // 2) % n_len
-    idx = (np.arange(n_len + 2 * PAD) - PAD - n_len // 2) % n_len
-    out = np.empty((b, n_len + 2 * PAD), dtype=dtype)
-    buf = np.zeros((min(b, fft_rows), n_len), dtype=dtype)
-    for r in range(0, b, fft_rows):
-        rows = slice(r, min(b, r + fft_rows))
-        n = rows.stop - rows.start
-        wd = data[rows] if weights is None else data[rows] * weights[rows]
-        buf[:n].fill(0)
-        buf[:n, slots] = wd / total_weight
-        np.take(np.fft.ifft(buf[:n], axis=1, norm="forward"), idx, axis=1, out=out[rows])
+    jc = m // 2
+    spec = work.spectrum[:b]
+    if not work.padded:
+        spec[:, m - jc:n_len - jc] = 0
+    # numpy's inverse FFT divides by L ("backward"); the samples are multiplied by L / W so the
+    # profile is the unnormalised sum over W (norm="forward" hands numpy an integer factor that
+    # its FFT casts through buffers allocated on every call)
+    scale = float(n_len) / float(total_weight)
+    # slots (j - j_c) mod L: samples j >= j_c open the spectrum, samples j < j_c close it
+    for src, dst in ((slice(jc, m), spec[:, :m - jc]), (slice(0, jc), spec[:, n_len - jc:])):
+        if weights is None:
+            np.multiply(data[:, src], scale, out=dst)
+        else:
+            np.multiply(data[:, src], weights[:, src], out=dst)
+            dst *= scale
+    # one call for the block: numpy builds the FFT's plan on every call (megabytes for long
+    # profiles), so calls on a few rows at a time cost more than the transforms
+    sig = np.fft.ifft(spec, axis=1, out=spec) if _FFT_OUT else np.fft.ifft(spec, axis=1)
+    work.padded = not _FFT_OUT
+    out = work.out[:b]
+    np.take(sig, work.idx, axis=1, out=out, mode="wrap")   # mode "raise" would buffer the output
     return out
 
 
-def range_profiles(data, weights, total_weight, n_len, nthreads, dtype=np.complex128):
+def range_profiles(data, weights, total_weight, n_len, nthreads, dtype=np.complex128, work=None):
     """Range profiles of pulses ``data`` [B, M] for backprojection and ffbp: real and imaginary parts
     [B, n_len + 2·pad], C-contiguous.
 
@@ -74,9 +141,15 @@ def range_profiles(data, weights, total_weight, n_len, nthreads, dtype=np.comple
     FFT of length ``L = n_len`` follows, and fftshift: profile index ``q`` holds the differential
     range ``Δr = (q - L/2) c / (2 Δα L)``. Periodic copies of ``pad`` samples at both ends let a
     stencil run past either end; the shift and the padding are one gather, ``(j - pad - L//2) mod L``.
+    With ``work`` (:class:`ProfileWork`) both parts are views of its buffers, overwritten by the next call.
     """
-    prof = profiles(data, weights, total_weight, n_len, dtype)
-    return np.ascontiguousarray(prof.real), np.ascontiguousarray(prof.imag)
+    prof = profiles(data, weights, total_weight, n_len, dtype, work)
+    if work is None or not work.fits(data.shape[0], data.shape[1], n_len, dtype):
+        return np.ascontiguousarray(prof.real), np.ascontiguousarray(prof.imag)
+    re, im = work.parts(prof.shape[0])
+    np.copyto(re, prof.real)
+    np.copyto(im, prof.imag)
+    return re, im
 
 
 def _tiling(grid, a, b, kc_max, inv_bin_max):

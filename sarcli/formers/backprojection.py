@@ -64,7 +64,7 @@ from .._native import using_threads
 from ..errors import SarcliInputError
 from .._util.progress import progress
 from ._bp_kernels import kernels
-from ._bp_setup import INTERPOLATORS, PAD, Setup, check_data, profile_length, profiles
+from ._bp_setup import INTERPOLATORS, PAD, ProfileWork, Setup, check_data, profile_length, profiles
 
 __all__ = ["backproject", "reproject", "pulse_contractions", "profile_length", "INTERPOLATORS", "DEFAULT_UPSAMPLE", "DEFAULT_PRECISION",
            "DEFAULT_INTERP"]
@@ -156,17 +156,17 @@ def backproject(data, freq_hz, antenna_position_m, range_to_center_m, grid, weig
     out_re = np.zeros(st.shape)
     out_im = np.zeros(st.shape)
     kern = kernels()
+    work = ProfileWork(st.block, st.m, st.n_len, cdt)   # one set of block buffers for every block
     with using_threads(nthreads):
         blocks = st.blocks()
         for sl in progress(blocks, total=len(blocks), desc="backprojection", unit="pulse block"):
             # w d / W on FFT slots (j - j_c) mod L, unnormalised IFFT, fftshift: profile index
             # q holds Δr = (q - L/2) c / (2 Δα L); periodic copies pad both ends
-            prof = profiles(d[sl], None if st.weights is None else st.weights[sl], st.total_weight,
-                             st.n_len, cdt)
+            prof = profiles(work.samples(d, sl), None if st.weights is None else st.weights[sl],
+                            st.total_weight, st.n_len, cdt, work)
             # real and imaginary parts interleaved: [B, n_len + 2 pad, 2]
             kern.bp_tiles(prof.view(st.dtype).reshape(prof.shape + (2,)), *st.kernel_args(sl),
                           st.cache_block, out_re, out_im)
-            del prof   # before the next block's profiles are made
     img = np.empty(st.shape, dtype=np.complex128)
     img.real = out_re
     img.imag = out_im
@@ -195,10 +195,11 @@ def pulse_contractions(data, g, freq_hz, antenna_position_m, range_to_center_m, 
     gim = np.ascontiguousarray(gg.imag, dtype=st.dtype) if np.iscomplexobj(gg) else np.zeros_like(gre)
     out = np.empty(st.n_pulses, dtype=np.complex128)
     kern = kernels()
+    work = ProfileWork(st.block, st.m, st.n_len, cdt)
     with using_threads(nthreads):
         for sl in st.blocks():
-            prof = profiles(d[sl], None if st.weights is None else st.weights[sl], st.total_weight,
-                             st.n_len, cdt)
+            prof = profiles(work.samples(d, sl), None if st.weights is None else st.weights[sl],
+                            st.total_weight, st.n_len, cdt, work)
             acc = np.empty((sl.stop - sl.start, 2))
             kern.bp_contract(prof.view(st.dtype).reshape(prof.shape + (2,)), gre, gim,
                              *st.kernel_args(sl), st.cache_block, acc)

@@ -70,18 +70,21 @@ def _kgrid_cells(acq, grid, oversample) -> float:
 
 
 def form_image_bytes(method, n_pulses, n_freq, grid, *, model="farfield", acq=None, oversample=2.0,
-                     upsample=8.0, precision="float64", streamed=False) -> float:
+                     upsample=8.0, precision="float64", streamed=False, itemsize=_C16) -> float:
     """Upper-bound estimate of the peak working memory (bytes) of :func:`form_image`.
 
     ``streamed``: the samples are left on disk (a :class:`sarcli.io.pulses.PulseSource`); the formers
-    that read them by blocks of pulses (backprojection, the spherical matched filter) then hold one
-    block, not the collection.
+    that read them by blocks of pulses (backprojection, ffbp, the spherical matched filter) then
+    hold one block, not the collection. ``itemsize``: bytes per stored sample (8 for complex64,
+    16 for complex128); the weighted copy the formers work on is complex128.
     """
     pm = float(n_pulses) * float(n_freq)
     npix = float(grid.nx) * float(grid.ny)
-    if streamed and (method == "backprojection" or method == "direct" and model == "spherical"):
-        pm = min(float(n_pulses), 64.0) * float(n_freq)  # one block of pulses
-    base = 2 * pm * _C16 + 2 * npix * _C16  # data + weighted copy, image + accumulator
+    if streamed and (method in ("backprojection", "ffbp") or method == "direct" and model == "spherical"):
+        from ._bp_setup import BLOCK
+
+        pm = min(float(n_pulses), float(BLOCK)) * float(n_freq)  # one block of pulses
+    base = pm * (itemsize + _C16) + 2 * npix * _C16  # data + weighted copy, image + accumulator
     if method == "direct":
         return base + (npix * 24 if model == "spherical" else 0) + 96 * 2**20
     if method == "nufft":
@@ -169,7 +172,7 @@ def check_form_image(src, method, grid, *, oversample=2.0, upsample=None, eps=No
         from .backprojection import DEFAULT_UPSAMPLE as upsample
     est = form_image_bytes(method, p, m, grid, model=model, acq=acq, oversample=oversample,
                            upsample=8.0 if upsample is None else upsample, precision=precision,
-                           streamed=is_lazy(data))
+                           streamed=is_lazy(data), itemsize=np.dtype(data.dtype).itemsize)
     check_memory(est, f"{method} on {grid.nx} x {grid.ny} pixels from {p} x {m} samples")
     if method == "direct":
         t = direct_seconds(p, m, grid.nx * grid.ny, model, nthreads)
@@ -183,19 +186,24 @@ def check_form_image(src, method, grid, *, oversample=2.0, upsample=None, eps=No
                           stacklevel=2)
 
 
-def regularize_bytes(n_pulses, n_freq, grid, operator="auto") -> float:
-    """Upper-bound estimate of the working memory (bytes) of :func:`sarcli.regularize`."""
+def regularize_bytes(n_pulses, n_freq, grid, operator="auto", itemsize=_C16) -> float:
+    """Upper-bound estimate of the working memory (bytes) of :func:`sarcli.regularize`.
+
+    ``itemsize``: bytes per stored sample (8 for complex64, 16 for complex128); the residuals,
+    and a copy of stored samples narrower than complex128, are complex128.
+    """
     pm = float(n_pulses) * float(n_freq)
     npix = float(grid.nx) * float(grid.ny)
     ops = 8 * npix * _C16 if operator in ("auto", "toeplitz", "nufft") else npix * 24
-    return 3 * pm * _C16 + 16 * npix * _C16 + ops  # data, residuals; ADMM images and splits; operator
+    samples = pm * (itemsize + (_C16 if itemsize < _C16 else 0) + 2 * _C16)   # data (and a copy), residuals
+    return samples + 16 * npix * _C16 + ops  # ADMM images and splits; operator
 
 
 def check_regularize(ph, grid, *, iters, operator="auto", nthreads=None) -> None:
     """Refuse a regularised reconstruction whose memory exceeds the limit; warn when the spherical
     operator (two exact sums per iteration) would run for long."""
     p, m = ph.data.shape
-    check_memory(regularize_bytes(p, m, grid, operator), f"regularize on {grid.nx} x {grid.ny} pixels from "
+    check_memory(regularize_bytes(p, m, grid, operator, np.dtype(ph.data.dtype).itemsize), f"regularize on {grid.nx} x {grid.ny} pixels from "
                                                          f"{p} x {m} samples")
     if operator == "spherical":
         t = 2 * iters * direct_seconds(p, m, grid.nx * grid.ny, "spherical", nthreads)

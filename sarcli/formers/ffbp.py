@@ -109,6 +109,7 @@ from ..core.geometry import C
 from ..core.sampling import equally_spaced, range_wavenumbers
 from ..core.grid import Grid
 from ..errors import SarcliInputError
+from .._util.progress import progress
 from .ffbp_model import INTERPOLATORS, interp_error, optimal_kernel, predict_error
 from .ffbp_model import deapodized_inverse, deapodized_kernel
 from ._ffbp_grids import deapodization as _deapodization
@@ -195,7 +196,7 @@ def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weigh
     from ._ffbp_kernels import final as final_stage, frame, merge as merge_stage
     from ._ffbp_stage0 import pulse_geometry, series_inputs, tone_weights, pulse_table, stage0
     from .._native import using_threads
-    from ._bp_setup import PAD, check_data, profile_length, range_profiles
+    from ._bp_setup import PAD, ProfileWork, check_data, profile_length, range_profiles
 
     d = check_data(data)   # a phase history left on disk stays there: stage 0 reads it by blocks
     P, M = d.shape
@@ -247,7 +248,10 @@ def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weigh
     levels = plan.levels
     deap = _deapodization(f, plan, n_len) if deapodize else None
     img = None   # made at the first final stage (when only the last level is alive); parts add in place
-    with using_threads(nthreads) as nthr:
+    work = None   # the profiles' buffers, made at the first block
+    # the pulses through stage 0 (each group's merges and final stage follow its own pulses)
+    bar = progress(total=P, desc="ffbp", unit="pulse")
+    with bar, using_threads(nthreads) as nthr:
         # depth first: the last level's sub-images in groups, each group's whole subtree (stage 0,
         # merges) formed, added to the image and freed, so memory does not grow with the pulses
         for a0, b0 in _subtree_groups(plan):
@@ -257,6 +261,8 @@ def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weigh
             cur_im = np.empty((hi - lo, lev.n_u, lev.n_q), dtype=_STORE)
             # stage 0 in blocks of sub-apertures (bounded profile memory)
             per = max(1, _PROFILE_BLOCK // int(lev.count.max()))
+            if work is None:   # one set of block buffers for every block (ProfileWork)
+                work = ProfileWork(per * int(lev.count.max()), M, n_len, np.complex64)
             for s0 in range(lo, hi, per):
                 s1 = min(hi, s0 + per)
                 p0, p1 = int(lev.first[s0]), int(lev.first[s1 - 1] + lev.count[s1 - 1])
@@ -268,11 +274,13 @@ def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weigh
                     for rates, off, (h_psi, inv_psi) in tones:
                         tone_weights(k_all if k_all.shape[0] == 1 else k_all[p0:p1], rates[:, p0:p1], off,
                                      1.0 / h_psi, inv_psi, wb)
-                pre, pim = range_profiles(d[p0:p1], wb, total, n_len, nthr, dtype=np.complex64)
+                pre, pim = range_profiles(work.samples(d, slice(p0, p1)), wb, total, n_len, nthr,
+                                          dtype=np.complex64, work=work)
                 stage0(pre, pim, lev.first[s0:s1] - p0, lev.count[s0:s1], np.ascontiguousarray(pulses[:, p0:p1]),
                        series[s0:s1], frame(lev, s0, s1), tab_p, kind, bistatic, n_len // 2, n_len, PAD,
                        plan.dq, plan.kref, cur_re[s0 - lo:s1 - lo], cur_im[s0 - lo:s1 - lo])
                 del pre, pim
+                bar.update(p1 - p0)
             for l in range(1, len(levels)):
                 child, parent = levels[l - 1], levels[l]
                 (c0, c1), (u0, u1) = rng[l - 1], rng[l]

@@ -135,7 +135,11 @@ def candidates(ph, grid: Grid, tolerance: float, *, costs=None, nthreads=None, p
     c = load_cost_model() if costs is None else costs
     acq = ph.acquisition
     geo = acq.range_geometry() if ph.model == "spherical" else (None, None, None)
-    key = (ph.model, tuple(ph.data.shape), grid, float(tolerance), nthreads, bool(prune),
+    from ._samples import is_lazy
+
+    # the samples' dtype and whether they stay on disk set the candidates' memory
+    key = (ph.model, tuple(ph.data.shape), str(np.dtype(ph.data.dtype)), is_lazy(ph.data), grid, float(tolerance),
+           nthreads, bool(prune),
            None if methods is None else tuple(sorted(methods)), acq.is_bistatic if ph.model == "spherical" else None,
            json.dumps(c, sort_keys=True, default=repr), _digest(acq.frequency_hz, *geo))
     with _CANDIDATE_LOCK:   # images formed in threads (sar batch) share the cache
@@ -162,7 +166,9 @@ def _candidates(ph, grid, tolerance, c, nthreads, prune, methods) -> list:
     acq = ph.acquisition
     P, M = ph.data.shape
     npix = float(grid.nx) * grid.ny
-    out = [Candidate("direct", {}, 0.0, c["direct"] * P * M * npix / thr, 16 * (P * M + 2 * npix))]
+    held = functools.partial(_held_bytes, ph)
+    out = [Candidate("direct", {}, 0.0, c["direct"] * P * M * npix / thr,
+                     held(ph.model == "spherical") + 16 * 2 * npix)]
     target = tolerance / SAFETY
     eps = max(tolerance / 10, 1e-14)
     def wanted(name):
@@ -171,7 +177,7 @@ def _candidates(ph, grid, tolerance, c, nthreads, prune, methods) -> list:
     if ph.model != "spherical":
         if wanted("nufft"):
                 out.append(Candidate("nufft", {"eps": eps}, eps, _nufft_seconds(c, P * M, grid.ny, grid.nx, eps, thr),
-                                 16 * (P * M * 3 + 5 * npix)))
+                                 held(False) + 16 * (P * M * 2 + 5 * npix)))
     else:
         pos, rcv, _ = acq.range_geometry()
         rcv = rcv if acq.is_bistatic else None
@@ -182,7 +188,8 @@ def _candidates(ph, grid, tolerance, c, nthreads, prune, methods) -> list:
         ff = []
         if wanted("ffbp"):
             e_ffbp = e_freq if rcv is None else frequency_error(f, 0.5 * (pos + rcv), grid)
-            ff = _ffbp_sweep(pos, rcv, f, grid, target, e_ffbp, c, P, M, thr, keep_unmet=not prune)
+            ff = _ffbp_sweep(pos, rcv, f, grid, target, e_ffbp, c, P, M, thr, keep_unmet=not prune,
+                             held=held(True))
         best_ffbp = min((x.seconds for x in ff if x.predicted_error <= target), default=math.inf)
         # backprojection: the profile interpolation (and unequal frequency spacing) is its error;
         # with ``prune`` not looked at where even its shortest profiles are slower than ffbp's pick
@@ -198,7 +205,7 @@ def _candidates(ph, grid, tolerance, c, nthreads, prune, methods) -> list:
                 e = interp_error(interp, float(up)) + e_freq + tiled(up).error
                 if e <= target or up == _BP_UPSAMPLES[-1]:
                     out.append(Candidate("backprojection", {"upsample": up, "interp": interp}, e, seconds(up),
-                                         16 * (P * M + 32 * profile_length(M, up) + 2 * npix)))
+                                         held(True) + 16 * (32 * profile_length(M, up) + 2 * npix)))
                     break
         out += ff
         # subimage NUFFT: with ``prune``, where ffbp's pick is the cheapest candidate that meets
@@ -213,7 +220,7 @@ def _candidates(ph, grid, tolerance, c, nthreads, prune, methods) -> list:
             tile, pred = choose_tile(pos, rcv, acq.range_to_center_m, f, grid, target, eps=eps, min_tile=min_tile)
             if tile is not None:
                 out.append(Candidate("subimage", {"tile": int(tile), "tolerance": tolerance}, pred, sub_seconds(tile),
-                                     16 * (4 * P * M * thr + 2 * npix), f"{_n_tiles(grid, tile)} tiles"))
+                                     held(False) + 16 * ((4 * thr - 1) * P * M + 2 * npix), f"{_n_tiles(grid, tile)} tiles"))
     for cand in out:
         cand.meets = cand.predicted_error <= target
     return sorted(out, key=lambda x: (not x.meets, x.seconds))
@@ -232,7 +239,7 @@ FFBP_PAIRS_PAST_MET = 2
 _FLOOR_MARGIN = 1e-9
 
 
-def _ffbp_sweep(pos, rcv, f, grid, target, e_freq, c, P, M, thr, *, keep_unmet):
+def _ffbp_sweep(pos, rcv, f, grid, target, e_freq, c, P, M, thr, *, keep_unmet, held=None):
     """ffbp's candidates: the cheapest setting predicted to meet ``target`` among
     :data:`FFBP_BASES` × :data:`FFBP_OVERSAMPLINGS` (the pairs up to :data:`FFBP_PAIRS_PAST_MET`
     past the first at which one meets), and with ``keep_unmet`` the most accurate one that does
@@ -244,7 +251,8 @@ def _ffbp_sweep(pos, rcv, f, grid, target, e_freq, c, P, M, thr, *, keep_unmet):
     floor meets the target are its grids sized (its time), and only where it may be the answer is
     its error model completed. The pair at which one first meets is found in order, the cheapest
     setting of each pair first; then the settings of the pairs tried are completed in order of
-    time until one meets: that one is the cheapest."""
+    time until one meets: that one is the cheapest. ``held``: bytes of samples held (default
+    the whole collection in complex128)."""
     from . import ffbp as fb
     from .backprojection import profile_length
     from .ffbp_model import deapodized_error, default_upsample
@@ -295,7 +303,8 @@ def _ffbp_sweep(pos, rcv, f, grid, target, e_freq, c, P, M, thr, *, keep_unmet):
         if met_at is None and any(x.meets() for x in _by_time([x for x in pair if x.rough_floor <= target])):
             met_at = i
     best = next((x for x in _by_time([x for x in settings if x.rough_floor <= target]) if x.meets()), None)
-    out = [] if best is None else [_ffbp_candidate(best.lay, best.plan, best.seconds, c, P, M)]
+    held = 16.0 * P * M if held is None else held
+    out = [] if best is None else [_ffbp_candidate(best.lay, best.plan, best.seconds, held)]
     if keep_unmet:   # the most accurate that misses: in order of floor, until the floor passes it
         miss = None
         for x in sorted(settings, key=lambda x: (x.floor, x.order)):
@@ -305,8 +314,20 @@ def _ffbp_sweep(pos, rcv, f, grid, target, e_freq, c, P, M, thr, *, keep_unmet):
             if e > target and (miss is None or (e, x.order) < (miss.plan.predicted_error, miss.order)):
                 miss = x
         if miss is not None:
-            out.append(_ffbp_candidate(miss.lay, miss.plan, miss.seconds, c, P, M))
+            out.append(_ffbp_candidate(miss.lay, miss.plan, miss.seconds, held))
     return out
+
+
+def _held_bytes(ph, by_blocks: bool) -> float:
+    """Bytes of samples a former holds: the collection at its stored size, or, for a former that
+    reads samples left on disk by blocks of pulses (``by_blocks``: backprojection, ffbp, the
+    spherical matched filter), one block."""
+    from ._bp_setup import BLOCK
+    from ._samples import is_lazy
+
+    P, M = ph.data.shape
+    rows = min(P, BLOCK) if by_blocks and is_lazy(ph.data) else P
+    return float(rows) * M * np.dtype(ph.data.dtype).itemsize
 
 
 def _by_time(settings) -> list:
@@ -314,14 +335,14 @@ def _by_time(settings) -> list:
     return sorted(settings, key=lambda x: (x.seconds, x.order))
 
 
-def _ffbp_candidate(lay, plan, seconds, c, P, M) -> Candidate:
+def _ffbp_candidate(lay, plan, seconds, held) -> Candidate:
     from . import ffbp as fb
 
     knobs = plan.knobs
     npix = float(lay.grid.nx) * lay.grid.ny
     return Candidate("ffbp", {"base": knobs["base"], "merge": fb.DEFAULTS["merge"], "os_range": knobs["os_range"],
                               "os_angle": knobs["os_angle"], "interp": "optimal", "upsample": knobs["upsample"]},
-                     plan.predicted_error, seconds, plan.ops["grid_bytes"] + 16 * (P * M + npix),
+                     plan.predicted_error, seconds, plan.ops["grid_bytes"] + held + 16 * npix,
                      f"{plan.n_stages} stages")
 
 
@@ -352,7 +373,8 @@ def command_seconds(cand: Candidate, ph, grid: Grid, costs=None, *, auto=False) 
     planning too, from the calibrated constants (:func:`sarcli.formers.calibration.calibrate`)."""
     c = load_cost_model() if costs is None else costs
     P, M = ph.data.shape
-    io = c["read_per_byte"] * 8.0 * P * M + c["write_per_byte"] * 8.0 * grid.nx * grid.ny
+    # the samples at their stored size; the image written complex128, as the formers return it
+    io = c["read_per_byte"] * np.dtype(ph.data.dtype).itemsize * P * M + c["write_per_byte"] * 16.0 * grid.nx * grid.ny
     return c["startup"] + (c["planning"] if auto else 0.0) + io + cand.seconds
 
 

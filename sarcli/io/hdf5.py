@@ -144,20 +144,24 @@ def _dataset(path, f, name, *, kind, ndim, shape=None, required=True, finite=Tru
 # --------------------------------------------------------------------------------------------
 # phase history
 # --------------------------------------------------------------------------------------------
-def write_phase_history(path, ph: PhaseHistory) -> Path:
+def write_phase_history(path, ph: PhaseHistory, *, blocks=None) -> Path:
     """Write a phase history file (atomic: a temporary name renamed at the end).
 
     Parameters
     ----------
     path : str or Path
     ph : PhaseHistory
+    blocks : iterable of (slice, ndarray), optional
+        The samples by blocks of pulses, written as they come into a dataset of ``ph.data``'s shape
+        and dtype (``ph.data`` then needs only those two); ``ph.attrs`` is written after the last
+        block, so a producer may add to it (:func:`sarcli.simulation.simulate_file`).
 
     Returns
     -------
     Path
     """
     acq = ph.acquisition
-    nbytes = int(getattr(ph.data, "nbytes", 0))
+    nbytes = int(np.prod(ph.data.shape)) * np.dtype(ph.data.dtype).itemsize
     if ph.truth is not None and ph.truth.scene is not None:
         nbytes += 3 * np.asarray(ph.truth.scene).nbytes
     with atomic_path(path) as tmp:
@@ -173,8 +177,13 @@ def write_phase_history(path, ph: PhaseHistory) -> Path:
                 f.attrs["config_source"] = str(acq.source)
             if acq.snr_db is not None:
                 f.attrs["snr_db"] = float(acq.snr_db)
+            if blocks is None:
+                f.create_dataset("phase_history", data=ph.data)
+            else:
+                dset = f.create_dataset("phase_history", shape=ph.data.shape, dtype=ph.data.dtype)
+                for rows, block in blocks:
+                    dset[rows] = block
             _write_attrs(f, ph.attrs, skip=("format", "version", "model", "autofocus_phase_rad", "autofocus_method"))
-            f.create_dataset("phase_history", data=ph.data)
             f.create_dataset("frequency_hz", data=np.asarray(acq.frequency_hz, np.float64))
             f.create_dataset("azimuth_rad", data=np.asarray(acq.azimuth_rad, np.float64))
             f.create_dataset("elevation_rad", data=np.asarray(acq.elevation_rad, np.float64))

@@ -66,10 +66,28 @@ class PulseSource:
         raise NotImplementedError
 
     def __getitem__(self, key) -> np.ndarray:
-        block = self._read(key)
-        if block.size and not np.all(np.isfinite(block)):
+        return self._checked(self._read(key), key)
+
+    def read_into(self, rows: slice, out: np.ndarray) -> np.ndarray:
+        """Read the pulses of slice ``rows`` into ``out`` (shape ``[len(rows), M]``, this dtype), checked.
+
+        A former reading block after block passes the same buffer each time, so no block's array is
+        allocated anew. Returns ``out``.
+        """
+        self._read_into(rows, out)
+        return self._checked(out, rows)
+
+    def _read_into(self, rows: slice, out: np.ndarray) -> None:
+        """Fill ``out`` with pulses ``rows`` (a subclass may read straight into it)."""
+        out[...] = self._read(rows)
+
+    def _checked(self, block, key):
+        """``block`` after checking it for NaN/Inf: a sum in float64 (no temporary array) is finite
+        when every sample is; only when it is not are the bad samples counted."""
+        if block.size and not np.isfinite(np.sum(block.real, dtype=np.float64) + np.sum(block.imag, dtype=np.float64)):
             bad = int(block.size - np.count_nonzero(np.isfinite(block)))
-            raise InputFileError(self.path, f"{self._what()} holds {bad} NaN/Inf values (in rows {_describe(key)})")
+            if bad:
+                raise InputFileError(self.path, f"{self._what()} holds {bad} NaN/Inf values (in rows {_describe(key)})")
         return block
 
     def __array__(self, dtype=None, copy=None):
@@ -115,6 +133,19 @@ class PulseArray(PulseSource):
         try:
             with h5py.File(self.path, "r") as f:
                 return np.asarray(f[self.name][key])
+        except (OSError, KeyError, ValueError, TypeError) as exc:
+            raise InputFileError(self.path, f"dataset '{self.name}' cannot be read ({exc})") from None
+
+    def _read_into(self, rows: slice, out: np.ndarray) -> None:
+        import h5py
+
+        try:
+            with h5py.File(self.path, "r") as f:
+                dset = f[self.name]
+                if out.dtype == dset.dtype and out.flags.c_contiguous:
+                    dset.read_direct(out, np.s_[rows.start:rows.stop])
+                else:
+                    out[...] = dset[rows.start:rows.stop]
         except (OSError, KeyError, ValueError, TypeError) as exc:
             raise InputFileError(self.path, f"dataset '{self.name}' cannot be read ({exc})") from None
 

@@ -29,7 +29,7 @@ def farfield_three_points(pixels: int = 500, **changes):
 
 def superposition_error(acq) -> dict:
     """Direct matched filter of the config's points vs Σ_s a_s K(x - x_s)/(MP) (relative L2 and max)."""
-    ph = sarcli.simulate(acq, snr_db=None)
+    ph = sarcli.simulate(acq, snr_db=None, dtype=np.complex128)   # an identity to 1e-10: no float32 rounding
     mf = sarcli.form_image(ph, "direct").image
     pos, amp = ph.truth.point_position_m, ph.truth.point_amplitude
     ref = sum(a * psf.psf_kernel(acq, acq.grid, center=p[:2], method="theorem") for p, a in zip(pos, amp))

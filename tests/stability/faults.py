@@ -292,7 +292,7 @@ def write_cases(ws: Workspace) -> list[Fault]:
                           ["form-image", ph, "-o", ws.path("w7.h5"), "--method", "nufft", "--extent", "8"],
                           ws.path("w7.h5"), hdf5=True))
     out.append(_full_disk("W8", "disk full while simulate writes its HDF5 phase history", ws,
-                          ["simulate", ws.config, "-o", ws.path("w8.h5")], ws.path("w8.h5"), limit=20_000, hdf5=True))
+                          ["simulate", ws.config, "-o", ws.path("w8.h5")], ws.path("w8.h5"), limit=8_000, hdf5=True))
     return out
 
 
