@@ -293,6 +293,18 @@ class Setup:
         return (self.x, self.y, np.ascontiguousarray(self.geo[:, sl]), self.n_len, PAD, self.kind,
                 self.bistatic, self.width, self.model == EXACT)
 
+    def samples_from_profiles(self, hri):
+        """The adjoint of the range profiles: padded profiles ``hri`` (pulses, ``n_len + 2 PAD``, 2;
+        re and im) back to samples (pulses, frequencies), divided by the total weight."""
+        h = hri.astype(np.float64).view(np.complex128)[..., 0]
+        # transpose of the periodic padding: fold the copies back onto their sources
+        g = h[:, PAD:PAD + self.n_len].copy()
+        g[:, self.n_len - PAD:] += h[:, :PAD]
+        g[:, :PAD] += h[:, PAD + self.n_len:]
+        # transpose of fftshift and of the unnormalised inverse FFT (= unnormalised forward FFT)
+        g = np.fft.fft(np.fft.ifftshift(g, axes=1), axis=1, norm="backward")
+        return g[:, self.slots] / self.total_weight
+
     def blocks(self):
         """Slices of at most ``self.block`` pulses: profiles live one block at a time."""
         return [slice(b, min(b + self.block, self.n_pulses)) for b in range(0, self.n_pulses, self.block)]

@@ -250,14 +250,7 @@ def reproject(image, freq_hz, antenna_position_m, range_to_center_m, grid, weigh
             nb = sl.stop - sl.start
             hri = np.zeros((nb, n_padded, 2), dtype=st.dtype)
             kern.rp_tiles(fre, fim, *st.kernel_args(sl), hri)
-            h = hri.astype(np.float64).view(np.complex128)[..., 0]
-            # transpose of the periodic padding: fold the copies back onto their sources
-            g = h[:, PAD:PAD + st.n_len].copy()
-            g[:, st.n_len - PAD:] += h[:, :PAD]
-            g[:, :PAD] += h[:, PAD + st.n_len:]
-            # transpose of fftshift and of the unnormalised inverse FFT (= unnormalised forward FFT)
-            g = np.fft.fft(np.fft.ifftshift(g, axes=1), axis=1, norm="backward")
-            out[sl] = g[:, st.slots] / st.total_weight
+            out[sl] = st.samples_from_profiles(hri)
     if st.weights is not None:
         out *= st.weights
     return out

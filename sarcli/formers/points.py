@@ -141,12 +141,7 @@ def reproject_points(image, freq_hz, antenna_position_m, range_to_center_m, poin
             nb = sl.stop - sl.start
             hri = np.zeros((nb, st.n_len + 2 * PAD, 2), dtype=st.dtype)
             kern.rp_points(fre, fim, flat, np.ascontiguousarray(geo[:, sl]), st.n_len, PAD, st.kind, st.bistatic, hri)
-            h = hri.astype(np.float64).view(np.complex128)[..., 0]
-            g = h[:, PAD:PAD + st.n_len].copy()   # transpose of the periodic padding
-            g[:, st.n_len - PAD:] += h[:, :PAD]
-            g[:, :PAD] += h[:, PAD + st.n_len:]
-            g = np.fft.fft(np.fft.ifftshift(g, axes=1), axis=1, norm="backward")
-            out[sl] = g[:, st.slots] / st.total_weight
+            out[sl] = st.samples_from_profiles(hri)
     if st.weights is not None:
         out *= st.weights
     return out
