@@ -448,9 +448,16 @@ class WarpedGram(Linop):
         self._lock = threading.Lock()   # the work arrays (here and the runs') serve one call at a time
 
     def _forward(self, x):
+        return self._forward_scaled(x, 1.0)
+
+    def _forward_scaled(self, x, scale):
+        # linear: the scale goes onto the single-precision copy of x, no pass or array of its own
         with self._lock:
             f, part = self._f32, self._part
-            np.copyto(f, np.reshape(x, -1), casting="same_kind")
+            if scale == 1.0:
+                np.copyto(f, np.reshape(x, -1), casting="same_kind")
+            else:
+                np.multiply(np.reshape(x, -1), scale, out=f, casting="same_kind")
             out = np.empty(f.size, np.complex128)
             for i, run in enumerate(self.op._runs):
                 run.gram(f, part)
@@ -462,3 +469,6 @@ class WarpedGram(Linop):
 
     def _adjoint(self, y):
         return self._forward(y)
+
+    def _adjoint_scaled(self, y, scale):
+        return self._forward_scaled(y, np.conj(scale))
