@@ -78,7 +78,7 @@ def command(ctx, input_path, output, prior, order, lam, beta, iters, tol, operat
     _, ph = open_input(input_path, expect=("phase-history", "gotcha", "cphd"), truth=False)
     check_regularize(ph, resolve_grid(ph.acquisition.grid, center=parse_pair(center, "--center"),
                                       extent=parse_pair(extent, "--extent"), pixel_size=pixel_size),
-                     iters=iters, operator=operator)
+                     iters=iters, operator=operator, auto=lam == "auto")
     init = open_input(init_path, expect=("image", "sicd"))[1] if init_path else None
     if outside_path:
         from ..regularize.patch import without_outside

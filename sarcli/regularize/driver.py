@@ -37,6 +37,7 @@ from ..core import geometry
 from ..errors import DefocusWarning, SarcliInputError
 from ..core.grid import Grid, resolve_grid
 from ..core.types import Image, PhaseHistory
+from ..formers.cost import regularize_bytes
 from ..linops import (NufftOperator, SphericalOperator, gram_eigmax, normal_equations,
                      sparsifying_operator)
 from ..linops.toeplitz import NormalEquations
@@ -355,7 +356,8 @@ def regularize(ph: PhaseHistory, *, prior: str = "ptv", order: int = 1, lam: flo
     f0 = init if init is not None else mf
     T = None if D is not None else sparsifying_operator(prior, grid.shape, order=order,
                                                         f0=f0 if prior == "ptv" else None)
-    forecast.announce(solver_overhead(T, D, mf))
+    memory = regularize_bytes(*ph.data.shape, grid, operator, np.dtype(ph.data.dtype).itemsize, auto=auto)
+    forecast.announce(solver_overhead(T, D, mf), memory)
     params.update(forecast.estimate)
     if progress is not None:
         progress.set_description(f"regularize {prior}" + (": lam path" if auto else ""))

@@ -93,9 +93,10 @@ class Forecast:
         return (g * self.power_iters + path * (self.per * self.path_cost * g + overhead_s)
                 + final_iterations * (self.per * g + overhead_s))
 
-    def announce(self, overhead_s: float) -> None:
+    def announce(self, overhead_s: float, memory_bytes: float | None = None) -> None:
         """Record the estimate (``predicted_s``, ``predicted_max_s``, ``seconds_per_product``,
-        ``seconds_per_iteration``) and, for a long run, say it with what would shorten it."""
+        ``seconds_per_iteration``, ``predicted_bytes``) and, for a long run, say it (with the
+        memory it will take) and what would shorten it."""
         if self.gram_s is None:
             return
         g = self.gram_s
@@ -103,6 +104,8 @@ class Forecast:
         bound = self.seconds(self.path_points, self.iters, overhead_s)
         self.estimate.update(predicted_s=predicted, predicted_max_s=bound, seconds_per_product=g,
                              seconds_per_iteration=self.per * g + overhead_s)
+        if memory_bytes is not None:
+            self.estimate["predicted_bytes"] = float(memory_bytes)
         if self.notice is None or predicted <= LONG_RUN_S:
             return
         fixed = self.seconds(0, FINAL_SHARE * self.iters, overhead_s) - g * self.power_iters
@@ -114,9 +117,10 @@ class Forecast:
             faster.append("a larger --tolerance (fewer sub-apertures)")
         path = (f"a lam path of about {PATH_POINTS} and up to {self.path_points} points of up to {PATH_ITERS} "
                 f"iterations x 2 solvers, then " if self.auto else "")
+        memory = "" if memory_bytes is None else f", about {memory_bytes / 2**30:.2g} GiB of memory"
         self.notice(f"regularize {self.prior}: about {predicted:.0f} s predicted, up to {bound:.0f} s ({path}"
                     f"up to {self.iters} iterations, {g:.2g} s per AhA product, {self.per * g + overhead_s:.2g} s "
-                    f"per iteration); faster: {', '.join(faster)}")
+                    f"per iteration{memory}); faster: {', '.join(faster)}")
 
 
 def solver_overhead(T, D, image) -> float:
