@@ -216,7 +216,7 @@ def test_lam_path_runs_on_half_the_sub_apertures(monkeypatch):
     sel = p["lam_selection"]
     assert g["path"] == 2 * sum(sel["path_iterations"]) + 2 * len(sel["path_iterations"])
 
-    def full(op, normal, s_a, s_b, params):
+    def full(op, normal, s_a, s_b, params, half=None):
         return normal.scaled(s_a, s_b), normal.gram   # the final operator's own (counted) Gram
     monkeypatch.setattr(driver, "_path_normal_equations", full)
     with warnings.catch_warnings():

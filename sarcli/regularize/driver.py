@@ -67,10 +67,12 @@ DEFOCUS_WARN_RAD = geometry.DEFOCUS_WARN_RAD
 
 
 def _choose_operator(ph: PhaseHistory, grid: Grid, operator: str, tolerance: float):
-    """``(operator, far-field phase error, runs)``, ``runs`` of 'warped' the chooser's
-    ``(sub-apertures, AᴴA error, {count: operator it built})``, else None: 'auto' takes the Toeplitz form where the far-field model holds (phase error at the grid corner at most
-    :data:`DEFOCUS_WARN_RAD`), else the warped operator where it meets ``tolerance`` with at least
-    :data:`MIN_PULSES_PER_RUN` pulses per sub-aperture, else the exact spherical pair."""
+    """``(operator, far-field phase error, runs)``; ``runs``, for 'warped' only, the chooser's
+    ``(sub-apertures, AᴴA error, {count: operator it built})``.
+
+    'auto' takes the Toeplitz form where the far-field model holds (phase error at the grid corner
+    at most :data:`DEFOCUS_WARN_RAD`), else the warped operator where it meets ``tolerance`` with at
+    least :data:`MIN_PULSES_PER_RUN` pulses per sub-aperture, else the exact spherical pair."""
     from ..linops.warped import choose_subapertures
 
     acq = ph.acquisition
@@ -112,24 +114,25 @@ def _build(ph: PhaseHistory, grid: Grid, operator: str, eps: float, tolerance: f
         else:
             op.predicted_error = float(err)
         atb = SphericalOperator.from_acquisition(acq, grid).adjoint(ph.data)
-        op.built = built   # for the λ path's operator (half the sub-apertures), if the chooser made it
-        return op, NormalEquations(op.gram(), atb, norm2(np.asarray(ph.data)))
+        # the λ path's operator (half the sub-apertures) where the chooser made it; the others go
+        half = built.get(max(1, op.subapertures // 2)) if op.subapertures > 1 else None
+        return op, NormalEquations(op.gram(), atb, norm2(np.asarray(ph.data))), half
     op = NufftOperator.from_acquisition(acq, grid, eps=eps)
-    return op, normal_equations(op, ph.data, form=operator)
+    return op, normal_equations(op, ph.data, form=operator), None
 
 
-def _path_normal_equations(op, normal, s_a: float, s_b: float, params: dict):
+def _path_normal_equations(op, normal, s_a: float, s_b: float, params: dict, half=None):
     """The scaled normal equations the λ path of a warped operator solves, and their counted Gram:
     the same ``Aᴴb`` and scaling, ``AᴴA`` from half the sub-apertures (a product at about half the
     final one's cost, an error about 4 × the tolerance: the residual grows as the square of a
     sub-aperture's angle). The path only ranks λ and warm-starts the final solve,
-    which runs on the operator held to the tolerance."""
+    which runs on the operator held to the tolerance. ``half``: that operator, where the
+    sub-aperture chooser already built it."""
     from ..linops.warped import WarpedNufftOperator
 
-    half = max(1, op.subapertures // 2)
-    path_op = getattr(op, "built", {}).get(half)
+    path_op = half
     if path_op is None or path_op.eps != op.eps:
-        path_op = WarpedNufftOperator(op.acquisition, op.grid, subapertures=half, eps=op.eps)
+        path_op = WarpedNufftOperator(op.acquisition, op.grid, subapertures=max(1, op.subapertures // 2), eps=op.eps)
     counter = CountedGram(path_op.gram())
     params["path_operator"] = {"subapertures": path_op.subapertures,
                                "predicted_error": path_op.predicted_error}
@@ -315,7 +318,10 @@ def regularize(ph: PhaseHistory, *, prior: str = "ptv", order: int = 1, lam: flo
     if not (0 < tolerance < 1):
         raise SarcliInputError(f"tolerance must be in (0, 1), got {tolerance}")
     operator, phase_err, runs = _choose_operator(ph, grid, operator, tolerance)
-    op, normal = _build(ph, grid, operator, eps, tolerance, runs)
+    op, normal, half = _build(ph, grid, operator, eps, tolerance, runs)
+    runs = None   # the chooser's other operators are not kept
+    if not auto:
+        half = None
     counter = CountedGram(normal.gram)
     normal = NormalEquations(counter, normal.atb, normal.bnorm2)
     n_samples = ph.data.size
@@ -364,7 +370,8 @@ def regularize(ph: PhaseHistory, *, prior: str = "ptv", order: int = 1, lam: flo
     if auto:
         path_normal, path_counter = scaled, counter
         if operator == "warped" and op.subapertures > 1:
-            path_normal, path_counter = _path_normal_equations(op, normal, s_a, s_b, params)
+            path_normal, path_counter = _path_normal_equations(op, normal, s_a, s_b, params, half)
+        half = None
         lam, beta, u0 = auto_lambda(ph, grid, op, path_normal, s_a, s_b, D, T, prior, beta_ratio, isotropic, u0,
                                     iters, params, tick)
         if path_counter is not counter:
