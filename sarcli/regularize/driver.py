@@ -95,10 +95,11 @@ def _choose_operator(ph: PhaseHistory, grid: Grid, operator: str, tolerance: flo
 
 
 def _build(ph: PhaseHistory, grid: Grid, operator: str, eps: float, tolerance: float, runs):
+    """``(operator, normal equations, the half-count warped operator the chooser built or None)``."""
     acq = ph.acquisition
     if operator == "spherical":
         op = SphericalOperator.from_acquisition(acq, grid)
-        return op, normal_equations(op, ph.data, form="nufft")
+        return op, normal_equations(op, ph.data, form="nufft"), None
     if operator == "warped":
         # AᴴA by the warped operator; Aᴴb by the exact pair (one backprojection), so that the only
         # approximation in the normal equations is AᴴA's, whose error the tolerance bounds
