@@ -339,7 +339,9 @@ def regularize(ph: PhaseHistory, *, prior: str = "ptv", order: int = 1, lam: flo
         if progress is not None:
             progress.update(k)
 
-    path_cost = max(1, op.subapertures // 2) / op.subapertures if operator == "warped" else 1.0
+    # a warped product costs about (runs + 1) units: the spreading per run, the FFTs of all runs
+    # about one more (each run's grid widens as the runs lengthen); the path has half the runs
+    path_cost = (max(1, op.subapertures // 2) + 1) / (op.subapertures + 1) if operator == "warped" else 1.0
     forecast = Forecast(prior, operator, power_iters, int(iters), auto, notice, tick, path_cost=path_cost)
     scaled, s_a, s_b = scale_problem(normal, power_iters=power_iters, callback=forecast.on_power)
     params = {"prior": prior, "order": int(order), "lam": lam, "beta": beta, "iters": int(iters),
