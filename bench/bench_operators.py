@@ -23,9 +23,10 @@ its own data).
 from __future__ import annotations
 
 import argparse
-import statistics
+import sys
 import time
 import warnings
+from pathlib import Path
 
 import numpy as np
 
@@ -35,6 +36,9 @@ from sarcli.core.grid import Grid
 from sarcli.io.gotcha import gotcha_files, read_gotcha
 from sarcli.linops import NufftOperator, SphericalOperator
 from sarcli.linops.warped import WarpedNufftOperator
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from bench_regularize import median_seconds  # noqa: E402
 
 
 def _acq(positions, freq, grid):
@@ -65,16 +69,6 @@ def gotcha():
     return read_gotcha(files, grid=grid).acquisition, "GOTCHA pass 1 HH, 4 files -> 800² of 0.125 m"
 
 
-def _median(fn, repeat):
-    fn()
-    ts = []
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        fn()
-        ts.append(time.perf_counter() - t0)
-    return statistics.median(ts)
-
-
 def run(acq, label, tolerance, repeat):
     grid = acq.grid
     x = np.random.default_rng(0).standard_normal(grid.shape) + 1j * np.random.default_rng(1).standard_normal(grid.shape)
@@ -82,14 +76,14 @@ def run(acq, label, tolerance, repeat):
     warped = WarpedNufftOperator(acq, grid, tolerance=tolerance)
     gram_w = warped.gram()
     setup = time.perf_counter() - t0
-    t_w = _median(lambda: gram_w.forward(x), repeat)
+    t_w = median_seconds(lambda: gram_w.forward(x), repeat)
     exact = SphericalOperator.from_acquisition(acq, grid)
     t0 = time.perf_counter()
     ref = exact.adjoint(exact.forward(x))
     t_s = time.perf_counter() - t0
     kx, ky = geometry.kspace_coordinates(acq.frequency_hz, acq.azimuth_rad, acq.elevation_rad)
     far = NufftOperator(kx, ky, grid, eps=1e-6).toeplitz_gram()
-    t_f = _median(lambda: far.forward(x), repeat)
+    t_f = median_seconds(lambda: far.forward(x), repeat)
 
     def diff(y):
         return float(np.linalg.norm(y - ref) / np.linalg.norm(ref))

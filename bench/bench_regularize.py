@@ -37,7 +37,8 @@ REPO = Path(__file__).resolve().parents[1]
 WORKERS = max(1, os.cpu_count() or 1)
 
 
-def _median(fn, repeat):
+def median_seconds(fn, repeat):
+    """The median wall time of ``repeat`` calls of ``fn`` after one warm-up call."""
     fn()
     times = []
     for _ in range(repeat):
@@ -71,9 +72,9 @@ def admm_vs_fft(sizes, P, M, eps, repeat):
         T = sparsifying_operator("ptv", grid.shape, f0=normal.atb)
         solver = ADMM(scaled, T, lam, DEFAULT_BETA_RATIO * lam, max_iter=10**6)
         solver.step()
-        t_iter = _median(solver.step, repeat)
+        t_iter = median_seconds(solver.step, repeat)
         x = rng.standard_normal((2 * n, 2 * n)) + 1j * rng.standard_normal((2 * n, 2 * n))
-        t_fft = _median(lambda: scipy.fft.ifft2(scipy.fft.fft2(x, workers=WORKERS), workers=WORKERS), repeat)
+        t_fft = median_seconds(lambda: scipy.fft.ifft2(scipy.fft.fft2(x, workers=WORKERS), workers=WORKERS), repeat)
         rows.append((n, t_iter, t_fft, t_iter / t_fft))
     print("\n### One ADMM iteration (ptv, Toeplitz, complex128) vs two 2N×2N complex128 FFTs\n")
     print("| N | ADMM iteration (ms) | two FFTs 2N×2N (ms) | ratio (target ≤ 1.35) |")
@@ -97,9 +98,9 @@ def toeplitz_vs_nufft(sizes, samples, eps, repeat):
         t_setup = time.perf_counter() - t0
         gram_n = op.gram()
         gram_d = op.toeplitz_gram(fft_dtype=np.complex128)
-        t_t = _median(lambda: gram_t.forward(f), repeat)
-        t_d = _median(lambda: gram_d.forward(f), repeat)
-        t_n = _median(lambda: gram_n.forward(f), repeat)
+        t_t = median_seconds(lambda: gram_t.forward(f), repeat)
+        t_d = median_seconds(lambda: gram_d.forward(f), repeat)
+        t_n = median_seconds(lambda: gram_n.forward(f), repeat)
         ref_op, _ = _operator(n, P, M, 1e-12)
         ref = ref_op.adjoint(ref_op.forward(f))
         e_t = np.linalg.norm(gram_t.forward(f) - ref) / np.linalg.norm(ref)

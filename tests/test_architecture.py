@@ -212,14 +212,20 @@ def _private_crossings(name: str, path: Path) -> list[str]:
             home = target.split("." + private[0])[0]   # the package that holds the private part
             if a.name.startswith("_") or not (package + ".").startswith(home + "."):
                 out.append(f"{path.name}:{node.lineno} {target}")
+        # a public name imported under a private alias reads as a private name taken from elsewhere
+        out += [f"{path.name}:{node.lineno} {mod}.{a.name} as {a.asname}" for a in node.names
+                if a.asname and a.asname.startswith("_") and not a.asname.startswith("__")
+                and (node.level or mod.startswith("sarcli"))]
     return out
 
 
 def test_the_private_checker_finds_a_crossing(tmp_path):
     p = tmp_path / "m.py"
-    p.write_text("from ..linops._reduce import norm2\nfrom ._samples import _check\nfrom ._samples import ok\n")
+    p.write_text("from ..linops._reduce import norm2\nfrom ._samples import _check\nfrom ._samples import ok\n"
+                 "from ..linops import rdot as _rdot\nfrom scipy import fft as _fft\n")
     assert _private_crossings("sarcli.solvers.m", p) == ["m.py:1 sarcli.linops._reduce.norm2",
-                                                         "m.py:2 sarcli.solvers._samples._check"]
+                                                         "m.py:2 sarcli.solvers._samples._check",
+                                                         "m.py:4 sarcli.linops.rdot as _rdot"]
 
 
 def test_no_private_name_crosses_a_module():

@@ -91,7 +91,7 @@ from ..core.grid import Grid
 from ..errors import SarcliInputError
 from ._common import (MAX_ESTIMATION_PIXELS, MAX_GUARDED_PIXELS, AutofocusResult, AutofocusWarning,
                       agreement_threshold, estimation_grid, guarded_grid, sharpness)
-from ._common import correlation as _corr
+from ._common import correlation
 from ._imager import (SPLIT_GAP, BlockImager, Imager, check_splittable, every_nth_line, range_axis,
                       single_threaded_blas, split_grid)
 from ._lbfgs import minimize
@@ -187,7 +187,7 @@ def _crossvalidate(halves, paths):
     P = len(paths[0][0])
     h0 = [im.entropy(np.zeros(P)) for im in halves]
     gains = [(h0[0] - halves[0].entropy(b), h0[1] - halves[1].entropy(a)) for a, b in zip(*paths)]
-    return gains, [_corr(a, b) for a, b in zip(*paths)]
+    return gains, [correlation(a, b) for a, b in zip(*paths)]
 
 
 #: Least correlation of the detail two halves add at a finer level for that level to be taken:
@@ -318,7 +318,7 @@ def _min_entropy(ph, grid, start, levels, max_iter, pulse_iter, pulse_lines, ful
         # the order whose halves agree more on the detail of the finest level is the one less
         # drawn to what is particular to each half (clutter, or the sidelobes of a few points)
         def detail(ps):
-            return _corr(*(p[-1] - (p[-2] if len(p) > 1 else 0.0) for p in ps))
+            return correlation(*(p[-1] - (p[-2] if len(p) > 1 else 0.0) for p in ps))
 
         agree = {o: detail(by_order[o]) for o in orders}
         for o in orders[1:]:
@@ -343,7 +343,7 @@ def _min_entropy(ph, grid, start, levels, max_iter, pulse_iter, pulse_lines, ful
         # agrees between the halves: a half's held-out gain undervalues it (the whole scene
         # estimates that detail with half a half's noise, REFINE_CORRELATION)
         for j in range(best + 1, len(coarse)):
-            rho = _corr(paths[0][j] - paths[0][best], paths[1][j] - paths[1][best])
+            rho = correlation(paths[0][j] - paths[0][best], paths[1][j] - paths[1][best])
             if passed[j] and rho > max(REFINE_CORRELATION, agreement_threshold(dofs[j])):
                 best = j
                 refined.append(f"{names[j]} (the detail it adds correlates {rho:.2f} between the halves)")
@@ -358,7 +358,7 @@ def _min_entropy(ph, grid, start, levels, max_iter, pulse_iter, pulse_lines, ful
     hist.update(entropy_start=full.entropy(phi0),
                 entropy_levels=[full.entropy(phase_mean(a, b)) for a, b in zip(*paths)],
                 heldout_gain=gains, halves_correlation=corrs, level=names[best] if kept else None,
-                detail_correlation=[_corr(*(p[j] - (p[j - 1] if j else 0.0) for p in paths))
+                detail_correlation=[correlation(*(p[j] - (p[j - 1] if j else 0.0) for p in paths))
                                     for j in range(len(coarse))])
     if not validate:
         hist["decision"] = f"finest level {names[-1]} (not cross-validated)"
@@ -401,7 +401,7 @@ def _min_entropy(ph, grid, start, levels, max_iter, pulse_iter, pulse_lines, ful
         # each half's increment, continuous across the pulses (2π jumps between the start's and
         # the end's representations undone; a smooth increment of any size kept)
         steps = [np.unwrap(e - s0) for e, s0 in zip(ends, starts)]
-        c1 = _corr(*steps)
+        c1 = correlation(*steps)
         fine_imagers += sides
         hist["heldout_gain"] = gains + [g1]
         hist["halves_correlation"] = corrs + [c1]

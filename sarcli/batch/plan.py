@@ -25,7 +25,7 @@ from pathlib import Path
 
 from ..core.grid import Grid, resolve_grid
 from ..core.types import to_json
-from .._util.yamlsafe import short_repr as _short
+from .._util.yamlsafe import short_repr
 from ..errors import ConfigError, SarcliError
 from .layout import input_geometry, subaperture_windows, tile_layout
 
@@ -170,7 +170,7 @@ def _is_number(v) -> bool:
 
 def _check_keys(err, where, section, mapping) -> bool:
     if not isinstance(mapping, dict):
-        err.add(where, f"expected a mapping, got {type(mapping).__name__} {_short(mapping)}")
+        err.add(where, f"expected a mapping, got {type(mapping).__name__} {short_repr(mapping)}")
         return False
     for key in mapping:
         if key not in _KEYS[section]:
@@ -181,13 +181,13 @@ def _check_keys(err, where, section, mapping) -> bool:
 
 def _check_number(err, key, value, *, integer=False, lo=None, lo_open=False, hi=None, hi_open=False):
     if isinstance(value, bool) or not isinstance(value, (int, float)) or (integer and not isinstance(value, int)):
-        err.add(key, f"expected {'an integer' if integer else 'a number'}, got {_short(value)}")
+        err.add(key, f"expected {'an integer' if integer else 'a number'}, got {short_repr(value)}")
         return None
     if (lo is not None and (value <= lo if lo_open else value < lo)) or \
        (hi is not None and (value >= hi if hi_open else value > hi)):
         lo_s = "" if lo is None else f"{'>' if lo_open else '>='} {lo}"
         hi_s = "" if hi is None else f"{'<' if hi_open else '<='} {hi}"
-        err.add(key, f"expected a value {' and '.join(s for s in (lo_s, hi_s) if s)}, got {_short(value)}")
+        err.add(key, f"expected a value {' and '.join(s for s in (lo_s, hi_s) if s)}, got {short_repr(value)}")
         return None
     return value
 
@@ -196,7 +196,7 @@ def _check_grid(err, key, grid) -> dict:
     if grid is None:
         return {}
     if not isinstance(grid, dict):
-        err.add(key, f"expected a mapping with {', '.join(sorted(_GRID_KEYS))}, got {_short(grid)}")
+        err.add(key, f"expected a mapping with {', '.join(sorted(_GRID_KEYS))}, got {short_repr(grid)}")
         return {}
     out = {}
     for k, v in grid.items():
@@ -208,9 +208,9 @@ def _check_grid(err, key, grid) -> dict:
             vals = v if isinstance(v, list) else [v]
             n_ok = (1, 2) if k == "extent" else (2,)
             if len(vals) not in n_ok or any(isinstance(x, bool) or not isinstance(x, (int, float)) for x in vals):
-                err.add(f"{key}.{k}", f"expected {'W or [W, H]' if k == 'extent' else '[x, y]'} in metres, got {_short(v)}")
+                err.add(f"{key}.{k}", f"expected {'W or [W, H]' if k == 'extent' else '[x, y]'} in metres, got {short_repr(v)}")
             elif k == "extent" and min(vals) <= 0:
-                err.add(f"{key}.{k}", f"expected positive side lengths, got {_short(v)}")
+                err.add(f"{key}.{k}", f"expected positive side lengths, got {short_repr(v)}")
             else:
                 out[k] = [float(x) for x in vals] if len(vals) == 2 else float(vals[0])
     return out
@@ -218,7 +218,7 @@ def _check_grid(err, key, grid) -> dict:
 
 def _expand_inputs(err, key, pattern, base: Path) -> list[Path]:
     if not isinstance(pattern, str) or not pattern:
-        err.add(key, f"expected a file path or glob, got {_short(pattern)}")
+        err.add(key, f"expected a file path or glob, got {short_repr(pattern)}")
         return []
     full = Path(os.path.expanduser(pattern))
     full = full if full.is_absolute() else base / full
@@ -279,13 +279,13 @@ def parse_plan(plan: dict, *, source="<plan>", base_dir=None) -> Plan:
     sigs = _method_signatures()
     raw_jobs = plan.get("jobs") or []
     if "jobs" in plan and (not isinstance(raw_jobs, list) or not raw_jobs):
-        err.add("jobs", f"expected a non-empty list of jobs, got {_short(raw_jobs)}")
+        err.add("jobs", f"expected a non-empty list of jobs, got {short_repr(raw_jobs)}")
         raw_jobs = []
     jobs: list[Job] = []
     for i, entry in enumerate(raw_jobs):
         key = f"jobs[{i}]"
         if not isinstance(entry, dict):
-            err.add(key, f"expected a mapping, got {_short(entry)}")
+            err.add(key, f"expected a mapping, got {short_repr(entry)}")
             continue
         gens = [g for g in _GENERATORS if g in entry]
         if gens:
@@ -333,7 +333,7 @@ def _expand_entry(err, key, section, spec, defaults, sigs, threads, base) -> lis
         ok = False
     opts = spec.get("options") or {}
     if not isinstance(opts, dict):
-        err.add(f"{key}.options", f"expected a mapping of options, got {_short(opts)}")
+        err.add(f"{key}.options", f"expected a mapping of options, got {short_repr(opts)}")
         opts, ok = {}, False
     options = {**(defaults.get("options") or {}), **opts}
     for k, v in options.items() if ok else ():
@@ -343,7 +343,7 @@ def _expand_entry(err, key, section, spec, defaults, sigs, threads, base) -> lis
             ok = False
         elif _is_number(sigs[method][k]) and not _is_number(v) and v is not None:
             hint = " (YAML reads 1e-6 as text: write 1.0e-6)" if isinstance(v, str) else ""
-            err.add(where, f"expected a number, got {_short(v)}{hint}")
+            err.add(where, f"expected a number, got {short_repr(v)}{hint}")
             ok = False
     grid = {**defaults.get("grid", {}), **_check_grid(err, f"{key}.grid", spec.get("grid"))}
     inputs = []
@@ -354,7 +354,7 @@ def _expand_entry(err, key, section, spec, defaults, sigs, threads, base) -> lis
     out_key = f"{key}.output" if section == "job" else f"{key}.name"
     template = spec.get("output" if section == "job" else "name", _DEFAULT_OUTPUT[section])
     if not isinstance(template, str) or not template:
-        err.add(out_key, f"expected a file name template, got {_short(template)}")
+        err.add(out_key, f"expected a file name template, got {short_repr(template)}")
         ok = False
     params = {"job": lambda *_: (), "subapertures": _subaperture_params, "tiles": _tile_params}[section](
         err, key, spec, method)

@@ -6,7 +6,7 @@ import click
 from click.core import ParameterSource
 
 from ..autofocus import METHODS as AUTOFOCUS_METHODS
-from ..formers import cost as _cost
+from ..formers import cost
 from ..formers.formation import METHODS
 from .options import (cphd_arguments, cphd_options, echo_notes, export_options, grid_options, handle_errors,
                       parse_pair, prepare_outputs, threads_option, window_options, write_side_outputs, wrote)
@@ -24,15 +24,15 @@ _METHOD_KNOBS = ("eps", "kernel", "oversample", "width", "upsample", "interp", "
               help="Image formation method; auto: the cheapest predicted to meet --tolerance (see sar plan).")
 @window_options
 @grid_options
-@click.option("--eps", type=click.FloatRange(*_cost.EPS_RANGE), default=1e-9, show_default=True,
+@click.option("--eps", type=click.FloatRange(*cost.EPS_RANGE), default=1e-9, show_default=True,
               help="NUFFT accuracy (nufft).")
 @click.option("--kernel", type=click.Choice(["kaiser", "linear"]), default="kaiser", show_default=True,
               help="PFA gridding kernel.")
-@click.option("--oversample", type=click.FloatRange(*_cost.OVERSAMPLE_RANGE), default=2.0, show_default=True,
+@click.option("--oversample", type=click.FloatRange(*cost.OVERSAMPLE_RANGE), default=2.0, show_default=True,
               help="PFA k-grid oversampling.")
-@click.option("--width", type=click.IntRange(*_cost.WIDTH_RANGE), default=6, show_default=True,
+@click.option("--width", type=click.IntRange(*cost.WIDTH_RANGE), default=6, show_default=True,
               help="PFA Kaiser-Bessel kernel width (cells).")
-@click.option("--upsample", type=click.FloatRange(*_cost.UPSAMPLE_RANGE), default=None,
+@click.option("--upsample", type=click.FloatRange(*cost.UPSAMPLE_RANGE), default=None,
               help="Range-profile upsampling (default: backprojection 8; ffbp os-range with optimal (at least 1.5), else 4).")
 @click.option("--interp", type=click.Choice(["linear", "cubic", "lanczos", "optimal"]), default=None,
               help="Backprojection / ffbp interpolator (default cubic / optimal; 'optimal' is ffbp only).")

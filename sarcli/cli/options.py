@@ -13,7 +13,7 @@ import warnings
 
 import click
 
-from ..core import windows as _windows
+from ..core import windows
 from ..errors import NumericalError, SarcliInputError, SarcliWarning
 
 __all__ = ["handle_errors", "grid_options", "export_options", "write_side_outputs", "parse_pair", "echo_info",
@@ -25,7 +25,7 @@ MAX_MESSAGE = 400
 
 def window_choice(default="none", help="Window in range and cross-range (peak of a unit point stays 1)."):
     """``--window`` with the kinds of :data:`sarcli.core.windows.WINDOW_KINDS`."""
-    return click.option("--window", type=click.Choice(_windows.WINDOW_KINDS), default=default,
+    return click.option("--window", type=click.Choice(windows.WINDOW_KINDS), default=default,
                         show_default=default is not None, help=help)
 
 
@@ -33,11 +33,11 @@ def window_options(func=None, *, nbar_dest="taylor_nbar", sll_dest="taylor_sll_d
     """``--window``, ``--taylor-nbar`` and ``--taylor-sll-db``, with the ranges the window module
     accepts (:func:`sarcli.core.windows.check_taylor`)."""
     def decorate(f):
-        lo, hi = _windows.TAYLOR_SLL_DB_RANGE
-        f = click.option("--taylor-sll-db", sll_dest, type=click.FloatRange(lo, hi), default=_windows.TAYLOR_SLL_DB,
+        lo, hi = windows.TAYLOR_SLL_DB_RANGE
+        f = click.option("--taylor-sll-db", sll_dest, type=click.FloatRange(lo, hi), default=windows.TAYLOR_SLL_DB,
                          show_default=True, help="Taylor window peak sidelobe level (dB, negative).")(f)
-        lo, hi = _windows.TAYLOR_NBAR_RANGE
-        f = click.option("--taylor-nbar", nbar_dest, type=click.IntRange(lo, hi), default=_windows.TAYLOR_NBAR,
+        lo, hi = windows.TAYLOR_NBAR_RANGE
+        f = click.option("--taylor-nbar", nbar_dest, type=click.IntRange(lo, hi), default=windows.TAYLOR_NBAR,
                          show_default=True, help="Taylor window number of nearly constant sidelobes.")(f)
         return window_choice()(f)
 
@@ -45,10 +45,10 @@ def window_options(func=None, *, nbar_dest="taylor_nbar", sll_dest="taylor_sll_d
 
 
 def _show_warning(message, category, filename, lineno, file=None, line=None):
-    from .._util.progress import message as _message
+    from .._util.progress import message as say
 
     name = "warning" if not issubclass(category, SarcliWarning) else f"warning ({category.__name__})"
-    _message(f"{name}: {message}")
+    say(f"{name}: {message}")
 
 
 def _one_line(prefix, exc) -> str:

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from ..formers import cost as _cost
+from ..formers import cost
 from .options import grid_options, handle_errors, parse_pair, prepare_outputs, window_options, wrote
 
 
@@ -14,9 +14,9 @@ from .options import grid_options, handle_errors, parse_pair, prepare_outputs, w
 @window_options
 @grid_options
 @click.option("--kernel", type=click.Choice(["kaiser", "linear"]), default="kaiser", show_default=True)
-@click.option("--oversample", type=click.FloatRange(*_cost.OVERSAMPLE_RANGE), default=2.0, show_default=True,
+@click.option("--oversample", type=click.FloatRange(*cost.OVERSAMPLE_RANGE), default=2.0, show_default=True,
               help="k-grid oversampling.")
-@click.option("--width", type=click.IntRange(*_cost.WIDTH_RANGE), default=6, show_default=True,
+@click.option("--width", type=click.IntRange(*cost.WIDTH_RANGE), default=6, show_default=True,
               help="Kaiser-Bessel kernel width (cells).")
 @click.pass_context
 @handle_errors

@@ -13,7 +13,7 @@ import numpy as np
 
 from ..core.geometry import C, bistatic_differential_range
 from ..core.grid import Grid
-from ..core.sampling import INTERPOLATORS as _ALL_INTERPOLATORS, PROFILE_INTERPOLATORS, equally_spaced, frequency_line
+from ..core.sampling import INTERPOLATORS as ALL_INTERPOLATORS, PROFILE_INTERPOLATORS, equally_spaced, frequency_line
 from ..errors import AliasingWarning, SarcliInputError
 from ._bp_kernels import EXACT, GEO_ROWS, min_range, next_fast_len, tiling
 from ._samples import is_lazy
@@ -22,7 +22,7 @@ __all__ = ["INTERPOLATORS", "PAD", "BLOCK", "profile_length", "ProfileWork", "pr
            "check_data"]
 
 #: Interpolation kernels for the range profiles and their codes in the compiled kernels.
-INTERPOLATORS = {name: _ALL_INTERPOLATORS[name].code for name in PROFILE_INTERPOLATORS}
+INTERPOLATORS = {name: ALL_INTERPOLATORS[name].code for name in PROFILE_INTERPOLATORS}
 #: Profile padding on each side (periodic copies), enough for the 6-tap Lanczos-3 stencil.
 PAD = 3
 _PRECISIONS = {"float64": np.float64, "float32": np.float32}

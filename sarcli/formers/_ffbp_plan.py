@@ -14,7 +14,7 @@ import numpy as np
 from ..core.sampling import range_wavenumbers
 from ..core.grid import Grid
 from ..errors import SarcliInputError
-from .ffbp_model import INTERPOLATORS, NTAPS as _NTAPS, angle_interp_error, deapodized_edge_error, deapodized_error
+from .ffbp_model import INTERPOLATORS, NTAPS, angle_interp_error, deapodized_edge_error, deapodized_error
 from .ffbp_model import default_upsample, frequency_error, interp_error, predict_error
 from ._ffbp_grids import level_grid, apertures, band_excess, decide_deapodization
 
@@ -131,7 +131,7 @@ class StageLayout:
         """Every level's polar grids, extended to hold the stencils of the levels after it and of
         the final stage (:func:`layout_stages`)."""
         frames, children, dq = self.frames, self.children, self.dq
-        half = _NTAPS[INTERPOLATORS[self.knobs["interp"]]] // 2
+        half = NTAPS[INTERPOLATORS[self.knobs["interp"]]] // 2
         n_lev = len(frames)
         levels = []
         for l, fr in enumerate(frames):
@@ -152,7 +152,7 @@ class StageLayout:
     def ops(self) -> dict:
         """Operation counts of the stages (:func:`layout_stages`)."""
         levels, merge = self.levels, int(self.knobs["merge"])
-        ntap = _NTAPS[INTERPOLATORS[self.knobs["interp"]]]
+        ntap = NTAPS[INTERPOLATORS[self.knobs["interp"]]]
         n_pix = self.grid.nx * self.grid.ny
         P = self.pos.shape[0]
         ops = {"stage0": float(P) * levels[0].n_u * levels[0].n_q * ntap, "merge": 0.0,
@@ -270,7 +270,7 @@ def layout_stages(antenna_position_m, freq_hz, grid: Grid, *, base=None, merge=N
     kref = range_wavenumbers(0.5 * (fmax + fmin))
     bq, bu = _band or (1.0, 1.0)
     dq = np.pi / (kband / 2 * bq) / knobs["os_range"]
-    half = _NTAPS[INTERPOLATORS[knobs["interp"]]] // 2   # a stencil reaches ntap/2 samples past its point
+    half = NTAPS[INTERPOLATORS[knobs["interp"]]] // 2   # a stencil reaches ntap/2 samples past its point
     n_pix = grid.nx * grid.ny
     margin = MARGIN_PIXELS * max(grid.dx, grid.dy)
     ap = apertures(t, rcv, grid, margin, base, merge)

@@ -112,7 +112,7 @@ from ..errors import SarcliInputError
 from .._util.progress import progress
 from .ffbp_model import INTERPOLATORS, interp_error, optimal_kernel, predict_error
 from .ffbp_model import deapodized_inverse, deapodized_kernel
-from ._ffbp_grids import deapodization as _deapodization
+from ._ffbp_grids import deapodization
 from ._ffbp_plan import (BAND_SLACK, DEFAULTS, OS_ANGLE_DEAPODIZED, OS_RANGE_DEAPODIZED, SUBTREE_BYTES,
                          UPSAMPLE_ANALYTIC, FfbpPlan, StageLayout, layout_stages, plan_stages, subtree_groups)
 
@@ -246,7 +246,7 @@ def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weigh
               (plan.angle_deapodized, plan.angle_rates, 0.0, "os_angle")) if on]
     k_all = range_wavenumbers(f)
     levels = plan.levels
-    deap = _deapodization(f, plan, n_len) if deapodize else None
+    deap = deapodization(f, plan, n_len) if deapodize else None
     img = None   # made at the first final stage (when only the last level is alive); parts add in place
     work = None   # the profiles' buffers, made at the first block
     # the pulses through stage 0 (each group's merges and final stage follow its own pulses)

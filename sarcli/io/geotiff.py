@@ -28,7 +28,7 @@ import tifffile
 from .._util.atomic import atomic_path
 from .._version import __version__
 from ..core.types import Image
-from . import pixels as _common
+from . import pixels
 from .georef import DEFAULT_REFERENCE, reference_point, utm_epsg
 
 _WGS84_A, _WGS84_E2 = 6378137.0, 6.69437999014e-3
@@ -163,15 +163,15 @@ def write_geotiff(img: Image, path, *, kind: str = "magnitude", dynamic_range_db
     dict
         The frame written (see :func:`geotiff_frame`).
     """
-    _common.check_kind(kind, fmt="GeoTIFF")
-    dr = _common.check_dynamic_range(dynamic_range_db)
+    pixels.check_kind(kind, fmt="GeoTIFF")
+    dr = pixels.check_dynamic_range(dynamic_range_db)
     if kind == "magnitude":
-        data = _common.magnitude(img.image)
+        data = pixels.magnitude(img.image)
     elif kind == "db":
-        data = _common.decibels(img.image, dr, relative=False)
+        data = pixels.decibels(img.image, dr, relative=False)
     else:
         data = np.asarray(img.image).astype(np.complex64)
-    data = _common.north_up(data)
+    data = pixels.north_up(data)
     frame = geotiff_frame(img)
     directory, doubles, ascii_ = _geokeys(frame)
     (x0, y0), (dx, dy) = frame["origin"], frame["pixel"]
@@ -181,7 +181,7 @@ def write_geotiff(img: Image, path, *, kind: str = "magnitude", dynamic_range_db
         "kind": kind,
         "units": {"magnitude": "linear |f| (unit point scatterer = 1)", "db": "20*log10|f| dB",
                   "complex": "complex f"}[kind],
-        "orientation": _common.FLIP_NOTE,
+        "orientation": pixels.FLIP_NOTE,
         "raster_type": "PixelIsArea; tie point = upper-left corner of the north-west pixel",
         "crs": frame["proj4"] or LOCAL_CITATION,
         "scene_center_lat_lon_deg": None if ref.is_default else [ref.lat_deg, ref.lon_deg],

@@ -17,17 +17,17 @@ from .._util.atomic import atomic_path
 from .._version import __version__
 from ..errors import SarcliInputError
 from ..core.types import Image
-from . import pixels as _common
+from . import pixels
 
 __all__ = ["write_png", "display_values", "colormap", "png_text"]
 
 
 def display_values(img: Image, *, kind: str = "db", dynamic_range_db: float = 50.0) -> np.ndarray:
     """The 8-bit picture (our row order, row 0 south) before colouring and flipping."""
-    _common.check_kind(kind, ("db", "magnitude"), "PNG")
-    dr = _common.check_dynamic_range(dynamic_range_db)
+    pixels.check_kind(kind, ("db", "magnitude"), "PNG")
+    dr = pixels.check_dynamic_range(dynamic_range_db)
     if kind == "db":
-        return _common.db_to_uint8(img.image, dr)
+        return pixels.db_to_uint8(img.image, dr)
     mag = np.abs(np.asarray(img.image)).astype(np.float64)
     peak = float(mag.max()) if mag.size else 0.0
     scaled = mag / peak if peak > 0 else mag
@@ -54,7 +54,7 @@ def png_text(*, kind: str = "db", dynamic_range_db: float = 50.0, cmap: str = "g
     mapping = (f"20log10(|f|/max|f|) clipped to [-{dynamic_range_db:g}, 0] dB -> 0..255" if kind == "db"
                else "|f|/max|f| -> 0..255")
     layout = ("sarcli image figure: north-up, axes x east and y north in metres, colour bar"
-              if figure else _common.FLIP_NOTE)
+              if figure else pixels.FLIP_NOTE)
     return {"Description": f"{layout}; {mapping}; colormap {cmap}", "Software": f"sarcli {__version__}"}
 
 
@@ -77,7 +77,7 @@ def write_png(img: Image, path, *, kind: str = "db", dynamic_range_db: float = 5
     from PIL import Image as PILImage
     from PIL.PngImagePlugin import PngInfo
 
-    up = _common.north_up(values)
+    up = pixels.north_up(values)
     if cmap in ("gray", "grey", "Greys_r"):
         pic = PILImage.fromarray(up, mode="L")
     else:

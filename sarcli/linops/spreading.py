@@ -13,7 +13,7 @@ from __future__ import annotations
 import finufft
 import numpy as np
 
-from .. import _native
+from .._native import load
 
 __all__ = ["SIGMA", "kernel_table", "kernel_weights", "kernel_series"]
 
@@ -45,7 +45,7 @@ def kernel_weights(x: np.ndarray, table) -> tuple[np.ndarray, np.ndarray]:
     taps, z, v = table
     x = np.ascontiguousarray(x, np.float64)
     first, w = np.empty(x.size, np.int32), np.empty((x.size, taps), np.float32)
-    _native.load("spread").kernel_weights(x, taps, np.ascontiguousarray(v, np.float64), float(z[0]),
+    load("spread").kernel_weights(x, taps, np.ascontiguousarray(v, np.float64), float(z[0]),
                                           float((z[-1] - z[0]) / (z.size - 1)), first, w)
     return first, w
 

@@ -51,7 +51,7 @@ import finufft
 import numpy as np
 import scipy.fft
 
-from .. import _native
+from .._native import load, threads
 from ..core import geometry
 from ..core.grid import Grid
 from ..errors import SarcliInputError
@@ -341,13 +341,13 @@ class _Run:
         into ``out`` (complex64, pixels). Every work array is the run's own, kept between calls:
         fresh arrays of this size cost page faults that outweigh the arithmetic."""
         t = self.toeplitz()
-        extra = max(0, _native.threads() - 1)
+        extra = max(0, threads() - 1)
         if self._scratch.shape[0] < extra:
             self._scratch = np.empty((extra,) + self.shape, np.complex64)
         if not hasattr(self, "_applied"):
             self._applied = np.empty(self.shape, np.complex64)
         pts = (self._i0, self._j0, self._wy, self._wx, self._phase32)
-        kernels = _native.load("spread")
+        kernels = load("spread")
         kernels.spread(*pts, f32, self._grid, self._scratch)
         t.apply(self._grid, out=self._applied)
         kernels.interp(*pts, self._applied, out)
