@@ -10,6 +10,8 @@ needs the kernel's Fourier series, :func:`kernel_series`.
 
 from __future__ import annotations
 
+import functools
+
 import finufft
 import numpy as np
 
@@ -21,10 +23,11 @@ __all__ = ["SIGMA", "kernel_table", "kernel_weights", "kernel_series"]
 SIGMA = 2.0
 
 
+@functools.lru_cache(maxsize=8)
 def kernel_table(eps: float, per_unit: int = 8192) -> tuple[int, np.ndarray, np.ndarray]:
     """FINUFFT's spreading kernel at ``eps`` (σ = 2), read back from its interpolator: its taps
     ``w`` and its values ``φ(z)`` at ``z = −w/2 … w/2`` (node minus point) in steps of ``1/per_unit`` grid cells
-    (linear interpolation between them is exact to ~4e-8 of the peak)."""
+    (linear interpolation between them is exact to ~4e-8 of the peak). Cached (the arrays read-only)."""
     n, reach = 64, 8
     z = np.arange(-reach * per_unit, reach * per_unit + 1) / per_unit
     delta = np.zeros(n, np.complex128)
@@ -35,7 +38,9 @@ def kernel_table(eps: float, per_unit: int = 8192) -> tuple[int, np.ndarray, np.
     support = z[v != 0]
     taps = int(round(support[-1] - support[0]))
     keep = np.abs(z) <= taps / 2
-    return taps, z[keep], v[keep]
+    z, v = z[keep], v[keep]
+    z.flags.writeable = v.flags.writeable = False
+    return taps, z, v
 
 
 def kernel_weights(x: np.ndarray, table) -> tuple[np.ndarray, np.ndarray]:
@@ -51,12 +56,13 @@ def kernel_weights(x: np.ndarray, table) -> tuple[np.ndarray, np.ndarray]:
 
 
 def kernel_series(eps: float, t: np.ndarray) -> np.ndarray:
-    """``Φ̂(t) = Σ_j φ(j) e^{i t j}``: the Fourier series of FINUFFT's spreading kernel (its values
-    at the grid nodes around a point on a node, read back from the spreader itself) at ``t``; real
-    part only (the values are real), so a sum of cosines."""
-    m = 64
-    g = finufft.nufft1d1(np.zeros(1), np.ones(1, np.complex128), m, eps=eps, spreadinterponly=1,
-                         upsampfac=SIGMA, modeord=0).real
-    j = np.arange(m) - m // 2
-    keep = g != 0
-    return np.cos(np.multiply.outer(np.asarray(t, np.float64), j[keep])) @ g[keep]
+    """``Φ̂(t) = Σ_j φ(j) e^{i t j}``: the Fourier series of FINUFFT's spreading kernel sampled at the
+    grid nodes around a point on a node (:func:`kernel_table` at the integers), at ``t``; real
+    (the values are real and the sum is taken as cosines)."""
+    taps, z, v = kernel_table(eps)
+    per_unit = int(round(1.0 / (z[1] - z[0])))
+    j = np.arange(-(taps // 2), taps // 2 + 1)
+    at = np.round((j - z[0]) * per_unit).astype(int)
+    inside = (at >= 0) & (at < z.size)
+    phi = np.where(inside, v[np.clip(at, 0, z.size - 1)], 0.0)
+    return np.cos(np.multiply.outer(np.asarray(t, np.float64), j)) @ phi
