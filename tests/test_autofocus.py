@@ -277,11 +277,11 @@ def test_sparse_scene_without_error_left_unchanged(seed):
 def test_agreement_threshold_is_two_standard_deviations_of_chance():
     """Independent estimates with ``dof`` free parameters exceed the threshold about 2 % of the
     time (one-sided 2σ: 2.3 %)."""
-    from sarcli.autofocus.entropy import _corr, agreement_threshold
+    from sarcli.autofocus._common import agreement_threshold, correlation
 
     rng = np.random.default_rng(0)
     for dof in (10, 60):
-        c = np.array([_corr(*rng.standard_normal((2, dof))) for _ in range(4000)])
+        c = np.array([correlation(*rng.standard_normal((2, dof))) for _ in range(4000)])
         assert 0.01 < np.mean(c > agreement_threshold(dof)) < 0.04
 
 
