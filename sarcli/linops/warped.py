@@ -332,26 +332,32 @@ class _Run:
             # (FᴴWF)[m, m'] = Σ_l w_l e^{-i s_l·(m - m')}: ToeplitzGram's kernel at -s (k1 on columns)
             self._toeplitz = ToeplitzGram(-s1, -s0, self.shape, weights=self.weight2, eps=self._eps)
             self._phase32 = self.image_phase.astype(np.complex64)
-            self._grid = np.empty(self.shape, np.complex64)
-            self._scratch = np.empty((0,) + self.shape, np.complex64)
         return self._toeplitz
 
-    def gram(self, f32, out):
+    def gram(self, f32, out, work: "_RunWork"):
         """``Eᴴ Sᵀ T S E f`` in single precision (the Toeplitz form's own precision at this eps),
-        into ``out`` (complex64, pixels). Every work array is the run's own, kept between calls:
-        fresh arrays of this size cost page faults that outweigh the arithmetic."""
-        t = self.toeplitz()
+        into ``out`` (complex64, pixels), with the work arrays of one :class:`WarpedGram`."""
         extra = max(0, threads() - 1)
-        if self._scratch.shape[0] < extra:
-            self._scratch = np.empty((extra,) + self.shape, np.complex64)
-        if not hasattr(self, "_applied"):
-            self._applied = np.empty(self.shape, np.complex64)
+        if work.scratch.shape[0] < extra:
+            work.scratch = np.empty((extra,) + self.shape, np.complex64)
         pts = (self._i0, self._j0, self._wy, self._wx, self._phase32)
         kernels = load("spread")
-        kernels.spread(*pts, f32, self._grid, self._scratch)
-        t.apply(self._grid, out=self._applied)
-        kernels.interp(*pts, self._applied, out)
+        kernels.spread(*pts, f32, work.grid, work.scratch)
+        work.toeplitz.apply(work.grid, out=work.applied)
+        kernels.interp(*pts, work.applied, out)
         return out
+
+
+class _RunWork:
+    """A Gram's work arrays for one run, kept between calls: fresh arrays of this size cost page
+    faults that outweigh the arithmetic. Each :class:`WarpedGram` has its own, so two of them
+    (:meth:`WarpedGram.concurrent`) run in two threads at once."""
+
+    def __init__(self, run: _Run):
+        self.toeplitz = run.toeplitz().concurrent()
+        self.grid = np.empty(run.shape, np.complex64)
+        self.applied = np.empty(run.shape, np.complex64)
+        self.scratch = np.empty((0,) + run.shape, np.complex64)
 
 
 class WarpedNufftOperator(Linop):
@@ -445,7 +451,12 @@ class WarpedGram(Linop):
             run.toeplitz()
         n = int(np.prod(op.ishape))
         self._f32, self._part = np.empty(n, np.complex64), np.empty(n, np.complex64)   # kept between calls
-        self._lock = threading.Lock()   # the work arrays (here and the runs') serve one call at a time
+        self._work = None    # a _RunWork per run, made on the first product
+        self._lock = threading.Lock()   # the work arrays serve one call at a time
+
+    def concurrent(self) -> "WarpedGram":
+        """The same ``AᴴA`` (the runs' tables shared) with work arrays of its own."""
+        return WarpedGram(self.op)
 
     def _forward(self, x):
         return self._forward_scaled(x, 1.0)
@@ -459,8 +470,10 @@ class WarpedGram(Linop):
             else:
                 np.multiply(np.reshape(x, -1), scale, out=f, casting="same_kind")
             out = np.empty(f.size, np.complex128)
-            for i, run in enumerate(self.op._runs):
-                run.gram(f, part)
+            if self._work is None:
+                self._work = [_RunWork(run) for run in self.op._runs]
+            for i, (run, work) in enumerate(zip(self.op._runs, self._work)):
+                run.gram(f, part, work)
                 if i == 0:
                     out[...] = part
                 else:
