@@ -199,7 +199,7 @@ def test_lam_path_runs_on_half_the_sub_apertures(monkeypatch):
     """Automatic λ on a warped operator of several sub-apertures: the path's Gram has half of them
     (recorded, its products counted with the path's), the final solve the operator held to the
     tolerance; the λ chosen is within 10 % of the one a path on the full operator chooses."""
-    from sarcli.regularize import driver
+    from sarcli.regularize import Problem
 
     acq = circle(P=128, M=64, grid=Grid.square(10.0, 40))
     ph = _data(acq)
@@ -216,9 +216,9 @@ def test_lam_path_runs_on_half_the_sub_apertures(monkeypatch):
     sel = p["lam_selection"]
     assert g["path"] == 2 * sum(sel["path_iterations"]) + 2 * len(sel["path_iterations"])
 
-    def full(op, normal, s_a, s_b, params, half=None):
-        return normal.scaled(s_a, s_b), normal.gram   # the final operator's own (counted) Gram
-    monkeypatch.setattr(driver, "_path_normal_equations", full)
+    def full(problem, params):
+        return problem.scaled, problem.counter   # the final operator's own (counted) normal equations
+    monkeypatch.setattr(Problem, "path_normal", full)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         ref = regularize(ph, **kw)
