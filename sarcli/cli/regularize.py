@@ -71,7 +71,10 @@ def command(ctx, input_path, output, outside_path, init_path, center, extent, pi
 
     from ..core.grid import resolve_grid
     from ..formers.cost import check_regularize
+    from .._util.resources import retain_freed_memory
     from .options import prepare_outputs
+
+    retain_freed_memory()   # each iteration makes and drops image-sized arrays
 
     prepare_outputs([("input", input_path), ("--init", init_path), ("--outside", outside_path)],
                     [("output", output), ("--png", png_path), ("--geotiff", tif_path), ("--history-png", history_png)])
