@@ -60,8 +60,7 @@ def _parse_lam(text):
 @export_options
 @click.pass_context
 @handle_errors
-def command(ctx, input_path, output, outside_path, init_path, center, extent, pixel_size, history_png, png_path,
-            tif_path, **knobs):
+def command(ctx, input_path, output, **knobs):
     """Regularised image of a phase history: min ‖Af − b‖² + λ‖Tf‖₁ (ADMM) or Tikhonov (CG)."""
     from ..io import open_input
     from ..io.hdf5 import write_image
@@ -76,6 +75,9 @@ def command(ctx, input_path, output, outside_path, init_path, center, extent, pi
 
     retain_freed_memory()   # each iteration makes and drops image-sized arrays
 
+    outside_path, init_path, history_png = knobs.pop("outside_path"), knobs.pop("init_path"), knobs.pop("history_png")
+    center, extent, pixel_size = knobs.pop("center"), knobs.pop("extent"), knobs.pop("pixel_size")
+    png_path, tif_path = knobs.pop("png_path"), knobs.pop("tif_path")
     prepare_outputs([("input", input_path), ("--init", init_path), ("--outside", outside_path)],
                     [("output", output), ("--png", png_path), ("--geotiff", tif_path), ("--history-png", history_png)])
     knobs["isotropic"] = not knobs.pop("anisotropic")
