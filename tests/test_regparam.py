@@ -355,10 +355,11 @@ def test_progress_and_notice_cover_the_path_and_the_final_solve(disk, monkeypatc
     assert ticks_at_notice == [power]
     assert 0 < img.parameters["predicted_s"] < img.parameters["predicted_max_s"]
     # every AᴴA product is counted: the scaling's, two solvers per path point (one at the start and
-    # one per iteration each), the final solve's (one at the start and one per iteration)
+    # one per iteration each) and the one that times the path for the forecast, the final solve's
+    # (one at the start and one per iteration)
     counts = img.parameters["gram_products"]
     assert counts["scaling"] == power
-    assert counts["path"] == 2 * (sum(sel["path_iterations"]) + len(sel["path_iterations"]))
+    assert counts["path"] == 2 * (sum(sel["path_iterations"]) + len(sel["path_iterations"])) + 1
     assert counts["final"] == img.parameters["iterations"] + 1
     assert counts["total"] == counts["scaling"] + counts["path"] + counts["final"]
     notes.clear()

@@ -16,7 +16,7 @@ _LAZY = {
     "PRIORS": "finite_diff", "NufftOperator": "fourier", "SubsampledDFT": "fourier",
     "wrapped_pixel_frequencies": "fourier", "ToeplitzGram": "toeplitz", "NormalEquations": "toeplitz",
     "normal_equations": "toeplitz", "SphericalOperator": "spherical",
-    "WarpedNufftOperator": "warped",
+    "WarpedNufftOperator": "warped", "WarpedGram": "warped_gram",
 }
 #: The compiled reductions of ``_reduce`` that the solvers and the regulariser use, public here.
 _LAZY.update({name: "_reduce" for name in (

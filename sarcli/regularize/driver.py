@@ -20,7 +20,8 @@ from ..formers.cost import regularize_bytes
 from ..solvers import ADMM, tikhonov
 from ..linops import sparsifying_operator
 from .forecast import Forecast, solver_overhead
-from .lampath import PATH_FIRST_ITERS, PATH_ITERS, auto_lambda
+from .._native import using_threads
+from .lampath import PATH_FIRST_ITERS, PATH_ITERS, auto_lambda, path_normal
 from .options import (DEFAULT_BETA_RATIO, DEFAULT_LAM, OPERATORS, PRIORS, RegularizeOptions)
 from .problem import Problem, matched_filter, scale_problem
 from .regparam import SELECT_PATH
@@ -83,7 +84,8 @@ class Regularization:
         o = self.options
         self.lam = DEFAULT_LAM[o.prior] if o.auto else float(o.lam)
         self.beta = float(o.beta) if o.beta is not None else DEFAULT_BETA_RATIO * self.lam
-        self.problem = self.forecast = self.u0 = None
+        self.problem = self.forecast = self.u0 = self.path = None
+        self._path_start = 0
         self.params, self.products = {}, {}
 
     def tick(self, k: int) -> None:
@@ -109,8 +111,7 @@ class Regularization:
             path_cap = 2 * (PATH_ITERS * (len(SELECT_PATH) - 1) + PATH_FIRST_ITERS) if o.auto else 0
             self.progress.reset(total=pb.power_iters + path_cap + o.iters)
             self.progress.set_description(f"regularize {o.prior}: scaling")
-        self.forecast = Forecast(o.prior, pb.operator, pb.power_iters, o.iters, o.auto, self.notice, self.tick,
-                                 path_cost=pb.path_cost)
+        self.forecast = Forecast(o.prior, pb.operator, pb.power_iters, o.iters, o.auto, self.notice, self.tick)
         scaled = pb.scale(callback=self.forecast.on_power)
         self.params = {**pb.parameters(), "lam": self.lam, "beta": self.beta}
         self.products = {"scaling": pb.counter.count}
@@ -120,9 +121,28 @@ class Regularization:
         self.T, self.D = pb.transforms()
         memory = regularize_bytes(*self.ph.data.shape, self.grid, pb.operator, np.dtype(self.ph.data.dtype).itemsize,
                                   auto=o.auto)
-        self.forecast.announce(solver_overhead(self.T, self.D, pb.mf), memory)
+        overhead = solver_overhead(self.T, self.D, pb.mf)
+        if o.auto:
+            self._time_path(overhead)
+        self.forecast.announce(overhead, memory)
         self.params.update(self.forecast.estimate)
         return True
+
+    def _time_path(self, overhead: float) -> None:
+        """The λ path's normal equations (:meth:`Problem.path_normal`), and one of its products and
+        its solver's passes timed as the path will run them (the probe's solver beside the other,
+        each with its share of the threads): the forecast's path term. The product is the path's."""
+        pb = self.problem
+        self._path_start = pb.counter.count
+        self.path = path_normal(*pb.path_normal(self.params))
+        with using_threads(None if self.path.split is None else self.path.split[1]):
+            x = pb.mf * (pb.s_a / pb.s_b)
+            t0 = time.perf_counter()
+            self.path.normal.gram.forward(x)
+            product = time.perf_counter() - t0
+            if self.path.split is not None:
+                overhead = solver_overhead(self.T, self.D, pb.mf)
+        self.forecast.path_timed(product, overhead, side_by_side=self.path.split is not None)
 
     def choose_lambda(self) -> None:
         """λ (and β at the kept ratio) by the warm-started path; its last solution warm-starts the
@@ -130,10 +150,10 @@ class Regularization:
         pb, o = self.problem, self.options
         if self.progress is not None:
             self.progress.set_description(f"regularize {o.prior}: lam path")
-        normal, counter = pb.path_normal(self.params)
-        before = pb.counter.count
-        self.lam, self.beta, self.u0 = auto_lambda(pb, normal, self.T, self.D, self.u0, self.params, self.tick)
-        self.products["path"] = pb.counter.count - before + (counter.count if counter is not pb.counter else 0)
+        self.lam, self.beta, self.u0 = auto_lambda(pb, self.path, self.T, self.D, self.u0, self.params, self.tick)
+        counter = self.path.counter
+        self.products["path"] = pb.counter.count - self._path_start + (counter.count if counter is not pb.counter else 0)
+        self.path = None
         if self.progress is not None:
             # the path stopped early: the total shrinks to what is left (not reset, so the bar's rate
             # and time estimate carry on)

@@ -75,21 +75,30 @@ class Forecast:
     Expected: the scaling, a λ path of :data:`PATH_POINTS` points of ``PATH_ITERS + 1`` iterations
     for each of its two solvers (the first point ``PATH_FIRST_ITERS + 1``), and a final solve of
     :data:`FINAL_SHARE` of ``iters``; the bound: the path down to its floor and the final solve to
-    its cap. Each iteration costs one product (two for CG, which logs its residual; a path product
-    ``path_cost`` of a final one: the warped operator's path runs on half the sub-apertures) plus
-    the solver's passes over the image (differences, shrinkage, reductions), measured by
-    :func:`solver_overhead`: with a fast operator they are a third of an iteration.
+    its cap. Each iteration costs one product (two for CG, which logs its residual) plus the
+    solver's passes over the image (differences, shrinkage, reductions), measured by
+    :func:`solver_overhead`: with a fast operator they are a third of an iteration. A path
+    iteration is timed as the path runs it (:meth:`path_timed`: its own operator, for a warped one
+    half the sub-apertures; the two solvers side by side on their share of the threads).
     """
 
-    def __init__(self, prior, operator, power_iters, iters, auto, notice, tick, path_cost=1.0):
+    def __init__(self, prior, operator, power_iters, iters, auto, notice, tick):
         self.per = 2 if prior == "tikhonov" else 1
         self.path_points = len(SELECT_PATH) + int(np.floor(np.log(min(SELECT_PATH) / LAM_MIN) /
                                                            np.log(SELECT_PATH[0] / SELECT_PATH[1]) + 1e-9))
         self.first = min(iters, PATH_FIRST_ITERS) - min(iters, PATH_ITERS)  # the first point's extra iterations
-        self.power_iters, self.path_cost = power_iters, path_cost
+        self.power_iters = power_iters
         self.prior, self.operator, self.iters, self.auto = prior, operator, iters, auto
         self.notice, self.tick, self.estimate, self.t = notice, tick, {}, [time.perf_counter()]
         self.gram_s = None
+        self.path_s = None   # one path iteration of one solver, timed (:meth:`path_timed`)
+        self.side_by_side = False
+
+    def path_timed(self, product_s: float, overhead_s: float, *, side_by_side: bool) -> None:
+        """One of the path's products and its solver's passes, timed as the path runs them;
+        ``side_by_side``: its two solvers run at once (an iteration of both costs one of either)."""
+        self.path_s = self.per * product_s + overhead_s
+        self.side_by_side = bool(side_by_side)
 
     def _path_iterations(self, points):
         return 2 * ((PATH_ITERS + 1) * points + self.first) if self.auto else 0
@@ -105,8 +114,11 @@ class Forecast:
     def seconds(self, path_points, final_iterations, overhead_s):
         """Seconds of the scaling, a path of ``path_points`` and a final solve of ``final_iterations``."""
         g, path = self.gram_s, self._path_iterations(path_points)
-        return (g * self.power_iters + path * (self.per * self.path_cost * g + overhead_s)
-                + final_iterations * (self.per * g + overhead_s))
+        if self.path_s is None:
+            path_s = path * (self.per * g + overhead_s)
+        else:
+            path_s = path * self.path_s / (2 if self.side_by_side else 1)
+        return g * self.power_iters + path_s + final_iterations * (self.per * g + overhead_s)
 
     def announce(self, overhead_s: float, memory_bytes: float | None = None) -> None:
         """Record the estimate (``predicted_s``, ``predicted_max_s``, ``seconds_per_product``,

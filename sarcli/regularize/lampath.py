@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import warnings
 from concurrent.futures import ThreadPoolExecutor
+from typing import NamedTuple
 
 import numpy as np
 
@@ -22,7 +23,7 @@ from ..solvers import ADMM, tikhonov
 from . import regparam
 from .regparam import LAM_MIN, mc_dof
 
-__all__ = ["PathSolver", "auto_lambda", "PATH_ITERS", "PATH_TOL", "PATH_CG_TOL", "PATH_FIRST_ITERS", "LAM_MAX",
+__all__ = ["PathSolver", "PathNormal", "path_normal", "auto_lambda", "PATH_ITERS", "PATH_TOL", "PATH_CG_TOL", "PATH_FIRST_ITERS", "LAM_MAX",
            "PROBE_SEED", "PROBE_STEP"]
 
 #: Iteration cap and tolerance of each solve on the λ path of ``lam='auto'`` (each warm-started
@@ -39,6 +40,26 @@ LAM_MAX = {"l1": 1.0, "tv": 10.0, "hotv": 10.0, "ptv": 10.0, "tikhonov": 10.0}
 #: relative to the RMS of the scaled data.
 PROBE_SEED, PROBE_STEP = 26, 1e-2
 
+class PathNormal(NamedTuple):
+    """What the path solves with: the scaled normal equations and their counter, and for the
+    probe's solver a concurrent copy of the Gram (``twin``) with the threads of the caller and of
+    the probe (``split``), both None where the two solvers take turns."""
+
+    normal: NormalEquations
+    counter: object
+    twin: object = None
+    split: tuple | None = None
+
+
+def path_normal(normal, counter) -> PathNormal:
+    """:class:`PathNormal` of ``normal``: side by side where its Gram can be applied from two
+    threads at once (:meth:`~sarcli.linops.base.Linop.concurrent`) and the kernels have two
+    threads or more (:func:`sarcli._native.threads`)."""
+    n = threads()
+    twin = normal.gram.concurrent() if n > 1 else None
+    return PathNormal(normal, counter, twin, None if twin is None else (n - n // 2, n // 2))
+
+
 class PathSolver:
     """``solve(lam) -> (u, ‖Âu − b̂‖², dof)`` for :func:`sarcli.regularize.regparam.select_lambda`.
 
@@ -54,22 +75,21 @@ class PathSolver:
     two (a transform of this size gains little from a second thread). :meth:`close` ends it.
     """
 
-    def __init__(self, problem, scaled, T, D, u0, tick):
-        op, data, s_a, s_b = problem.op, problem.ph.data, problem.s_a, problem.s_b
+    def __init__(self, problem, path: PathNormal, T, D, u0, tick):
+        op, data, s_a, s_b, scaled = problem.op, problem.ph.data, problem.s_a, problem.s_b, path.normal
         iters = problem.options.iters
         rng = np.random.default_rng(PROBE_SEED)
         eps = (rng.standard_normal(data.shape) + 1j * rng.standard_normal(data.shape)) / np.sqrt(2.0)
         self.delta = PROBE_STEP * float(np.sqrt(scaled.bnorm2 / data.size))
         self.probe_adjoint = np.asarray(op.adjoint(eps), np.complex128) / s_a
         b_pert = data / s_b + self.delta * eps
-        n = threads()
-        twin = scaled.gram.concurrent() if n > 1 else None
-        self.perturbed = NormalEquations(scaled.gram if twin is None else twin,
+        self.perturbed = NormalEquations(scaled.gram if path.twin is None else path.twin,
                                          scaled.atb + self.delta * self.probe_adjoint,
                                          float(np.vdot(b_pert, b_pert).real))
         # (threads of the calling thread, of the probe's) while the path runs
-        self.split = None if twin is None else (n - n // 2, n // 2)
-        self._pool = None if twin is None else ThreadPoolExecutor(1, initializer=threads, initargs=(n // 2,))
+        self.split = path.split
+        self._pool = None if path.split is None else \
+            ThreadPoolExecutor(1, initializer=threads, initargs=(path.split[1],))
         self.scaled, self.D, self.T = scaled, D, T
         self.beta_ratio, self.isotropic = problem.options.beta_ratio, problem.options.isotropic
         self.u = self.up = u0
@@ -126,16 +146,17 @@ class PathSolver:
         return u, r2, mc_dof(self.probe_adjoint, self.delta, u, up)
 
 
-def auto_lambda(problem, scaled, T, D, u0, params, tick):
+def auto_lambda(problem, path: PathNormal, T, D, u0, params, tick):
     """λ by SURE (noise power known) or modified GCV (:func:`sarcli.regularize.regparam.select_lambda`)
     on the path of ``problem`` (a scaled :class:`~sarcli.regularize.problem.Problem`) solved with
-    the normal equations ``scaled``; records the choice in ``params['lam_selection']``.
+    ``path``; records the choice in ``params['lam_selection']``.
     Returns ``(lam, beta, warm start)``."""
     ph, grid, prior, s_b = problem.ph, problem.grid, problem.options.prior, problem.s_b
     beta_ratio, iters = problem.options.beta_ratio, problem.options.iters
     sigma2, source = regparam.noise_power(ph, grid)
     n = ph.data.size
-    path = PathSolver(problem, scaled, T, D, u0, tick)
+    scaled = path.normal
+    path = PathSolver(problem, path, T, D, u0, tick)
     s2_scaled = None if sigma2 is None else sigma2 / s_b**2
     kappa = regparam.speckle_fraction(grid.nx * grid.ny, n)
     try:

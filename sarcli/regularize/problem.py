@@ -172,15 +172,6 @@ class Problem:
         far-field forms share 30 so that 'nufft' and 'toeplitz' scale identically)."""
         return 10 if self.operator in ("spherical", "warped") else 30
 
-    @property
-    def path_cost(self) -> float:
-        """A λ-path product's cost in final products: a warped product costs about (runs + 1)
-        units (the spreading per run, the FFTs of all runs about one more: each run's grid widens
-        as the runs lengthen); the path has half the runs."""
-        if self.operator != "warped":
-            return 1.0
-        return (max(1, self.op.subapertures // 2) + 1) / (self.op.subapertures + 1)
-
     def scale(self, callback=None) -> bool:
         """Compute the scaling (:func:`scale_problem`); False when there are no data to fit."""
         self.scaled, self.s_a, self.s_b = scale_problem(self.normal, power_iters=self.power_iters,
