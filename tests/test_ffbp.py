@@ -149,8 +149,8 @@ def test_ffbp_farfield_through_form_image():
     assert err <= 1e-3   # measured 1.2e-4
     # virtual antennas ~1e9 m away: stage 0's range series would round too much, so it is not used
     import sarcli.formers._ffbp_stage0 as mod
-    from sarcli.formers.formation import _positions
-    pos, _, r0 = _positions(ph, GRID)
+    from sarcli.formers.families import range_positions
+    pos, _, r0 = range_positions(ph, GRID)
     plan = plan_stages(pos, FREQ, GRID)
     assert not mod.series_inputs(pos, pos, r0, plan.levels[0], plan.dq, 4 * np.pi * FREQ.max() / geometry.C)[1].any()
     pred = img.parameters["predicted_error"]

@@ -80,9 +80,10 @@ def test_ffbp_fit_recovers_constants_and_keeps_a_floor():
     """The fit of ffbp's four constants: exact where the settings separate the terms; where the
     timings would send a term to 0, it keeps FFBP_FLOOR of its default-ratio share instead."""
     from sarcli.formers.calibration import DEFAULT_COSTS
-    from sarcli.formers.planner import _FFBP_TERMS, FFBP_FLOOR, _fit_ffbp
+    from sarcli.formers.cost import FFBP_TERMS
+    from sarcli.formers.planner import FFBP_FLOOR, _fit_ffbp
 
-    d = np.array([DEFAULT_COSTS[name] for name, _ in _FFBP_TERMS])
+    d = np.array([DEFAULT_COSTS[name] for name, _ in FFBP_TERMS])
     rows = np.random.default_rng(0).uniform(1e6, 1e8, (6, 4))
     true = d * np.array([2.0, 0.5, 1.0, 3.0])
     np.testing.assert_allclose(_fit_ffbp(rows, rows @ true), true, rtol=1e-9)
@@ -94,12 +95,12 @@ def test_cost_model_has_every_constant():
     """Every former's constants are positive, ffbp's four fitted ones included (each keeps a
     floor, :func:`sarcli.formers.planner._fit_ffbp`), and they give a plan a positive time."""
     from sarcli.formers import ffbp as fb
-    from sarcli.formers.planner import _FFBP_TERMS, ffbp_seconds
+    from sarcli.formers.cost import FFBP_TERMS, ffbp_seconds
 
     c = load_cost_model()
     for key in ("direct", "bp", "nufft_spread", "subimage_point"):
         assert c[key] > 0
-    assert all(c[name] > 0 for name, _ in _FFBP_TERMS)
+    assert all(c[name] > 0 for name, _ in FFBP_TERMS)
     a = geometry.antenna_positions_circle(np.radians(np.linspace(-3, 3, 64)), np.radians(30), 1e4)
     plan = fb.plan_stages(a, 9.6e9 + 4e6 * np.arange(64), Grid(64, 64, 0.5, 0.5))
     assert ffbp_seconds(c, plan.ops, 64, 128) > c["bp_fft"] * 64 * 128 * 7

@@ -28,7 +28,7 @@ def command(ctx, input_path, output, window, taylor_nbar, taylor_sll_db, center,
     from ..io import open_input
     from ..io.hdf5 import write_kgrid
 
-    from ..formers.cost import check_form_image
+    from ..formers.formation import check_form_image
 
     prepare_outputs([("input", input_path)], [("output", output)])
     _, ph = open_input(input_path, expect=("phase-history", "gotcha", "cphd"), truth=False)

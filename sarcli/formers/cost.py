@@ -1,29 +1,33 @@
 """Cost of image formation before it starts: knob ranges, memory and time estimates.
 
-The command line checks every size-driving knob here before anything is allocated
-(:func:`check_form_image`, :func:`check_regularize`); beyond the memory limit
-(:func:`sarcli._util.resources.memory_limit`, ``sar --max-memory``) the run is refused with the
-estimate and the limit. The estimates are upper-bound models of each former's working arrays
-(bytes), not measurements; the time warning of the exact ``direct`` former takes the spherical
-sum's rate from the planner's cost model of this machine and the far field's from
-:data:`DIRECT_RATE`.
+One home for the models of every former's cost: its peak working memory
+(:func:`form_image_bytes`, one model per family) and its seconds (:func:`direct_seconds`,
+:func:`nufft_seconds`, :func:`bp_seconds`, :func:`ffbp_seconds`, :func:`subimage_seconds`:
+operation counts times the per-operation constants of :mod:`sarcli.formers.calibration`). A
+former's plan (:mod:`sarcli.formers.former`) reads them, and through it
+:func:`sarcli.formers.formation.form_image` (which refuses a plan beyond the memory limit,
+:func:`sarcli._util.resources.memory_limit`, ``sar --max-memory``, and warns before a long
+``direct``), the planner and ``sar plan``. The memory estimates are upper-bound models of each
+former's working arrays (bytes), not measurements.
 """
 
 from __future__ import annotations
 
 import math
-import os
 import warnings
+from dataclasses import dataclass
 
 import numpy as np
+
 
 from .._util.resources import check_memory
 from ..core import sampling
 from ..errors import SarcliInputError, SarcliWarning
 
-__all__ = ["UPSAMPLE_RANGE", "OVERSAMPLE_RANGE", "WIDTH_RANGE", "EPS_RANGE", "check_knobs",
-           "form_image_bytes", "direct_seconds", "bp_seconds", "bp_units", "bp_constants", "check_form_image", "regularize_bytes", "check_regularize",
-           "DIRECT_WARN_S"]
+__all__ = ["UPSAMPLE_RANGE", "OVERSAMPLE_RANGE", "WIDTH_RANGE", "EPS_RANGE", "check_knobs", "Samples", "threads",
+           "form_image_bytes", "kgrid_bytes", "direct_seconds", "nufft_width", "nufft_seconds", "n_tiles",
+           "subimage_seconds", "bp_seconds", "bp_units", "bp_constants", "FFBP_TERMS", "ffbp_counts", "ffbp_seconds",
+           "regularize_bytes", "check_regularize", "DIRECT_WARN_S"]
 
 #: backprojection range-profile upsampling (1: no upsampling; 64 reaches 1e-5 peak accuracy)
 UPSAMPLE_RANGE = (1.0, 64.0)
@@ -33,10 +37,6 @@ OVERSAMPLE_RANGE = (1.25, 16.0)
 WIDTH_RANGE = (2, 16)
 #: NUFFT requested accuracy (FINUFFT's reachable range in float64)
 EPS_RANGE = (1e-15, 1e-1)
-#: sample x pixel terms per second of ``direct`` per core, far field (BLAS products): a
-#: conservative rate, used only to warn before a long run; the spherical sum's rate is the
-#: planner's calibrated constant
-DIRECT_RATE = {"farfield": 8e8}
 #: estimated ``direct`` run time (s) beyond which a faster method is suggested first
 DIRECT_WARN_S = 30.0
 _C16 = 16
@@ -56,8 +56,56 @@ def check_knobs(*, upsample=None, oversample=None, width=None, eps=None) -> None
             raise SarcliInputError(f"{name} must be in [{lo:g}, {hi:g}], got {v:g}")
 
 
-def _kgrid_cells(acq, grid, oversample) -> float:
-    """Cells of the PFA k-grid: the bounding box of the k-space samples at the grid's k spacing."""
+@dataclass(frozen=True)
+class Samples:
+    """What the memory models need of a collection: its shape, the bytes of one stored sample (8
+    for complex64, 16 for complex128), whether the samples stay on disk (a
+    :class:`sarcli.io.pulses.PulseSource`: a former that reads them by blocks of pulses then holds
+    one block) and the data model."""
+
+    n_pulses: int
+    n_freq: int
+    itemsize: int = _C16
+    streamed: bool = False
+    model: str = "farfield"
+
+    @classmethod
+    def of(cls, ph) -> "Samples":
+        from ._samples import is_lazy
+
+        p, m = ph.data.shape
+        return cls(int(p), int(m), int(np.dtype(ph.data.dtype).itemsize), bool(is_lazy(ph.data)),
+                   getattr(ph, "model", None) or ph.acquisition.model)
+
+    def by_blocks(self, method: str) -> bool:
+        """Whether ``method`` reads the samples by blocks of pulses (backprojection, ffbp, the
+        spherical matched filter)."""
+        return method in ("backprojection", "ffbp") or (method == "direct" and self.model == "spherical")
+
+    def rows(self, method: str) -> float:
+        """Pulses ``method`` holds at once: one block of them when the samples stay on disk and it
+        reads by blocks, else all."""
+        from ._bp_setup import BLOCK
+
+        if self.streamed and self.by_blocks(method):
+            return float(min(self.n_pulses, BLOCK))
+        return float(self.n_pulses)
+
+    def held(self, method: str) -> float:
+        """Bytes of samples ``method`` holds at their stored size."""
+        return self.rows(method) * self.n_freq * self.itemsize
+
+
+def threads(nthreads, costs) -> int:
+    """Threads a time is predicted for: ``nthreads``, else those the cost model was measured on."""
+    return max(1, int(nthreads or costs.get("threads", 2)))
+
+
+def kgrid_bytes(acq, grid, oversample) -> float:
+    """Bytes of the PFA k-grid: the bounding box of the k-space samples at the grid's k spacing
+    (``acq`` None: ``oversample²`` times the pixels), complex128."""
+    if acq is None:
+        return oversample**2 * float(grid.nx) * grid.ny * _C16
     from ..core.geometry import kspace_coordinates
 
     f = np.asarray(acq.frequency_hz, dtype=np.float64)
@@ -66,51 +114,89 @@ def _kgrid_cells(acq, grid, oversample) -> float:
     kx, ky = kspace_coordinates(ends, acq.azimuth_rad, acq.elevation_rad)
     dkx = 2 * np.pi / (oversample * grid.nx * grid.dx)
     dky = 2 * np.pi / (oversample * grid.ny * grid.dy)
-    return (np.ptp(kx) / dkx + 1) * (np.ptp(ky) / dky + 1)
+    return (np.ptp(kx) / dkx + 1) * (np.ptp(ky) / dky + 1) * _C16
 
 
-def form_image_bytes(method, n_pulses, n_freq, grid, *, model="farfield", acq=None, oversample=2.0,
-                     upsample=8.0, precision="float64", streamed=False, itemsize=_C16) -> float:
-    """Upper-bound estimate of the peak working memory (bytes) of :func:`form_image`.
+def form_image_bytes(method, samples: Samples, grid, *, acq=None, oversample=2.0, upsample=16.0,
+                     precision="float64", grid_bytes=0.0, threads=1) -> float:
+    """Upper-bound estimate of the peak working memory (bytes) of one former, the one memory
+    model of each family.
 
-    ``streamed``: the samples are left on disk (a :class:`sarcli.io.pulses.PulseSource`); the formers
-    that read them by blocks of pulses (backprojection, ffbp, the spherical matched filter) then
-    hold one block, not the collection. ``itemsize``: bytes per stored sample (8 for complex64,
-    16 for complex128); the weighted copy the formers work on is complex128.
+    ``samples``: the collection (:class:`Samples`). Every former holds its samples
+    (:meth:`Samples.held`); most also a complex128 weighted copy of them and the image with an
+    accumulator. ``acq``, ``oversample``: the PFA k-grid's size (:func:`kgrid_bytes`);
+    ``upsample``, ``precision``: backprojection's profiles; ``grid_bytes``: ffbp's polar grids
+    (its plan's ``ops['grid_bytes']``); ``threads``: subimage's tiles formed at once.
     """
-    pm = float(n_pulses) * float(n_freq)
+    held = samples.held(method)
+    pm = samples.rows(method) * samples.n_freq
     npix = float(grid.nx) * float(grid.ny)
-    if streamed and (method in ("backprojection", "ffbp") or method == "direct" and model == "spherical"):
-        from ._bp_setup import BLOCK
-
-        pm = min(float(n_pulses), float(BLOCK)) * float(n_freq)  # one block of pulses
-    base = pm * (itemsize + _C16) + 2 * npix * _C16  # data + weighted copy, image + accumulator
+    base = held + pm * _C16 + 2 * npix * _C16  # data + weighted copy, image + accumulator
     if method == "direct":
-        return base + (npix * 24 if model == "spherical" else 0) + 96 * 2**20
-    if method == "nufft":
-        return base + 4 * npix * _C16 + pm * 48
+        return base + (npix * 24 if samples.model == "spherical" else 0) + 96 * 2**20
     if method == "pfa":
-        cells = _kgrid_cells(acq, grid, oversample) if acq is not None else oversample**2 * npix
-        return base + 3 * cells * _C16
+        return base + 3 * kgrid_bytes(acq, grid, oversample)
     if method == "backprojection":
         from ._bp_setup import BLOCK, profile_length
 
-        length = float(profile_length(int(n_freq), float(upsample))) if upsample <= 1e6 else upsample * n_freq
+        length = float(profile_length(int(samples.n_freq), float(upsample))) if upsample <= 1e6 \
+            else upsample * samples.n_freq
         item = 8 if precision == "float32" else 16
-        return base + 5 * min(BLOCK, n_pulses) * length * item + npix * item
-    return base + 4 * npix * _C16 + pm * 48  # other formers: NUFFT-like
+        return base + 5 * min(BLOCK, samples.n_pulses) * length * item + npix * item
+    if method == "ffbp":   # the samples by blocks, the polar grids of two adjacent levels, the image
+        return held + grid_bytes + _C16 * npix
+    if method == "subimage" and samples.model == "spherical":   # per tile at once: the phased samples
+        return held + _C16 * ((4 * threads - 1) * pm + 2 * npix)
+    return base + 4 * npix * _C16 + pm * 48  # nufft (and subimage's one tile of far-field data)
 
 
-def direct_seconds(n_pulses, n_freq, n_pixels, model="farfield", nthreads=None) -> float:
-    """Estimated run time (s) of the exact ``direct`` former: spherical from the planner's cost
-    model of this machine (:mod:`sarcli.formers.calibration`), far field from :data:`DIRECT_RATE`."""
-    cores = nthreads or os.cpu_count() or 1
-    terms = float(n_pulses) * n_freq * n_pixels
-    if model == "farfield":
-        return terms / (DIRECT_RATE["farfield"] * cores)
+def direct_seconds(n_pulses, n_freq, n_pixels, nthreads=None, costs=None) -> float:
+    """Predicted seconds of the exact ``direct`` former: one calibrated constant per sample x
+    pixel term (:mod:`sarcli.formers.calibration`), far-field and spherical alike."""
     from .calibration import load_cost_model
 
-    return terms * load_cost_model()["direct"] / cores      # seconds per term on one core
+    c = load_cost_model() if costs is None else costs
+    return float(n_pulses) * n_freq * n_pixels * c["direct"] / threads(nthreads, c)
+
+
+def nufft_width(eps: float) -> int:
+    """FINUFFT's kernel width (cells) at accuracy ``eps``."""
+    return int(min(16, max(2, math.ceil(-math.log10(eps)) + 1)))
+
+
+def nufft_seconds(c, n_samples, ny, nx, eps, threads=1) -> float:
+    """Predicted seconds of one type-1 NUFFT: spreading ``n_samples`` with a ``w²`` kernel and the
+    FFT of the twice-oversampled grid."""
+    w = nufft_width(eps)
+    n_fft = 4.0 * nx * ny
+    return (c["nufft_spread"] * n_samples * w * w + c["nufft_fft"] * n_fft * math.log2(max(n_fft, 2))) / threads
+
+
+def n_tiles(grid, tile) -> int:
+    """Tiles of side ``tile`` covering ``grid``."""
+    return math.ceil(grid.nx / tile) * math.ceil(grid.ny / tile)
+
+
+def subimage_seconds(c, n_samples, tiles, eps, threads=1) -> float:
+    """Predicted seconds of the sub-image NUFFT: ``tiles`` NUFFTs of every sample."""
+    return tiles * c["subimage_point"] * n_samples * nufft_width(eps) ** 2 / threads
+
+
+#: ffbp's per-operation constants and the plan counts (``FfbpPlan.ops``) they multiply.
+FFBP_TERMS = (("ffbp_stage0", ("stage0",)), ("ffbp_node0", ("stage0_nodes",)), ("ffbp_mac", ("merge", "final")),
+              ("ffbp_pair", ("pairs",)))
+
+
+def ffbp_counts(ops) -> list:
+    """The operation counts of an ffbp plan that :data:`FFBP_TERMS`' constants multiply."""
+    return [sum(ops.get(k, 0.0) for k in keys) for _, keys in FFBP_TERMS]
+
+
+def ffbp_seconds(c, ops, n_pulses, profile_len, threads=1) -> float:
+    """Predicted ffbp time: the plan's operation counts times the calibrated constants, plus the
+    range profiles' FFTs."""
+    work = sum(c.get(name, 0.0) * n for (name, _), n in zip(FFBP_TERMS, ffbp_counts(ops)))
+    return (work + c["bp_fft"] * n_pulses * profile_len * math.log2(profile_len)) / threads
 
 
 def bp_seconds(c, n_pulses, n_freq, n_pixels, interp, upsample, tile_cost, nthreads) -> float:
@@ -147,43 +233,6 @@ def bp_constants(best, d, freq, a, r0, grid, thr):
     fft = best(lambda: profiles(d, None, float(P * M), L, np.complex64)) * thr / (P * L * math.log2(L))
     total = best(lambda: backproject(d, freq, a, r0, grid, precision=DEFAULT_PRECISION)) * thr
     return fft, max(total - fft * P * L * math.log2(L), 0.0) / bp_units(d, freq, a, grid)
-
-
-def check_form_image(src, method, grid, *, oversample=2.0, upsample=None, eps=None, width=None,
-                     precision="float64", nthreads=None) -> None:
-    """Refuse (memory) or warn (``direct`` time) before :func:`form_image` allocates anything.
-
-    ``src`` is a :class:`PhaseHistory` (or a k-grid, checked by its size only).
-    """
-    check_knobs(upsample=upsample, oversample=oversample if method == "pfa" else None,
-                width=width if method == "pfa" else None, eps=eps if method == "nufft" else None)
-    data = getattr(src, "data", None)
-    if data is None:  # a k-grid: the image and the FFT of the grid
-        shape = getattr(src, "samples", np.zeros((0, 0))).shape
-        check_memory(3 * float(np.prod(shape)) * _C16 + 2.0 * grid.nx * grid.ny * _C16,
-                     f"pfa of a {shape[1]} x {shape[0]} k-grid onto {grid.nx} x {grid.ny} pixels")
-        return
-    from ._samples import is_lazy
-
-    p, m = data.shape
-    acq = src.acquisition
-    model = getattr(src, "model", None) or acq.model
-    if upsample is None and method == "backprojection":
-        from .backprojection import DEFAULT_UPSAMPLE as upsample
-    est = form_image_bytes(method, p, m, grid, model=model, acq=acq, oversample=oversample,
-                           upsample=8.0 if upsample is None else upsample, precision=precision,
-                           streamed=is_lazy(data), itemsize=np.dtype(data.dtype).itemsize)
-    check_memory(est, f"{method} on {grid.nx} x {grid.ny} pixels from {p} x {m} samples")
-    if method == "direct":
-        t = direct_seconds(p, m, grid.nx * grid.ny, model, nthreads)
-        if t > DIRECT_WARN_S:
-            if model == "farfield":
-                faster = "method nufft (default eps 1e-9: relative error ~1e-9 against direct)"
-            else:
-                faster = "method backprojection (default knobs: relative error ~3e-4 against direct)"
-            warnings.warn(f"direct on {grid.nx} x {grid.ny} pixels from {p} x {m} samples ({model}): "
-                          f"estimated {t:.3g} s; {faster} takes a small fraction of that", SarcliWarning,
-                          stacklevel=2)
 
 
 #: Bytes per pixel of :func:`regularize_bytes`' terms: one ADMM solver's images and splits (about
@@ -225,7 +274,7 @@ def check_regularize(ph, grid, *, iters, operator="auto", nthreads=None, auto: b
                  f"regularize on {grid.nx} x {grid.ny} pixels from "
                                                          f"{p} x {m} samples")
     if operator == "spherical":
-        t = 2 * iters * direct_seconds(p, m, grid.nx * grid.ny, "spherical", nthreads)
+        t = 2 * iters * direct_seconds(p, m, grid.nx * grid.ny, nthreads)
         if t > DIRECT_WARN_S:
             warnings.warn(f"regularize with the spherical operator: {iters} iterations x 2 exact sums on "
                           f"{grid.nx} x {grid.ny} pixels, estimated {t:.3g} s; operator auto or warped is far faster",

@@ -152,7 +152,7 @@ def _descend(levels, a, b):
 # ---------------------------------------------------------------------------------------------
 def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weights=None, *, base=None,
          merge=None, os_range=None, os_angle=None, interp=None, upsample=None, final=None, nthreads=None,
-         receive_position_m=None, return_plan=False):
+         receive_position_m=None, return_plan=False, plan=None):
     """Spherical matched-filter image by fast factorised backprojection (module docstring).
 
     Parameters
@@ -187,6 +187,9 @@ def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weigh
         Separate receive positions ``r`` (range ``(|t − x| + |r − x|)/2 − r0``).
     return_plan : bool
         Also return the :class:`FfbpPlan` (stages, predicted error).
+    plan : FfbpPlan, optional
+        The stages, made before by :func:`plan_stages` for these positions, frequencies, grid and
+        knobs (the knobs above are then not used).
 
     Returns
     -------
@@ -222,8 +225,9 @@ def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weigh
         if not total > 0:
             raise SarcliInputError("window weights sum to zero")
     bistatic = receive_position_m is not None and not np.array_equal(t, rcv)
-    plan = plan_stages(t, f, grid, base=base, merge=merge, os_range=os_range, os_angle=os_angle, interp=interp,
-                       upsample=upsample, final=final, receive_position_m=rcv if bistatic else None)
+    if plan is None:
+        plan = plan_stages(t, f, grid, base=base, merge=merge, os_range=os_range, os_angle=os_angle, interp=interp,
+                           upsample=upsample, final=final, receive_position_m=rcv if bistatic else None)
     knobs = plan.knobs
     kind = INTERPOLATORS[knobs["interp"]]
     n_len = profile_length(M, knobs["upsample"])
@@ -302,7 +306,8 @@ def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weigh
 
 def ffbp_image(data, freq_hz, antenna_position_m, range_to_center_m, grid, weights=None, **knobs):
     """:func:`ffbp` for :func:`sarcli.formers.formation.form_image`: the image and the settings
-    to record (every knob, the stages and the predicted error). ``None`` knobs take :data:`DEFAULTS`."""
+    to record (every knob, the stages and the predicted error). ``None`` knobs take :data:`DEFAULTS`;
+    ``plan``: the stages made before (:func:`ffbp`)."""
     knobs = {name: v for name, v in knobs.items() if v is not None}
     img, plan = ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid, weights, return_plan=True,
                      **knobs)

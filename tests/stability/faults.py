@@ -593,7 +593,7 @@ def _direct_warning(ws) -> Fault:
     from sarcli._util.resources import set_memory_limit
     from sarcli.core.grid import resolve_grid
     from sarcli.errors import SarcliWarning
-    from sarcli.formers.cost import check_form_image
+    from sarcli.formers.formation import check_form_image
     from sarcli.io.hdf5 import read_phase_history
 
     set_memory_limit(None)  # a --max-memory of an earlier case stays set in this process
