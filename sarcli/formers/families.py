@@ -70,10 +70,15 @@ def _plan(ph, grid, options, settings, costs, *, knobs, run, estimate, memory, n
     return Plan(options.method, options, knobs, ph, grid, settings, run, estimate, memory, notes)
 
 
-def _context(ph, grid, settings, costs):
-    """``(cost constants, threads, samples, pixels)`` of a plan."""
+def _context(ph, grid):
+    """``(samples, pixels)`` of a plan (:class:`~sarcli.formers.cost.Samples`)."""
+    return cost.Samples.of(ph), float(grid.nx) * grid.ny
+
+
+def _constants(settings, costs):
+    """``(cost constants, threads)`` a plan's seconds are predicted with, read when first needed."""
     c = load_cost_model() if costs is None else costs
-    return c, cost.threads(settings.nthreads, c), cost.Samples.of(ph), float(grid.nx) * grid.ny
+    return c, cost.threads(settings.nthreads, c)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -81,7 +86,7 @@ def _context(ph, grid, settings, costs):
 # ---------------------------------------------------------------------------------------------
 def plan_direct(ph, grid, options, settings, costs=None) -> Plan:
     """The exact matched filter, far-field or spherical as the data are."""
-    c, thr, smp, npix = _context(ph, grid, settings, costs)
+    smp, npix = _context(ph, grid)
 
     def run(plan, data, w):
         from .direct import direct_farfield, direct_spherical
@@ -94,12 +99,19 @@ def plan_direct(ph, grid, options, settings, costs=None) -> Plan:
         return direct_farfield(data, kx, ky, grid, w), {}
 
     return _plan(ph, grid, options, settings, costs, knobs={}, run=run,
-                 estimate=lambda: (0.0, cost.direct_seconds(smp.n_pulses, smp.n_freq, npix, settings.nthreads, c)),
+                 estimate=lambda: (0.0, cost.direct_seconds(smp.n_pulses, smp.n_freq, npix, settings.nthreads,
+                                                             _constants(settings, costs)[0])),
                  memory=lambda: cost.form_image_bytes("direct", smp, grid))
 
 
+def _nufft_seconds(smp, grid, eps, settings, costs) -> float:
+    c, thr = _constants(settings, costs)
+    return cost.nufft_seconds(c, smp.n_pulses * smp.n_freq, grid.ny, grid.nx, eps, thr)
+
+
 def plan_nufft(ph, grid, options, settings, costs=None) -> Plan:
-    c, thr, smp, npix = _context(ph, grid, settings, costs)
+    """One type-1 NUFFT at ``options.eps`` (far-field data; spherical data: a warning)."""
+    smp, npix = _context(ph, grid)
 
     def run(plan, data, w):
         from .nufft import nufft_farfield
@@ -109,12 +121,12 @@ def plan_nufft(ph, grid, options, settings, costs=None) -> Plan:
         return nufft_farfield(data, kx, ky, grid, w, eps=options.eps, nthreads=settings.nthreads), {"eps": options.eps}
 
     return _plan(ph, grid, options, settings, costs, knobs=options.knobs(), run=run,
-                 estimate=lambda: (options.eps, cost.nufft_seconds(c, smp.n_pulses * smp.n_freq, grid.ny, grid.nx,
-                                                                   options.eps, thr)),
+                 estimate=lambda: (options.eps, _nufft_seconds(smp, grid, options.eps, settings, costs)),
                  memory=lambda: cost.form_image_bytes("nufft", smp, grid))
 
 
 def plan_pfa(ph, grid, options, settings, costs=None) -> Plan:
+    """Gridding onto a Cartesian k-grid, then an FFT (no error or time model: nan)."""
     smp = cost.Samples.of(ph)
 
     def run(plan, data, w):
@@ -142,7 +154,9 @@ def backprojection_error(ph, grid, interp: str, upsample: float, tiling) -> floa
 
 
 def plan_backprojection(ph, grid, options, settings, costs=None) -> Plan:
-    c, thr, smp, npix = _context(ph, grid, settings, costs)
+    """Range profiles interpolated per pixel and pulse; :attr:`Plan.prepare` makes the
+    :class:`~sarcli.formers.backprojection.Backprojector` for many images of the same samples."""
+    smp, npix = _context(ph, grid)
     up, it = options.upsample, options.interp
 
     def run(plan, data, w):
@@ -158,12 +172,24 @@ def plan_backprojection(ph, grid, options, settings, costs=None) -> Plan:
 
         pos, rcv, _ = range_positions(ph, grid)
         tiling = tiling_for(ph.acquisition.frequency_hz, pos, rcv, grid, up)
+        c, thr = _constants(settings, costs)
         return (backprojection_error(ph, grid, it, up, tiling),
                 cost.bp_seconds(c, smp.n_pulses, smp.n_freq, npix, it, up, tiling.cost, thr))
 
-    return _plan(ph, grid, options, settings, costs, knobs=options.knobs(), run=run, estimate=estimate,
+    def prepare(data=None):
+        from ._bp_prepared import Backprojector
+
+        pos, rcv, r0 = range_positions(ph, grid)
+        d = ph.data if data is None else data
+        return Backprojector(d, ph.acquisition.frequencies_2d, pos, r0, grid, settings.weights(ph.data.shape),
+                             upsample=up, interp=it, precision=options.precision, nthreads=settings.nthreads,
+                             receive_position_m=rcv)
+
+    plan = _plan(ph, grid, options, settings, costs, knobs=options.knobs(), run=run, estimate=estimate,
                  memory=lambda: cost.form_image_bytes("backprojection", smp, grid, upsample=up,
                                                       precision=options.precision))
+    plan.prepare = prepare
+    return plan
 
 
 def plan_ffbp(ph, grid, options, settings, costs=None) -> Plan:
@@ -172,7 +198,7 @@ def plan_ffbp(ph, grid, options, settings, costs=None) -> Plan:
     from .backprojection import profile_length
     from .ffbp import plan_stages
 
-    c, thr, smp, npix = _context(ph, grid, settings, costs)
+    smp, npix = _context(ph, grid)
     knobs = {n: v for n, v in options.knobs().items() if n != "tolerance" and v is not None}
     extra = {}
     if options.picked() and ph.model == "spherical":
@@ -196,9 +222,12 @@ def plan_ffbp(ph, grid, options, settings, costs=None) -> Plan:
                                  nthreads=settings.nthreads, plan=stages, **knobs)
         return img, {**extra, **params, **_virtual(ph, r0)}
 
-    seconds = cost.ffbp_seconds(c, stages.ops, smp.n_pulses, profile_length(smp.n_freq, stages.knobs["upsample"]), thr)
-    return _plan(ph, grid, options, settings, costs, knobs=dict(stages.knobs), run=run,
-                 estimate=lambda: (stages.predicted_error, seconds),
+    def estimate():
+        c, thr = _constants(settings, costs)
+        length = profile_length(smp.n_freq, stages.knobs["upsample"])
+        return stages.predicted_error, cost.ffbp_seconds(c, stages.ops, smp.n_pulses, length, thr)
+
+    return _plan(ph, grid, options, settings, costs, knobs=dict(stages.knobs), run=run, estimate=estimate,
                  memory=lambda: cost.form_image_bytes("ffbp", smp, grid, grid_bytes=stages.ops["grid_bytes"]),
                  notes=f"{stages.n_stages} stages")
 
@@ -206,7 +235,7 @@ def plan_ffbp(ph, grid, options, settings, costs=None) -> Plan:
 def plan_subimage(ph, grid, options, settings, costs=None) -> Plan:
     """Spherical data: the tile given or the largest predicted to meet ``options.tolerance``
     (:func:`sarcli.formers.subimage.choose_tile`); far-field data: one tile, nufft at ``eps``."""
-    c, thr, smp, npix = _context(ph, grid, settings, costs)
+    smp, npix = _context(ph, grid)
     acq = ph.acquisition
     if ph.model != "spherical":   # one tile is exact
         eps = 1e-9 if options.eps is None else options.eps
@@ -238,10 +267,13 @@ def plan_subimage(ph, grid, options, settings, costs=None) -> Plan:
         return subimage_nufft(data, acq.frequency_hz, pos, r0, grid, w, tile=tile, tolerance=options.tolerance,
                               eps=options.eps, nthreads=settings.nthreads, receive_position_m=rcv, return_info=True)
 
-    return _plan(ph, grid, options, settings, costs, knobs={"tile": tile, "eps": eps}, run=run,
-                 estimate=lambda: (predict_tile_error(pos, rcv, r0, f, grid, tile, eps=eps),
-                                   cost.subimage_seconds(c, smp.n_pulses * smp.n_freq, n_tiles, eps, thr)),
-                 memory=lambda: cost.form_image_bytes("subimage", smp, grid, threads=thr),
+    def estimate():
+        c, thr = _constants(settings, costs)
+        return (predict_tile_error(pos, rcv, r0, f, grid, tile, eps=eps),
+                cost.subimage_seconds(c, smp.n_pulses * smp.n_freq, n_tiles, eps, thr))
+
+    return _plan(ph, grid, options, settings, costs, knobs={"tile": tile, "eps": eps}, run=run, estimate=estimate,
+                 memory=lambda: cost.form_image_bytes("subimage", smp, grid, threads=_constants(settings, costs)[1]),
                  notes=f"{n_tiles} tiles")
 
 

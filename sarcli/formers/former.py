@@ -164,6 +164,10 @@ class Plan:
     notes: str = ""
     #: ``auto``'s choice (tolerance, method, knobs, its prediction) where auto made the plan
     auto: dict | None = None
+    #: ``(data=None) ->`` the former prepared for many images of ``data`` (default the
+    #: collection's samples) on this grid, where the family has one (backprojection:
+    #: :class:`sarcli.formers.backprojection.Backprojector`); else None
+    prepare: Callable | None = field(default=None, repr=False)
 
     @functools.cached_property
     def _estimates(self):
