@@ -19,10 +19,10 @@ import pytest
 
 from sarcli.core import geometry
 from sarcli.core.grid import Grid
-from sarcli.formers import _bp_setup
-from sarcli.formers._bp_kernels import (EXACT, GEO_ROWS, MODEL_TOLERANCE, QUADRATIC, Tiling, exact_error, kernels,
+import sarcli.formers.backprojection._setup as _bp_setup
+from sarcli.formers.backprojection._kernels import (EXACT, GEO_ROWS, MODEL_TOLERANCE, QUADRATIC, Tiling, exact_error, kernels,
                                         min_range, quadratic_error, tiling)
-from sarcli.formers._bp_setup import PAD
+from sarcli.formers.backprojection._setup import PAD
 from sarcli.formers.backprojection import backproject, reproject
 from sarcli.formers.direct import direct_spherical
 

@@ -13,7 +13,7 @@ from sarcli.cli.form_image import command as form_image_command
 from sarcli.cli.main import cli
 from sarcli.cli.options import method_options
 from sarcli.errors import SarcliInputError
-from sarcli.formers.cost import Samples, form_image_bytes
+from sarcli.formers.planning.cost import Samples, form_image_bytes
 from sarcli.formers.families import FORMERS
 from sarcli.formers.formation import PLANNED, default_candidates, form_image, plan_rows
 from sarcli.formers.former import Settings

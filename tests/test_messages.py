@@ -19,7 +19,7 @@ from sarcli.core.grid import Grid
 from sarcli.core.types import Image
 from sarcli.errors import DefocusWarning
 from sarcli.formers.formation import METHODS, form_image
-from sarcli.formers.planner import SAFETY, Candidate
+from sarcli.formers.planning.planner import SAFETY, Candidate
 
 from .conftest import REPO
 from .test_planner import spherical

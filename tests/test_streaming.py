@@ -18,7 +18,7 @@ from .conftest import small_config, spy_rows
 @pytest.fixture(scope="module")
 def ph_file(tmp_path_factory):
     path = tmp_path_factory.mktemp("stream") / "ph.h5"
-    from sarcli.formers._bp_setup import BLOCK as _BLOCK
+    from sarcli.formers.backprojection._setup import BLOCK as _BLOCK
 
     # more pulses than one block of the block readers (backprojection's is the largest)
     cfg = small_config(azimuths={"center_deg": 50.0, "extent_deg": 3.0, "count": 2 * _BLOCK + 44})
@@ -88,7 +88,7 @@ def test_library_checks_memory_before_allocating(ph_file, monkeypatch):
     pulses when the data stay on disk (streamed backprojection of a file larger than RAM is allowed)."""
     from sarcli._util import resources
     from sarcli.errors import SarcliInputError
-    from sarcli.formers.cost import Samples, form_image_bytes
+    from sarcli.formers.planning.cost import Samples, form_image_bytes
 
     ph = read_phase_history(ph_file, lazy=True)
     grid = sarcli.Grid.square(2.0, 16)
@@ -107,7 +107,7 @@ def test_library_checks_memory_before_allocating(ph_file, monkeypatch):
 
 def test_memory_models_count_the_stored_sample_size():
     """complex64 samples cost 8 bytes each where they are held as stored, not 16."""
-    from sarcli.formers.cost import Samples, form_image_bytes, regularize_bytes
+    from sarcli.formers.planning.cost import Samples, form_image_bytes, regularize_bytes
 
     grid = sarcli.Grid.square(2.0, 16)   # a small image: the samples dominate
     for method in ("nufft", "pfa", "direct"):
@@ -123,8 +123,8 @@ def test_plan_memory_counts_what_the_formers_hold(ph_file):
     """The planner's memory column: the samples at their stored size, one block of them for the
     formers that read samples left on disk by blocks (backprojection: and of their weighted
     complex128 copy)."""
-    from sarcli.formers._bp_setup import BLOCK
-    from sarcli.formers.planner import candidates
+    from sarcli.formers.backprojection._setup import BLOCK
+    from sarcli.formers.planning.planner import candidates
 
     eager, lazy = read_phase_history(ph_file), read_phase_history(ph_file, lazy=True)
     P, M = eager.data.shape

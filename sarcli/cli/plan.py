@@ -45,7 +45,7 @@ def table(cands, pick, tolerance: float, safety: float, width: int = 80, seconds
     """
     import textwrap
 
-    from ..formers.planner import same_run
+    from ..formers.planning.planner import same_run
 
     width = max(60, int(width))
     lines = [f"{'method':<15} {'pred.err':>9} {'pred.s':>9} {'MiB':>8}  {'status':<7}"]
@@ -91,9 +91,9 @@ def command(input_path, center, extent, pixel_size, tolerance, as_json, calibrat
     them in the user's cache folder; --calibrate measures them again.
     """
     from ..core.grid import resolve_grid
-    from ..formers import calibration
+    from ..formers.planning import calibration
     from ..formers.formation import plan_rows
-    from ..formers.planner import SAFETY, calibrate as measure, command_seconds, recommend
+    from ..formers.planning.planner import SAFETY, calibrate as measure, command_seconds, recommend
     from ..io import open_input
 
     if calibrate or not calibration.is_calibrated():

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from ..formers import cost
+from ..formers.planning import cost
 from .options import grid_options, handle_errors, parse_pair, prepare_outputs, window_options, wrote
 
 

@@ -69,7 +69,7 @@ def command(ctx, input_path, output, prior, order, lam, beta, iters, tol, operat
     from ..regularize import regularize
 
     from ..core.grid import resolve_grid
-    from ..formers.cost import check_regularize
+    from ..formers.planning.cost import check_regularize
     from .options import prepare_outputs
 
     prepare_outputs([("input", input_path), ("--init", init_path), ("--outside", outside_path)],

@@ -15,7 +15,8 @@
   :class:`Backprojector`, its prepared form (the pulses' range profiles made once, images of any
   group of pulses), loaded on first use.
 - :mod:`.ffbp`, :mod:`.subimage`: fast factorised backprojection, the sub-image NUFFT.
-- :mod:`.planner`, :mod:`.cost`, :mod:`.calibration`: auto's choice, the cost models, their constants.
+- :mod:`.planning`: auto's choice (:mod:`.planning.planner`), the cost models (:mod:`.planning.cost`), their
+  constants (:mod:`.planning.calibration`).
 """
 
 from .families import FORMERS
@@ -32,7 +33,7 @@ __all__ = ["METHODS", "form_image", "plan_image", "check_form_image", "image_err
 def __getattr__(name):
     # the prepared backprojector (autofocus's imager) loads the compiled kernels: only when asked
     if name == "Backprojector":
-        from ._bp_prepared import Backprojector
+        from .backprojection import Backprojector
 
         return Backprojector
     raise AttributeError(f"module 'sarcli.formers' has no attribute {name!r}")

@@ -2,8 +2,8 @@
 options dataclass and its plan (:mod:`sarcli.formers.former`).
 
 Every plan takes its predicted seconds and bytes from the one model of its family in
-:mod:`sarcli.formers.cost` (constants: :func:`sarcli.formers.calibration.load_cost_model`) and its
-predicted error from the family's error model (:mod:`sarcli.formers.ffbp_model`,
+:mod:`sarcli.formers.planning.cost` (constants: :func:`sarcli.formers.planning.calibration.load_cost_model`) and its
+predicted error from the family's error model (:mod:`sarcli.formers.ffbp.model`,
 :func:`sarcli.formers.subimage.choose_tile`; ``nufft``: its ``eps``; ``direct``: 0; ``pfa``:
 none, nan).
 """
@@ -16,8 +16,8 @@ import numpy as np
 
 from ..core import geometry
 from ..errors import DefocusWarning, SarcliInputError
-from . import cost
-from .calibration import load_cost_model
+from .planning import cost
+from .planning.calibration import load_cost_model
 from .former import Former, Plan
 from .options import (BackprojectionOptions, DirectOptions, FfbpOptions, NufftOptions, PfaOptions,
                       SubimageOptions)
@@ -71,7 +71,7 @@ def _plan(ph, grid, options, settings, costs, *, knobs, run, estimate, memory, n
 
 
 def _context(ph, grid):
-    """``(samples, pixels)`` of a plan (:class:`~sarcli.formers.cost.Samples`)."""
+    """``(samples, pixels)`` of a plan (:class:`~sarcli.formers.planning.cost.Samples`)."""
     return cost.Samples.of(ph), float(grid.nx) * grid.ny
 
 
@@ -146,8 +146,8 @@ def plan_pfa(ph, grid, options, settings, costs=None) -> Plan:
 
 def backprojection_error(ph, grid, interp: str, upsample: float, tiling) -> float:
     """Backprojection's predicted error: the profile interpolation's, the frequencies' departure
-    from a line, and the range model's per tile (``tiling``, :func:`sarcli.formers._bp_setup.tiling_for`)."""
-    from .ffbp_model import frequency_error, interp_error
+    from a line, and the range model's per tile (``tiling``, :func:`sarcli.formers.backprojection._setup.tiling_for`)."""
+    from .ffbp.model import frequency_error, interp_error
 
     pos, _, _ = range_positions(ph, grid)
     return interp_error(interp, float(upsample)) + frequency_error(ph.acquisition.frequency_hz, pos, grid) + tiling.error
@@ -168,7 +168,7 @@ def plan_backprojection(ph, grid, options, settings, costs=None) -> Plan:
         return img, {**options.knobs(), **_virtual(ph, r0)}
 
     def estimate():
-        from ._bp_setup import tiling_for
+        from .backprojection import tiling_for
 
         pos, rcv, _ = range_positions(ph, grid)
         tiling = tiling_for(ph.acquisition.frequency_hz, pos, rcv, grid, up)
@@ -177,7 +177,7 @@ def plan_backprojection(ph, grid, options, settings, costs=None) -> Plan:
                 cost.bp_seconds(c, smp.n_pulses, smp.n_freq, npix, it, up, tiling.cost, thr))
 
     def prepare(data=None):
-        from ._bp_prepared import Backprojector
+        from .backprojection import Backprojector
 
         pos, rcv, r0 = range_positions(ph, grid)
         d = ph.data if data is None else data
@@ -202,7 +202,7 @@ def plan_ffbp(ph, grid, options, settings, costs=None) -> Plan:
     knobs = {n: v for n, v in options.knobs().items() if n != "tolerance" and v is not None}
     extra = {}
     if options.picked() and ph.model == "spherical":
-        from .planner import ffbp_knobs
+        from .planning.planner import ffbp_knobs
 
         picked = ffbp_knobs(ph, grid, options.tolerance, nthreads=settings.nthreads, costs=costs)
         if picked is not None:

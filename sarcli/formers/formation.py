@@ -35,7 +35,7 @@ from .._util.resources import check_memory
 from ..core.grid import Grid, resolve_grid
 from ..core.types import Image, PhaseHistory
 from ..errors import SarcliInputError, SarcliWarning
-from .cost import DIRECT_WARN_S
+from .planning.cost import DIRECT_WARN_S
 from .families import FORMERS, SPHERICAL_ADVICE, VIRTUAL_RANGE_PER_M, range_positions, warn_defocus
 from .former import Plan, Settings
 from .options import DEFAULT_TOLERANCE, OPTIONS, AutoOptions
@@ -82,11 +82,11 @@ def regrid(ph: PhaseHistory, *, grid: Grid | None = None, window="none", taylor_
 def plan_image(ph: PhaseHistory, grid: Grid, options, settings: Settings | None = None, costs=None) -> Plan:
     """The :class:`~sarcli.formers.former.Plan` of ``options``' former (:mod:`sarcli.formers.options`)
     for these data on ``grid``; ``auto``: the plan of the cheapest former predicted to meet its
-    tolerance (:func:`sarcli.formers.planner.recommend`), its choice in ``plan.auto``."""
+    tolerance (:func:`sarcli.formers.planning.planner.recommend`), its choice in ``plan.auto``."""
     settings = settings or Settings()
     if options.method != "auto":
         return FORMERS[options.method].plan(ph, grid, options, settings, costs)
-    from .planner import recommend
+    from .planning.planner import recommend
 
     tol = options.tolerance
     pick = recommend(ph, grid, tol, nthreads=settings.nthreads, costs=costs)
@@ -107,10 +107,10 @@ PLANNED = {"spherical": ("direct", "backprojection", "ffbp", "subimage"), "farfi
 
 def default_candidates(ph: PhaseHistory, grid: Grid, tolerance: float, *, nthreads=None, costs=None) -> list:
     """Each former of :data:`PLANNED` with its default options, what ``--method X`` runs with no
-    knob: a :class:`~sarcli.formers.planner.Candidate` marked ``default`` with the knobs, predicted
+    knob: a :class:`~sarcli.formers.planning.planner.Candidate` marked ``default`` with the knobs, predicted
     error, seconds and bytes of its plan, ``meets`` at ``tolerance``. A former whose plan refuses
     these data (subimage where no tile meets its tolerance) is left out."""
-    from .planner import SAFETY, Candidate
+    from .planning.planner import SAFETY, Candidate
 
     settings = Settings(nthreads=nthreads)
     out = []
@@ -129,9 +129,9 @@ def default_candidates(ph: PhaseHistory, grid: Grid, tolerance: float, *, nthrea
 
 def plan_rows(ph: PhaseHistory, grid: Grid, tolerance: float, *, nthreads=None, costs=None) -> list:
     """``sar plan``'s rows: every former's default (:func:`default_candidates`), then the
-    planner's candidates at ``tolerance`` (:func:`sarcli.formers.planner.candidates`) that run
+    planner's candidates at ``tolerance`` (:func:`sarcli.formers.planning.planner.candidates`) that run
     something else; those that meet the tolerance first, each group by predicted time."""
-    from .planner import candidates, same_run
+    from .planning.planner import candidates, same_run
 
     rows = default_candidates(ph, grid, tolerance, nthreads=nthreads, costs=costs)
     defaults = list(rows)
@@ -179,7 +179,7 @@ def form_image(ph, method: str = "auto", *, grid: Grid | None = None, center=Non
         The data (a :class:`~sarcli.formers.pfa.KGrid` from :func:`regrid` only with ``method='pfa'``).
     method : {'auto', 'direct', 'nufft', 'pfa', 'backprojection', 'ffbp', 'subimage'}
         ``auto`` (the default): the cheapest former predicted to meet ``tolerance`` (default
-        :data:`DEFAULT_TOLERANCE`) for these data and this grid (:mod:`sarcli.formers.planner`),
+        :data:`DEFAULT_TOLERANCE`) for these data and this grid (:mod:`sarcli.formers.planning.planner`),
         with the knobs it picks; the choice, its predicted error and the tolerance are recorded in
         ``parameters['auto']``. A k-grid is imaged with ``pfa``.
     grid : Grid, optional

@@ -7,10 +7,10 @@ made from the collection's geometry and the grid alone, as FINUFFT's plan is mad
 points' strengths are known: it resolves what the options leave open (a tile side, ffbp's
 stages), and carries the predicted error against the exact matched filter, the predicted
 seconds and the peak bytes, each from the one model of its family
-(:mod:`sarcli.formers.cost`, calibrated by :mod:`sarcli.formers.calibration`). Its
+(:mod:`sarcli.formers.planning.cost`, calibrated by :mod:`sarcli.formers.planning.calibration`). Its
 :meth:`Plan.form` forms the image of the samples.
 
-:func:`sarcli.formers.formation.form_image`, the planner (:mod:`sarcli.formers.planner`),
+:func:`sarcli.formers.formation.form_image`, the planner (:mod:`sarcli.formers.planning.planner`),
 ``sar plan`` and ``sar form-image`` (whose options are generated from these dataclasses) and
 autofocus's prepared backprojector are its clients.
 """

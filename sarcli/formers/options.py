@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from . import cost
+from .planning import cost
 from .former import Options, knob
 
 __all__ = ["DirectOptions", "NufftOptions", "PfaOptions", "BackprojectionOptions", "FfbpOptions", "SubimageOptions",
@@ -100,7 +100,7 @@ class SubimageOptions(Options):
 
 @dataclass(frozen=True)
 class AutoOptions(Options):
-    """The cheapest former predicted to meet ``tolerance`` (:mod:`sarcli.formers.planner`)."""
+    """The cheapest former predicted to meet ``tolerance`` (:mod:`sarcli.formers.planning.planner`)."""
 
     method = "auto"
     tolerance: float = knob(DEFAULT_TOLERANCE, "target relative error against the exact matched filter",

@@ -27,8 +27,8 @@ from .._native import using_threads
 from ..core.geometry import bistatic_differential_range
 from ..core.grid import Grid
 from ..errors import AliasingWarning, SarcliInputError
-from ._bp_kernels import kernels
-from ._bp_setup import PAD, Setup, check_data, profiles
+from .backprojection import kernels
+from .backprojection import PAD, Setup, check_data, profiles
 from .direct import direct_points
 
 __all__ = ["backproject_points", "reproject_points", "form_map", "HEIGHT_METHODS"]

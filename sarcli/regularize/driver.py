@@ -37,7 +37,7 @@ from ..core import geometry
 from ..errors import DefocusWarning, SarcliInputError
 from ..core.grid import Grid, resolve_grid
 from ..core.types import Image, PhaseHistory
-from ..formers.cost import regularize_bytes
+from ..formers.planning.cost import regularize_bytes
 from ..linops import (NufftOperator, SphericalOperator, gram_eigmax, normal_equations,
                      sparsifying_operator)
 from ..linops.toeplitz import NormalEquations

@@ -12,7 +12,7 @@ knobs its error model predicts to meet TOL, and :func:`recommend` picks the chea
 - an O(N²P) former (backprojection, direct) is never picked when a NUFFT former meets TOL.
 
 Predicted times come from operation counts times per-operation constants
-(:mod:`sarcli.formers.calibration`: measured on this machine once ``sar plan`` has calibrated
+(:mod:`sarcli.formers.planning.calibration`: measured on this machine once ``sar plan`` has calibrated
 it, else those of the reference machine shipped with the package); :func:`command_seconds` adds
 what the whole command pays besides (start-up, reading, writing). Memory is the formers' largest
 arrays.
@@ -34,10 +34,10 @@ from pathlib import Path
 
 import numpy as np
 
-from ..core import sampling
-from ..core.grid import Grid
-from ..errors import SarcliInputError
-from .options import OPTIONS
+from ...core import sampling
+from ...core.grid import Grid
+from ...errors import SarcliInputError
+from ..options import OPTIONS
 from .calibration import DEFAULT_COSTS, STARTUP_IMPORTS, load_cost_model, save_cost_model
 from .cost import (FFBP_TERMS, Samples, bp_constants, bp_seconds, direct_seconds, ffbp_counts, ffbp_seconds,
                    form_image_bytes, n_tiles, nufft_seconds, nufft_width, subimage_seconds, threads)
@@ -123,7 +123,7 @@ def candidates(ph, grid: Grid, tolerance: float, *, costs=None, nthreads=None, p
     c = load_cost_model() if costs is None else costs
     acq = ph.acquisition
     geo = acq.range_geometry() if ph.model == "spherical" else (None, None, None)
-    from ._samples import is_lazy
+    from .._samples import is_lazy
 
     # the samples' dtype and whether they stay on disk set the candidates' memory
     key = (ph.model, tuple(ph.data.shape), str(np.dtype(ph.data.dtype)), is_lazy(ph.data), grid, float(tolerance),
@@ -145,10 +145,10 @@ def candidates(ph, grid: Grid, tolerance: float, *, costs=None, nthreads=None, p
 
 def _candidates(ph, grid, tolerance, c, nthreads, prune, methods) -> list:
     """:func:`candidates`, uncached (``c`` the cost model)."""
-    from ._bp_setup import TilingInputs
-    from .backprojection import DEFAULT_PRECISION
-    from .ffbp_model import frequency_error, interp_error
-    from .subimage import choose_tile, tile_sizes
+    from ..backprojection import TilingInputs
+    from ..backprojection import DEFAULT_PRECISION
+    from ..ffbp.model import frequency_error, interp_error
+    from ..subimage import choose_tile, tile_sizes
 
     thr = threads(nthreads, c)
     acq = ph.acquisition
@@ -240,10 +240,10 @@ def _ffbp_sweep(pos, rcv, f, grid, target, e_freq, c, P, M, thr, *, keep_unmet, 
     its error model completed. The pair at which one first meets is found in order, the cheapest
     setting of each pair first; then the settings of the pairs tried are completed in order of
     time until one meets: that one is the cheapest. ``samples``: the collection's
-    :class:`~sarcli.formers.cost.Samples` (default ``P × M`` complex128 held in memory)."""
-    from . import ffbp as fb
-    from .backprojection import profile_length
-    from .ffbp_model import deapodized_error, default_upsample
+    :class:`~sarcli.formers.planning.cost.Samples` (default ``P × M`` complex128 held in memory)."""
+    from .. import ffbp as fb
+    from ..backprojection import profile_length
+    from ..ffbp.model import deapodized_error, default_upsample
 
     class Setting:
         def __init__(self, order, lay):
@@ -312,7 +312,7 @@ def _by_time(settings) -> list:
 
 
 def _ffbp_candidate(lay, plan, seconds, samples) -> Candidate:
-    from . import ffbp as fb
+    from .. import ffbp as fb
 
     knobs = plan.knobs
     return Candidate("ffbp", {"base": knobs["base"], "merge": fb.DEFAULTS["merge"], "os_range": knobs["os_range"],
@@ -354,7 +354,7 @@ def ffbp_knobs(ph, grid: Grid, tolerance: float, *, nthreads=None, costs=None) -
 def command_seconds(cand: Candidate, ph, grid: Grid, costs=None, *, auto=False) -> float:
     """Predicted wall time of the whole ``sar form-image`` command for ``cand``: start-up (imports,
     kernel loads), reading the data, the formation, writing the image, and for ``auto`` the
-    planning too, from the calibrated constants (:func:`sarcli.formers.calibration.calibrate`)."""
+    planning too, from the calibrated constants (:func:`sarcli.formers.planning.calibration.calibrate`)."""
     c = load_cost_model() if costs is None else costs
     P, M = ph.data.shape
     # the samples at their stored size; the image written complex128, as the formers return it
@@ -417,20 +417,20 @@ def _fit_ffbp(rows, rhs) -> np.ndarray:
 
 def calibrate(path=None, *, repeat: int = 3) -> dict:
     """Measure the constants on this machine and write them to ``path`` (default: this machine's
-    file in the user's cache, :func:`sarcli.formers.calibration.user_cost_model_path`; the shipped
-    reference is :data:`~sarcli.formers.calibration.COST_MODEL_PATH`); returns them.
+    file in the user's cache, :func:`sarcli.formers.planning.calibration.user_cost_model_path`; the shipped
+    reference is :data:`~sarcli.formers.planning.calibration.COST_MODEL_PATH`); returns them.
 
     Small instances of every former (a few seconds in all); each constant is its measured time
     (best of ``repeat``) divided by its operation count, except ffbp's four
     (:data:`FFBP_TERMS`), fitted by non-negative least squares to six settings with
     different shares of each (:func:`_fit_ffbp`); then the whole command's start-up, planning, reading and writing.
     """
-    from ..core import geometry
-    from . import ffbp as fb
-    from .backprojection import DEFAULT_PRECISION, backproject, profile_length
-    from .direct import direct_spherical
-    from .nufft import nufft_farfield
-    from .subimage import subimage_nufft
+    from ...core import geometry
+    from .. import ffbp as fb
+    from ..backprojection import DEFAULT_PRECISION, backproject, profile_length
+    from ..direct import direct_spherical
+    from ..nufft import nufft_farfield
+    from ..subimage import subimage_nufft
 
     def best(fn):
         return _best(fn, repeat)
@@ -470,8 +470,8 @@ def calibrate(path=None, *, repeat: int = 3) -> dict:
     t = best(lambda: subimage_nufft(d, freq, a, r0, grid, tile=tile, eps=1e-3)) * thr
     c["subimage_point"] = t / ((N // tile) ** 2 * P * M * nufft_width(1e-3) ** 2)
     c.update(_command_costs(repeat))
-    from ..core.acquisition import Acquisition
-    from ..core.types import PhaseHistory
+    from ...core.acquisition import Acquisition
+    from ...core.types import PhaseHistory
 
     ph = PhaseHistory(d, Acquisition(freq, az, np.full(P, np.radians(30)), grid, antenna_position_m=a,
                                      range_to_center_m=r0, model="spherical"))

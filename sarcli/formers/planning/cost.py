@@ -3,7 +3,7 @@
 One home for the models of every former's cost: its peak working memory
 (:func:`form_image_bytes`, one model per family) and its seconds (:func:`direct_seconds`,
 :func:`nufft_seconds`, :func:`bp_seconds`, :func:`ffbp_seconds`, :func:`subimage_seconds`:
-operation counts times the per-operation constants of :mod:`sarcli.formers.calibration`). A
+operation counts times the per-operation constants of :mod:`sarcli.formers.planning.calibration`). A
 former's plan (:mod:`sarcli.formers.former`) reads them, and through it
 :func:`sarcli.formers.formation.form_image` (which refuses a plan beyond the memory limit,
 :func:`sarcli._util.resources.memory_limit`, ``sar --max-memory``, and warns before a long
@@ -20,9 +20,9 @@ from dataclasses import dataclass
 import numpy as np
 
 
-from .._util.resources import check_memory
-from ..core import sampling
-from ..errors import SarcliInputError, SarcliWarning
+from ..._util.resources import check_memory
+from ...core import sampling
+from ...errors import SarcliInputError, SarcliWarning
 
 __all__ = ["UPSAMPLE_RANGE", "OVERSAMPLE_RANGE", "WIDTH_RANGE", "EPS_RANGE", "check_knobs", "Samples", "threads",
            "form_image_bytes", "kgrid_bytes", "direct_seconds", "nufft_width", "nufft_seconds", "n_tiles",
@@ -71,7 +71,7 @@ class Samples:
 
     @classmethod
     def of(cls, ph) -> "Samples":
-        from ._samples import is_lazy
+        from .._samples import is_lazy
 
         p, m = ph.data.shape
         return cls(int(p), int(m), int(np.dtype(ph.data.dtype).itemsize), bool(is_lazy(ph.data)),
@@ -85,7 +85,7 @@ class Samples:
     def rows(self, method: str) -> float:
         """Pulses ``method`` holds at once: one block of them when the samples stay on disk and it
         reads by blocks, else all."""
-        from ._bp_setup import BLOCK
+        from ..backprojection import BLOCK
 
         if self.streamed and self.by_blocks(method):
             return float(min(self.n_pulses, BLOCK))
@@ -106,7 +106,7 @@ def kgrid_bytes(acq, grid, oversample) -> float:
     (``acq`` None: ``oversample²`` times the pixels), complex128."""
     if acq is None:
         return oversample**2 * float(grid.nx) * grid.ny * _C16
-    from ..core.geometry import kspace_coordinates
+    from ...core.geometry import kspace_coordinates
 
     f = np.asarray(acq.frequency_hz, dtype=np.float64)
     fr = f if f.ndim == 1 else f.ravel()
@@ -137,7 +137,7 @@ def form_image_bytes(method, samples: Samples, grid, *, acq=None, oversample=2.0
     if method == "pfa":
         return base + 3 * kgrid_bytes(acq, grid, oversample)
     if method == "backprojection":
-        from ._bp_setup import BLOCK, profile_length
+        from ..backprojection import BLOCK, profile_length
 
         length = float(profile_length(int(samples.n_freq), float(upsample))) if upsample <= 1e6 \
             else upsample * samples.n_freq
@@ -152,7 +152,7 @@ def form_image_bytes(method, samples: Samples, grid, *, acq=None, oversample=2.0
 
 def direct_seconds(n_pulses, n_freq, n_pixels, nthreads=None, costs=None) -> float:
     """Predicted seconds of the exact ``direct`` former: one calibrated constant per sample x
-    pixel term (:mod:`sarcli.formers.calibration`), far-field and spherical alike."""
+    pixel term (:mod:`sarcli.formers.planning.calibration`), far-field and spherical alike."""
     from .calibration import load_cost_model
 
     c = load_cost_model() if costs is None else costs
@@ -202,8 +202,8 @@ def ffbp_seconds(c, ops, n_pulses, profile_len, threads=1) -> float:
 def bp_seconds(c, n_pulses, n_freq, n_pixels, interp, upsample, tile_cost, nthreads) -> float:
     """Predicted seconds of backprojection: ``c["bp"]`` per pixel-pulse of 4-tap interpolation at unit
     tile cost, scaled by the interpolator's taps and the tiling's relative cost
-    (:attr:`sarcli.formers._bp_kernels.Tiling.cost`), plus the range profiles' FFTs."""
-    from .backprojection import profile_length
+    (:attr:`sarcli.formers.backprojection._kernels.Tiling.cost`), plus the range profiles' FFTs."""
+    from ..backprojection import profile_length
 
     L = profile_length(n_freq, upsample)
     taps = sampling.INTERPOLATORS[interp].taps
@@ -213,8 +213,8 @@ def bp_seconds(c, n_pulses, n_freq, n_pixels, interp, upsample, tile_cost, nthre
 def bp_units(data, freq_hz, antenna_position_m, grid) -> float:
     """What ``c["bp"]`` is per: the pixel-pulses of backprojection's default on this collection
     times its tiling's relative cost (:func:`bp_seconds` without the FFTs, at unit cost)."""
-    from ._bp_setup import tiling_for
-    from .backprojection import DEFAULT_UPSAMPLE
+    from ..backprojection import tiling_for
+    from ..backprojection import DEFAULT_UPSAMPLE
 
     cost = tiling_for(freq_hz, antenna_position_m, None, grid, DEFAULT_UPSAMPLE).cost
     return float(np.shape(data)[0]) * grid.nx * grid.ny * cost
@@ -225,8 +225,8 @@ def bp_constants(best, d, freq, a, r0, grid, thr):
     seconds x threads like every constant: the range profiles' FFTs (numpy's, one thread, so that
     ``thr`` threads are charged their time) per ``L log2 L`` and pulse, and the rest of
     backprojection's default per :func:`bp_units`."""
-    from ._bp_setup import profiles
-    from .backprojection import DEFAULT_PRECISION, DEFAULT_UPSAMPLE, backproject, profile_length
+    from ..backprojection import profiles
+    from ..backprojection import DEFAULT_PRECISION, DEFAULT_UPSAMPLE, backproject, profile_length
 
     P, M = d.shape
     L = profile_length(M, DEFAULT_UPSAMPLE)

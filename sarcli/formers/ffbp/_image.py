@@ -56,19 +56,19 @@ An interpolation with weights ``ψ(n − t)`` answers a frequency ν (cycles per
 ``Ψ(ν)`` that does not depend on the fraction t, plus aliases that do (Poisson summation). Where
 the frequency each data sample will be read at is known beforehand, ``Ψ`` can be divided out of the
 data, as a NUFFT divides out its kernel, and only the aliases remain: with a 6-tap
-exponential-of-semicircle kernel (:func:`sarcli.formers.ffbp_model.deapodized_kernel`) 7e-6 at
-oversampling 2 and 5e-5 at 1.5 (:func:`~sarcli.formers.ffbp_model.deapodized_error`), against
+exponential-of-semicircle kernel (:func:`sarcli.formers.ffbp.model.deapodized_kernel`) 7e-6 at
+oversampling 2 and 5e-5 at 1.5 (:func:`~sarcli.formers.ffbp.model.deapodized_error`), against
 2.3e-3 and 1.7e-2 for the best stencil without the division (the ``optimal`` minimax kernel). That
 lets the grids be sampled coarser (1.5 instead of 2) at a smaller error. ffbp deapodizes three
 interpolations:
 
 - **range profiles**: bin ``j − j_c`` of an FFT of length L is exactly the frequency
-  ``(j − j_c)/L``, so ``1/Ψ`` is a weight per frequency (``_ffbp_grids.deapodization``); kept where
+  ``(j − j_c)/L``, so ``1/Ψ`` is a weight per frequency (``_grids.deapodization``); kept where
   ``Ψ`` does not vanish at the band's edge (``upsample`` above ~1,
-  :func:`~sarcli.formers.ffbp_model.deapodized_edge_error`). The profile upsampling is a multiple of
-  ``os_range`` (:func:`~sarcli.formers.ffbp_model.default_upsample`): the profiles' aliases then land
+  :func:`~sarcli.formers.ffbp.model.deapodized_edge_error`). The profile upsampling is a multiple of
+  ``os_range`` (:func:`~sarcli.formers.ffbp.model.default_upsample`): the profiles' aliases then land
   on their own tones on the polar grids instead of growing by ``(Ψ(ν')/Ψ(ν))^S``
-  (:func:`~sarcli.formers.ffbp_model.profile_alias_error`);
+  (:func:`~sarcli.formers.ffbp.model.profile_alias_error`);
 - **polar grids in range (q)**: level l reads pulse p's component at wavenumber ``k_j`` at
   ``ν_q = (k_j ∂R_p/∂q − k_ref) Δq/2π``;
 - **polar grids across (u)**: at ``ν_u = k_j ∂R_p/∂u Δu_l/2π`` (``∂R_p/∂u ≈ Δ⊥``, the pulse's offset
@@ -76,15 +76,15 @@ interpolations:
   coordinate).
 
 So ``Π_l Ψ(ν)`` over the levels a pulse passes is divided out of its data before the profiles' FFT
-(``_ffbp_stage0.tone_weights``). Each pulse's ``∂R_p/∂q`` and ``∂R_p/∂u`` on every level's grid come
-from its rays to the grown grid's edge and centre (``_ffbp_grids.pulse_rates``); their spread over a
+(``_stage0.tone_weights``). Each pulse's ``∂R_p/∂q`` and ``∂R_p/∂u`` on every level's grid come
+from its rays to the grown grid's edge and centre (``_grids.pulse_rates``); their spread over a
 grid (a climbing path, a near-field aperture) leaves a *mismatch*, ``rms_ν (d ln Ψ/dν)`` times the
 rms over the pulses of the half-spread, in the predicted error. An axis is deapodized only where its
 mismatch plus every level's aliases stays below the minimax stencils' error at the same
-oversampling (``_ffbp_grids.decide_deapodization``; ``FfbpPlan.range_deapodized``,
+oversampling (``_grids.decide_deapodization``; ``FfbpPlan.range_deapodized``,
 ``angle_deapodized``). The same tones say how far a pulse reaches past the band a grid was sampled
 for (a receiver far from the transmitter, a wide baseline): past :data:`BAND_SLACK`, the grids are
-sampled that much finer (``_ffbp_grids.band_excess``, ``FfbpPlan.band_scale``).
+sampled that much finer (``_grids.band_excess``, ``FfbpPlan.band_scale``).
 
 Planning
 --------
@@ -94,8 +94,8 @@ merges while a merge costs less than it saves in the final stage (:class:`StageL
 then grids and operation counts); :meth:`StageLayout.plan` then decides the deapodization and
 predicts the error (:class:`FfbpPlan`). What does not depend on the oversampling (each level's
 frame geometry and pulse tones) is kept per pulses, grid, base and merge
-(``_ffbp_grids.Apertures``), so a sweep of oversamplings (``--method auto``'s,
-:mod:`sarcli.formers.planner`) computes it once per base; and :meth:`StageLayout.error_floor`
+(``_grids.Apertures``), so a sweep of oversamplings (``--method auto``'s,
+:mod:`sarcli.formers.planning.planner`) computes it once per base; and :meth:`StageLayout.error_floor`
 bounds the predicted error from below before the deapodization is decided, so the sweep completes
 only the settings that can be its pick. ``os_range`` or ``os_angle`` not given:
 :data:`OS_RANGE_DEAPODIZED` (:data:`OS_ANGLE_DEAPODIZED`) is tried first and kept where
@@ -105,16 +105,16 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..core.geometry import C
-from ..core.sampling import equally_spaced, range_wavenumbers
-from ..core.grid import Grid
-from ..errors import SarcliInputError
-from .._util.progress import progress
-from .ffbp_model import INTERPOLATORS, interp_error, optimal_kernel, predict_error
-from .ffbp_model import deapodized_inverse, deapodized_kernel
-from ._ffbp_grids import deapodization
-from ._ffbp_plan import (BAND_SLACK, DEFAULTS, OS_ANGLE_DEAPODIZED, OS_RANGE_DEAPODIZED, SUBTREE_BYTES,
-                         UPSAMPLE_ANALYTIC, FfbpPlan, StageLayout, layout_stages, plan_stages, subtree_groups)
+from ...core.geometry import C
+from ...core.sampling import equally_spaced, range_wavenumbers
+from ...core.grid import Grid
+from ...errors import SarcliInputError
+from ..._util.progress import progress
+from .model import INTERPOLATORS, interp_error, optimal_kernel, predict_error
+from .model import deapodized_inverse, deapodized_kernel
+from ._grids import deapodization
+from ._plan import (BAND_SLACK, DEFAULTS, OS_ANGLE_DEAPODIZED, OS_RANGE_DEAPODIZED, SUBTREE_BYTES, UPSAMPLE_ANALYTIC,
+                    FfbpPlan, StageLayout, layout_stages, plan_stages, subtree_groups)
 
 __all__ = ["ffbp", "ffbp_image", "optimal_kernel", "plan_stages", "layout_stages", "predict_error", "interp_error",
            "FfbpPlan", "StageLayout", "DEFAULTS", "BAND_SLACK", "OS_RANGE_DEAPODIZED", "OS_ANGLE_DEAPODIZED",
@@ -132,7 +132,7 @@ _PROFILE_BLOCK = 64
 # ---------------------------------------------------------------------------------------------
 def _subtree_groups(plan):
     """The depth-first groups of the last level's sub-images
-    (:func:`sarcli.formers._ffbp_plan.subtree_groups`) whose subtrees fit :data:`SUBTREE_BYTES`."""
+    (:func:`sarcli.formers.ffbp._plan.subtree_groups`) whose subtrees fit :data:`SUBTREE_BYTES`."""
     return subtree_groups(plan, SUBTREE_BYTES)
 
 
@@ -196,10 +196,10 @@ def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weigh
     image : ndarray, shape (ny, nx), complex128
         ``(1/W) Σ w d e_pj(x)`` to within the predicted error (unit point peaks ≈ 1).
     """
-    from ._ffbp_kernels import final as final_stage, frame, merge as merge_stage
-    from ._ffbp_stage0 import pulse_geometry, series_inputs, tone_weights, pulse_table, stage0
-    from .._native import using_threads
-    from ._bp_setup import PAD, ProfileWork, check_data, profile_length, range_profiles
+    from ._kernels import final as final_stage, frame, merge as merge_stage
+    from ._stage0 import pulse_geometry, series_inputs, tone_weights, pulse_table, stage0
+    from ..._native import using_threads
+    from ..backprojection import PAD, ProfileWork, check_data, profile_length, range_profiles
 
     d = check_data(data)   # a phase history left on disk stays there: stage 0 reads it by blocks
     P, M = d.shape
