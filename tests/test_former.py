@@ -17,11 +17,10 @@ from sarcli.formers.planning.cost import Samples, form_image_bytes
 from sarcli.formers.families import FORMERS
 from sarcli.formers.formation import PLANNED, default_candidates, form_image, plan_rows
 from sarcli.formers.former import Settings
-from sarcli.formers.options import OPTIONS
+from sarcli.formers.options import KNOB_NAMES, OPTIONS
 
 from .test_planner import GRID, spherical
 
-KNOB_NAMES = sorted({n for cls in OPTIONS.values() for n in cls.names()})
 
 
 @pytest.fixture(scope="module")

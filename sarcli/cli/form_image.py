@@ -6,9 +6,10 @@ import click
 
 from ..autofocus import METHODS as AUTOFOCUS_METHODS
 from ..formers.formation import METHODS
-from .options import (cphd_arguments, cphd_options, echo_notes, export_options, grid_options, handle_errors,
-                      knob_options, method_options, parse_pair, prepare_outputs, threads_option, window_options,
-                      write_side_outputs, wrote)
+from ..formers.options import KNOB_NAMES
+from .options import (cphd_arguments, cphd_options, echo_notes, export_options, grid_options,
+                      handle_errors, knob_options, method_options, parse_pair, prepare_outputs, threads_option,
+                      window_options, write_side_outputs, wrote)
 
 
 @click.command("form-image")
@@ -33,8 +34,7 @@ from .options import (cphd_arguments, cphd_options, echo_notes, export_options, 
 @cphd_options
 @export_options
 @handle_errors
-def command(input_path, output, method, autofocus_method, window, taylor_nbar, taylor_sll_db, center, extent,
-            pixel_size, dem_path, dem_datum, crs, nthreads, channel, sgn, troposphere, png_path, tif_path, **knobs):
+def command(input_path, output, method, **options):
     """Form the matched-filter image of a phase history (or of a k-grid file with --method pfa)."""
     from pathlib import Path
 
@@ -44,24 +44,26 @@ def command(input_path, output, method, autofocus_method, window, taylor_nbar, t
     from ..io.export import SICD_SUFFIXES
     from ..io.hdf5 import write_image
 
-    given = method_options(method, knobs).given()
-    prepare_outputs([("input", input_path), ("--dem", dem_path)],
-                    [("output", output), ("--png", png_path), ("--geotiff", tif_path)])
-    dem = _dem(method, output, autofocus_method, dem_path, dem_datum, crs)
+    o = options
+    given = method_options(method, {k: o.pop(k) for k in KNOB_NAMES}).given()
+    prepare_outputs([("input", input_path), ("--dem", o["dem_path"])],
+                    [("output", output), ("--png", o["png_path"]), ("--geotiff", o["tif_path"])])
+    dem = _dem(method, output, o["autofocus_method"], o["dem_path"], o["dem_datum"], o["crs"])
     # the samples stay on disk until a former reads them (by blocks of pulses where it can);
     # autofocus rewrites them, so it reads them whole
     _, src = open_input(input_path, expect=("phase-history", "kgrid", "gotcha", "cphd"), truth=False,
-                        lazy=autofocus_method is None, cphd=cphd_arguments(channel, sgn, troposphere))
+                        lazy=o["autofocus_method"] is None,
+                        cphd=cphd_arguments(o["channel"], o["sgn"], o["troposphere"]))
     echo_notes(src)
     acq = getattr(src, "acquisition", None)
-    if autofocus_method is not None and acq is not None:
-        grid = resolve_grid(acq.grid, center=parse_pair(center, "--center"), extent=parse_pair(extent, "--extent"),
-                            pixel_size=pixel_size)
-        check_form_image(src, method, grid, nthreads=nthreads, **given)   # before autofocus runs
-        src = _autofocused(src, autofocus_method, grid)
-    img = form_image(src, method, center=parse_pair(center, "--center"), extent=parse_pair(extent, "--extent"),
-                     pixel_size=pixel_size, window=window, taylor_nbar=taylor_nbar, taylor_sll_db=taylor_sll_db,
-                     nthreads=nthreads, dem=dem, crs=crs, **given)
+    center, extent = parse_pair(o["center"], "--center"), parse_pair(o["extent"], "--extent")
+    if o["autofocus_method"] is not None and acq is not None:
+        grid = resolve_grid(acq.grid, center=center, extent=extent, pixel_size=o["pixel_size"])
+        check_form_image(src, method, grid, nthreads=o["nthreads"], **given)   # before autofocus runs
+        src = _autofocused(src, o["autofocus_method"], grid)
+    img = form_image(src, method, center=center, extent=extent, pixel_size=o["pixel_size"], window=o["window"],
+                     taylor_nbar=o["taylor_nbar"], taylor_sll_db=o["taylor_sll_db"], nthreads=o["nthreads"],
+                     dem=dem, crs=o["crs"], **given)
     if Path(output).suffix.lower() in SICD_SUFFIXES:
         from ..io.sicd import write_sicd
 
@@ -71,7 +73,7 @@ def command(input_path, output, method, autofocus_method, window, taylor_nbar, t
         write_sicd(img, output, phase_history=src)
     else:
         write_image(output, img)
-    write_side_outputs(img, png_path, tif_path)
+    write_side_outputs(img, o["png_path"], o["tif_path"])
     wrote(output, f"{img.method}, {img.image.shape[1]} x {img.image.shape[0]} pixels, {img.runtime_s:.3g} s")
 
 

@@ -14,7 +14,7 @@ from .planning import cost
 from .former import Options, knob
 
 __all__ = ["DirectOptions", "NufftOptions", "PfaOptions", "BackprojectionOptions", "FfbpOptions", "SubimageOptions",
-           "AutoOptions", "OPTIONS", "DEFAULT_TOLERANCE", "SUBIMAGE_TOLERANCE"]
+           "AutoOptions", "OPTIONS", "KNOB_NAMES", "DEFAULT_TOLERANCE", "SUBIMAGE_TOLERANCE"]
 
 #: Relative error against the exact matched filter that ``method='auto'`` meets when no tolerance
 #: is given, and that ffbp's knobs are picked for when none is given.
@@ -110,3 +110,5 @@ class AutoOptions(Options):
 #: Every former's options by method name (``auto`` last).
 OPTIONS = {o.method: o for o in (DirectOptions, NufftOptions, PfaOptions, BackprojectionOptions, FfbpOptions,
                                    SubimageOptions, AutoOptions)}
+#: Every knob name of any former, each once (``sar form-image``'s knob options).
+KNOB_NAMES = tuple(dict.fromkeys(n for cls in OPTIONS.values() for n in cls.names()))

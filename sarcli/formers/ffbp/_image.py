@@ -150,9 +150,8 @@ def _descend(levels, a, b):
 # ---------------------------------------------------------------------------------------------
 # public function
 # ---------------------------------------------------------------------------------------------
-def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weights=None, *, base=None,
-         merge=None, os_range=None, os_angle=None, interp=None, upsample=None, final=None, nthreads=None,
-         receive_position_m=None, return_plan=False, plan=None):
+def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weights=None, *, nthreads=None,
+         receive_position_m=None, return_plan=False, plan=None, **knobs):
     """Spherical matched-filter image by fast factorised backprojection (module docstring).
 
     Parameters
@@ -166,6 +165,16 @@ def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weigh
     range_to_center_m : array_like, shape (P,)
     grid : Grid
     weights : array_like, shape (M,) or (P, M), optional
+    nthreads : int, optional
+    receive_position_m : array_like, shape (P, 3), optional
+        Separate receive positions ``r`` (range ``(|t − x| + |r − x|)/2 − r0``).
+    return_plan : bool
+        Also return the :class:`FfbpPlan` (stages, predicted error).
+    plan : FfbpPlan, optional
+        The stages, made before by :func:`plan_stages` for these positions, frequencies, grid and
+        knobs (``knobs`` are then not used).
+    **knobs
+        The stages' knobs (:func:`plan_stages`), each optional:
     base : int, default 16
         Pulses per base sub-aperture.
     merge : int, default 4
@@ -182,14 +191,6 @@ def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weigh
         (at least 1.5: :func:`default_upsample`) for ``optimal``, 4 for the analytic kernels.
     final : int, optional
         Merge until at most this many sub-images remain (default: as long as a merge pays).
-    nthreads : int, optional
-    receive_position_m : array_like, shape (P, 3), optional
-        Separate receive positions ``r`` (range ``(|t − x| + |r − x|)/2 − r0``).
-    return_plan : bool
-        Also return the :class:`FfbpPlan` (stages, predicted error).
-    plan : FfbpPlan, optional
-        The stages, made before by :func:`plan_stages` for these positions, frequencies, grid and
-        knobs (the knobs above are then not used).
 
     Returns
     -------
@@ -226,8 +227,7 @@ def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weigh
             raise SarcliInputError("window weights sum to zero")
     bistatic = receive_position_m is not None and not np.array_equal(t, rcv)
     if plan is None:
-        plan = plan_stages(t, f, grid, base=base, merge=merge, os_range=os_range, os_angle=os_angle, interp=interp,
-                           upsample=upsample, final=final, receive_position_m=rcv if bistatic else None)
+        plan = plan_stages(t, f, grid, receive_position_m=rcv if bistatic else None, **knobs)
     knobs = plan.knobs
     kind = INTERPOLATORS[knobs["interp"]]
     n_len = profile_length(M, knobs["upsample"])

@@ -175,7 +175,7 @@ def _candidates(ph, grid, tolerance, c, nthreads, prune, methods) -> list:
         ff = []
         if wanted("ffbp"):
             e_ffbp = e_freq if rcv is None else frequency_error(f, 0.5 * (pos + rcv), grid)
-            ff = _ffbp_sweep(pos, rcv, f, grid, target, e_ffbp, c, P, M, thr, keep_unmet=not prune,
+            ff = _ffbp_sweep(pos, rcv, f, grid, target, e_ffbp, c, thr, keep_unmet=not prune,
                              samples=smp)
         best_ffbp = min((x.seconds for x in ff if x.predicted_error <= target), default=math.inf)
         # backprojection: the profile interpolation (and unequal frequency spacing) is its error;
@@ -227,7 +227,7 @@ FFBP_PAIRS_PAST_MET = 2
 _FLOOR_MARGIN = 1e-9
 
 
-def _ffbp_sweep(pos, rcv, f, grid, target, e_freq, c, P, M, thr, *, keep_unmet, samples=None):
+def _ffbp_sweep(pos, rcv, f, grid, target, e_freq, c, thr, *, keep_unmet, samples):
     """ffbp's candidates: the cheapest setting predicted to meet ``target`` among
     :data:`FFBP_BASES` × :data:`FFBP_OVERSAMPLINGS` (the pairs up to :data:`FFBP_PAIRS_PAST_MET`
     past the first at which one meets), and with ``keep_unmet`` the most accurate one that does
@@ -240,10 +240,12 @@ def _ffbp_sweep(pos, rcv, f, grid, target, e_freq, c, P, M, thr, *, keep_unmet, 
     its error model completed. The pair at which one first meets is found in order, the cheapest
     setting of each pair first; then the settings of the pairs tried are completed in order of
     time until one meets: that one is the cheapest. ``samples``: the collection's
-    :class:`~sarcli.formers.planning.cost.Samples` (default ``P × M`` complex128 held in memory)."""
+    :class:`~sarcli.formers.planning.cost.Samples`."""
     from .. import ffbp as fb
     from ..backprojection import profile_length
     from ..ffbp.model import deapodized_error, default_upsample
+
+    P, M = samples.n_pulses, samples.n_freq
 
     class Setting:
         def __init__(self, order, lay):
@@ -291,7 +293,6 @@ def _ffbp_sweep(pos, rcv, f, grid, target, e_freq, c, P, M, thr, *, keep_unmet, 
         if met_at is None and any(x.meets() for x in _by_time([x for x in pair if x.rough_floor <= target])):
             met_at = i
     best = next((x for x in _by_time([x for x in settings if x.rough_floor <= target]) if x.meets()), None)
-    samples = Samples(P, M) if samples is None else samples
     out = [] if best is None else [_ffbp_candidate(best.lay, best.plan, best.seconds, samples)]
     if keep_unmet:   # the most accurate that misses: in order of floor, until the floor passes it
         miss = None
