@@ -66,7 +66,7 @@ def _virtual(ph, r0) -> dict:
     return {} if ph.model == "spherical" else {"virtual_range_m": float(r0[0])}
 
 
-def _plan(ph, grid, options, settings, costs, *, knobs, run, estimate, memory, notes=""):
+def _plan(ph, grid, options, settings, *, knobs, run, estimate, memory, notes=""):
     return Plan(options.method, options, knobs, ph, grid, settings, run, estimate, memory, notes)
 
 
@@ -98,7 +98,7 @@ def plan_direct(ph, grid, options, settings, costs=None) -> Plan:
         kx, ky = acq.kspace()
         return direct_farfield(data, kx, ky, grid, w), {}
 
-    return _plan(ph, grid, options, settings, costs, knobs={}, run=run,
+    return _plan(ph, grid, options, settings, knobs={}, run=run,
                  estimate=lambda: (0.0, cost.direct_seconds(smp.n_pulses, smp.n_freq, npix, settings.nthreads,
                                                              _constants(settings, costs)[0])),
                  memory=lambda: cost.form_image_bytes("direct", smp, grid))
@@ -120,7 +120,7 @@ def plan_nufft(ph, grid, options, settings, costs=None) -> Plan:
         kx, ky = ph.acquisition.kspace()
         return nufft_farfield(data, kx, ky, grid, w, eps=options.eps, nthreads=settings.nthreads), {"eps": options.eps}
 
-    return _plan(ph, grid, options, settings, costs, knobs=options.knobs(), run=run,
+    return _plan(ph, grid, options, settings, knobs=options.knobs(), run=run,
                  estimate=lambda: (options.eps, _nufft_seconds(smp, grid, options.eps, settings, costs)),
                  memory=lambda: cost.form_image_bytes("nufft", smp, grid))
 
@@ -138,7 +138,7 @@ def plan_pfa(ph, grid, options, settings, costs=None) -> Plan:
                           kernel=options.kernel, oversample=options.oversample, width=options.width)
         return pfa_image(kg, grid), options.knobs()
 
-    return _plan(ph, grid, options, settings, costs, knobs=options.knobs(), run=run,
+    return _plan(ph, grid, options, settings, knobs=options.knobs(), run=run,
                  estimate=lambda: (math.nan, math.nan),
                  memory=lambda: cost.form_image_bytes("pfa", smp, grid, acq=ph.acquisition,
                                                       oversample=options.oversample))
@@ -185,7 +185,7 @@ def plan_backprojection(ph, grid, options, settings, costs=None) -> Plan:
                              upsample=up, interp=it, precision=options.precision, nthreads=settings.nthreads,
                              receive_position_m=rcv)
 
-    plan = _plan(ph, grid, options, settings, costs, knobs=options.knobs(), run=run, estimate=estimate,
+    plan = _plan(ph, grid, options, settings, knobs=options.knobs(), run=run, estimate=estimate,
                  memory=lambda: cost.form_image_bytes("backprojection", smp, grid, upsample=up,
                                                       precision=options.precision))
     plan.prepare = prepare
@@ -227,7 +227,7 @@ def plan_ffbp(ph, grid, options, settings, costs=None) -> Plan:
         length = profile_length(smp.n_freq, stages.knobs["upsample"])
         return stages.predicted_error, cost.ffbp_seconds(c, stages.ops, smp.n_pulses, length, thr)
 
-    return _plan(ph, grid, options, settings, costs, knobs=dict(stages.knobs), run=run, estimate=estimate,
+    return _plan(ph, grid, options, settings, knobs=dict(stages.knobs), run=run, estimate=estimate,
                  memory=lambda: cost.form_image_bytes("ffbp", smp, grid, grid_bytes=stages.ops["grid_bytes"]),
                  notes=f"{stages.n_stages} stages")
 
@@ -245,7 +245,7 @@ def plan_subimage(ph, grid, options, settings, costs=None) -> Plan:
             img, _ = nufft.run(nufft, data, w)
             return img, {"tile": max(grid.nx, grid.ny), "eps": eps, "predicted_error": eps, "n_tiles": 1}
 
-        return _plan(ph, grid, options, settings, costs, knobs={"tile": max(grid.nx, grid.ny), "eps": eps},
+        return _plan(ph, grid, options, settings, knobs={"tile": max(grid.nx, grid.ny), "eps": eps},
                      run=run_one, estimate=nufft.estimate, memory=nufft.memory, notes="1 tile")
     from .subimage import choose_tile, predict_tile_error
 
@@ -272,18 +272,17 @@ def plan_subimage(ph, grid, options, settings, costs=None) -> Plan:
         return (predict_tile_error(pos, rcv, r0, f, grid, tile, eps=eps),
                 cost.subimage_seconds(c, smp.n_pulses * smp.n_freq, n_tiles, eps, thr))
 
-    return _plan(ph, grid, options, settings, costs, knobs={"tile": tile, "eps": eps}, run=run, estimate=estimate,
+    return _plan(ph, grid, options, settings, knobs={"tile": tile, "eps": eps}, run=run, estimate=estimate,
                  memory=lambda: cost.form_image_bytes("subimage", smp, grid, threads=_constants(settings, costs)[1]),
                  notes=f"{n_tiles} tiles")
 
 
 #: Every family, by method name.
 FORMERS = {f.method: f for f in (
-    Former("direct", DirectOptions, plan_direct, "the file's own model: exact sum, float64 (the reference)"),
-    Former("nufft", NufftOptions, plan_nufft, "far-field: one type-1 NUFFT (FINUFFT)"),
-    Former("pfa", PfaOptions, plan_pfa, "far-field: gridding onto a Cartesian k-grid + FFT"),
-    Former("backprojection", BackprojectionOptions, plan_backprojection,
-           "spherical (any path): range-compress, interpolate, phase, accumulate"),
-    Former("ffbp", FfbpOptions, plan_ffbp, "spherical (any path): sub-aperture polar images merged in stages"),
-    Former("subimage", SubimageOptions, plan_subimage, "spherical (any path): one NUFFT per motion-compensated tile"),
+    Former("direct", DirectOptions, plan_direct),
+    Former("nufft", NufftOptions, plan_nufft),
+    Former("pfa", PfaOptions, plan_pfa),
+    Former("backprojection", BackprojectionOptions, plan_backprojection),
+    Former("ffbp", FfbpOptions, plan_ffbp),
+    Former("subimage", SubimageOptions, plan_subimage),
 )}

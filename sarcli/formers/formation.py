@@ -38,7 +38,7 @@ from ..errors import SarcliInputError, SarcliWarning
 from .planning.cost import DIRECT_WARN_S
 from .families import FORMERS, SPHERICAL_ADVICE, VIRTUAL_RANGE_PER_M, range_positions, warn_defocus
 from .former import Plan, Settings
-from .options import DEFAULT_TOLERANCE, OPTIONS, AutoOptions
+from .options import DEFAULT_TOLERANCE, OPTIONS
 
 __all__ = ["form_image", "plan_image", "check_form_image", "plan_rows", "default_candidates", "PLANNED", "regrid", "METHODS", "image_error", "DEFAULT_TOLERANCE",
            "SPHERICAL_ADVICE", "VIRTUAL_RANGE_PER_M", "range_positions", "FARFIELD_METHODS"]

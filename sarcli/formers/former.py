@@ -17,7 +17,6 @@ autofocus's prepared backprojector are its clients.
 
 from __future__ import annotations
 
-import dataclasses
 import functools
 import math
 import time
@@ -218,13 +217,7 @@ class Former:
     method: str
     options: type
     plan: Callable          # (ph, grid, options, settings, costs=None) -> Plan
-    summary: str            # one line: data model and how
 
     def make(self, ph, grid, settings: Settings | None = None, costs=None, **knobs) -> Plan:
         """:attr:`plan` with options from ``knobs`` (:meth:`Options.from_knobs`)."""
         return self.plan(ph, grid, self.options.from_knobs(knobs), settings or Settings(), costs)
-
-
-def replace_options(options: Options, **changes) -> Options:
-    """``options`` with ``changes`` (checked)."""
-    return dataclasses.replace(options, **changes)
