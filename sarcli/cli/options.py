@@ -109,6 +109,11 @@ def method_options(method: str, knobs: dict):
                                    "(auto picks its own knobs: see `sar plan`)")
         have = ", ".join(f"--{n.replace('_', '-')}" for n in cls.names()) or "none"
         raise click.UsageError(f"{flag} is no option of --method {method} (its options: {have})")
+    for name, value in given.items():   # each knob against its own range: the message names its flag
+        try:
+            cls(**{name: value})
+        except SarcliInputError as exc:
+            raise click.BadParameter(str(exc), param_hint=f"--{name.replace('_', '-')}") from None
     return cls(**given)
 
 
