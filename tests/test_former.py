@@ -37,8 +37,9 @@ def scenes():
 
 
 def parse_flags(flags):
-    """The options ``sar form-image`` runs for ``flags`` (its own parser)."""
-    ctx = form_image_command.make_context("form-image", ["ph.h5", "-o", "img.h5", *flags])
+    """The options ``sar form-image`` runs for ``flags`` (its own parser, under ``sar``'s context)."""
+    parent = cli.make_context("sar", ["form-image"], resilient_parsing=True)
+    ctx = form_image_command.make_context("form-image", ["ph.h5", "-o", "img.h5", *flags], parent=parent)
     return method_options(ctx.params["method"], {k: ctx.params[k] for k in KNOB_NAMES})
 
 
