@@ -79,6 +79,8 @@ def command(input_path, output, method, **options):
 
 def _dem(method, output, autofocus_method, dem_path, dem_datum, crs):
     """The DEM of a map image (``--dem``), its companions checked; None without one."""
+    if dem_path is None and dem_datum is None and crs is None:
+        return None
     from pathlib import Path
 
     from ..errors import SarcliInputError
@@ -86,8 +88,6 @@ def _dem(method, output, autofocus_method, dem_path, dem_datum, crs):
     from ..io.dem import parse_crs, read_dem
     from ..io.export import SICD_SUFFIXES
 
-    if dem_path is None and dem_datum is None and crs is None:
-        return None
     if dem_path is None:
         raise SarcliInputError(f"{'--crs' if crs else '--dem-datum'} belongs to a map image: give --dem DEM.tif too")
     if method not in HEIGHT_METHODS + ("auto",):

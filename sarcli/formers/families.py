@@ -17,7 +17,6 @@ import numpy as np
 from ..core import geometry
 from ..errors import DefocusWarning, SarcliInputError
 from .planning import cost
-from .planning.calibration import load_cost_model
 from .former import Former, Plan
 from .options import (BackprojectionOptions, DirectOptions, FfbpOptions, NufftOptions, PfaOptions,
                       SubimageOptions)
@@ -77,6 +76,8 @@ def _context(ph, grid):
 
 def _constants(settings, costs):
     """``(cost constants, threads)`` a plan's seconds are predicted with, read when first needed."""
+    from .planning.calibration import load_cost_model
+
     c = load_cost_model() if costs is None else costs
     return c, cost.threads(settings.nthreads, c)
 
