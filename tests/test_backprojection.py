@@ -293,7 +293,7 @@ def test_range_profiles_are_the_padded_inverse_fft():
 
 
 # ---------------------------------------------------------------------------------------------
-# The range models near and far from the radar (the quadratic and the exact, _bp_kernels.tiling)
+# The range models near and far from the radar (the quadratic and the exact, backprojection._kernels.tiling)
 # ---------------------------------------------------------------------------------------------
 def _tone_collection(r0, dx, *, P=4, M=16, n=128, el_deg=30.0, tone=0):
     """One frequency lit per pulse (``j = M//2 + tone``): the range profile is a pure tone that the

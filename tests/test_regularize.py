@@ -249,3 +249,26 @@ def test_cli_help_lists_options():
     for opt in ("--prior", "--order", "--lam", "--beta", "--iters", "--tol", "--operator", "--init",
                 "--history-png", "--extent", "--pixel-size", "--center"):
         assert opt in res.output
+
+
+def test_application_stages_give_what_regularize_gives(scene):
+    """``Regularization``'s stages one by one, ``regularize`` with an options object and with
+    keywords: the same image; an unknown setting is one line naming it."""
+    from sarcli.regularize import Regularization, RegularizeOptions
+
+    ph, _ = scene
+    opts = RegularizeOptions(prior="tv", iters=40)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        whole = regularize(ph, prior="tv", iters=40)
+        same = regularize(ph, opts)
+        app = Regularization(ph, opts, ph.acquisition.grid)
+        assert app.prepare()
+        app.choose_lambda()
+        u, hist = app.solve()
+    assert np.array_equal(whole.image, same.image)
+    assert app.lam == whole.parameters["lam"]
+    assert np.allclose(u * (app.problem.s_b / app.problem.s_a), whole.image, rtol=0, atol=1e-12)
+    assert whole.parameters["gram_products"]["path"] == app.products["path"] > 0
+    with pytest.raises(SarcliInputError, match="lamda"):
+        regularize(ph, lamda=0.1)

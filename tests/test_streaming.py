@@ -44,7 +44,7 @@ def test_block_formers_never_read_the_whole_collection(ph_file, monkeypatch):
     asked = spy_rows(monkeypatch)
     ph = read_phase_history(ph_file, lazy=True)
     n = ph.data.shape[0]
-    sarcli.form_image(ph, "backprojection", extent=2.0)  # blocks of _bp_setup.BLOCK pulses
+    sarcli.form_image(ph, "backprojection", extent=2.0)  # blocks of backprojection.BLOCK pulses
     assert asked and sum(asked) == n and max(asked) < n, asked
     asked.clear()
     sarcli.form_image(ph, "ffbp", extent=2.0)  # stage 0: whole sub-apertures, at most 64 pulses a block

@@ -199,7 +199,7 @@ def test_lam_path_runs_on_half_the_sub_apertures(monkeypatch):
     """Automatic λ on a warped operator of several sub-apertures: the path's Gram has half of them
     (recorded, its products counted with the path's), the final solve the operator held to the
     tolerance; the λ chosen is within 10 % of the one a path on the full operator chooses."""
-    from sarcli.regularize import driver
+    from sarcli.regularize import Problem
 
     acq = circle(P=128, M=64, grid=Grid.square(10.0, 40))
     ph = _data(acq)
@@ -216,9 +216,9 @@ def test_lam_path_runs_on_half_the_sub_apertures(monkeypatch):
     sel = p["lam_selection"]
     assert g["path"] == 2 * sum(sel["path_iterations"]) + 2 * len(sel["path_iterations"])
 
-    def full(op, normal, s_a, s_b, params, half=None):
-        return normal.scaled(s_a, s_b), normal.gram   # the final operator's own (counted) Gram
-    monkeypatch.setattr(driver, "_path_normal_equations", full)
+    def full(problem, params):
+        return problem.scaled, problem.counter   # the final operator's own (counted) normal equations
+    monkeypatch.setattr(Problem, "path_normal", full)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         ref = regularize(ph, **kw)
@@ -292,3 +292,65 @@ def test_a_patch_without_the_rest_of_the_scene():
     assert rel(part.image, whole.image[r0:r0 + patch.ny, c0:c0 + patch.nx]) < 0.05
     with pytest.raises(SarcliInputError, match="does not contain the patch"):
         without_outside(ph, whole, Grid.from_extent(40.0, grid.dx))
+
+
+def test_concurrent_grams_run_in_two_threads_at_once_as_they_do_alone():
+    """``WarpedGram.concurrent()`` and ``ToeplitzGram.concurrent()`` share tables, not work arrays:
+    two threads applying the pair at once give, bit for bit, what each gives alone."""
+    import threading
+
+    from sarcli._native import using_threads
+    from sarcli.linops.toeplitz import ToeplitzGram
+
+    acq = circle(P=128, M=64, grid=Grid.square(10.0, 40))
+    rng = np.random.default_rng(5)
+    warped = WarpedNufftOperator(acq, acq.grid, subapertures=2, tolerance=1e-3).gram()
+    k1, k2 = rng.uniform(-3, 3, (2, 500))
+    toeplitz = ToeplitzGram(k1, k2, (40, 40), eps=1e-6)
+    for gram in (warped, toeplitz):
+        twin = gram.concurrent()
+        assert twin is not None and twin is not gram
+        xs = [rng.standard_normal((40, 40)) + 1j * rng.standard_normal((40, 40)) for _ in range(8)]
+        with using_threads(1):
+            alone = [gram.forward(x) for x in xs]
+        got = [None] * len(xs)
+
+        def work(op, idx):
+            with using_threads(1):
+                for _ in range(5):
+                    for i in idx:
+                        got[i] = op.forward(xs[i])
+
+        threads = [threading.Thread(target=work, args=(op, range(k, len(xs), 2))) for k, op in ((0, gram), (1, twin))]
+        for t in threads:
+            t.start()
+        for t in threads:
+            t.join()
+        for a, b in zip(alone, got):
+            assert np.array_equal(a, b)
+
+
+def test_lam_path_in_two_threads_matches_one():
+    """With two kernel threads the path's probe solver runs in a thread of its own (recorded as the
+    split of threads); λ and the image agree with the path run in one thread to the single-precision
+    Gram's rounding."""
+    from sarcli._native import using_threads
+    from sarcli.regularize.forecast import CountedGram
+
+    acq = circle(P=128, M=64, grid=Grid.square(10.0, 40))
+    ph = _data(acq)
+    kw = dict(prior="ptv", operator="warped", tolerance=1e-3, iters=40)
+    with warnings.catch_warnings(), using_threads(2):
+        warnings.simplefilter("ignore")
+        two = regularize(ph, **kw)
+        concurrent = CountedGram.concurrent
+        CountedGram.concurrent = lambda self: None
+        try:
+            one = regularize(ph, **kw)
+        finally:
+            CountedGram.concurrent = concurrent
+    assert two.parameters["lam_selection"]["path_threads"] == [1, 1]
+    assert one.parameters["lam_selection"]["path_threads"] is None
+    assert two.parameters["gram_products"] == one.parameters["gram_products"]
+    assert abs(two.parameters["lam"] / one.parameters["lam"] - 1) < 1e-3
+    assert rel(two.image, one.image) < 1e-4

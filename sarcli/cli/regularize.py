@@ -4,7 +4,15 @@ from __future__ import annotations
 
 import click
 
+from ..regularize.options import OPERATORS, RegularizeOptions
 from .options import export_options, grid_options, handle_errors, parse_pair, write_side_outputs, wrote
+
+_DEFAULTS = RegularizeOptions()
+
+
+def _help(name: str) -> str:
+    """The help of an option: :class:`RegularizeOptions`'s text for its field."""
+    return RegularizeOptions.__dataclass_fields__[name].metadata["help"]
 
 
 def _parse_lam(text):
@@ -25,28 +33,21 @@ def _parse_lam(text):
 @click.command("regularize")
 @click.argument("input_path", metavar="PH.h5", type=click.Path(dir_okay=False))
 @click.option("-o", "--output", required=True, type=click.Path(dir_okay=False), help="Image file to write (.h5).")
-@click.option("--prior", type=click.Choice(["tv", "hotv", "l1", "ptv", "tikhonov"]), default="ptv",
-              show_default=True, help="Regulariser: TV, higher-order TV, l1, phase-corrected TV, Tikhonov.")
-@click.option("--order", type=click.IntRange(1, 3), default=1, show_default=True,
-              help="Difference order k (hotv, ptv, tikhonov).")
-@click.option("--lam", default="auto", show_default=True, metavar="auto|NUMBER",
-              help="Regularisation weight λ in normalised units (l1: λ ≥ 2 zeroes the image); auto: SURE "
-                   "with the noise power from the file or from range bins outside the scene, else "
-                   "generalised cross-validation (no noise level needed).")
-@click.option("--beta", type=click.FloatRange(min=0, min_open=True), default=None, help="ADMM penalty β (default 32 λ).")
-@click.option("--iters", type=click.IntRange(min=1), default=300, show_default=True, help="Iteration cap.")
-@click.option("--tol", type=click.FloatRange(min=0, min_open=True), default=1e-4, show_default=True, help="Relative-change tolerance.")
-@click.option("--operator", type=click.Choice(["auto", "nufft", "toeplitz", "warped", "spherical"]), default="auto",
-              show_default=True, help="Forward operator: far-field NUFFT pair or its pre-gridded Toeplitz form; "
-                                      "for spherical data, warped sub-aperture NUFFTs held to --tolerance or the "
-                                      "exact backprojection pair. auto: Toeplitz where the far field holds, else "
-                                      "warped where it meets --tolerance, else the exact pair.")
-@click.option("--tolerance", type=click.FloatRange(min=0, max=1, min_open=True, max_open=True), default=1e-3,
-              show_default=True, help="Relative error of AᴴA, against the exact spherical model, that the warped "
-                                      "operator is held to (--tol is the solver's stopping tolerance).")
+@click.option("--prior", type=click.Choice(["tv", "hotv", "l1", "ptv", "tikhonov"]), default=_DEFAULTS.prior,
+              show_default=True, help=_help("prior"))
+@click.option("--order", type=click.IntRange(1, 3), default=_DEFAULTS.order, show_default=True, help=_help("order"))
+@click.option("--lam", default=_DEFAULTS.lam, show_default=True, metavar="auto|NUMBER", help=_help("lam"))
+@click.option("--beta", type=click.FloatRange(min=0, min_open=True), default=None, help=_help("beta"))
+@click.option("--iters", type=click.IntRange(min=1), default=_DEFAULTS.iters, show_default=True, help=_help("iters"))
+@click.option("--tol", type=click.FloatRange(min=0, min_open=True), default=_DEFAULTS.tol, show_default=True,
+              help=_help("tol"))
+@click.option("--operator", type=click.Choice(OPERATORS), default=_DEFAULTS.operator, show_default=True,
+              help=_help("operator"))
+@click.option("--tolerance", type=click.FloatRange(min=0, max=1, min_open=True, max_open=True),
+              default=_DEFAULTS.tolerance, show_default=True, help=_help("tolerance"))
 @click.option("--anisotropic", is_flag=True, help="Anisotropic TV shrinkage (default isotropic).")
-@click.option("--reestimate-every", type=click.IntRange(min=0), default=0, show_default=True,
-              help="ptv: re-estimate the phases Θ from the iterate every N iterations (0: never).")
+@click.option("--reestimate-every", type=click.IntRange(min=0), default=_DEFAULTS.reestimate_every, show_default=True,
+              help=_help("reestimate_every"))
 @click.option("--outside", "outside_path", type=click.Path(dir_okay=False), default=None, metavar="IMG.h5",
               help="A regularised image of the whole scene: its part outside this grid (and a guard band of "
                    "four resolution cells) is reprojected and taken out of the data first, so that a patch is "
@@ -59,8 +60,7 @@ def _parse_lam(text):
 @export_options
 @click.pass_context
 @handle_errors
-def command(ctx, input_path, output, prior, order, lam, beta, iters, tol, operator, tolerance, anisotropic,
-            reestimate_every, outside_path, init_path, center, extent, pixel_size, history_png, png_path, tif_path):
+def command(ctx, input_path, output, **knobs):
     """Regularised image of a phase history: min ‖Af − b‖² + λ‖Tf‖₁ (ADMM) or Tikhonov (CG)."""
     from ..io import open_input
     from ..io.hdf5 import write_image
@@ -70,34 +70,37 @@ def command(ctx, input_path, output, prior, order, lam, beta, iters, tol, operat
 
     from ..core.grid import resolve_grid
     from ..formers.planning.cost import check_regularize
+    from .._util.resources import retain_freed_memory
     from .options import prepare_outputs
 
+    retain_freed_memory()   # each iteration makes and drops image-sized arrays
+
+    outside_path, init_path, history_png = knobs.pop("outside_path"), knobs.pop("init_path"), knobs.pop("history_png")
+    center, extent, pixel_size = knobs.pop("center"), knobs.pop("extent"), knobs.pop("pixel_size")
+    png_path, tif_path = knobs.pop("png_path"), knobs.pop("tif_path")
     prepare_outputs([("input", input_path), ("--init", init_path), ("--outside", outside_path)],
                     [("output", output), ("--png", png_path), ("--geotiff", tif_path), ("--history-png", history_png)])
-    lam = _parse_lam(lam)
+    knobs["isotropic"] = not knobs.pop("anisotropic")
+    knobs["lam"] = _parse_lam(knobs["lam"])
+    opts = RegularizeOptions(**knobs)
+    where = dict(center=parse_pair(center, "--center"), extent=parse_pair(extent, "--extent"), pixel_size=pixel_size)
     _, ph = open_input(input_path, expect=("phase-history", "gotcha", "cphd"), truth=False)
-    check_regularize(ph, resolve_grid(ph.acquisition.grid, center=parse_pair(center, "--center"),
-                                      extent=parse_pair(extent, "--extent"), pixel_size=pixel_size),
-                     iters=iters, operator=operator, auto=lam == "auto")
+    grid = resolve_grid(ph.acquisition.grid, **where)
+    check_regularize(ph, grid, iters=opts.iters, operator=opts.operator, auto=opts.auto)
     init = open_input(init_path, expect=("image", "sicd"))[1] if init_path else None
     if outside_path:
         from ..regularize.patch import without_outside
 
-        grid = resolve_grid(ph.acquisition.grid, center=parse_pair(center, "--center"),
-                            extent=parse_pair(extent, "--extent"), pixel_size=pixel_size)
         ph = without_outside(ph, open_input(outside_path, expect=("image",))[1], grid)
-    bar = progress(total=iters, desc=f"regularize {prior}", unit="it")
+    bar = progress(total=opts.iters, desc=f"regularize {opts.prior}", unit="it")
     quiet = bool((ctx.find_root().obj or {}).get("quiet"))
 
     def callback(iteration, objective):
         bar.set_postfix(objective=f"{objective:.4g}", refresh=False)
 
     try:
-        img = regularize(ph, prior=prior, order=order, lam=lam, beta=beta, iters=iters, tol=tol,
-                         operator=operator, tolerance=tolerance, center=parse_pair(center, "--center"),
-                         extent=parse_pair(extent, "--extent"), pixel_size=pixel_size, init=init,
-                         isotropic=not anisotropic, reestimate_every=reestimate_every, callback=callback,
-                         progress=bar, notice=None if quiet else message)
+        img = regularize(ph, opts, grid=grid, init=init, callback=callback, progress=bar,
+                         notice=None if quiet else message)
     finally:
         bar.close()
     write_image(output, img)
@@ -113,7 +116,7 @@ def command(ctx, input_path, output, prior, order, lam, beta, iters, tol, operat
     if sel and sel.get("at_path_end"):
         how += f" at the {sel['at_path_end']} lam of its path"
     cap = " (cap reached)" if p.get("iteration_cap_reached") else ""
-    wrote(output, f"{prior} ({op}), {how}, {p.get('iterations', 0)} iterations{cap}, {img.runtime_s:.3g} s")
+    wrote(output, f"{opts.prior} ({op}), {how}, {p.get('iterations', 0)} iterations{cap}, {img.runtime_s:.3g} s")
     if not quiet:
         for item in p.get("advice", []):
             click.echo(f"note: {item['line']}")

@@ -10,19 +10,19 @@ NUFFT adjoint; the grid-centre phase ramp cancels in ``AᴴA``.
 
 from __future__ import annotations
 
-import os
+import copy
 import threading
 
 import finufft
 import numpy as np
 import scipy.fft
 
+from .._native import threads
 from ._reduce import empty, norm2, rdot
 from .base import Linop
 
 __all__ = ["ToeplitzGram", "NormalEquations", "normal_equations"]
 
-_WORKERS = max(1, os.cpu_count() or 1)
 _BLOCK_BYTES = 1 << 20
 
 
@@ -60,7 +60,7 @@ class ToeplitzGram(Linop):
         # K[m2, m1] for m in [-N, N): modes in increasing order (FINUFFT modeord 0)
         kernel = finufft.nufft2d1(k2, k1, w, (2 * ny, 2 * nx), eps=eps, isign=+1)
         # circulant first column: move m = 0 to index 0
-        self.kernel_hat = scipy.fft.fft2(np.fft.ifftshift(kernel), workers=_WORKERS).astype(self.fft_dtype)
+        self.kernel_hat = scipy.fft.fft2(np.fft.ifftshift(kernel), workers=threads()).astype(self.fft_dtype)
         self.padded_shape = (2 * ny, 2 * nx)
         # rows per block of the x-pass: about 1 MiB of the padded grid, so a block stays in cache
         self._block = max(1, min(2 * ny, _BLOCK_BYTES // (2 * nx * self.fft_dtype.itemsize)))
@@ -81,6 +81,12 @@ class ToeplitzGram(Linop):
     def _adjoint(self, y):
         return self.apply(y)  # Hermitian
 
+    def concurrent(self) -> "ToeplitzGram":
+        """The same operator (its kernel shared) with work arrays of its own."""
+        other = copy.copy(self)
+        other._lock, other._work = threading.Lock(), None
+        return other
+
     def _forward_scaled(self, x, scale):
         return self.apply(x, scale)
 
@@ -99,6 +105,7 @@ class ToeplitzGram(Linop):
         fast, contiguous ones) run over the full 2N × 2N grid.
         """
         ny, nx = self.ishape
+        workers = threads()   # the calling thread's count (sarcli._native.threads)
         mine = self._lock.acquire(blocking=False)
         try:
             if mine:
@@ -108,18 +115,18 @@ class ToeplitzGram(Linop):
             # every transform runs in place (overwrite_x on an aligned complex array of its dtype)
             y[:ny] = x
             y[ny:] = 0
-            y = scipy.fft.fft(y, axis=0, workers=_WORKERS, overwrite_x=True)  # (2ny, nx)
+            y = scipy.fft.fft(y, axis=0, workers=workers, overwrite_x=True)  # (2ny, nx)
             block = self._block
             for r in range(0, 2 * ny, block):
                 m = min(block, 2 * ny - r)
                 z = zb[:m]
                 z[:, :nx] = y[r:r + m]
                 z[:, nx:] = 0
-                z = scipy.fft.fft(z, axis=1, workers=_WORKERS, overwrite_x=True)
+                z = scipy.fft.fft(z, axis=1, workers=workers, overwrite_x=True)
                 z *= self.kernel_hat[r:r + m]
-                z = scipy.fft.ifft(z, axis=1, workers=_WORKERS, overwrite_x=True)
+                z = scipy.fft.ifft(z, axis=1, workers=workers, overwrite_x=True)
                 y[r:r + m] = z[:, :nx]
-            y = scipy.fft.ifft(y, axis=0, workers=_WORKERS, overwrite_x=True)
+            y = scipy.fft.ifft(y, axis=0, workers=workers, overwrite_x=True)
             if out is None:
                 out = empty(self.ishape)
             if scale == 1.0:

@@ -46,12 +46,13 @@ from __future__ import annotations
 
 import math
 import threading
+from concurrent.futures import ThreadPoolExecutor
 
 import finufft
 import numpy as np
 import scipy.fft
 
-from .._native import load, threads
+from .._native import load, threads, using_threads
 from ..core import geometry
 from ..core.grid import Grid
 from ..errors import SarcliInputError
@@ -332,26 +333,32 @@ class _Run:
             # (FᴴWF)[m, m'] = Σ_l w_l e^{-i s_l·(m - m')}: ToeplitzGram's kernel at -s (k1 on columns)
             self._toeplitz = ToeplitzGram(-s1, -s0, self.shape, weights=self.weight2, eps=self._eps)
             self._phase32 = self.image_phase.astype(np.complex64)
-            self._grid = np.empty(self.shape, np.complex64)
-            self._scratch = np.empty((0,) + self.shape, np.complex64)
         return self._toeplitz
 
-    def gram(self, f32, out):
+    def gram(self, f32, out, work: "_RunWork"):
         """``Eᴴ Sᵀ T S E f`` in single precision (the Toeplitz form's own precision at this eps),
-        into ``out`` (complex64, pixels). Every work array is the run's own, kept between calls:
-        fresh arrays of this size cost page faults that outweigh the arithmetic."""
-        t = self.toeplitz()
+        into ``out`` (complex64, pixels), with the work arrays of one :class:`WarpedGram`."""
         extra = max(0, threads() - 1)
-        if self._scratch.shape[0] < extra:
-            self._scratch = np.empty((extra,) + self.shape, np.complex64)
-        if not hasattr(self, "_applied"):
-            self._applied = np.empty(self.shape, np.complex64)
+        if work.scratch.shape[0] < extra:
+            work.scratch = np.empty((extra,) + self.shape, np.complex64)
         pts = (self._i0, self._j0, self._wy, self._wx, self._phase32)
         kernels = load("spread")
-        kernels.spread(*pts, f32, self._grid, self._scratch)
-        t.apply(self._grid, out=self._applied)
-        kernels.interp(*pts, self._applied, out)
+        kernels.spread(*pts, f32, work.grid, work.scratch)
+        work.toeplitz.apply(work.grid, out=work.applied)
+        kernels.interp(*pts, work.applied, out)
         return out
+
+
+class _RunWork:
+    """A Gram's work arrays for one run, kept between calls: fresh arrays of this size cost page
+    faults that outweigh the arithmetic. Each :class:`WarpedGram` has its own, so two of them
+    (:meth:`WarpedGram.concurrent`) run in two threads at once."""
+
+    def __init__(self, run: _Run):
+        self.toeplitz = run.toeplitz().concurrent()
+        self.grid = np.empty(run.shape, np.complex64)
+        self.applied = np.empty(run.shape, np.complex64)
+        self.scratch = np.empty((0,) + run.shape, np.complex64)
 
 
 class WarpedNufftOperator(Linop):
@@ -436,7 +443,12 @@ class WarpedNufftOperator(Linop):
 class WarpedGram(Linop):
     """``AᴴA`` of a :class:`WarpedNufftOperator`: ``Σ_s Eᴴ Sᵀ T_s S E`` in single precision
     (Hermitian and positive semi-definite to its rounding, ~1e-7; equal to ``Aᴴ(A x)`` to the
-    NUFFT's ``eps``); the operator's ``eps`` is at least 1e-6 here."""
+    NUFFT's ``eps``); the operator's ``eps`` is at least 1e-6 here.
+
+    With several runs and several kernel threads (:func:`sarcli._native.threads` of the calling
+    thread) the runs are shared out, one thread each, every thread summing its own; with one run
+    the run's kernels take the threads. A run's transforms gain little from a second thread, its
+    neighbour's gain it all."""
 
     def __init__(self, op: WarpedNufftOperator):
         super().__init__(op.ishape, op.ishape, np.complex128)
@@ -444,27 +456,57 @@ class WarpedGram(Linop):
         for run in op._runs:
             run.toeplitz()
         n = int(np.prod(op.ishape))
-        self._f32, self._part = np.empty(n, np.complex64), np.empty(n, np.complex64)   # kept between calls
-        self._lock = threading.Lock()   # the work arrays (here and the runs') serve one call at a time
+        self._f32 = np.empty(n, np.complex64)   # kept between calls
+        self._work = None    # a _RunWork per run, made on the first product
+        self._sums = []      # per thread: (complex64 part, complex128 sum), made on first use
+        self._pool, self._pool_size = None, 0    # threads beside the caller's, one per run at most
+        self._lock = threading.Lock()   # the work arrays serve one call at a time
+
+    def concurrent(self) -> "WarpedGram":
+        """The same ``AᴴA`` (the runs' tables shared) with work arrays of its own."""
+        return WarpedGram(self.op)
 
     def _forward(self, x):
         return self._forward_scaled(x, 1.0)
 
+    def _share(self, k: int, n: int) -> np.ndarray:
+        """Thread ``k`` of ``n``: runs k, k + n, ... into its own sum (complex128); returns it."""
+        while len(self._sums) <= k:
+            self._sums.append((np.empty(self._f32.size, np.complex64), np.empty(self._f32.size, np.complex128)))
+        part, total = self._sums[k]
+        runs = list(zip(self.op._runs, self._work))[k::n]
+        for i, (run, work) in enumerate(runs):
+            run.gram(self._f32, part, work)
+            if i == 0:
+                total[...] = part
+            else:
+                total += part
+        return total
+
     def _forward_scaled(self, x, scale):
         # linear: the scale goes onto the single-precision copy of x, no pass or array of its own
         with self._lock:
-            f, part = self._f32, self._part
+            f = self._f32
             if scale == 1.0:
                 np.copyto(f, np.reshape(x, -1), casting="same_kind")
             else:
                 np.multiply(np.reshape(x, -1), scale, out=f, casting="same_kind")
-            out = np.empty(f.size, np.complex128)
-            for i, run in enumerate(self.op._runs):
-                run.gram(f, part)
-                if i == 0:
-                    out[...] = part
-                else:
-                    out += part
+            if self._work is None:
+                self._work = [_RunWork(run) for run in self.op._runs]
+            n = min(threads(), len(self.op._runs))
+            if n <= 1:
+                out = self._share(0, 1).copy()
+            else:
+                if self._pool_size != n - 1:
+                    if self._pool is not None:
+                        self._pool.shutdown()
+                    self._pool = ThreadPoolExecutor(n - 1, initializer=threads, initargs=(1,))
+                    self._pool_size = n - 1
+                with using_threads(1):
+                    later = [self._pool.submit(self._share, k, n) for k in range(1, n)]
+                    out = self._share(0, n).copy()
+                for fut in later:
+                    out += fut.result()
         return out.reshape(self.ishape)
 
     def _adjoint(self, y):

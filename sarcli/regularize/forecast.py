@@ -8,6 +8,7 @@ counted" and "Progress and the forecast").
 
 from __future__ import annotations
 
+import threading
 import time
 
 import numpy as np
@@ -30,26 +31,40 @@ PATH_POINTS, FINAL_SHARE = 5, 0.55
 
 class CountedGram(Linop):
     """``AᴴA`` that counts its applications (``count``): the cost of a run in products, the same on
-    every machine, for the scaling's power iterations, the λ path and the final solve alike."""
+    every machine, for the scaling's power iterations, the λ path and the final solve alike.
+    Its :meth:`concurrent` copies add to the same count."""
 
-    def __init__(self, op: Linop):
+    def __init__(self, op: Linop, *, _tally=None):
         super().__init__(op.ishape, op.oshape, op.dtype)
-        self.op, self.count = op, 0
+        self.op = op
+        self._tally = [0, threading.Lock()] if _tally is None else _tally
+
+    @property
+    def count(self) -> int:
+        return self._tally[0]
+
+    def _add(self):
+        with self._tally[1]:
+            self._tally[0] += 1
+
+    def concurrent(self):
+        op = self.op.concurrent()
+        return None if op is None else CountedGram(op, _tally=self._tally)
 
     def _forward(self, x):
-        self.count += 1
+        self._add()
         return self.op.forward(x)
 
     def _adjoint(self, y):
-        self.count += 1
+        self._add()
         return self.op.adjoint(y)
 
     def _forward_scaled(self, x, scale):
-        self.count += 1
+        self._add()
         return self.op._forward_scaled(x, scale)
 
     def _adjoint_scaled(self, y, scale):
-        self.count += 1
+        self._add()
         return self.op._adjoint_scaled(y, scale)
 
 

@@ -418,16 +418,22 @@ def select_lambda(solve: Callable, n_data: int, *, lams=SELECT_PATH, sigma2: flo
     ratio = lams[0] / lams[1] if len(lams) > 1 else 10.0 ** 0.5
     flat = _extend_down(point, out, ratio, lam_min)
     if sigma2 is None and kappa > 0:
-        i = int(np.argmin(out.scores))
-        room = n_data - out.dofs[i]
-        s2 = float(out.residuals[i] / room) if room > 0 else float("nan")
-        if np.isfinite(s2):
-            out.noise_power, out.speckle = s2, kappa * max(float(data_power) - s2, 0.0)
-            crit[0] = lambda r2, dof: sure_score(r2, dof, n_data, s2 + out.speckle)  # noqa: E731
-            out.scores = [crit[0](r, d) for r, d in zip(out.residuals, out.dofs)]
+        _gcv_to_sure(out, crit, n_data, kappa, data_power)
     while lam_max is not None and int(np.argmin(out.scores)) == 0 and out.lams[0] * ratio <= lam_max * (1 + 1e-9):
         point(out.lams[0] * ratio, calls[0], 0)
     return _vertex(out, sols, n_data, ratio, flat, lam_min, lam_max)
+
+
+def _gcv_to_sure(out: PathChoice, crit: list, n_data: int, kappa: float, data_power: float) -> None:
+    """At GCV's minimum, Wahba's ``σ̂² = ‖A f − b‖² / (n − dof)``; the criterion (``crit[0]``) and
+    the path's scores become SURE with σ̂² plus the speckle power."""
+    i = int(np.argmin(out.scores))
+    room = n_data - out.dofs[i]
+    s2 = float(out.residuals[i] / room) if room > 0 else float("nan")
+    if np.isfinite(s2):
+        out.noise_power, out.speckle = s2, kappa * max(float(data_power) - s2, 0.0)
+        crit[0] = lambda r2, dof: sure_score(r2, dof, n_data, s2 + out.speckle)  # noqa: E731
+        out.scores = [crit[0](r, d) for r, d in zip(out.residuals, out.dofs)]
 
 
 def _extend_down(point, out, ratio, lam_min) -> bool:
