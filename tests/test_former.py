@@ -117,6 +117,11 @@ def test_unknown_knob_is_refused_by_name(scenes):
         form_image(ph, "backprojection", interp="optimal")
     with pytest.raises(SarcliInputError, match=r"ffbp: base must be >= 1, got 0"):
         OPTIONS["ffbp"](base=0)
+    # None is "not given": the default, as the keyword arguments of form_image always read it
+    assert OPTIONS["backprojection"].from_knobs({"upsample": None, "interp": "linear"}) == \
+        OPTIONS["backprojection"](interp="linear")
+    with pytest.raises(SarcliInputError, match="upsample must be given a value"):
+        OPTIONS["backprojection"](upsample=None)
 
 
 def test_cli_refuses_a_knob_of_another_method(tmp_path, scenes):

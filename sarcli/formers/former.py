@@ -87,13 +87,14 @@ class Options:
 
     @classmethod
     def from_knobs(cls, knobs: dict) -> "Options":
-        """The options with ``knobs`` set and the rest at their defaults; a name that is no knob of
-        this former is refused, naming it and the knobs there are."""
+        """The options with ``knobs`` set and the rest at their defaults (a knob given as None
+        takes its default); a name that is no knob of this former is refused, naming it and the
+        knobs there are."""
         unknown = [k for k in knobs if k not in cls.names()]
         if unknown:
             have = ", ".join(cls.names()) or "none"
             raise SarcliInputError(f"method {cls.method!r} has no knob {unknown[0]!r} (its knobs: {have})")
-        return cls(**knobs)
+        return cls(**{k: v for k, v in knobs.items() if v is not None})
 
     def knobs(self) -> dict:
         """Every knob and its value (None: chosen by the plan)."""
