@@ -104,6 +104,13 @@ def test_one_memory_model(scenes):
     assert bp.bytes == form_image_bytes("backprojection", smp, GRID, upsample=16, precision="float32")
 
 
+def test_flags_write_numbers_that_read_back():
+    from sarcli.formers.former import flag_text
+
+    for v in (1e-9, 0.1 + 0.2, np.float64(1.5), np.float32(0.3), np.int64(16), 16):
+        assert float(flag_text(v)) == float(v) and "np." not in flag_text(v)
+
+
 def test_pfa_has_no_error_model(scenes):
     plan = FORMERS["pfa"].make(scenes["farfield"], GRID)
     assert math.isnan(plan.predicted_error) and plan.bytes > 0

@@ -39,9 +39,12 @@ def knob(default, help: str, *, kind=float, range=None, choices=None, default_te
 
 
 def flag_text(value) -> str:
-    """A knob's value as a command-line flag writes it, read back exactly (floats by ``repr``)."""
-    if isinstance(value, float):
-        return repr(value)
+    """A knob's value as a command-line flag writes it, read back exactly (floats by ``repr``;
+    NumPy scalars as the Python numbers they equal)."""
+    if isinstance(value, (float, np.floating)):
+        return repr(float(value))
+    if isinstance(value, np.integer):
+        return str(int(value))
     return str(value)
 
 
