@@ -8,10 +8,10 @@ stays within half the range, so 50 m images a 35 m square). Per range, one threa
 - the anchor's pixel-pulses per second (``bp_anchor.c``, built as bench_backprojection.py builds
   it) and backprojection's default (``form_image``'s: float32, Keys cubic, upsample 16), timed
   alternately A B A B, best of ``--repeat`` in CPU seconds; the ratios to the anchor and to the 10 km rate;
-- the tiling the kernels chose (range model and tile width, :func:`sarcli.formers._bp_kernels.tiling`);
-- the planner's predicted seconds, one thread (:func:`sarcli.formers.cost.bp_seconds`; its ``bp``
+- the tiling the kernels chose (range model and tile width, :func:`sarcli.formers.backprojection._kernels.tiling`);
+- the planner's predicted seconds, one thread (:func:`sarcli.formers.planning.cost.bp_seconds`; its ``bp``
   constant measured in this run on the planner's calibration collection, 10 km, as
-  :func:`sarcli.formers.planner.calibrate` does) against the measured;
+  :func:`sarcli.formers.planning.planner.calibrate` does) against the measured;
 - the relative error against the exact matched filter (``direct``) on a strided sub-grid of a
   scene of 24 point targets, and the error the planner predicts for the default.
 
@@ -42,13 +42,13 @@ from sarcli import _native  # noqa: E402
 from sarcli.analysis.accuracy import reference_grid  # noqa: E402
 from sarcli.core import geometry  # noqa: E402
 from sarcli.core.grid import Grid  # noqa: E402
-from sarcli.formers import cost  # noqa: E402
-from sarcli.formers._bp_setup import Setup  # noqa: E402
+from sarcli.formers.planning import cost  # noqa: E402
+from sarcli.formers.backprojection._setup import Setup  # noqa: E402
 from sarcli.formers.backprojection import (DEFAULT_INTERP, DEFAULT_PRECISION, DEFAULT_UPSAMPLE,  # noqa: E402
                                            backproject)
-from sarcli.formers.calibration import load_cost_model  # noqa: E402
+from sarcli.formers.planning.calibration import load_cost_model  # noqa: E402
 from sarcli.formers.direct import direct_spherical  # noqa: E402
-from sarcli.formers.ffbp_model import frequency_error, interp_error  # noqa: E402
+from sarcli.formers.ffbp.model import frequency_error, interp_error  # noqa: E402
 from sarcli.formers.formation import image_error  # noqa: E402
 
 DEFAULT = dict(precision=DEFAULT_PRECISION, interp=DEFAULT_INTERP, upsample=DEFAULT_UPSAMPLE)
@@ -75,7 +75,7 @@ def problem(range_m: float, n: int, pulses: int, m: int = 256, seed: int = 1):
 
 
 def planner_calibration_problem():
-    """The collection :func:`sarcli.formers.planner.calibrate` measures ``bp`` on."""
+    """The collection :func:`sarcli.formers.planning.planner.calibrate` measures ``bp`` on."""
     P, M, N = 256, 256, 256
     freq = 9.6e9 + 2e6 * np.arange(M)
     a = geometry.antenna_positions_circle(np.radians(np.linspace(-3, 3, P)), np.radians(30), 10e3)
@@ -112,11 +112,12 @@ def accuracy(points, freq, a, r0, grid) -> float:
 
 
 def tile_costs(n: int, pulses: int, repeat: int) -> None:
-    """Fit the kernels' relative costs (:data:`sarcli.formers._bp_kernels._GROUP_COST`, ``_ANCHOR_COST``):
+    """Fit the kernels' relative costs (:data:`sarcli.formers.backprojection._kernels._GROUP_COST`, ``_ANCHOR_COST``):
     time the default at 1 km with each model forced to several tile widths (one thread) and solve
     ``seconds per pixel-pulse = (groups · G + T) / width`` per model by least squares, in units of
     the quadratic's G."""
-    from sarcli.formers import _bp_kernels as bk, _bp_setup
+    import sarcli.formers.backprojection._kernels as bk
+    import sarcli.formers.backprojection._setup as _bp_setup
 
     data, freq, a, r0, grid, _ = problem(1e3, n, pulses)
     widths = (4, 8, 16, 32, 48, 64)

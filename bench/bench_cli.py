@@ -105,7 +105,8 @@ PLAN = r'''
 import sys, time
 import sarcli
 from sarcli.core.grid import Grid
-from sarcli.formers import planner, ffbp, subimage, backprojection
+from sarcli.formers import ffbp, subimage, backprojection
+from sarcli.formers.planning import planner
 ph = sarcli.read_phase_history(sys.argv[1])
 grid = Grid.from_extent(100, 0.125)
 t, c = time.perf_counter(), time.process_time()

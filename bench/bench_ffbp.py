@@ -18,7 +18,7 @@ Usage::
     python bench/bench_ffbp.py [--synthetic 512x1024] [--no-gotcha] [--repeat 1] [--calibrate] [--skip subimage]
 
 ``--calibrate`` first re-measures the planner's reference cost model, the one shipped with the
-package (``sarcli/formers/cost_model.json``; a user's machine measures its own on first `sar plan`).
+package (``sarcli/formers/planning/cost_model.json``; a user's machine measures its own on first `sar plan`).
 """
 
 from __future__ import annotations
@@ -96,7 +96,7 @@ def run_case(name, ph, grid, repeat, max_ref_cost, skip=()):
     t_bp = None
     for method, knobs in [s for s in settings if s[0] not in skip]:
         if method == "auto":   # a fall-back to direct is the reference itself (minutes to hours): reported, not run
-            from sarcli.formers.planner import recommend
+            from sarcli.formers.planning.planner import recommend
 
             pick = recommend(ph, grid, knobs["tolerance"])
             if pick.method == "direct":
@@ -136,8 +136,8 @@ def main(argv=None):
     print(f"machine: {os.cpu_count()} cores, kernels on {threads()} threads ({simd_level()}); load average "
           f"{os.getloadavg()[0]:.1f} at start (a shared, loaded machine: compare ratios, not seconds)")
     if args.calibrate:
-        from sarcli.formers.calibration import COST_MODEL_PATH
-        from sarcli.formers.planner import calibrate
+        from sarcli.formers.planning.calibration import COST_MODEL_PATH
+        from sarcli.formers.planning.planner import calibrate
 
         print("cost model:", calibrate(COST_MODEL_PATH))
     files = gotcha_files()[:4]

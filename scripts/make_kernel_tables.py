@@ -1,5 +1,5 @@
-"""Write sarcli/formers/kernel_tables.npy: ffbp's interpolation kernels and their error tables at
-the oversamplings the planner uses (sarcli.formers.ffbp_model.TABLE_BETAS), so that planning
+"""Write sarcli/formers/ffbp/kernel_tables.npy: ffbp's interpolation kernels and their error tables at
+the oversamplings the planner uses (sarcli.formers.ffbp.model.TABLE_BETAS), so that planning
 designs no kernel at run time. tests/test_ffbp_model.py checks the file against a fresh design.
 
     python scripts/make_kernel_tables.py
@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from sarcli.formers import ffbp_model
+from sarcli.formers.ffbp import model as ffbp_model
 
 if __name__ == "__main__":
     rows = ffbp_model.kernel_tables()

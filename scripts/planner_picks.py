@@ -30,8 +30,8 @@ from sarcli.core import geometry
 from sarcli.core.acquisition import Acquisition
 from sarcli.core.grid import Grid
 from sarcli.core.types import PhaseHistory
-from sarcli.formers import planner
-from sarcli.formers.calibration import DEFAULT_COSTS
+from sarcli.formers.planning import planner
+from sarcli.formers.planning.calibration import DEFAULT_COSTS
 
 REPO = Path(__file__).resolve().parents[1]
 TOLERANCES = (1e-2, 1e-3, 1e-4)

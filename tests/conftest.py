@@ -35,11 +35,11 @@ def pytest_collection_modifyitems(config, items):
 @pytest.fixture(autouse=True, scope="session")
 def _no_user_calibration(tmp_path_factory):
     """Tests plan with the shipped reference cost model, never a calibration left in the user's
-    cache by `sar plan` on this machine (sarcli.formers.calibration): this machine's calibration
+    cache by `sar plan` on this machine (sarcli.formers.planning.calibration): this machine's calibration
     file is that model, so `sar plan` does not measure the machine in every test."""
     import json
 
-    from sarcli.formers import calibration
+    from sarcli.formers.planning import calibration
 
     old = os.environ.get("SARCLI_CACHE_DIR")
     os.environ["SARCLI_CACHE_DIR"] = str(tmp_path_factory.mktemp("sarcli-cache"))

@@ -123,7 +123,7 @@ def test_pulse_contractions_are_the_reprojection_formula(kw):
 def test_group_images_add_up_to_the_backprojection():
     from sarcli.core.grid import Grid
     from sarcli.errors import SarcliInputError
-    from sarcli.formers._bp_prepared import Backprojector
+    from sarcli.formers.backprojection._prepared import Backprojector
     from sarcli.formers.backprojection import backproject
 
     _, d, freq, a, r0 = _circle_case(23, 32, 4)
@@ -180,7 +180,7 @@ def test_level_search_ends_when_an_iteration_gains_little():
 def test_prepared_backprojector_is_backproject_and_pulse_contractions(kw):
     from sarcli.core.grid import Grid
     from sarcli.errors import SarcliInputError
-    from sarcli.formers._bp_prepared import Backprojector
+    from sarcli.formers.backprojection._prepared import Backprojector
     from sarcli.formers.backprojection import backproject, pulse_contractions
 
     rng, d, freq, a, r0 = _circle_case(150, 40, 5)   # more pulses than one profile block

@@ -12,7 +12,7 @@ import pytest
 
 from sarcli.core import geometry
 from sarcli.errors import AliasingWarning, SarcliInputError
-from sarcli.formers._bp_kernels import kernels, next_fast_len, tile_width
+from sarcli.formers.backprojection._kernels import kernels, next_fast_len, tile_width
 from sarcli.formers.backprojection import DEFAULT_INTERP, DEFAULT_UPSAMPLE, backproject, profile_length, reproject
 from sarcli.core.grid import Grid
 
@@ -277,7 +277,7 @@ def test_tiles_narrow_near_the_antenna():
 
 def test_range_profiles_are_the_padded_inverse_fft():
     """range_profiles (shared with ffbp) against numpy, with (M,), (1, M) and (P, M) weights."""
-    from sarcli.formers._bp_setup import PAD, range_profiles
+    from sarcli.formers.backprojection._setup import PAD, range_profiles
 
     rng = np.random.default_rng(2)
     P, M, L = 37, 24, 96
@@ -293,7 +293,7 @@ def test_range_profiles_are_the_padded_inverse_fft():
 
 
 # ---------------------------------------------------------------------------------------------
-# The range models near and far from the radar (the quadratic and the exact, _bp_kernels.tiling)
+# The range models near and far from the radar (the quadratic and the exact, backprojection._kernels.tiling)
 # ---------------------------------------------------------------------------------------------
 def _tone_collection(r0, dx, *, P=4, M=16, n=128, el_deg=30.0, tone=0):
     """One frequency lit per pulse (``j = M//2 + tone``): the range profile is a pure tone that the
@@ -311,7 +311,8 @@ def _tone_collection(r0, dx, *, P=4, M=16, n=128, el_deg=30.0, tone=0):
 
 
 def _forced_tiling(monkeypatch, model, width):
-    from sarcli.formers import _bp_kernels as bk, _bp_setup
+    import sarcli.formers.backprojection._kernels as bk
+    import sarcli.formers.backprojection._setup as _bp_setup
 
     monkeypatch.setattr(_bp_setup, "tiling", lambda *args, **kw: bk.Tiling(model, width, 0.0, 1.0))
 
@@ -323,8 +324,8 @@ def test_range_model_error_within_its_bound(monkeypatch, model, r0):
     matched filter is within the bound the tiling is chosen by (quadratic_error / exact_error times
     the larger of kc and 1/bin), plus the float32 carrier's and weights' floor; and the quadratic's
     bound is sharp (within 10x) wherever its error rises above that floor."""
-    from sarcli.formers import _bp_kernels as bk
-    from sarcli.formers._bp_setup import Setup
+    import sarcli.formers.backprojection._kernels as bk
+    from sarcli.formers.backprojection._setup import Setup
 
     floor = 1.5e-6   # measured 3e-7 (AVX-512, AVX2) to 7e-7 (baseline)
     bound = bk.quadratic_error if model == "quadratic" else bk.exact_error
@@ -347,7 +348,7 @@ def test_range_model_error_within_its_bound(monkeypatch, model, r0):
 def test_tiling_keeps_wide_tiles_near_the_radar():
     """The quadratic's tiles narrow to 2 pixels at 200 m; the exact model keeps 64 within the same
     tolerance, and far away (1,000 km) the cheaper quadratic keeps 64 itself."""
-    from sarcli.formers._bp_kernels import EXACT, MODEL_TOLERANCE, QUADRATIC, tiling
+    from sarcli.formers.backprojection._kernels import EXACT, MODEL_TOLERANCE, QUADRATIC, tiling
 
     grid = Grid(512, 512, 0.25, 0.25)
     kc, ib = 4 * np.pi * 10e9 / geometry.C, 1.0 / 0.01
@@ -368,11 +369,11 @@ def test_default_error_at_every_range_within_prediction(monkeypatch, r0):
     evaluated in float64 at every pixel (one-pixel tiles) by at most its predicted error, and the
     whole error stays within the planner's margin (SAFETY) of the error it predicts
     (interpolation + unequal spacing + the tiling's model error)."""
-    from sarcli.formers import _bp_kernels as bk
-    from sarcli.formers._bp_setup import tiling_for
+    import sarcli.formers.backprojection._kernels as bk
+    from sarcli.formers.backprojection._setup import tiling_for
     from sarcli.formers.backprojection import DEFAULT_PRECISION
-    from sarcli.formers.ffbp_model import frequency_error, interp_error
-    from sarcli.formers.planner import SAFETY
+    from sarcli.formers.ffbp.model import frequency_error, interp_error
+    from sarcli.formers.planning.planner import SAFETY
 
     dx = min(0.25, r0 / 200)
     grid = Grid(64, 64, dx, dx)
@@ -398,7 +399,7 @@ def test_default_error_at_every_range_within_prediction(monkeypatch, r0):
 def test_exact_model_every_instruction_set_and_adjoint(monkeypatch, level):
     """At 40 m (the exact model, 64-pixel tiles; bistatic too): the AVX2 and baseline copies give
     AVX-512's image, and reproject stays backproject's exact adjoint."""
-    from sarcli.formers._bp_setup import tiling_for
+    from sarcli.formers.backprojection._setup import tiling_for
 
     rng = np.random.default_rng(11)
     data, freq, a, r0 = collection([[1.0, -2.0, 0.0]], [1.0], P=24, M=32, r0=40.0, aperture_deg=30.0)

@@ -6,7 +6,7 @@ The range model is read out of the compiled kernel (``bp_tiles``) with one pulse
 profiles whose interpolation is exact: a constant (every kernel's weights sum to one) gives
 ``exp(i kc Δr_model)`` at each pixel, and a linear ramp through the linear kernel with no carrier
 gives ``Δr_model / bin``. Both are compared with ``geometry.bistatic_differential_range``; the
-bound the tiling is chosen by (``_bp_kernels.quadratic_error`` / ``exact_error`` at the nearest
+bound the tiling is chosen by (``backprojection._kernels.quadratic_error`` / ``exact_error`` at the nearest
 range) must hold at any tile width, for a monostatic pair and for transmitter and receiver 25°
 apart at different ranges (each path's curvature its own). Every test runs on each instruction
 set this CPU has (``$SARCLI_BP_ISA`` caps the kernels' level: 2 AVX-512, 1 AVX2, 0 baseline).
@@ -19,10 +19,10 @@ import pytest
 
 from sarcli.core import geometry
 from sarcli.core.grid import Grid
-from sarcli.formers import _bp_setup
-from sarcli.formers._bp_kernels import (EXACT, GEO_ROWS, MODEL_TOLERANCE, QUADRATIC, Tiling, exact_error, kernels,
+import sarcli.formers.backprojection._setup as _bp_setup
+from sarcli.formers.backprojection._kernels import (EXACT, GEO_ROWS, MODEL_TOLERANCE, QUADRATIC, Tiling, exact_error, kernels,
                                         min_range, quadratic_error, tiling)
-from sarcli.formers._bp_setup import PAD
+from sarcli.formers.backprojection._setup import PAD
 from sarcli.formers.backprojection import backproject, reproject
 from sarcli.formers.direct import direct_spherical
 

@@ -330,7 +330,7 @@ def test_toa_domain_without_the_band_is_refused(tmp_path):
 
 def test_toa_domain_streams(tmp_path, monkeypatch):
     """`sar form-image X.cphd --channel 1` on a TOA-domain, two-channel file reads by blocks."""
-    from sarcli.formers._bp_setup import BLOCK
+    from sarcli.formers.backprojection._setup import BLOCK
 
     P = 2 * BLOCK + 40
     build_cphd(tmp_path / "t.cphd", Case(channels=TWO, P=P, domain="TOA", toa_samples=64))
@@ -398,7 +398,7 @@ def test_sign_check_on_the_command_line(tmp_path):
 
 def test_sign_check_reads_a_few_vectors(tmp_path, monkeypatch):
     """The check reads 16 vectors, once; the former then streams the rest by blocks."""
-    from sarcli.formers._bp_setup import BLOCK
+    from sarcli.formers.backprojection._setup import BLOCK
 
     P = 2 * BLOCK + 40
     build_cphd(tmp_path / "s.cphd", Case(channels=DOWNRANGE, P=P, swath=ASYMMETRIC, declared_sgn=1))

@@ -679,7 +679,7 @@ def test_lazy_and_eager_cphd_give_the_same_image(tmp_path, method):
 
 def test_form_image_command_streams_cphd(tmp_path, monkeypatch):
     """`sar form-image X.cphd --method backprojection` reads the signal by blocks, never whole."""
-    from sarcli.formers._bp_setup import BLOCK as _BLOCK
+    from sarcli.formers.backprojection._setup import BLOCK as _BLOCK
 
     P = 2 * _BLOCK + 40
     make_cphd_fixture(tmp_path / "f.cphd", P=P)
@@ -698,7 +698,7 @@ def test_batch_job_streams_cphd(tmp_path, monkeypatch):
     from sarcli.formers.formation import form_image
     from sarcli.io.hdf5 import read_image
 
-    from sarcli.formers._bp_setup import BLOCK as _BLOCK
+    from sarcli.formers.backprojection._setup import BLOCK as _BLOCK
 
     P = 2 * _BLOCK + 40
     make_cphd_fixture(tmp_path / "f.cphd", P=P)

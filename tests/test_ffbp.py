@@ -2,7 +2,7 @@
 
 Scenes: a circular path, a straight climbing path with a wiggle, far-field data (virtual antennas),
 and separate transmit/receive positions. Each checks the measured relative error against
-``direct`` and that the predicted error (:func:`sarcli.formers.ffbp_model.predict_error`) lies
+``direct`` and that the predicted error (:func:`sarcli.formers.ffbp.model.predict_error`) lies
 within a factor 3 of it.
 """
 
@@ -19,7 +19,7 @@ from sarcli.core.types import PhaseHistory
 from sarcli.errors import SarcliInputError
 from sarcli.formers.direct import direct_spherical
 from sarcli.formers.ffbp import ffbp, plan_stages
-from sarcli.formers.ffbp_model import (_poly_weights, deapodized_error, deapodized_kernel, deapodized_response,
+from sarcli.formers.ffbp.model import (_poly_weights, deapodized_error, deapodized_kernel, deapodized_response,
                                        interp_error, optimal_kernel, optimal_weights)
 from sarcli.formers.formation import form_image, image_error
 
@@ -148,9 +148,9 @@ def test_ffbp_farfield_through_form_image():
     err = image_error(img.image, ref)
     assert err <= 1e-3   # measured 1.2e-4
     # virtual antennas ~1e9 m away: stage 0's range series would round too much, so it is not used
-    import sarcli.formers._ffbp_stage0 as mod
-    from sarcli.formers.formation import _positions
-    pos, _, r0 = _positions(ph, GRID)
+    import sarcli.formers.ffbp._stage0 as mod
+    from sarcli.formers.families import range_positions
+    pos, _, r0 = range_positions(ph, GRID)
     plan = plan_stages(pos, FREQ, GRID)
     assert not mod.series_inputs(pos, pos, r0, plan.levels[0], plan.dq, 4 * np.pi * FREQ.max() / geometry.C)[1].any()
     pred = img.parameters["predicted_error"]
@@ -231,8 +231,8 @@ def test_polar_kernels_deapodized_only_where_the_mismatch_allows():
 
 def test_tone_weights_match_the_mean_responses():
     """The compiled weights are ``Π_l 1/Ψ(k_j a[l, p] + b)`` (NumPy's table of Ψ), per pulse."""
-    from sarcli.formers._ffbp_stage0 import tone_weights
-    from sarcli.formers.ffbp_model import deapodized_inverse
+    from sarcli.formers.ffbp._stage0 import tone_weights
+    from sarcli.formers.ffbp.model import deapodized_inverse
 
     rng = np.random.default_rng(2)
     k = (4 * np.pi * FREQ / geometry.C)[None, :]
@@ -248,7 +248,7 @@ def test_tone_weights_match_the_mean_responses():
 def test_kernels_write_only_in_place():
     """A kernel's output that would need a converted copy (not C-contiguous, or another dtype) is
     refused rather than written to a copy and lost."""
-    from sarcli.formers._ffbp_kernels import native
+    from sarcli.formers.ffbp._kernels import native
 
     k = np.ones((1, 4))
     a = np.zeros((1, 3))
@@ -266,7 +266,7 @@ def test_profile_upsample_is_a_multiple_of_the_range_sampling():
     """Deapodized profiles at upsample r·os_range alias onto their own tones (r an integer); at
     upsample 2 over os_range 1.5 the aliases land elsewhere in the band and grow by the polar
     deapodization (:func:`profile_alias_error`): the default is os_range itself."""
-    from sarcli.formers.ffbp_model import profile_alias_error
+    from sarcli.formers.ffbp.model import profile_alias_error
 
     assert profile_alias_error(1.5, 1.5, 4) <= 1.01 * deapodized_error(1.5)
     assert profile_alias_error(2.0, 1.5, 4) > 10 * deapodized_error(2.0)
@@ -291,7 +291,7 @@ def test_optimal_kernel_polynomials_match_minimax_weights(beta):
     """The degree-7 polynomials the kernels evaluate are the minimax weights to 5e-6 at any
     fraction (not only the fit points; 3e-6 at β = 1, whose kernel errs 1e-1), and the compiled
     evaluation equals NumPy's."""
-    from sarcli.formers._ffbp_kernels import row_weights
+    from sarcli.formers.ffbp._kernels import row_weights
 
     t = np.random.default_rng(5).random(40)
     coef = optimal_kernel(beta)
@@ -307,7 +307,7 @@ def test_optimal_kernel_polynomials_match_minimax_weights(beta):
 def test_analytic_kernel_weights(kind):
     """The compiled linear, Keys cubic (a = -1/2) and normalised Lanczos-3 weights, against their
     formulas at each tap's distance from the point."""
-    from sarcli.formers._ffbp_kernels import row_weights
+    from sarcli.formers.ffbp._kernels import row_weights
 
     t = np.random.default_rng(6).random(30)
     offs = {0: np.arange(0, 2), 1: np.arange(-1, 3), 2: np.arange(-2, 4)}[kind]
@@ -335,7 +335,7 @@ def test_ffbp_refuses_nadir_inside_the_grid():
 def test_split_gives_equal_groups_and_an_even_tree(n, size, merge):
     """Sub-apertures differ by at most one pulse, there are at least ceil(n/size) and at most a
     quarter more, and when rounded up the count is r·merge^a so the merges group them evenly."""
-    from sarcli.formers._ffbp_grids import _split
+    from sarcli.formers.ffbp._grids import _split
 
     first, count = _split(n, size, merge)
     k = -(-n // size)
@@ -381,7 +381,7 @@ def test_cli_form_image_ffbp(tmp_path):
 @pytest.mark.parametrize("bistatic", [False, True])
 def test_stage0_range_series_matches_exact_ranges(monkeypatch, bistatic):
     """Stage 0's range series (``series_inputs``) gives the image of the exact square roots."""
-    import sarcli.formers._ffbp_stage0 as mod
+    import sarcli.formers.ffbp._stage0 as mod
 
     a, r0 = circle(P=128)
     rcv = a + np.array([0.0, 40.0, 5.0]) if bistatic else None
@@ -400,7 +400,7 @@ def test_stage0_range_series_matches_exact_ranges(monkeypatch, bistatic):
 
 def test_stage0_range_series_falls_back_in_the_near_field():
     """A long sub-aperture seen from close by keeps the exact square root (the tail bound fails)."""
-    import sarcli.formers._ffbp_stage0 as mod
+    import sarcli.formers.ffbp._stage0 as mod
 
     a, r0 = circle(P=1024, r0=100.0, aperture_deg=40.0)
     kmax = 4 * np.pi * FREQ.max() / geometry.C
@@ -432,7 +432,7 @@ def test_ffbp_keeps_targets_at_the_image_edge():
 
 def test_ffbp_depth_first_groups_give_the_same_image(monkeypatch):
     """Sub-images formed and imaged a subtree at a time (bounded memory) = all at once."""
-    import sarcli.formers.ffbp as mod
+    import sarcli.formers.ffbp._image as mod
 
     a, r0 = circle(P=384, aperture_deg=8.0)
     data = point_data(a, r0)
@@ -449,8 +449,8 @@ def _merge_reference(cre, cim, cf, pf, first, count, tab_q, tab_t, dq, kref, n_u
     for the optimal 6-tap kernels: each parent row's nodes in every child's (q, u); the child's
     columns the row's q-stencils touch interpolated in u at the row's u, linear in q between nodes
     (pass 1); that signal interpolated in q at each node and re-referenced (pass 2)."""
-    from sarcli.formers._ffbp_grids import _coords_np
-    from sarcli.formers._ffbp_kernels import row_weights
+    from sarcli.formers.ffbp._grids import _coords_np
+    from sarcli.formers.ffbp._kernels import row_weights
 
     out = np.zeros((len(first), n_u, n_q), complex)
     for s in range(len(first)):
@@ -494,8 +494,8 @@ def test_merge_matches_its_numpy_reference(name, beta_q, beta_t):
     """The compiled merge (each column's segment found by walking the row, run boundaries listed
     by blocks) equals its NumPy twin to float32 rounding, on random sub-images of two levels of the
     tests' circle; with equal range and angle tables and with unequal ones (each pass its own)."""
-    import sarcli.formers._ffbp_kernels as kern
-    from sarcli.formers.ffbp_model import deapodized_kernel
+    import sarcli.formers.ffbp._kernels as kern
+    from sarcli.formers.ffbp.model import deapodized_kernel
 
     a, r0 = circle(P=192)
     plan = plan_stages(a, FREQ, GRID, base=4)
@@ -519,7 +519,7 @@ def test_stage0_weights_in_a_pass_or_in_the_blocks_give_the_same_image(monkeypat
     """Stage 0's two ways of forming the 6-tap weights (``WEIGHTS_FIRST``: a pass before the sums,
     or inside each block; each CPU takes one) sum the same products: the same image bit for bit,
     with the deapodized (symmetric) kernels and the analytic (read) ones."""
-    import sarcli.formers._ffbp_stage0 as s0
+    import sarcli.formers.ffbp._stage0 as s0
 
     a, r0 = circle(P=128)
     data = point_data(a, r0)
@@ -538,8 +538,8 @@ def test_weight_polynomials_of_an_asymmetric_kernel_give_the_same_image(monkeypa
     kernels' general polynomial path (stage 0's, in a weight pass or in its blocks, the merges' and
     the final stage's stencils) instead of the even/odd one: the image moves by about that much,
     no more."""
-    import sarcli.formers._ffbp_stage0 as s0
-    import sarcli.formers.ffbp as mod
+    import sarcli.formers.ffbp._stage0 as s0
+    import sarcli.formers.ffbp._image as mod
 
     monkeypatch.setattr(s0, "WEIGHTS_FIRST", first)
     a, r0 = circle(P=128)

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from sarcli.formers import ffbp_model as fm
+from sarcli.formers.ffbp import model as fm
 
 
 def test_tables_ship_for_every_planned_oversampling():

@@ -211,7 +211,7 @@ def test_single_precision_toeplitz_at_loose_eps():
 
 def test_spherical_operator_draws_no_bar_of_its_own(monkeypatch):
     # an operator applied inside an iteration with its own bar must not start a backprojection bar
-    import sarcli.formers.backprojection as bp
+    import sarcli.formers.backprojection._maps as bp
     from sarcli._util.progress import is_quiet
 
     seen = []

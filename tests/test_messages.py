@@ -19,7 +19,7 @@ from sarcli.core.grid import Grid
 from sarcli.core.types import Image
 from sarcli.errors import DefocusWarning
 from sarcli.formers.formation import METHODS, form_image
-from sarcli.formers.planner import SAFETY, Candidate
+from sarcli.formers.planning.planner import SAFETY, Candidate
 
 from .conftest import REPO
 from .test_planner import spherical
@@ -27,9 +27,10 @@ from .test_planner import spherical
 
 def test_plan_status_words_say_what_they_mean():
     tol = 1e-3
-    words = [status_of(Candidate("ffbp", {}, e, 1.0, 1.0), tol, SAFETY) for e in (4e-4, 5.2e-4, 8.0e-4, 1.2e-3)]
-    assert words == ["safe", "meets", "meets", "misses"]  # 5.2e-4 and 8.0e-4 meet 1e-3
-    assert {w for w, _ in STATUS_LEGEND} == {"safe", "meets", "misses"}
+    words = [status_of(Candidate("ffbp", {}, e, 1.0, 1.0), tol, SAFETY)
+             for e in (4e-4, 5.2e-4, 8.0e-4, 1.2e-3, float("nan"))]
+    assert words == ["safe", "meets", "meets", "misses", "unknown"]  # 5.2e-4 and 8.0e-4 meet 1e-3; nan: no model
+    assert {w for w, _ in STATUS_LEGEND} == {"safe", "meets", "misses", "unknown"}
 
 
 def test_plan_table_fits_a_terminal_and_keeps_every_knob():
@@ -54,7 +55,7 @@ def test_cli_plan_json_carries_the_status(tmp_path):
     doc = json.loads(res.output)
     for c in doc["candidates"]:
         assert c["status"] == status_of(Candidate(c["method"], {}, c["predicted_error"], 0, 0), 1e-3, SAFETY)
-    assert set(doc["status_legend"]) == {"safe", "meets", "misses"}
+    assert set(doc["status_legend"]) == {"safe", "meets", "misses", "unknown"}
 
 
 def test_defocus_advice_names_what_auto_picks():

@@ -14,7 +14,7 @@ from sarcli.core.grid import Grid
 from sarcli.core.types import PhaseHistory
 from sarcli.errors import SarcliInputError
 from sarcli.formers.formation import form_image, image_error
-from sarcli.formers.planner import candidates, load_cost_model, recommend
+from sarcli.formers.planning.planner import candidates, load_cost_model, recommend
 
 GRID = Grid(48, 48, 0.5, 0.5)
 FREQ = 9.6e9 + 4e6 * np.arange(96)
@@ -79,10 +79,11 @@ def test_bad_tolerance_is_a_user_error(sph):
 def test_ffbp_fit_recovers_constants_and_keeps_a_floor():
     """The fit of ffbp's four constants: exact where the settings separate the terms; where the
     timings would send a term to 0, it keeps FFBP_FLOOR of its default-ratio share instead."""
-    from sarcli.formers.calibration import DEFAULT_COSTS
-    from sarcli.formers.planner import _FFBP_TERMS, FFBP_FLOOR, _fit_ffbp
+    from sarcli.formers.planning.calibration import DEFAULT_COSTS
+    from sarcli.formers.planning.cost import FFBP_TERMS
+    from sarcli.formers.planning.planner import FFBP_FLOOR, _fit_ffbp
 
-    d = np.array([DEFAULT_COSTS[name] for name, _ in _FFBP_TERMS])
+    d = np.array([DEFAULT_COSTS[name] for name, _ in FFBP_TERMS])
     rows = np.random.default_rng(0).uniform(1e6, 1e8, (6, 4))
     true = d * np.array([2.0, 0.5, 1.0, 3.0])
     np.testing.assert_allclose(_fit_ffbp(rows, rows @ true), true, rtol=1e-9)
@@ -92,14 +93,14 @@ def test_ffbp_fit_recovers_constants_and_keeps_a_floor():
 
 def test_cost_model_has_every_constant():
     """Every former's constants are positive, ffbp's four fitted ones included (each keeps a
-    floor, :func:`sarcli.formers.planner._fit_ffbp`), and they give a plan a positive time."""
+    floor, :func:`sarcli.formers.planning.planner._fit_ffbp`), and they give a plan a positive time."""
     from sarcli.formers import ffbp as fb
-    from sarcli.formers.planner import _FFBP_TERMS, ffbp_seconds
+    from sarcli.formers.planning.cost import FFBP_TERMS, ffbp_seconds
 
     c = load_cost_model()
     for key in ("direct", "bp", "nufft_spread", "subimage_point"):
         assert c[key] > 0
-    assert all(c[name] > 0 for name, _ in _FFBP_TERMS)
+    assert all(c[name] > 0 for name, _ in FFBP_TERMS)
     a = geometry.antenna_positions_circle(np.radians(np.linspace(-3, 3, 64)), np.radians(30), 1e4)
     plan = fb.plan_stages(a, 9.6e9 + 4e6 * np.arange(64), Grid(64, 64, 0.5, 0.5))
     assert ffbp_seconds(c, plan.ops, 64, 128) > c["bp_fft"] * 64 * 128 * 7
@@ -160,7 +161,7 @@ def test_calibration_is_kept_per_machine(tmp_path, monkeypatch):
     """A calibration serves only the machine it was measured on; until then the shipped one."""
     import json
 
-    from sarcli.formers import calibration as cal
+    from sarcli.formers.planning import calibration as cal
 
     monkeypatch.setenv("SARCLI_CACHE_DIR", str(tmp_path))
     assert not cal.is_calibrated() and load_cost_model()["calibrated"] is False
@@ -198,7 +199,7 @@ def test_kernel_build_fingerprint_follows_the_module_files(tmp_path, monkeypatch
 
 
 def test_command_seconds_adds_what_the_command_pays(sph):
-    from sarcli.formers.planner import command_seconds
+    from sarcli.formers.planning.planner import command_seconds
 
     ph, _ = sph
     c = dict(load_cost_model(), startup=0.3, planning=0.02, read_per_byte=1e-9, write_per_byte=2e-9)
@@ -213,7 +214,7 @@ def test_sar_plan_measures_an_uncalibrated_machine_once(tmp_path, monkeypatch, s
     import json
 
     from sarcli.cli.main import cli
-    from sarcli.formers import calibration as cal
+    from sarcli.formers.planning import calibration as cal
     from sarcli.io.hdf5 import write_phase_history
 
     monkeypatch.setenv("SARCLI_CACHE_DIR", str(tmp_path))
@@ -223,7 +224,7 @@ def test_sar_plan_measures_an_uncalibrated_machine_once(tmp_path, monkeypatch, s
         calls.append(1)
         cal.user_cost_model_path().write_text(json.dumps({"seconds_per_op": dict(cal.DEFAULT_COSTS, startup=0.25)}))
 
-    import sarcli.formers.planner as planner_mod
+    import sarcli.formers.planning.planner as planner_mod
 
     monkeypatch.setattr(planner_mod, "calibrate", fake)
     src = tmp_path / "ph.h5"
@@ -244,7 +245,7 @@ def test_calibrate_measures_every_constant(tmp_path):
     """The real measurement, written where asked, read back as this machine's model."""
     import json
 
-    from sarcli.formers.planner import calibrate
+    from sarcli.formers.planning.planner import calibrate
 
     path = tmp_path / "model.json"
     c = calibrate(path, repeat=1)
@@ -260,8 +261,8 @@ def _ffbp_picks_planned_fully(ph, grid, tol, costs):
     that meets the target and the most accurate that does not (ties: the first in the sweep)."""
     from sarcli.formers import ffbp as fb
     from sarcli.formers.backprojection import profile_length
-    from sarcli.formers.ffbp_model import deapodized_error, default_upsample, frequency_error
-    from sarcli.formers.planner import FFBP_BASES, FFBP_OVERSAMPLINGS, FFBP_PAIRS_PAST_MET, SAFETY, ffbp_seconds
+    from sarcli.formers.ffbp.model import deapodized_error, default_upsample, frequency_error
+    from sarcli.formers.planning.planner import FFBP_BASES, FFBP_OVERSAMPLINGS, FFBP_PAIRS_PAST_MET, SAFETY, ffbp_seconds
 
     acq, target = ph.acquisition, tol / SAFETY
     pos, rcv, _ = acq.range_geometry()
@@ -354,7 +355,7 @@ def test_the_sweep_picks_what_planning_every_setting_picks():
 
 
 def test_candidates_are_planned_once_per_geometry(sph, monkeypatch):
-    from sarcli.formers import planner
+    from sarcli.formers.planning import planner
 
     ph = sph[0]
     planner._CANDIDATE_CACHE.clear()
@@ -383,7 +384,7 @@ def test_candidates_cache_is_shared_by_threads(sph, monkeypatch):
     call evicts another's entry) each get the candidates of their own grid."""
     from concurrent.futures import ThreadPoolExecutor
 
-    from sarcli.formers import planner
+    from sarcli.formers.planning import planner
 
     ph = sph[0]
     monkeypatch.setattr(planner, "_CANDIDATE_CACHE_SIZE", 2)

@@ -345,7 +345,7 @@ def test_progress_and_notice_cover_the_path_and_the_final_solve(disk, monkeypatc
     assert "lam=" in bar.desc
     assert len(notes) == 1 and "predicted" in notes[0] and "--lam" in notes[0] and "GiB of memory" in notes[0]
     # the memory it will take, said before the run: auto (two solvers and the path's solutions) more
-    from sarcli.formers.cost import regularize_bytes
+    from sarcli.formers.planning.cost import regularize_bytes
     p, m = ph.data.shape
     assert img.parameters["predicted_bytes"] > 0
     assert regularize_bytes(p, m, ph.acquisition.grid, "toeplitz", auto=True) > \

@@ -51,7 +51,7 @@ def test_range_wavenumbers():
 
 def test_interpolator_registry_matches_the_formers():
     from sarcli.formers import backprojection
-    from sarcli.formers._ffbp_kernels import NTAPS
+    from sarcli.formers.ffbp._kernels import NTAPS
     assert set(sampling.PROFILE_INTERPOLATORS) <= set(sampling.INTERPOLATORS)
     assert backprojection.INTERPOLATORS == {n: sampling.INTERPOLATORS[n].code for n in ("linear", "cubic", "lanczos")}
     for i in sampling.INTERPOLATORS.values():

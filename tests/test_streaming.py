@@ -18,7 +18,7 @@ from .conftest import small_config, spy_rows
 @pytest.fixture(scope="module")
 def ph_file(tmp_path_factory):
     path = tmp_path_factory.mktemp("stream") / "ph.h5"
-    from sarcli.formers._bp_setup import BLOCK as _BLOCK
+    from sarcli.formers.backprojection._setup import BLOCK as _BLOCK
 
     # more pulses than one block of the block readers (backprojection's is the largest)
     cfg = small_config(azimuths={"center_deg": 50.0, "extent_deg": 3.0, "count": 2 * _BLOCK + 44})
@@ -44,7 +44,7 @@ def test_block_formers_never_read_the_whole_collection(ph_file, monkeypatch):
     asked = spy_rows(monkeypatch)
     ph = read_phase_history(ph_file, lazy=True)
     n = ph.data.shape[0]
-    sarcli.form_image(ph, "backprojection", extent=2.0)  # blocks of _bp_setup.BLOCK pulses
+    sarcli.form_image(ph, "backprojection", extent=2.0)  # blocks of backprojection.BLOCK pulses
     assert asked and sum(asked) == n and max(asked) < n, asked
     asked.clear()
     sarcli.form_image(ph, "ffbp", extent=2.0)  # stage 0: whole sub-apertures, at most 64 pulses a block
@@ -88,14 +88,14 @@ def test_library_checks_memory_before_allocating(ph_file, monkeypatch):
     pulses when the data stay on disk (streamed backprojection of a file larger than RAM is allowed)."""
     from sarcli._util import resources
     from sarcli.errors import SarcliInputError
-    from sarcli.formers.cost import form_image_bytes
+    from sarcli.formers.planning.cost import Samples, form_image_bytes
 
     ph = read_phase_history(ph_file, lazy=True)
     grid = sarcli.Grid.square(2.0, 16)
-    eager = form_image_bytes("backprojection", 100_000, 4096, grid)
-    streamed = form_image_bytes("backprojection", 100_000, 4096, grid, streamed=True)
+    eager = form_image_bytes("backprojection", Samples(100_000, 4096), grid, upsample=8)
+    streamed = form_image_bytes("backprojection", Samples(100_000, 4096, streamed=True), grid, upsample=8)
     # 100k pulses on disk cost one block in memory: as many as a million do
-    assert streamed == form_image_bytes("backprojection", 1_000_000, 4096, grid, streamed=True)
+    assert streamed == form_image_bytes("backprojection", Samples(1_000_000, 4096, streamed=True), grid, upsample=8)
     assert streamed < eager / 30
     resources.set_memory_limit(1024)  # 1 KiB: nothing fits
     try:
@@ -107,12 +107,12 @@ def test_library_checks_memory_before_allocating(ph_file, monkeypatch):
 
 def test_memory_models_count_the_stored_sample_size():
     """complex64 samples cost 8 bytes each where they are held as stored, not 16."""
-    from sarcli.formers.cost import form_image_bytes, regularize_bytes
+    from sarcli.formers.planning.cost import Samples, form_image_bytes, regularize_bytes
 
     grid = sarcli.Grid.square(2.0, 16)   # a small image: the samples dominate
     for method in ("nufft", "pfa", "direct"):
-        wide = form_image_bytes(method, 1000, 1000, grid, itemsize=16)
-        narrow = form_image_bytes(method, 1000, 1000, grid, itemsize=8)
+        wide = form_image_bytes(method, Samples(1000, 1000, itemsize=16), grid)
+        narrow = form_image_bytes(method, Samples(1000, 1000, itemsize=8), grid)
         assert narrow < wide and wide - narrow == pytest.approx(8 * 1000 * 1000)
     # regularisation copies narrow samples to complex128: the stored ones then cost 8 more, not less
     assert regularize_bytes(1000, 1000, grid, itemsize=8) == pytest.approx(
@@ -121,9 +121,10 @@ def test_memory_models_count_the_stored_sample_size():
 
 def test_plan_memory_counts_what_the_formers_hold(ph_file):
     """The planner's memory column: the samples at their stored size, one block of them for the
-    formers that read samples left on disk by blocks."""
-    from sarcli.formers._bp_setup import BLOCK
-    from sarcli.formers.planner import candidates
+    formers that read samples left on disk by blocks (backprojection: and of their weighted
+    complex128 copy)."""
+    from sarcli.formers.backprojection._setup import BLOCK
+    from sarcli.formers.planning.planner import candidates
 
     eager, lazy = read_phase_history(ph_file), read_phase_history(ph_file, lazy=True)
     P, M = eager.data.shape
@@ -131,5 +132,5 @@ def test_plan_memory_counts_what_the_formers_hold(ph_file):
     assert item == 8 and P > BLOCK
     grid = sarcli.Grid.square(2.0, 16)
     mem = {name: {c.method: c.memory for c in candidates(ph, grid, 1e-2)} for name, ph in (("eager", eager), ("lazy", lazy))}
-    for method in ("ffbp", "backprojection"):
-        assert mem["eager"][method] - mem["lazy"][method] == pytest.approx((P - BLOCK) * M * item)
+    assert mem["eager"]["ffbp"] - mem["lazy"]["ffbp"] == pytest.approx((P - BLOCK) * M * item)
+    assert mem["eager"]["backprojection"] - mem["lazy"]["backprojection"] == pytest.approx((P - BLOCK) * M * (item + 16))

@@ -1,6 +1,6 @@
 """The memory limit and the one check every size-driving parameter goes through.
 
-Estimates live next to the code they estimate (:mod:`sarcli.formers.cost`,
+Estimates live next to the code they estimate (:mod:`sarcli.formers.planning.cost`,
 :mod:`sarcli.simulation.cost`, the YAML loader); they call :func:`check_memory` before anything
 is allocated. The limit is the ``sar --max-memory`` option, else the machine's available memory
 (``MemAvailable`` of ``/proc/meminfo``, else free physical pages).

@@ -20,7 +20,7 @@ pass of the same size gives all ``P`` partial derivatives: two images of memory,
 That pass (:func:`sarcli.formers.backprojection.pulse_contractions`) gathers ``Σ_s g_s (B_p d_p)_s``
 from each pulse's profile as the backprojection does, the same numbers as the reprojection
 formula (:func:`~sarcli.formers.backprojection.reproject`, the exact adjoint) without its scatter.
-Both run on a :class:`~sarcli.formers._bp_prepared.Backprojector`: the range profiles of the
+Both run on a :class:`~sarcli.formers.backprojection.Backprojector`: the range profiles of the
 uncorrected data made once, each image multiplying pulse ``p``'s by ``e^{-iφ_p}``. Collections the
 backprojector does not take (far-field model, unequally spaced frequencies) use the stack of single-pulse
 images instead (:func:`~sarcli.autofocus._common.pulse_images`; small cases only).
@@ -35,6 +35,7 @@ import numpy as np
 
 from ..core.grid import Grid
 from ..errors import SarcliInputError, SarcliWarning
+from ..formers.options import BackprojectionOptions
 from ._common import MAX_GUARDED_PIXELS, guarded_grid, pulse_images
 
 __all__ = ["Imager", "BlockImager", "entropy_of", "split_grid", "check_splittable", "every_nth_line",
@@ -42,7 +43,16 @@ __all__ = ["Imager", "BlockImager", "entropy_of", "split_grid", "check_splittabl
 
 #: Backprojection options of the estimator: the pair backproject/reproject is an exact adjoint
 #: for any of them, and the estimate only needs the image to a few per cent.
-ESTIMATION_BP = {"upsample": 4, "interp": "linear", "precision": "float32"}
+ESTIMATION_BP = BackprojectionOptions(upsample=4, interp="linear", precision="float32")
+
+
+def prepared_backprojector(ph, grid: Grid, data):
+    """The estimator's backprojector of ``data`` (``ph``'s samples as complex128) on ``grid``: the
+    backprojection plan of :data:`ESTIMATION_BP` made ready for many images
+    (:attr:`sarcli.formers.former.Plan.prepare`)."""
+    from ..formers import plan_image
+
+    return plan_image(ph, grid, ESTIMATION_BP).prepare(data)
 
 
 #: The band left between the two halves of a grid, as a fraction of its width (:func:`split_grid`).
@@ -122,7 +132,7 @@ class Imager:
         Order of the Rényi entropy (:func:`entropy_of`).
     like : Imager or BlockImager, optional
         An imager of the same ``ph`` on another grid: its prepared backprojector's range profiles
-        are shared (:meth:`sarcli.formers._bp_prepared.Backprojector.on`).
+        are shared (:meth:`sarcli.formers.backprojection.Backprojector.on`).
     stack : bool
         Where the backprojector does not take the data, hold the stack of single-pulse images
         (False: neither, and the imager forms no image;
@@ -143,14 +153,10 @@ class Imager:
         data = np.asarray(ph.data, dtype=np.complex128)
         self._ph = ph
         if acq.model == "spherical" and data.shape[1] >= 2:
-            t, q, r0 = acq.range_geometry()
             try:  # the backprojector's checks; its range profiles once for every image and contraction
-                from ..formers import Backprojector
-
                 with warnings.catch_warnings():  # a guard band may reach the unambiguous window: harmless
                     warnings.simplefilter("ignore", SarcliWarning)
-                    self._bp = Backprojector(data, acq.frequencies_2d, t, r0, grid, **ESTIMATION_BP,
-                                             receive_position_m=q if acq.is_bistatic else None)
+                    self._bp = prepared_backprojector(ph, grid, data)
                 return
             except SarcliInputError:  # unequally spaced frequencies: the stack below
                 pass
@@ -351,16 +357,11 @@ class BlockImager:
 
         data = np.asarray(ph.data, dtype=np.complex128)
         if acq.model == "spherical" and data.shape[1] >= 2:
-            from ..formers import Backprojector
-
-            t, q, r0 = acq.range_geometry()
             try:
                 with warnings.catch_warnings():
                     warnings.simplefilter("ignore", SarcliWarning)
                     # the range profiles made once, kept for the exact imagers of the same data
-                    self._ph, self._bp = ph, Backprojector(data, acq.frequencies_2d, t, r0, grid,
-                                                           **ESTIMATION_BP,
-                                                           receive_position_m=q if acq.is_bistatic else None)
+                    self._ph, self._bp = ph, prepared_backprojector(ph, grid, data)
                     for b, re, im in self._bp.group_images(self.bounds):
                         store(b, re, im)
                 return parts

@@ -149,17 +149,25 @@ class _Errors:
 
 
 def _method_signatures() -> dict:
-    """Keyword options each method accepts (the plan's ``options`` are checked against them)."""
-    from ..formers.formation import METHODS, form_image
+    """Keyword options each method accepts, with a default of their type (the plan's ``options``
+    are checked against them): ``form_image``'s settings and the method's knobs
+    (:data:`sarcli.formers.options.OPTIONS`; a knob whose default is chosen by the former is
+    checked as a number where it is one)."""
+    from dataclasses import fields
 
-    skip = {"ph", "method", "grid", "center", "extent", "pixel_size", "init", "callback"}
+    from ..formers.formation import MAP_KEYS, form_image
+    from ..formers.options import OPTIONS
+
+    skip = {"ph", "method", "grid", "center", "extent", "pixel_size", "init", "callback", "options"}
 
     def options(func):
         return {n: p.default for n, p in inspect.signature(func).parameters.items() if n not in skip}
 
     from ..regularize import regularize
 
-    sigs = {m: options(form_image) for m in METHODS}
+    common = {**options(form_image), "taylor_nbar": 4, "taylor_sll_db": -35.0, **dict.fromkeys(MAP_KEYS)}
+    sigs = {m: {**common, **{f.name: f.default if f.default is not None or f.metadata["kind"] is str else 0
+                             for f in fields(cls)}} for m, cls in OPTIONS.items()}
     sigs["regularize"] = options(regularize)
     return sigs
 

@@ -17,7 +17,8 @@ from ..core import windows
 from ..errors import NumericalError, SarcliInputError, SarcliWarning
 
 __all__ = ["handle_errors", "grid_options", "export_options", "write_side_outputs", "parse_pair", "echo_info",
-           "window_options", "window_choice", "wrote", "prepare_outputs", "threads_option", "MAX_MESSAGE"]
+           "window_options", "window_choice", "wrote", "prepare_outputs", "threads_option", "knob_options",
+           "method_options", "MAX_MESSAGE"]
 
 #: longest error line printed (a value quoted in a message is cut well before this)
 MAX_MESSAGE = 400
@@ -42,6 +43,78 @@ def window_options(func=None, *, nbar_dest="taylor_nbar", sll_dest="taylor_sll_d
         return window_choice()(f)
 
     return decorate if func is None else decorate(func)
+
+
+def _knob_type(specs):
+    """The click type of a knob name several formers may share (:func:`sarcli.formers.former.knob`):
+    every former's choices, or the range that holds each former's (each former checks its own)."""
+    meta = specs[0].metadata
+    choices = list(dict.fromkeys(c for f in specs for c in (f.metadata["choices"] or ())))
+    if choices:
+        return click.Choice(choices)
+    if meta["kind"] is str:
+        return click.STRING
+    ranges = [f.metadata["range"] or (None, None) for f in specs]
+    lo = None if any(r[0] is None for r in ranges) else min(r[0] for r in ranges)
+    hi = None if any(r[1] is None for r in ranges) else max(r[1] for r in ranges)
+    if meta["kind"] is int:
+        return click.IntRange(lo, hi)
+    return click.FloatRange(lo, hi)
+
+
+def _knob_default(f) -> str:
+    text = f.metadata["default_text"]
+    if text is None:
+        from ..formers.former import flag_text
+
+        text = flag_text(f.default)
+    return text
+
+
+def knob_options(func):
+    """One option per knob name of every former's options dataclass
+    (:data:`sarcli.formers.options.OPTIONS`), generated from its fields: type, range or choices
+    (a name several formers share takes every choice), and help naming each former with its
+    default. Not given, an option is None (the former's default); the command receives them as
+    keyword arguments (:func:`method_options`)."""
+    from dataclasses import fields
+
+    from ..formers.options import OPTIONS
+
+    by_name: dict = {}
+    for method, cls in OPTIONS.items():
+        for f in fields(cls):
+            by_name.setdefault(f.name, []).append((method, f))
+    for name in reversed(list(by_name)):
+        specs = by_name[name]
+        helps = [f"{method}: {f.metadata['help']} (default {_knob_default(f)})" for method, f in specs]
+        func = click.option(f"--{name.replace('_', '-')}", name, type=_knob_type([f for _, f in specs]),
+                            default=None, help="; ".join(helps) + ".")(func)
+    return func
+
+
+def method_options(method: str, knobs: dict):
+    """The options of ``method`` (:mod:`sarcli.formers.options`) from the command's knob options
+    (:func:`knob_options`; None: not given). A knob given that is no knob of ``method`` is a usage
+    error naming its flag."""
+    from ..formers.options import OPTIONS
+
+    cls = OPTIONS[method]
+    given = {k: v for k, v in knobs.items() if v is not None}
+    extra = [k for k in given if k not in cls.names()]
+    if extra:
+        flag = f"--{extra[0].replace('_', '-')}"
+        if method == "auto":   # auto picks every knob itself: a knob given by hand belongs to one method
+            raise click.UsageError(f"{flag} sets a knob of one method; give --method too "
+                                   "(auto picks its own knobs: see `sar plan`)")
+        have = ", ".join(f"--{n.replace('_', '-')}" for n in cls.names()) or "none"
+        raise click.UsageError(f"{flag} is no option of --method {method} (its options: {have})")
+    for name, value in given.items():   # each knob against its own range: the message names its flag
+        try:
+            cls(**{name: value})
+        except SarcliInputError as exc:
+            raise click.BadParameter(str(exc), param_hint=f"--{name.replace('_', '-')}") from None
+    return cls(**given)
 
 
 def _show_warning(message, category, filename, lineno, file=None, line=None):

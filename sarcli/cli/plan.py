@@ -17,11 +17,15 @@ STATUS_LEGEND = (
              "for (the error models' own uncertainty)"),
     ("meets", "predicted error at most TOL, without that margin (auto does not pick it)"),
     ("misses", "predicted error above TOL"),
+    ("unknown", "no error model (pfa)"),
 )
 
 
 def status_of(cand, tolerance: float, safety: float) -> str:
-    """``safe``, ``meets`` or ``misses`` (see :data:`STATUS_LEGEND`)."""
+    """``safe``, ``meets``, ``misses`` or, for a former with no error model, ``unknown`` (see
+    :data:`STATUS_LEGEND`)."""
+    if cand.predicted_error != cand.predicted_error:
+        return "unknown"
     if cand.predicted_error <= tolerance / safety:
         return "safe"
     return "meets" if cand.predicted_error <= tolerance else "misses"
@@ -32,25 +36,33 @@ def _knobs(k: dict) -> str:
 
 
 def table(cands, pick, tolerance: float, safety: float, width: int = 80, seconds=None) -> list[str]:
-    """Lines of the plan table: one row per candidate, its knobs wrapped below it, then the legend.
+    """Lines of the plan table: one row per candidate, its knobs and then the ``sar form-image``
+    flags that run it wrapped below it (``default``: what ``--method X`` runs with no knob), then
+    the legend.
 
     Fits ``width`` columns (at least 60): the fixed columns take 56, the knobs and the legend wrap.
     ``seconds``: the time column, one per candidate (default each candidate's formation time).
     """
     import textwrap
 
+    from ..formers.planning.planner import same_run
+
     width = max(60, int(width))
     lines = [f"{'method':<15} {'pred.err':>9} {'pred.s':>9} {'MiB':>8}  {'status':<7}"]
+    marked = False
     for c, sec in zip(cands, seconds if seconds is not None else [c.seconds for c in cands]):
-        auto = c is pick or (c.method == pick.method and c.knobs == pick.knobs)
+        auto = not marked and (c is pick or same_run(c, pick))
+        marked = marked or auto
         lines.append(f"{c.method:<15} {c.predicted_error:9.2e} {sec:9.3g} {c.memory / 2**20:8.1f}  "
                      f"{status_of(c, tolerance, safety):<7}{' <- auto' if auto else ''}")
         knobs = _knobs(c.knobs)
         if c.notes:
             knobs = f"{knobs}; {c.notes}" if knobs else c.notes
-        if knobs:
-            lines += textwrap.wrap(knobs, width=width, initial_indent="    ", subsequent_indent="      ",
-                                   break_on_hyphens=False)
+        flags = " ".join(c.flags()) + ("  (default)" if c.default else "")
+        for text in (knobs, flags):
+            if text:
+                lines += textwrap.wrap(text, width=width, initial_indent="    ", subsequent_indent="      ",
+                                       break_on_hyphens=False)
     lines.append("status:")
     for word, text in STATUS_LEGEND:
         lines += textwrap.wrap(f"{word} = {text.format(safety=safety)}", width=width, initial_indent="  ",
@@ -71,14 +83,17 @@ def table(cands, pick, tolerance: float, safety: float, width: int = 80, seconds
 def command(input_path, center, extent, pixel_size, tolerance, as_json, calibrate, nthreads):
     """List image formers with knobs, predicted error, time and memory; mark the one --method auto picks.
 
-    Errors come from each former's error model. Times are of the whole `sar form-image` command
+    Each former is listed first as `sar form-image --method X` runs it with no knob (marked
+    default), then with the knobs its error model predicts to meet --tolerance; below each row,
+    the `sar form-image` flags that run it. Errors come from each former's error model. Times are of the whole `sar form-image` command
     with that former (start-up, reading, forming, writing), from per-operation constants measured
     on this machine: the first `sar plan` on a machine measures them (a few seconds) and keeps
     them in the user's cache folder; --calibrate measures them again.
     """
     from ..core.grid import resolve_grid
-    from ..formers import calibration
-    from ..formers.planner import SAFETY, calibrate as measure, candidates, command_seconds, recommend
+    from ..formers.planning import calibration
+    from ..formers.formation import plan_rows
+    from ..formers.planning.planner import SAFETY, calibrate as measure, command_seconds, recommend
     from ..io import open_input
 
     if calibrate or not calibration.is_calibrated():
@@ -90,14 +105,14 @@ def command(input_path, center, extent, pixel_size, tolerance, as_json, calibrat
     _, ph = open_input(input_path, expect=("phase-history", "gotcha", "cphd"), truth=False, lazy=True)
     grid = resolve_grid(ph.acquisition.grid, center=parse_pair(center, "--center"),
                         extent=parse_pair(extent, "--extent"), pixel_size=pixel_size)
-    cands = candidates(ph, grid, tolerance, nthreads=nthreads)
+    cands = plan_rows(ph, grid, tolerance, nthreads=nthreads)
     pick = recommend(ph, grid, tolerance, nthreads=nthreads)
     whole = [command_seconds(c, ph, grid) for c in cands]
     if as_json:
         click.echo(json.dumps({"tolerance": tolerance, "grid": grid.as_dict(),
                                "auto": {**pick.as_dict(), "predicted_command_s": command_seconds(pick, ph, grid, auto=True)},
                                "status_legend": {w: t.format(safety=SAFETY) for w, t in STATUS_LEGEND},
-                               "candidates": [{**c.as_dict(), "predicted_command_s": w,
+                               "candidates": [{**c.as_dict(), "predicted_command_s": None if w != w else w,
                                                "status": status_of(c, tolerance, SAFETY)}
                                               for c, w in zip(cands, whole)]}, indent=1, default=float))
         return

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from ..formers import cost
+from ..formers.planning import cost
 from .options import grid_options, handle_errors, parse_pair, prepare_outputs, window_options, wrote
 
 
@@ -28,7 +28,7 @@ def command(ctx, input_path, output, window, taylor_nbar, taylor_sll_db, center,
     from ..io import open_input
     from ..io.hdf5 import write_kgrid
 
-    from ..formers.cost import check_form_image
+    from ..formers.formation import check_form_image
 
     prepare_outputs([("input", input_path)], [("output", output)])
     _, ph = open_input(input_path, expect=("phase-history", "gotcha", "cphd"), truth=False)

@@ -69,7 +69,7 @@ def command(ctx, input_path, output, **knobs):
     from ..regularize import regularize
 
     from ..core.grid import resolve_grid
-    from ..formers.cost import check_regularize
+    from ..formers.planning.cost import check_regularize
     from .._util.resources import retain_freed_memory
     from .options import prepare_outputs
 

@@ -166,7 +166,7 @@ class Interpolator:
 
 
 #: Every interpolator, by name: linear (2 taps), Keys cubic (4), Lanczos-3 (6) and ffbp's
-#: ``optimal`` 6-tap kernel designed for the oversampling at hand (:mod:`sarcli.formers.ffbp_model`).
+#: ``optimal`` 6-tap kernel designed for the oversampling at hand (:mod:`sarcli.formers.ffbp.model`).
 INTERPOLATORS = {i.name: i for i in (Interpolator("linear", 0, 2), Interpolator("cubic", 1, 4),
                                      Interpolator("lanczos", 2, 6), Interpolator("optimal", 3, 6))}
 #: The interpolators backprojection offers (``optimal`` is designed per level, for ffbp only).

@@ -27,8 +27,8 @@ from .._native import using_threads
 from ..core.geometry import bistatic_differential_range
 from ..core.grid import Grid
 from ..errors import AliasingWarning, SarcliInputError
-from ._bp_kernels import kernels
-from ._bp_setup import PAD, Setup, check_data, profiles
+from .backprojection import kernels
+from .backprojection import PAD, Setup, check_data, profiles
 from .direct import direct_points
 
 __all__ = ["backproject_points", "reproject_points", "form_map", "HEIGHT_METHODS"]
@@ -48,7 +48,7 @@ def _checked_points(points_m):
 
 def _setup(shape, freq_hz, antenna_position_m, range_to_center_m, pts, weights, upsample, interp, precision,
            receive_position_m):
-    """:class:`._bp_setup.Setup` (checks, profile layout, per-pulse constants) on the points'
+    """:class:`sarcli.formers.backprojection.Setup` (checks, profile layout, per-pulse constants) on the points'
     horizontal bounding box, and the kernel's geometry rows for 3-D points."""
     flat = pts.reshape(-1, 3)
     lo, hi = flat[:, :2].min(axis=0), flat[:, :2].max(axis=0)

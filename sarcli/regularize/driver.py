@@ -16,7 +16,7 @@ import numpy as np
 from ..core.grid import Grid, resolve_grid
 from ..core.types import Image, PhaseHistory
 from ..errors import SarcliInputError
-from ..formers.cost import regularize_bytes
+from ..formers.planning.cost import regularize_bytes
 from ..solvers import ADMM, tikhonov
 from ..linops import sparsifying_operator
 from .forecast import Forecast, solver_overhead

@@ -593,7 +593,7 @@ def _direct_warning(ws) -> Fault:
     from sarcli._util.resources import set_memory_limit
     from sarcli.core.grid import resolve_grid
     from sarcli.errors import SarcliWarning
-    from sarcli.formers.cost import check_form_image
+    from sarcli.formers.formation import check_form_image
     from sarcli.io.hdf5 import read_phase_history
 
     set_memory_limit(None)  # a --max-memory of an earlier case stays set in this process
@@ -611,14 +611,14 @@ def _direct_warning(ws) -> Fault:
 
 def _library_upsample(ws) -> Fault:
     from sarcli.errors import SarcliInputError
-    from sarcli.formers.cost import check_knobs
+    from sarcli.formers.planning.cost import check_knobs
 
     try:
         check_knobs(upsample=1e9)
         observed, ok = "accepted", False
     except SarcliInputError as exc:
         observed, ok = f"SarcliInputError: {exc}", True
-    return Fault("R9", "library: upsample = 1e9 (sarcli.formers.cost.check_knobs)", "check_knobs(upsample=1e9)",
+    return Fault("R9", "library: upsample = 1e9 (sarcli.formers.planning.cost.check_knobs)", "check_knobs(upsample=1e9)",
                  "SarcliInputError naming the range", _clean(observed), ok,
                  "form_image checks the same ranges first (check_form_image), the CLI refuses by range "
                  "and by memory")

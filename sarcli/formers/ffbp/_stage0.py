@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._ffbp_kernels import native, table
+from ._kernels import native, table
 
 #: Largest phase (radians) the truncated range series of stage 0 may cost (:func:`series_inputs`).
 SERIES_PHASE = 1e-7
@@ -59,7 +59,7 @@ def stage0(pre, pim, first, count, pulses, series, frame, tab, kind, bistatic, h
         :func:`pulse_table`.
     series : ndarray of bool, shape (S,)
     frame : ndarray, shape (10, S)
-        :func:`sarcli.formers._ffbp_kernels.frame` of the sub-apertures.
+        :func:`sarcli.formers.ffbp._kernels.frame` of the sub-apertures.
     tab : ndarray, shape (6, 8)
         The profiles' weight polynomials (kind 3).
     kind : int
@@ -131,7 +131,7 @@ def pulse_geometry(t, rcv, r0):
 
 def tone_weights(k, a, b, inv_h, inv_psi, out):
     """``out[p, j] *= Π_l 1/Ψ(k_j a[l, p] + b)``: a deapodized kernel's mean response at each
-    pulse's tone on every level it passes (:func:`sarcli.formers._ffbp_grids.decide_deapodization`),
+    pulse's tone on every level it passes (:func:`sarcli.formers.ffbp._grids.decide_deapodization`),
     divided out of the data in place.
 
     Parameters
@@ -143,7 +143,7 @@ def tone_weights(k, a, b, inv_h, inv_psi, out):
     inv_h : float
         Samples of ``inv_psi`` per cycle.
     inv_psi : ndarray
-        ``1/Ψ`` at ``ν = i/inv_h`` (:func:`sarcli.formers.ffbp_model.deapodized_inverse`; Ψ is
+        ``1/Ψ`` at ``ν = i/inv_h`` (:func:`sarcli.formers.ffbp.model.deapodized_inverse`; Ψ is
         even), linearly interpolated.
     out : ndarray, shape (P, M), float64, C-contiguous
     """

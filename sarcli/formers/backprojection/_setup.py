@@ -1,5 +1,5 @@
 """Backprojection's setup, shared by the one-shot maps (:mod:`.backprojection`), the prepared
-backprojector (:mod:`._bp_prepared`) and ffbp's range profiles: the validated inputs, the
+backprojector (:mod:`._prepared`) and ffbp's range profiles: the validated inputs, the
 per-pulse constants in the working precision, the FFT layout and the range profiles. The model
 and its formulas are in :mod:`.backprojection`'s docstring.
 """
@@ -11,12 +11,12 @@ import warnings
 
 import numpy as np
 
-from ..core.geometry import C, bistatic_differential_range
-from ..core.grid import Grid
-from ..core.sampling import INTERPOLATORS as ALL_INTERPOLATORS, PROFILE_INTERPOLATORS, equally_spaced, frequency_line
-from ..errors import AliasingWarning, SarcliInputError
-from ._bp_kernels import EXACT, GEO_ROWS, min_range, next_fast_len, tiling
-from ._samples import is_lazy
+from ...core.geometry import C, bistatic_differential_range
+from ...core.grid import Grid
+from ...core.sampling import INTERPOLATORS as ALL_INTERPOLATORS, PROFILE_INTERPOLATORS, equally_spaced, frequency_line
+from ...errors import AliasingWarning, SarcliInputError
+from ._kernels import EXACT, GEO_ROWS, min_range, next_fast_len, tiling
+from .._samples import is_lazy
 
 __all__ = ["INTERPOLATORS", "PAD", "BLOCK", "profile_length", "ProfileWork", "profiles", "range_profiles", "TilingInputs", "tiling_for", "Setup",
            "check_data"]
@@ -153,13 +153,13 @@ def range_profiles(data, weights, total_weight, n_len, nthreads, dtype=np.comple
 
 
 def _tiling(grid, a, b, kc_max, inv_bin_max):
-    """:func:`._bp_kernels.tiling` for transmit positions ``a`` and receive positions ``b`` [P, 3]."""
+    """:func:`._kernels.tiling` for transmit positions ``a`` and receive positions ``b`` [P, 3]."""
     r_min = min(min_range(a, grid), min_range(b, grid))
     return tiling(grid, r_min, kc_max, inv_bin_max, bistatic=not np.array_equal(a, b))
 
 
 class TilingInputs:
-    """What :func:`._bp_kernels.tiling` needs of a collection, computed once for several upsamplings:
+    """What :func:`._kernels.tiling` needs of a collection, computed once for several upsamplings:
     the smallest antenna-to-grid range, the largest carrier wavenumber and frequency step."""
 
     def __init__(self, freq_hz, antenna_position_m, receive_position_m, grid):
@@ -183,7 +183,7 @@ class TilingInputs:
 
 def tiling_for(freq_hz, antenna_position_m, receive_position_m, grid, upsample):
     """The tiling :class:`Setup` chooses for these frequencies, positions, grid and ``upsample``
-    (:func:`._bp_kernels.tiling`; ``receive_position_m`` None when monostatic), without the checks."""
+    (:func:`._kernels.tiling`; ``receive_position_m`` None when monostatic), without the checks."""
     return TilingInputs(freq_hz, antenna_position_m, receive_position_m, grid).tiling(upsample)
 
 
@@ -244,7 +244,7 @@ class Setup:
         bin_m = C / (2.0 * dalpha * self.n_len)   # signed for decreasing frequencies
         na = np.linalg.norm(a, axis=1)
         nb = np.linalg.norm(b, axis=1)
-        # per-pulse geometry in float64, the rows _bp_kernels.GEO_ROWS names
+        # per-pulse geometry in float64, the rows _kernels.GEO_ROWS names
         self.geo = np.empty((GEO_ROWS, n_pulses))
         self.geo[0], self.geo[1], self.geo[2], self.geo[3] = 2.0 * a[:, 0], 2.0 * a[:, 1], na * na, na
         self.geo[4], self.geo[5], self.geo[6], self.geo[7] = 2.0 * b[:, 0], 2.0 * b[:, 1], nb * nb, nb
@@ -255,7 +255,7 @@ class Setup:
         self.x = np.ascontiguousarray(grid.x, dtype=np.float64)
         self.y = np.ascontiguousarray(grid.y, dtype=np.float64)
         self.shape = grid.shape
-        #: the range model and tile width (:func:`._bp_kernels.tiling`)
+        #: the range model and tile width (:func:`._kernels.tiling`)
         self.tiling = _tiling(grid, a, b, float(np.max(np.abs(self.geo[10]))), float(np.max(np.abs(self.geo[9]))))
         self.model, self.width = self.tiling.model, self.tiling.width
         self._check_window(a, b, r0, grid, np.abs(bin_m) * self.n_len / 2.0)

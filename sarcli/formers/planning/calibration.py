@@ -1,6 +1,6 @@
 """The planner's cost model: seconds per operation of every former, measured on this machine.
 
-:mod:`sarcli.formers.planner` predicts a former's time as its operation counts times these
+:mod:`sarcli.formers.planning.planner` predicts a former's time as its operation counts times these
 constants; its ``calibrate`` measures them with small instances of every former (a few seconds)
 and, for the whole command, the start-up (a fresh interpreter importing what ``sar form-image``
 imports), reading and writing. Its result is kept per machine in the user's cache folder
@@ -35,15 +35,15 @@ DEFAULT_COSTS = {"direct": 6e-9, "bp": 3e-9, "bp_fft": 4e-9, "ffbp_stage0": 4e-9
                  "read_per_byte": 1e-9, "write_per_byte": 2e-9}
 #: What a fresh ``sar form-image`` imports before it forms an image (the start-up it pays).
 STARTUP_IMPORTS = ("import sarcli.cli.main, sarcli.cli.form_image, sarcli.formers.formation, "
-                    "sarcli.formers.planner, sarcli.io.hdf5, sarcli._native; sarcli._native.threads()")
+                    "sarcli.formers.planning.planner, sarcli.io.hdf5, sarcli._native; sarcli._native.threads()")
 
 
 @functools.lru_cache(maxsize=1)
 def machine() -> dict:
     """What a calibration is valid for: CPU model, usable processors, SIMD level, sarcli version,
     kernel build."""
-    from .. import __version__
-    from .._native import build_id, simd_level
+    from ... import __version__
+    from ..._native import build_id, simd_level
 
     model = "unknown"
     try:
@@ -95,7 +95,7 @@ def save_cost_model(costs: dict, path=None) -> Path:
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
     tmp.write_text(json.dumps({"note": "seconds per operation x threads, measured by "
-                                       "sarcli.formers.planner.calibrate on this machine",
+                                       "sarcli.formers.planning.planner.calibrate on this machine",
                                "machine": machine(), "measured": time.strftime("%Y-%m-%d"),
                                "seconds_per_op": costs}, indent=1) + "\n")
     tmp.replace(path)

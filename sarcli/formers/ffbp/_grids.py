@@ -1,6 +1,6 @@
 """Polar-grid geometry of ffbp (:mod:`sarcli.formers.ffbp`) in NumPy, and the deapodization of its
 kernels: where it holds, each pulse's tones, and the profiles' weights that divide the kernels'
-mean responses out of the data (:func:`sarcli.formers.ffbp_model.deapodized_kernel`).
+mean responses out of the data (:func:`sarcli.formers.ffbp.model.deapodized_kernel`).
 
 The sub-apertures of every level (:func:`_split`, :class:`Apertures`) have polar frames: their
 centres and the grown grid's bounds in each frame's q and u (:class:`_FrameGeometry`, independent
@@ -15,9 +15,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..core.grid import Grid
-from ..errors import SarcliInputError
-from .ffbp_model import angle_interp_error, deapodized_error, deapodized_response, deapodized_slope, interp_error
+from ...core.grid import Grid
+from ...errors import SarcliInputError
+from .model import angle_interp_error, deapodized_error, deapodized_response, deapodized_slope, interp_error
 
 #: Points per side of the grown grid's boundary where the frames' bounds are taken (:func:`_boundary`).
 BOUNDARY_POINTS = 33
@@ -259,9 +259,9 @@ def _dot(rays, lo, hi, gx, gy):
 
 def deapodization(freq_hz, plan, n_len):
     """Weights [1, M] that divide the range profiles' deapodized kernel's mean response out of the
-    data (:func:`sarcli.formers.ffbp_model.deapodized_kernel`) where the plan says: bin ``j − j_c``
+    data (:func:`sarcli.formers.ffbp.model.deapodized_kernel`) where the plan says: bin ``j − j_c``
     of the FFT of length L is the frequency ``(j − j_c)/L``, exactly. (The polar grids' kernels read
-    a frequency per pulse and level: :func:`decide_deapodization`, ``_ffbp_stage0.tone_weights``.)"""
+    a frequency per pulse and level: :func:`decide_deapodization`, ``_stage0.tone_weights``.)"""
     m = np.shape(freq_hz)[-1]
     if not plan.profiles_deapodized:
         return np.ones((1, m))
@@ -438,10 +438,10 @@ def decide_deapodization(rates, frames, kmax, kref, dq, os_range, os_angle):
     Pulse p's component at ``k_j`` is read by level l's interpolations at
     ``ν_q = k_j a_q[l, p] + b_q`` and ``ν_u = k_j a_u[l, p]`` cycles per sample, with
     ``a_q = ∂R_p/∂q · Δq/2π``, ``b_q = −k_ref Δq/2π`` and ``a_u = ∂R_p/∂u · Δu_l/2π``, so
-    ``Π_l Ψ(ν)`` can be divided out of the data (``_ffbp_stage0.tone_weights``). What the spread of
+    ``Π_l Ψ(ν)`` can be divided out of the data (``_stage0.tone_weights``). What the spread of
     the derivatives over a grid leaves costs ``rms_ν (d ln Ψ/dν) · k_max · rms_p (half-spread · Δ/2π)``
     per level (the mismatch: rms over the band and the pulses, as the aliases,
-    :func:`sarcli.formers.ffbp_model.deapodized_error`). An axis is deapodized where its mismatch
+    :func:`sarcli.formers.ffbp.model.deapodized_error`). An axis is deapodized where its mismatch
     plus every level's aliases stays below the minimax stencils' error at the same oversampling.
     Returns ``{"range": (ok, mismatch, a_q, b_q), "angle": (ok, mismatch, a_u)}`` (the arrays
     ``None`` where not deapodized). ``rates``: :meth:`Apertures.rates` of every level."""

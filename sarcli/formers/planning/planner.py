@@ -12,7 +12,7 @@ knobs its error model predicts to meet TOL, and :func:`recommend` picks the chea
 - an O(N²P) former (backprojection, direct) is never picked when a NUFFT former meets TOL.
 
 Predicted times come from operation counts times per-operation constants
-(:mod:`sarcli.formers.calibration`: measured on this machine once ``sar plan`` has calibrated
+(:mod:`sarcli.formers.planning.calibration`: measured on this machine once ``sar plan`` has calibrated
 it, else those of the reference machine shipped with the package); :func:`command_seconds` adds
 what the whole command pays besides (start-up, reading, writing). Memory is the formers' largest
 arrays.
@@ -34,13 +34,15 @@ from pathlib import Path
 
 import numpy as np
 
-from ..core import sampling
-from ..core.grid import Grid
-from ..errors import SarcliInputError
+from ...core import sampling
+from ...core.grid import Grid
+from ...errors import SarcliInputError
+from ..options import OPTIONS
 from .calibration import DEFAULT_COSTS, STARTUP_IMPORTS, load_cost_model, save_cost_model
-from .cost import bp_constants, bp_seconds
+from .cost import (FFBP_TERMS, Samples, bp_constants, bp_seconds, direct_seconds, ffbp_counts, ffbp_seconds,
+                   form_image_bytes, n_tiles, nufft_seconds, nufft_width, subimage_seconds, threads)
 
-__all__ = ["Candidate", "candidates", "recommend", "ffbp_knobs", "command_seconds", "load_cost_model", "calibrate"]
+__all__ = ["Candidate", "candidates", "recommend", "same_run", "ffbp_knobs", "command_seconds", "load_cost_model", "calibrate"]
 
 #: Profile upsamplings tried for backprojection, smallest first.
 _BP_UPSAMPLES = (2, 4, 8, 16, 32)
@@ -53,7 +55,10 @@ SAFETY = 2.0
 
 @dataclass
 class Candidate:
-    """One former with its knobs, predicted error, time (s) and memory (bytes)."""
+    """One former with its knobs (resolved: what runs), predicted error, time (s) and memory
+    (bytes); ``options``: the former's options that run it (:mod:`sarcli.formers.options`; by
+    default those of ``knobs``), ``default``: whether they are the former's defaults (what
+    ``--method`` runs with no knob)."""
 
     method: str
     knobs: dict
@@ -62,40 +67,23 @@ class Candidate:
     memory: float
     notes: str = ""
     meets: bool = field(default=False)
+    options: object = None
+    default: bool = False
+
+    def __post_init__(self):
+        if self.options is None:
+            self.options = OPTIONS[self.method].from_knobs(self.knobs)
+
+    def flags(self) -> list:
+        """The ``sar form-image`` flags that run this candidate."""
+        return self.options.flags()
 
     def as_dict(self) -> dict:
-        return {"method": self.method, "knobs": self.knobs, "predicted_error": self.predicted_error,
-                "predicted_s": self.seconds, "memory_bytes": self.memory, "meets": self.meets}
-
-
-#: ffbp's per-operation constants and the plan counts (``FfbpPlan.ops``) they multiply.
-_FFBP_TERMS = (("ffbp_stage0", ("stage0",)), ("ffbp_node0", ("stage0_nodes",)), ("ffbp_mac", ("merge", "final")),
-               ("ffbp_pair", ("pairs",)))
-
-
-def _ffbp_counts(ops) -> list:
-    return [sum(ops.get(k, 0.0) for k in keys) for _, keys in _FFBP_TERMS]
-
-
-def ffbp_seconds(c, ops, n_pulses, profile_len, threads=1) -> float:
-    """Predicted ffbp time: the plan's operation counts times the calibrated constants, plus the
-    range profiles' FFTs."""
-    work = sum(c.get(name, 0.0) * n for (name, _), n in zip(_FFBP_TERMS, _ffbp_counts(ops)))
-    return (work + c["bp_fft"] * n_pulses * profile_len * math.log2(profile_len)) / threads
-
-
-def _nufft_width(eps: float) -> int:
-    return int(min(16, max(2, math.ceil(-math.log10(eps)) + 1)))
-
-
-def _n_tiles(grid, tile) -> int:
-    return math.ceil(grid.nx / tile) * math.ceil(grid.ny / tile)
-
-
-def _nufft_seconds(c, n_samples, ny, nx, eps, threads=1):
-    w = _nufft_width(eps)
-    n_fft = 4.0 * nx * ny
-    return (c["nufft_spread"] * n_samples * w * w + c["nufft_fft"] * n_fft * math.log2(max(n_fft, 2))) / threads
+        err = None if math.isnan(self.predicted_error) else self.predicted_error
+        sec = None if math.isnan(self.seconds) else self.seconds
+        return {"method": self.method, "knobs": self.knobs, "predicted_error": err, "predicted_s": sec,
+                "memory_bytes": self.memory, "meets": self.meets, "default": self.default,
+                "flags": self.flags()}
 
 
 #: Candidate lists kept by :func:`candidates`, the most recently used last (a few collections
@@ -135,7 +123,7 @@ def candidates(ph, grid: Grid, tolerance: float, *, costs=None, nthreads=None, p
     c = load_cost_model() if costs is None else costs
     acq = ph.acquisition
     geo = acq.range_geometry() if ph.model == "spherical" else (None, None, None)
-    from ._samples import is_lazy
+    from .._samples import is_lazy
 
     # the samples' dtype and whether they stay on disk set the candidates' memory
     key = (ph.model, tuple(ph.data.shape), str(np.dtype(ph.data.dtype)), is_lazy(ph.data), grid, float(tolerance),
@@ -157,18 +145,17 @@ def candidates(ph, grid: Grid, tolerance: float, *, costs=None, nthreads=None, p
 
 def _candidates(ph, grid, tolerance, c, nthreads, prune, methods) -> list:
     """:func:`candidates`, uncached (``c`` the cost model)."""
-    from ._bp_setup import TilingInputs
-    from .backprojection import profile_length
-    from .ffbp_model import frequency_error, interp_error
-    from .subimage import choose_tile, tile_sizes
+    from ..backprojection import TilingInputs
+    from ..backprojection import DEFAULT_PRECISION
+    from ..ffbp.model import frequency_error, interp_error
+    from ..subimage import choose_tile, tile_sizes
 
-    thr = max(1, int(nthreads or c.get("threads", 2)))
+    thr = threads(nthreads, c)
     acq = ph.acquisition
     P, M = ph.data.shape
     npix = float(grid.nx) * grid.ny
-    held = functools.partial(_held_bytes, ph)
-    out = [Candidate("direct", {}, 0.0, c["direct"] * P * M * npix / thr,
-                     held(ph.model == "spherical") + 16 * 2 * npix)]
+    smp = Samples.of(ph)
+    out = [Candidate("direct", {}, 0.0, direct_seconds(P, M, npix, nthreads, c), form_image_bytes("direct", smp, grid))]
     target = tolerance / SAFETY
     eps = max(tolerance / 10, 1e-14)
     def wanted(name):
@@ -176,8 +163,8 @@ def _candidates(ph, grid, tolerance, c, nthreads, prune, methods) -> list:
 
     if ph.model != "spherical":
         if wanted("nufft"):
-                out.append(Candidate("nufft", {"eps": eps}, eps, _nufft_seconds(c, P * M, grid.ny, grid.nx, eps, thr),
-                                 held(False) + 16 * (P * M * 2 + 5 * npix)))
+            out.append(Candidate("nufft", {"eps": eps}, eps, nufft_seconds(c, P * M, grid.ny, grid.nx, eps, thr),
+                                 form_image_bytes("nufft", smp, grid)))
     else:
         pos, rcv, _ = acq.range_geometry()
         rcv = rcv if acq.is_bistatic else None
@@ -188,8 +175,8 @@ def _candidates(ph, grid, tolerance, c, nthreads, prune, methods) -> list:
         ff = []
         if wanted("ffbp"):
             e_ffbp = e_freq if rcv is None else frequency_error(f, 0.5 * (pos + rcv), grid)
-            ff = _ffbp_sweep(pos, rcv, f, grid, target, e_ffbp, c, P, M, thr, keep_unmet=not prune,
-                             held=held(True))
+            ff = _ffbp_sweep(pos, rcv, f, grid, target, e_ffbp, c, thr, keep_unmet=not prune,
+                             samples=smp)
         best_ffbp = min((x.seconds for x in ff if x.predicted_error <= target), default=math.inf)
         # backprojection: the profile interpolation (and unequal frequency spacing) is its error;
         # with ``prune`` not looked at where even its shortest profiles are slower than ffbp's pick
@@ -205,13 +192,14 @@ def _candidates(ph, grid, tolerance, c, nthreads, prune, methods) -> list:
                 e = interp_error(interp, float(up)) + e_freq + tiled(up).error
                 if e <= target or up == _BP_UPSAMPLES[-1]:
                     out.append(Candidate("backprojection", {"upsample": up, "interp": interp}, e, seconds(up),
-                                         held(True) + 16 * (32 * profile_length(M, up) + 2 * npix)))
+                                         form_image_bytes("backprojection", smp, grid, upsample=up,
+                                                          precision=DEFAULT_PRECISION)))
                     break
         out += ff
         # subimage NUFFT: with ``prune``, where ffbp's pick is the cheapest candidate that meets
         # the target, only tiles large enough to beat it are of use (and none if one tile cannot)
         def sub_seconds(tile):
-            return _n_tiles(grid, tile) * c["subimage_point"] * P * M * _nufft_width(eps) ** 2 / thr
+            return subimage_seconds(c, P * M, n_tiles(grid, tile), eps, thr)
         met = [x for x in out if x.predicted_error <= target]
         min_tile = None
         if prune and best_ffbp <= min(x.seconds for x in met):
@@ -220,7 +208,7 @@ def _candidates(ph, grid, tolerance, c, nthreads, prune, methods) -> list:
             tile, pred = choose_tile(pos, rcv, acq.range_to_center_m, f, grid, target, eps=eps, min_tile=min_tile)
             if tile is not None:
                 out.append(Candidate("subimage", {"tile": int(tile), "tolerance": tolerance}, pred, sub_seconds(tile),
-                                     held(False) + 16 * ((4 * thr - 1) * P * M + 2 * npix), f"{_n_tiles(grid, tile)} tiles"))
+                                     form_image_bytes("subimage", smp, grid, threads=thr), f"{n_tiles(grid, tile)} tiles"))
     for cand in out:
         cand.meets = cand.predicted_error <= target
     return sorted(out, key=lambda x: (not x.meets, x.seconds))
@@ -239,7 +227,7 @@ FFBP_PAIRS_PAST_MET = 2
 _FLOOR_MARGIN = 1e-9
 
 
-def _ffbp_sweep(pos, rcv, f, grid, target, e_freq, c, P, M, thr, *, keep_unmet, held=None):
+def _ffbp_sweep(pos, rcv, f, grid, target, e_freq, c, thr, *, keep_unmet, samples):
     """ffbp's candidates: the cheapest setting predicted to meet ``target`` among
     :data:`FFBP_BASES` × :data:`FFBP_OVERSAMPLINGS` (the pairs up to :data:`FFBP_PAIRS_PAST_MET`
     past the first at which one meets), and with ``keep_unmet`` the most accurate one that does
@@ -251,11 +239,13 @@ def _ffbp_sweep(pos, rcv, f, grid, target, e_freq, c, P, M, thr, *, keep_unmet, 
     floor meets the target are its grids sized (its time), and only where it may be the answer is
     its error model completed. The pair at which one first meets is found in order, the cheapest
     setting of each pair first; then the settings of the pairs tried are completed in order of
-    time until one meets: that one is the cheapest. ``held``: bytes of samples held (default
-    the whole collection in complex128)."""
-    from . import ffbp as fb
-    from .backprojection import profile_length
-    from .ffbp_model import deapodized_error, default_upsample
+    time until one meets: that one is the cheapest. ``samples``: the collection's
+    :class:`~sarcli.formers.planning.cost.Samples`."""
+    from .. import ffbp as fb
+    from ..backprojection import profile_length
+    from ..ffbp.model import deapodized_error, default_upsample
+
+    P, M = samples.n_pulses, samples.n_freq
 
     class Setting:
         def __init__(self, order, lay):
@@ -303,8 +293,7 @@ def _ffbp_sweep(pos, rcv, f, grid, target, e_freq, c, P, M, thr, *, keep_unmet, 
         if met_at is None and any(x.meets() for x in _by_time([x for x in pair if x.rough_floor <= target])):
             met_at = i
     best = next((x for x in _by_time([x for x in settings if x.rough_floor <= target]) if x.meets()), None)
-    held = 16.0 * P * M if held is None else held
-    out = [] if best is None else [_ffbp_candidate(best.lay, best.plan, best.seconds, held)]
+    out = [] if best is None else [_ffbp_candidate(best.lay, best.plan, best.seconds, samples)]
     if keep_unmet:   # the most accurate that misses: in order of floor, until the floor passes it
         miss = None
         for x in sorted(settings, key=lambda x: (x.floor, x.order)):
@@ -314,20 +303,8 @@ def _ffbp_sweep(pos, rcv, f, grid, target, e_freq, c, P, M, thr, *, keep_unmet, 
             if e > target and (miss is None or (e, x.order) < (miss.plan.predicted_error, miss.order)):
                 miss = x
         if miss is not None:
-            out.append(_ffbp_candidate(miss.lay, miss.plan, miss.seconds, held))
+            out.append(_ffbp_candidate(miss.lay, miss.plan, miss.seconds, samples))
     return out
-
-
-def _held_bytes(ph, by_blocks: bool) -> float:
-    """Bytes of samples a former holds: the collection at its stored size, or, for a former that
-    reads samples left on disk by blocks of pulses (``by_blocks``: backprojection, ffbp, the
-    spherical matched filter), one block."""
-    from ._bp_setup import BLOCK
-    from ._samples import is_lazy
-
-    P, M = ph.data.shape
-    rows = min(P, BLOCK) if by_blocks and is_lazy(ph.data) else P
-    return float(rows) * M * np.dtype(ph.data.dtype).itemsize
 
 
 def _by_time(settings) -> list:
@@ -335,15 +312,22 @@ def _by_time(settings) -> list:
     return sorted(settings, key=lambda x: (x.seconds, x.order))
 
 
-def _ffbp_candidate(lay, plan, seconds, held) -> Candidate:
-    from . import ffbp as fb
+def _ffbp_candidate(lay, plan, seconds, samples) -> Candidate:
+    from .. import ffbp as fb
 
     knobs = plan.knobs
-    npix = float(lay.grid.nx) * lay.grid.ny
     return Candidate("ffbp", {"base": knobs["base"], "merge": fb.DEFAULTS["merge"], "os_range": knobs["os_range"],
                               "os_angle": knobs["os_angle"], "interp": "optimal", "upsample": knobs["upsample"]},
-                     plan.predicted_error, seconds, plan.ops["grid_bytes"] + held + 16 * npix,
+                     plan.predicted_error, seconds,
+                     form_image_bytes("ffbp", samples, lay.grid, grid_bytes=plan.ops["grid_bytes"]),
                      f"{plan.n_stages} stages")
+
+
+def same_run(a: Candidate, b: Candidate) -> bool:
+    """Whether candidate ``b`` runs what ``a`` runs: the same former, every knob of ``b`` (but the
+    tolerance its knobs were picked for) as ``a`` has it, and the same predicted error."""
+    return (a.method == b.method and all(a.knobs.get(k) == v for k, v in b.knobs.items() if k != "tolerance")
+            and math.isclose(a.predicted_error, b.predicted_error, rel_tol=1e-9, abs_tol=0.0))
 
 
 def recommend(ph, grid: Grid, tolerance: float, *, nthreads=None, costs=None) -> Candidate:
@@ -355,12 +339,13 @@ def recommend(ph, grid: Grid, tolerance: float, *, nthreads=None, costs=None) ->
     return min(cands, key=lambda x: x.seconds)   # direct always meets
 
 
-def ffbp_knobs(ph, grid: Grid, tolerance: float, *, nthreads=None) -> dict | None:
+def ffbp_knobs(ph, grid: Grid, tolerance: float, *, nthreads=None, costs=None) -> dict | None:
     """ffbp's knobs as ``auto`` would pick them at ``tolerance``: the cheapest ffbp predicted to meet
     it, else the most accurate one planned; None for far-field data (ffbp's defaults serve)."""
     if ph.model != "spherical":
         return None
-    ff = [x for x in candidates(ph, grid, tolerance, nthreads=nthreads, methods=("ffbp",)) if x.method == "ffbp"]
+    ff = [x for x in candidates(ph, grid, tolerance, costs=costs, nthreads=nthreads, methods=("ffbp",))
+          if x.method == "ffbp"]
     if not ff:
         return None
     met = [x for x in ff if x.meets]
@@ -370,7 +355,7 @@ def ffbp_knobs(ph, grid: Grid, tolerance: float, *, nthreads=None) -> dict | Non
 def command_seconds(cand: Candidate, ph, grid: Grid, costs=None, *, auto=False) -> float:
     """Predicted wall time of the whole ``sar form-image`` command for ``cand``: start-up (imports,
     kernel loads), reading the data, the formation, writing the image, and for ``auto`` the
-    planning too, from the calibrated constants (:func:`sarcli.formers.calibration.calibrate`)."""
+    planning too, from the calibrated constants (:func:`sarcli.formers.planning.calibration.calibrate`)."""
     c = load_cost_model() if costs is None else costs
     P, M = ph.data.shape
     # the samples at their stored size; the image written complex128, as the formers return it
@@ -420,12 +405,12 @@ FFBP_FLOOR = 0.1
 
 
 def _fit_ffbp(rows, rhs) -> np.ndarray:
-    """ffbp's constants (:data:`_FFBP_TERMS`) from operation counts ``rows`` [settings, terms] and
+    """ffbp's constants (:data:`FFBP_TERMS`) from operation counts ``rows`` [settings, terms] and
     measured seconds ``rhs``: non-negative least squares above a floor of :data:`FFBP_FLOOR` times
     the default constants scaled to the first setting's time, so no constant is 0."""
     from scipy.optimize import nnls
 
-    default = np.array([DEFAULT_COSTS[name] for name, _ in _FFBP_TERMS])
+    default = np.array([DEFAULT_COSTS[name] for name, _ in FFBP_TERMS])
     floor = FFBP_FLOOR * default * rhs[0] / float(rows[0] @ default)
     scale = np.max(rows, axis=0)
     return floor + nnls(rows / scale, np.maximum(rhs - rows @ floor, 0.0))[0] / scale
@@ -433,20 +418,20 @@ def _fit_ffbp(rows, rhs) -> np.ndarray:
 
 def calibrate(path=None, *, repeat: int = 3) -> dict:
     """Measure the constants on this machine and write them to ``path`` (default: this machine's
-    file in the user's cache, :func:`sarcli.formers.calibration.user_cost_model_path`; the shipped
-    reference is :data:`~sarcli.formers.calibration.COST_MODEL_PATH`); returns them.
+    file in the user's cache, :func:`sarcli.formers.planning.calibration.user_cost_model_path`; the shipped
+    reference is :data:`~sarcli.formers.planning.calibration.COST_MODEL_PATH`); returns them.
 
     Small instances of every former (a few seconds in all); each constant is its measured time
     (best of ``repeat``) divided by its operation count, except ffbp's four
-    (:data:`_FFBP_TERMS`), fitted by non-negative least squares to six settings with
+    (:data:`FFBP_TERMS`), fitted by non-negative least squares to six settings with
     different shares of each (:func:`_fit_ffbp`); then the whole command's start-up, planning, reading and writing.
     """
-    from ..core import geometry
-    from . import ffbp as fb
-    from .backprojection import DEFAULT_PRECISION, backproject, profile_length
-    from .direct import direct_spherical
-    from .nufft import nufft_farfield
-    from .subimage import subimage_nufft
+    from ...core import geometry
+    from .. import ffbp as fb
+    from ..backprojection import DEFAULT_PRECISION, backproject, profile_length
+    from ..direct import direct_spherical
+    from ..nufft import nufft_farfield
+    from ..subimage import subimage_nufft
 
     def best(fn):
         return _best(fn, repeat)
@@ -472,23 +457,22 @@ def calibrate(path=None, *, repeat: int = 3) -> dict:
         plan = fb.plan_stages(a, freq, grid, **knobs)
         lf = profile_length(M, plan.knobs["upsample"])
         t = best(lambda: fb.ffbp(d, freq, a, r0, grid, **knobs)) * thr
-        rows.append(_ffbp_counts(plan.ops))
+        rows.append(ffbp_counts(plan.ops))
         rhs.append(max(t - c["bp_fft"] * P * lf * math.log2(lf), 0.0))
-    for name, v in zip((name for name, _ in _FFBP_TERMS), _fit_ffbp(np.array(rows), np.array(rhs))):
+    for name, v in zip((name for name, _ in FFBP_TERMS), _fit_ffbp(np.array(rows), np.array(rhs))):
         c[name] = float(v)
     kx, ky = geometry.kspace_coordinates(freq, az, np.radians(30))
-    w = _nufft_width(1e-6)
+    w = nufft_width(1e-6)
     t = best(lambda: nufft_farfield(d, kx, ky, grid, eps=1e-6)) * thr
     n_fft = 4.0 * N * N
     c["nufft_fft"] = DEFAULT_COSTS["nufft_fft"]
     c["nufft_spread"] = max(1e-11, (t - c["nufft_fft"] * n_fft * math.log2(n_fft)) / (P * M * w * w))
     tile = 16
     t = best(lambda: subimage_nufft(d, freq, a, r0, grid, tile=tile, eps=1e-3)) * thr
-    n_tiles = (N // tile) ** 2
-    c["subimage_point"] = t / (n_tiles * P * M * _nufft_width(1e-3) ** 2)
+    c["subimage_point"] = t / ((N // tile) ** 2 * P * M * nufft_width(1e-3) ** 2)
     c.update(_command_costs(repeat))
-    from ..core.acquisition import Acquisition
-    from ..core.types import PhaseHistory
+    from ...core.acquisition import Acquisition
+    from ...core.types import PhaseHistory
 
     ph = PhaseHistory(d, Acquisition(freq, az, np.full(P, np.radians(30)), grid, antenna_position_m=a,
                                      range_to_center_m=r0, model="spherical"))

@@ -1,7 +1,7 @@
 """Backprojection prepared for repeated images and pulse contractions of one phase history on one grid
 (minimum-entropy autofocus: many images of the same data with a different per-pulse phase each).
 
-The maps are those of :mod:`sarcli.formers.backprojection` (its module docstring); what is prepared
+The maps are those of :mod:`sarcli.formers.backprojection._maps` (its module docstring); what is prepared
 is what does not change between calls: the checks, the per-pulse constants and the range profiles of
 all pulses.
 """
@@ -10,12 +10,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._native import using_threads
-from ..core.grid import Grid
-from ..errors import SarcliInputError
-from ._bp_kernels import kernels
-from ._bp_setup import Setup, check_data, profiles
-from .backprojection import DEFAULT_INTERP, DEFAULT_UPSAMPLE
+from ..._native import using_threads
+from ...core.grid import Grid
+from ...errors import SarcliInputError
+from ._kernels import kernels
+from ._setup import Setup, check_data, profiles
+from ._maps import DEFAULT_INTERP, DEFAULT_UPSAMPLE
 
 __all__ = ["Backprojector"]
 

@@ -41,7 +41,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .._native import load
+from ..._native import load
 
 __all__ = ["GEO_ROWS", "MODEL_TOLERANCE", "QUADRATIC", "EXACT", "Tiling", "next_fast_len", "quadratic_error",
            "exact_error", "tile_cost", "tile_width", "tiling", "kernels"]

@@ -3,7 +3,7 @@
 
 Each kernel is parallel over rows of its output:
 
-- :func:`sarcli.formers._ffbp_stage0.stage0` backprojects the range profiles of each base
+- :func:`sarcli.formers.ffbp._stage0.stage0` backprojects the range profiles of each base
   sub-aperture onto its polar grid;
 - :func:`merge` forms each parent sub-image on its polar grid from its children's (two 1-D
   interpolations along each parent row where the row's child range increases, else a 2-D
@@ -23,8 +23,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._native import load
-from ..core import sampling
+from ..._native import load
+from ...core import sampling
 
 #: Taps of each interpolator, by its code (:data:`sarcli.core.sampling.INTERPOLATORS`).
 NTAPS = tuple(i.taps for i in sorted(sampling.INTERPOLATORS.values(), key=lambda i: i.code))

@@ -1,4 +1,4 @@
-"""Planning of fast factorised backprojection (:mod:`sarcli.formers.ffbp`, whose module docstring
+"""Planning of fast factorised backprojection (:mod:`sarcli.formers.ffbp._image`, whose module docstring
 explains it): the stages' layout (:func:`layout_stages`, :class:`StageLayout`), its error floor, and
 the complete plan with its deapodization and predicted error (:func:`plan_stages`,
 :class:`FfbpPlan`). No data needed: geometry and knobs only."""
@@ -11,12 +11,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..core.sampling import range_wavenumbers
-from ..core.grid import Grid
-from ..errors import SarcliInputError
-from .ffbp_model import INTERPOLATORS, NTAPS, angle_interp_error, deapodized_edge_error, deapodized_error
-from .ffbp_model import default_upsample, frequency_error, interp_error, predict_error
-from ._ffbp_grids import level_grid, apertures, band_excess, decide_deapodization
+from ...core.sampling import range_wavenumbers
+from ...core.grid import Grid
+from ...errors import SarcliInputError
+from .model import INTERPOLATORS, NTAPS, angle_interp_error, deapodized_edge_error, deapodized_error
+from .model import default_upsample, frequency_error, interp_error, predict_error
+from ._grids import level_grid, apertures, band_excess, decide_deapodization
 
 #: Default knobs (see docs/ffbp.md for the error-vs-time frontier behind them); ``upsample`` not
 #: given is :func:`default_upsample` for ``optimal``, :data:`UPSAMPLE_ANALYTIC` for the others.
@@ -27,7 +27,7 @@ OS_RANGE_DEAPODIZED = 1.5
 #: ``os_angle`` tried first when it is not given (``interp='optimal'``), on the same terms.
 OS_ANGLE_DEAPODIZED = 1.5
 #: How far (ratio) the pulses' tones may reach past the polar grids' nominal bands before the
-#: grids are sampled finer to hold them (:func:`sarcli.formers._ffbp_grids.band_excess`).
+#: grids are sampled finer to hold them (:func:`sarcli.formers.ffbp._grids.band_excess`).
 BAND_SLACK = 1.02
 #: Profile upsampling of the analytic kernels (only ``optimal``'s profiles are deapodized).
 UPSAMPLE_ANALYTIC = 4.0
@@ -65,7 +65,7 @@ class FfbpPlan:
     range_deapodized: bool = False
     range_mismatch: float = 0.0
     #: and each pulse's tones on every level (cycles per sample per unit wavenumber, [levels, P],
-    #: and the range tones' offset; :func:`sarcli.formers._ffbp_grids.decide_deapodization`);
+    #: and the range tones' offset; :func:`sarcli.formers.ffbp._grids.decide_deapodization`);
     #: the same for the polar grids' angular kernel
     range_rates: np.ndarray | None = None
     range_offset: float = 0.0
@@ -167,7 +167,7 @@ class StageLayout:
 
     @property
     def rates(self) -> list:
-        """Every level's pulse tones (:meth:`sarcli.formers._ffbp_grids.Apertures.rates`)."""
+        """Every level's pulse tones (:meth:`sarcli.formers.ffbp._grids.Apertures.rates`)."""
         n_lev = len(self.frames)
         return [self.apertures.rates(l, l == n_lev - 1) for l in range(n_lev)]
 
@@ -180,7 +180,7 @@ class StageLayout:
     def error_floor(self, frequency_err=None, above=math.inf) -> float:
         """A lower bound of :meth:`plan`'s ``predicted_error`` (``optimal`` kernels; 0 for the others)
         short of the deapodization's decisions: whichever way each axis goes
-        (:func:`sarcli.formers._ffbp_grids.decide_deapodization`), its error is at least the smaller
+        (:func:`sarcli.formers.ffbp._grids.decide_deapodization`), its error is at least the smaller
         of its deapodized aliases (the mismatch adds to them) and the minimax stencils' error, and
         the deapodized profiles err at least their own aliases (:func:`predict_error`).
         ``frequency_err``: :func:`frequency_error` of these frequencies, positions and grid, where at
@@ -237,7 +237,7 @@ def layout_stages(antenna_position_m, freq_hz, grid: Grid, *, base=None, merge=N
     (pulse × node × taps), the merges (node × child × 2 taps: two 1-D passes) and the final stage
     (pixel × child × taps²), the stage-0 nodes and the (node or pixel, child) pairs of the merges
     and the final stage (each with its own coordinates and carrier), from which
-    :mod:`sarcli.formers.planner` predicts the time; the completed plan adds ``grid_bytes``, the
+    :mod:`sarcli.formers.planning.planner` predicts the time; the completed plan adds ``grid_bytes``, the
     peak bytes of polar grids (two adjacent levels of one depth-first group).
 
     ``final``: merge until at most that many sub-images remain (default: while a merge costs less

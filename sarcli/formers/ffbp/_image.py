@@ -56,19 +56,19 @@ An interpolation with weights ``ψ(n − t)`` answers a frequency ν (cycles per
 ``Ψ(ν)`` that does not depend on the fraction t, plus aliases that do (Poisson summation). Where
 the frequency each data sample will be read at is known beforehand, ``Ψ`` can be divided out of the
 data, as a NUFFT divides out its kernel, and only the aliases remain: with a 6-tap
-exponential-of-semicircle kernel (:func:`sarcli.formers.ffbp_model.deapodized_kernel`) 7e-6 at
-oversampling 2 and 5e-5 at 1.5 (:func:`~sarcli.formers.ffbp_model.deapodized_error`), against
+exponential-of-semicircle kernel (:func:`sarcli.formers.ffbp.model.deapodized_kernel`) 7e-6 at
+oversampling 2 and 5e-5 at 1.5 (:func:`~sarcli.formers.ffbp.model.deapodized_error`), against
 2.3e-3 and 1.7e-2 for the best stencil without the division (the ``optimal`` minimax kernel). That
 lets the grids be sampled coarser (1.5 instead of 2) at a smaller error. ffbp deapodizes three
 interpolations:
 
 - **range profiles**: bin ``j − j_c`` of an FFT of length L is exactly the frequency
-  ``(j − j_c)/L``, so ``1/Ψ`` is a weight per frequency (``_ffbp_grids.deapodization``); kept where
+  ``(j − j_c)/L``, so ``1/Ψ`` is a weight per frequency (``_grids.deapodization``); kept where
   ``Ψ`` does not vanish at the band's edge (``upsample`` above ~1,
-  :func:`~sarcli.formers.ffbp_model.deapodized_edge_error`). The profile upsampling is a multiple of
-  ``os_range`` (:func:`~sarcli.formers.ffbp_model.default_upsample`): the profiles' aliases then land
+  :func:`~sarcli.formers.ffbp.model.deapodized_edge_error`). The profile upsampling is a multiple of
+  ``os_range`` (:func:`~sarcli.formers.ffbp.model.default_upsample`): the profiles' aliases then land
   on their own tones on the polar grids instead of growing by ``(Ψ(ν')/Ψ(ν))^S``
-  (:func:`~sarcli.formers.ffbp_model.profile_alias_error`);
+  (:func:`~sarcli.formers.ffbp.model.profile_alias_error`);
 - **polar grids in range (q)**: level l reads pulse p's component at wavenumber ``k_j`` at
   ``ν_q = (k_j ∂R_p/∂q − k_ref) Δq/2π``;
 - **polar grids across (u)**: at ``ν_u = k_j ∂R_p/∂u Δu_l/2π`` (``∂R_p/∂u ≈ Δ⊥``, the pulse's offset
@@ -76,15 +76,15 @@ interpolations:
   coordinate).
 
 So ``Π_l Ψ(ν)`` over the levels a pulse passes is divided out of its data before the profiles' FFT
-(``_ffbp_stage0.tone_weights``). Each pulse's ``∂R_p/∂q`` and ``∂R_p/∂u`` on every level's grid come
-from its rays to the grown grid's edge and centre (``_ffbp_grids.pulse_rates``); their spread over a
+(``_stage0.tone_weights``). Each pulse's ``∂R_p/∂q`` and ``∂R_p/∂u`` on every level's grid come
+from its rays to the grown grid's edge and centre (``_grids.pulse_rates``); their spread over a
 grid (a climbing path, a near-field aperture) leaves a *mismatch*, ``rms_ν (d ln Ψ/dν)`` times the
 rms over the pulses of the half-spread, in the predicted error. An axis is deapodized only where its
 mismatch plus every level's aliases stays below the minimax stencils' error at the same
-oversampling (``_ffbp_grids.decide_deapodization``; ``FfbpPlan.range_deapodized``,
+oversampling (``_grids.decide_deapodization``; ``FfbpPlan.range_deapodized``,
 ``angle_deapodized``). The same tones say how far a pulse reaches past the band a grid was sampled
 for (a receiver far from the transmitter, a wide baseline): past :data:`BAND_SLACK`, the grids are
-sampled that much finer (``_ffbp_grids.band_excess``, ``FfbpPlan.band_scale``).
+sampled that much finer (``_grids.band_excess``, ``FfbpPlan.band_scale``).
 
 Planning
 --------
@@ -94,8 +94,8 @@ merges while a merge costs less than it saves in the final stage (:class:`StageL
 then grids and operation counts); :meth:`StageLayout.plan` then decides the deapodization and
 predicts the error (:class:`FfbpPlan`). What does not depend on the oversampling (each level's
 frame geometry and pulse tones) is kept per pulses, grid, base and merge
-(``_ffbp_grids.Apertures``), so a sweep of oversamplings (``--method auto``'s,
-:mod:`sarcli.formers.planner`) computes it once per base; and :meth:`StageLayout.error_floor`
+(``_grids.Apertures``), so a sweep of oversamplings (``--method auto``'s,
+:mod:`sarcli.formers.planning.planner`) computes it once per base; and :meth:`StageLayout.error_floor`
 bounds the predicted error from below before the deapodization is decided, so the sweep completes
 only the settings that can be its pick. ``os_range`` or ``os_angle`` not given:
 :data:`OS_RANGE_DEAPODIZED` (:data:`OS_ANGLE_DEAPODIZED`) is tried first and kept where
@@ -105,16 +105,16 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..core.geometry import C
-from ..core.sampling import equally_spaced, range_wavenumbers
-from ..core.grid import Grid
-from ..errors import SarcliInputError
-from .._util.progress import progress
-from .ffbp_model import INTERPOLATORS, interp_error, optimal_kernel, predict_error
-from .ffbp_model import deapodized_inverse, deapodized_kernel
-from ._ffbp_grids import deapodization
-from ._ffbp_plan import (BAND_SLACK, DEFAULTS, OS_ANGLE_DEAPODIZED, OS_RANGE_DEAPODIZED, SUBTREE_BYTES,
-                         UPSAMPLE_ANALYTIC, FfbpPlan, StageLayout, layout_stages, plan_stages, subtree_groups)
+from ...core.geometry import C
+from ...core.sampling import equally_spaced, range_wavenumbers
+from ...core.grid import Grid
+from ...errors import SarcliInputError
+from ..._util.progress import progress
+from .model import INTERPOLATORS, interp_error, optimal_kernel, predict_error
+from .model import deapodized_inverse, deapodized_kernel
+from ._grids import deapodization
+from ._plan import (BAND_SLACK, DEFAULTS, OS_ANGLE_DEAPODIZED, OS_RANGE_DEAPODIZED, SUBTREE_BYTES, UPSAMPLE_ANALYTIC,
+                    FfbpPlan, StageLayout, layout_stages, plan_stages, subtree_groups)
 
 __all__ = ["ffbp", "ffbp_image", "optimal_kernel", "plan_stages", "layout_stages", "predict_error", "interp_error",
            "FfbpPlan", "StageLayout", "DEFAULTS", "BAND_SLACK", "OS_RANGE_DEAPODIZED", "OS_ANGLE_DEAPODIZED",
@@ -132,7 +132,7 @@ _PROFILE_BLOCK = 64
 # ---------------------------------------------------------------------------------------------
 def _subtree_groups(plan):
     """The depth-first groups of the last level's sub-images
-    (:func:`sarcli.formers._ffbp_plan.subtree_groups`) whose subtrees fit :data:`SUBTREE_BYTES`."""
+    (:func:`sarcli.formers.ffbp._plan.subtree_groups`) whose subtrees fit :data:`SUBTREE_BYTES`."""
     return subtree_groups(plan, SUBTREE_BYTES)
 
 
@@ -150,9 +150,8 @@ def _descend(levels, a, b):
 # ---------------------------------------------------------------------------------------------
 # public function
 # ---------------------------------------------------------------------------------------------
-def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weights=None, *, base=None,
-         merge=None, os_range=None, os_angle=None, interp=None, upsample=None, final=None, nthreads=None,
-         receive_position_m=None, return_plan=False):
+def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weights=None, *, nthreads=None,
+         receive_position_m=None, return_plan=False, plan=None, **knobs):
     """Spherical matched-filter image by fast factorised backprojection (module docstring).
 
     Parameters
@@ -166,6 +165,16 @@ def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weigh
     range_to_center_m : array_like, shape (P,)
     grid : Grid
     weights : array_like, shape (M,) or (P, M), optional
+    nthreads : int, optional
+    receive_position_m : array_like, shape (P, 3), optional
+        Separate receive positions ``r`` (range ``(|t − x| + |r − x|)/2 − r0``).
+    return_plan : bool
+        Also return the :class:`FfbpPlan` (stages, predicted error).
+    plan : FfbpPlan, optional
+        The stages, made before by :func:`plan_stages` for these positions, frequencies, grid and
+        knobs (``knobs`` are then not used).
+    **knobs
+        The stages' knobs (:func:`plan_stages`), each optional:
     base : int, default 16
         Pulses per base sub-aperture.
     merge : int, default 4
@@ -182,127 +191,174 @@ def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weigh
         (at least 1.5: :func:`default_upsample`) for ``optimal``, 4 for the analytic kernels.
     final : int, optional
         Merge until at most this many sub-images remain (default: as long as a merge pays).
-    nthreads : int, optional
-    receive_position_m : array_like, shape (P, 3), optional
-        Separate receive positions ``r`` (range ``(|t − x| + |r − x|)/2 − r0``).
-    return_plan : bool
-        Also return the :class:`FfbpPlan` (stages, predicted error).
 
     Returns
     -------
     image : ndarray, shape (ny, nx), complex128
         ``(1/W) Σ w d e_pj(x)`` to within the predicted error (unit point peaks ≈ 1).
     """
-    from ._ffbp_kernels import final as final_stage, frame, merge as merge_stage
-    from ._ffbp_stage0 import pulse_geometry, series_inputs, tone_weights, pulse_table, stage0
-    from .._native import using_threads
-    from ._bp_setup import PAD, ProfileWork, check_data, profile_length, range_profiles
+    from ..._native import using_threads
 
-    d = check_data(data)   # a phase history left on disk stays there: stage 0 reads it by blocks
-    P, M = d.shape
-    if M < 2:
-        raise SarcliInputError("ffbp needs at least two frequencies per pulse; use method 'direct'")
-    t = np.asarray(antenna_position_m, dtype=np.float64)
-    r0 = np.asarray(range_to_center_m, dtype=np.float64)
-    rcv = t if receive_position_m is None else np.asarray(receive_position_m, dtype=np.float64)
-    if t.shape != (P, 3) or rcv.shape != (P, 3) or r0.shape != (P,):
-        raise SarcliInputError(f"antenna positions {t.shape} / ranges {r0.shape} do not match {P} pulses")
-    # one row when every pulse has the same frequencies: the checks cost O(M), not O(P M)
-    f = np.asarray(freq_hz, dtype=np.float64)
-    f = f[None, :] if f.ndim == 1 else f
-    if f.shape not in ((1, M), (P, M)):
-        raise SarcliInputError(f"frequencies have shape {np.shape(freq_hz)}, expected ({M},) or ({P}, {M})")
-    alpha_ref, dalpha = equally_spaced(f, "ffbp")
-    alpha_ref, dalpha = np.broadcast_to(alpha_ref, (P,)), np.broadcast_to(dalpha, (P,))
-    if weights is None:
-        w, total = None, float(P * M)
-    else:
-        w = np.broadcast_to(np.asarray(weights, dtype=np.float64), (P, M))
-        total = float(w.sum())
-        if not total > 0:
-            raise SarcliInputError("window weights sum to zero")
-    bistatic = receive_position_m is not None and not np.array_equal(t, rcv)
-    plan = plan_stages(t, f, grid, base=base, merge=merge, os_range=os_range, os_angle=os_angle, interp=interp,
-                       upsample=upsample, final=final, receive_position_m=rcv if bistatic else None)
-    knobs = plan.knobs
-    kind = INTERPOLATORS[knobs["interp"]]
-    n_len = profile_length(M, knobs["upsample"])
-    bin_m = C / (2.0 * dalpha * n_len)
-    inv_bin = 1.0 / bin_m
-    kc = range_wavenumbers(alpha_ref)
-    lev = plan.levels[0]
-    dlt, series = series_inputs(t, rcv, r0, lev, plan.dq, 4.0 * np.pi * float(f.max()) / C)
-    pulses = pulse_table(pulse_geometry(t, rcv, r0), dlt, inv_bin, kc)
-    deapodize = plan.profiles_deapodized or plan.range_deapodized or plan.angle_deapodized
-    # each interpolation's weight polynomials (profiles, range, angle): the deapodized kernel where
-    # the plan says, else the minimax one for ``optimal``; the analytic kernels read none
-    tab_p, tab_q, tab_t = (deapodized_kernel(float(knobs[name])) if on else
-                           optimal_kernel(float(knobs[name])) if knobs["interp"] == "optimal" else None
-                           for on, name in ((plan.profiles_deapodized, "upsample"), (plan.range_deapodized, "os_range"),
-                                            (plan.angle_deapodized, "os_angle")))
-    # the polar grids' deapodized kernels: 1/Ψ at each pulse's tones on every level (tone_weights)
-    tones = [(rates, off, deapodized_inverse(float(knobs[os]))) for on, rates, off, os in
-             ((plan.range_deapodized, plan.range_rates, plan.range_offset, "os_range"),
-              (plan.angle_deapodized, plan.angle_rates, 0.0, "os_angle")) if on]
-    k_all = range_wavenumbers(f)
-    levels = plan.levels
-    deap = deapodization(f, plan, n_len) if deapodize else None
+    inp = _Inputs(data, freq_hz, antenna_position_m, range_to_center_m, weights, receive_position_m)
+    if plan is None:
+        plan = plan_stages(inp.t, inp.f, grid, receive_position_m=inp.rcv if inp.bistatic else None, **knobs)
+    run = _Pass(inp, plan)
     img = None   # made at the first final stage (when only the last level is alive); parts add in place
-    work = None   # the profiles' buffers, made at the first block
     # the pulses through stage 0 (each group's merges and final stage follow its own pulses)
-    bar = progress(total=P, desc="ffbp", unit="pulse")
+    bar = progress(total=inp.P, desc="ffbp", unit="pulse")
     with bar, using_threads(nthreads) as nthr:
         # depth first: the last level's sub-images in groups, each group's whole subtree (stage 0,
         # merges) formed, added to the image and freed, so memory does not grow with the pulses
         for a0, b0 in _subtree_groups(plan):
-            rng = _descend(levels, a0, b0)
-            lo, hi = rng[0]
-            cur_re = np.empty((hi - lo, lev.n_u, lev.n_q), dtype=_STORE)
-            cur_im = np.empty((hi - lo, lev.n_u, lev.n_q), dtype=_STORE)
-            # stage 0 in blocks of sub-apertures (bounded profile memory)
-            per = max(1, _PROFILE_BLOCK // int(lev.count.max()))
-            if work is None:   # one set of block buffers for every block (ProfileWork)
-                work = ProfileWork(per * int(lev.count.max()), M, n_len, np.complex64)
-            for s0 in range(lo, hi, per):
-                s1 = min(hi, s0 + per)
-                p0, p1 = int(lev.first[s0]), int(lev.first[s1 - 1] + lev.count[s1 - 1])
-                wb = None if w is None else w[p0:p1]
-                if deapodize:   # the deapodized kernels' mean responses, divided out of the data
-                    wb = deap if wb is None else wb * deap
-                    if tones:   # per pulse: a [pulses, M] block of its own
-                        wb = np.array(np.broadcast_to(wb, (p1 - p0, M)), order="C")
-                    for rates, off, (h_psi, inv_psi) in tones:
-                        tone_weights(k_all if k_all.shape[0] == 1 else k_all[p0:p1], rates[:, p0:p1], off,
-                                     1.0 / h_psi, inv_psi, wb)
-                pre, pim = range_profiles(work.samples(d, slice(p0, p1)), wb, total, n_len, nthr,
-                                          dtype=np.complex64, work=work)
-                stage0(pre, pim, lev.first[s0:s1] - p0, lev.count[s0:s1], np.ascontiguousarray(pulses[:, p0:p1]),
-                       series[s0:s1], frame(lev, s0, s1), tab_p, kind, bistatic, n_len // 2, n_len, PAD,
-                       plan.dq, plan.kref, cur_re[s0 - lo:s1 - lo], cur_im[s0 - lo:s1 - lo])
-                del pre, pim
-                bar.update(p1 - p0)
-            for l in range(1, len(levels)):
-                child, parent = levels[l - 1], levels[l]
-                (c0, c1), (u0, u1) = rng[l - 1], rng[l]
-                pf, pc = parent.children
-                nxt_re = np.empty((u1 - u0, parent.n_u, parent.n_q), dtype=_STORE)
-                nxt_im = np.empty((u1 - u0, parent.n_u, parent.n_q), dtype=_STORE)
-                merge_stage(cur_re, cur_im, frame(child, c0, c1), frame(parent, u0, u1), pf[u0:u1] - c0,
-                           pc[u0:u1], kind, tab_q, tab_t, plan.dq, plan.kref, nxt_re, nxt_im)
-                cur_re, cur_im = nxt_re, nxt_im
-                del nxt_re, nxt_im
-            last = levels[-1]
+            rng = _descend(plan.levels, a0, b0)
+            cur_re, cur_im = run.merged(*run.stage0(*rng[0], nthr, bar), rng)
             if img is None:
                 img = np.zeros(grid.shape, dtype=np.complex128)
-            final_stage(cur_re, cur_im, frame(last, a0, b0), grid.x, grid.y, kind, tab_q, tab_t, plan.dq,
-                       plan.kref, img)
+            run.final(cur_re, cur_im, a0, b0, grid, img)
             del cur_re, cur_im
     return (img, plan) if return_plan else img
 
 
+class _Inputs:
+    """:func:`ffbp`'s inputs checked: the samples (left on disk where they are: stage 0 reads them
+    by blocks), positions, frequencies (one row when every pulse has the same: the checks cost
+    O(M), not O(P M)), their line per pulse and the window."""
+
+    def __init__(self, data, freq_hz, antenna_position_m, range_to_center_m, weights, receive_position_m):
+        from ..backprojection import check_data
+
+        self.d = d = check_data(data)
+        self.P, self.M = P, M = d.shape
+        if M < 2:
+            raise SarcliInputError("ffbp needs at least two frequencies per pulse; use method 'direct'")
+        self.t = t = np.asarray(antenna_position_m, dtype=np.float64)
+        self.r0 = r0 = np.asarray(range_to_center_m, dtype=np.float64)
+        self.rcv = rcv = t if receive_position_m is None else np.asarray(receive_position_m, dtype=np.float64)
+        if t.shape != (P, 3) or rcv.shape != (P, 3) or r0.shape != (P,):
+            raise SarcliInputError(f"antenna positions {t.shape} / ranges {r0.shape} do not match {P} pulses")
+        f = np.asarray(freq_hz, dtype=np.float64)
+        self.f = f = f[None, :] if f.ndim == 1 else f
+        if f.shape not in ((1, M), (P, M)):
+            raise SarcliInputError(f"frequencies have shape {np.shape(freq_hz)}, expected ({M},) or ({P}, {M})")
+        alpha_ref, dalpha = equally_spaced(f, "ffbp")
+        self.alpha_ref, self.dalpha = np.broadcast_to(alpha_ref, (P,)), np.broadcast_to(dalpha, (P,))
+        if weights is None:
+            self.w, self.total = None, float(P * M)
+        else:
+            self.w = np.broadcast_to(np.asarray(weights, dtype=np.float64), (P, M))
+            self.total = float(self.w.sum())
+            if not self.total > 0:
+                raise SarcliInputError("window weights sum to zero")
+        self.bistatic = receive_position_m is not None and not np.array_equal(t, rcv)
+
+
+class _Pass:
+    """One run of a plan over checked inputs: stage 0's pulse tables, each interpolation's kernel
+    and the deapodization, made once; :meth:`stage0`, :meth:`merged` and :meth:`final` form one
+    depth-first group after another."""
+
+    def __init__(self, inp: _Inputs, plan):
+        from ._stage0 import pulse_geometry, pulse_table, series_inputs
+        from ..backprojection import profile_length
+
+        self.inp, self.plan = inp, plan
+        knobs = plan.knobs
+        self.kind = INTERPOLATORS[knobs["interp"]]
+        self.n_len = n_len = profile_length(inp.M, knobs["upsample"])
+        bin_m = C / (2.0 * inp.dalpha * n_len)
+        inv_bin = 1.0 / bin_m
+        kc = range_wavenumbers(inp.alpha_ref)
+        lev = plan.levels[0]
+        dlt, self.series = series_inputs(inp.t, inp.rcv, inp.r0, lev, plan.dq, 4.0 * np.pi * float(inp.f.max()) / C)
+        self.pulses = pulse_table(pulse_geometry(inp.t, inp.rcv, inp.r0), dlt, inv_bin, kc)
+        self.deapodize = plan.profiles_deapodized or plan.range_deapodized or plan.angle_deapodized
+        # each interpolation's weight polynomials (profiles, range, angle): the deapodized kernel where
+        # the plan says, else the minimax one for ``optimal``; the analytic kernels read none
+        self.tab_p, self.tab_q, self.tab_t = (
+            deapodized_kernel(float(knobs[name])) if on else
+            optimal_kernel(float(knobs[name])) if knobs["interp"] == "optimal" else None
+            for on, name in ((plan.profiles_deapodized, "upsample"), (plan.range_deapodized, "os_range"),
+                             (plan.angle_deapodized, "os_angle")))
+        # the polar grids' deapodized kernels: 1/Ψ at each pulse's tones on every level (tone_weights)
+        self.tones = [(rates, off, deapodized_inverse(float(knobs[os]))) for on, rates, off, os in
+                      ((plan.range_deapodized, plan.range_rates, plan.range_offset, "os_range"),
+                       (plan.angle_deapodized, plan.angle_rates, 0.0, "os_angle")) if on]
+        self.k_all = range_wavenumbers(inp.f)
+        self.deap = deapodization(inp.f, plan, n_len) if self.deapodize else None
+        self.work = None   # the profiles' buffers, made at the first block
+
+    def _block_weights(self, p0, p1):
+        """The weights of pulses ``p0 .. p1-1``: the window's, divided by the deapodized kernels'
+        mean responses where the plan deapodizes (per pulse where it deapodizes the polar grids)."""
+        from ._stage0 import tone_weights
+
+        w, M = self.inp.w, self.inp.M
+        wb = None if w is None else w[p0:p1]
+        if self.deapodize:
+            wb = self.deap if wb is None else wb * self.deap
+            if self.tones:   # per pulse: a [pulses, M] block of its own
+                wb = np.array(np.broadcast_to(wb, (p1 - p0, M)), order="C")
+            k_all = self.k_all
+            for rates, off, (h_psi, inv_psi) in self.tones:
+                tone_weights(k_all if k_all.shape[0] == 1 else k_all[p0:p1], rates[:, p0:p1], off,
+                             1.0 / h_psi, inv_psi, wb)
+        return wb
+
+    def stage0(self, lo, hi, nthr, bar):
+        """Stage 0 of sub-apertures ``lo .. hi-1`` in blocks of sub-apertures (bounded profile
+        memory): their polar sub-images ``(real, imaginary)``."""
+        from ._kernels import frame
+        from ._stage0 import stage0
+        from ..backprojection import PAD, ProfileWork, range_profiles
+
+        inp, plan, lev, n_len = self.inp, self.plan, self.plan.levels[0], self.n_len
+        cur_re = np.empty((hi - lo, lev.n_u, lev.n_q), dtype=_STORE)
+        cur_im = np.empty((hi - lo, lev.n_u, lev.n_q), dtype=_STORE)
+        per = max(1, _PROFILE_BLOCK // int(lev.count.max()))
+        if self.work is None:   # one set of block buffers for every block (ProfileWork)
+            self.work = ProfileWork(per * int(lev.count.max()), inp.M, n_len, np.complex64)
+        for s0 in range(lo, hi, per):
+            s1 = min(hi, s0 + per)
+            p0, p1 = int(lev.first[s0]), int(lev.first[s1 - 1] + lev.count[s1 - 1])
+            pre, pim = range_profiles(self.work.samples(inp.d, slice(p0, p1)), self._block_weights(p0, p1),
+                                      inp.total, n_len, nthr, dtype=np.complex64, work=self.work)
+            stage0(pre, pim, lev.first[s0:s1] - p0, lev.count[s0:s1], np.ascontiguousarray(self.pulses[:, p0:p1]),
+                   self.series[s0:s1], frame(lev, s0, s1), self.tab_p, self.kind, inp.bistatic, n_len // 2, n_len,
+                   PAD, plan.dq, plan.kref, cur_re[s0 - lo:s1 - lo], cur_im[s0 - lo:s1 - lo])
+            del pre, pim
+            bar.update(p1 - p0)
+        return cur_re, cur_im
+
+    def merged(self, cur_re, cur_im, rng):
+        """Stage 0's sub-images merged level by level up the subtree ``rng`` (:func:`_descend`)."""
+        from ._kernels import frame, merge as merge_stage
+
+        levels, plan = self.plan.levels, self.plan
+        for l in range(1, len(levels)):
+            child, parent = levels[l - 1], levels[l]
+            (c0, c1), (u0, u1) = rng[l - 1], rng[l]
+            pf, pc = parent.children
+            nxt_re = np.empty((u1 - u0, parent.n_u, parent.n_q), dtype=_STORE)
+            nxt_im = np.empty((u1 - u0, parent.n_u, parent.n_q), dtype=_STORE)
+            merge_stage(cur_re, cur_im, frame(child, c0, c1), frame(parent, u0, u1), pf[u0:u1] - c0,
+                        pc[u0:u1], self.kind, self.tab_q, self.tab_t, plan.dq, plan.kref, nxt_re, nxt_im)
+            cur_re, cur_im = nxt_re, nxt_im
+            del nxt_re, nxt_im
+        return cur_re, cur_im
+
+    def final(self, cur_re, cur_im, a0, b0, grid, img):
+        """The last level's sub-images ``a0 .. b0-1`` interpolated onto ``grid``, added to ``img``."""
+        from ._kernels import final as final_stage, frame
+
+        plan = self.plan
+        final_stage(cur_re, cur_im, frame(plan.levels[-1], a0, b0), grid.x, grid.y, self.kind, self.tab_q,
+                    self.tab_t, plan.dq, plan.kref, img)
+
+
 def ffbp_image(data, freq_hz, antenna_position_m, range_to_center_m, grid, weights=None, **knobs):
     """:func:`ffbp` for :func:`sarcli.formers.formation.form_image`: the image and the settings
-    to record (every knob, the stages and the predicted error). ``None`` knobs take :data:`DEFAULTS`."""
+    to record (every knob, the stages and the predicted error). ``None`` knobs take :data:`DEFAULTS`;
+    ``plan``: the stages made before (:func:`ffbp`)."""
     knobs = {name: v for name, v in knobs.items() if v is not None}
     img, plan = ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid, weights, return_plan=True,
                      **knobs)

@@ -2,7 +2,7 @@
 
 :func:`optimal_kernel` designs the minimax interpolator (``optimal``) for a given oversampling;
 :func:`deapodized_kernel` the exponential-of-semicircle kernel whose mean response is divided out
-of the data (deapodization, :mod:`sarcli.formers.ffbp`); :func:`interp_error` is the RMS error of
+of the data (deapodization, :mod:`sarcli.formers.ffbp._image`); :func:`interp_error` is the RMS error of
 one interpolation of an oversampled signal; :func:`predict_error` adds them up over the stages of
 :mod:`sarcli.formers.ffbp`.
 """
@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..core import sampling
+from ...core import sampling
 
 __all__ = ["INTERPOLATORS", "NTAPS", "optimal_kernel", "optimal_weights", "interp_error", "angle_interp_error",
            "predict_error", "deapodized_kernel", "deapodized_response", "deapodized_error", "deapodized_slope",

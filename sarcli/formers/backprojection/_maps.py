@@ -40,11 +40,11 @@ The frequencies enter through the least-squares line ``α_pj ≈ α_ref,p + (j -
 (:func:`sarcli.core.sampling.frequency_line`); their deviations from it are the model's error floor (GOTCHA, whose
 frequencies are rounded to float32: 2.4e-4 of the exact matched filter).
 
-The kernels (``src/native/backprojection.cpp``, :mod:`._bp_kernels`) take the differential range
+The kernels (``src/native/backprojection.cpp``, :mod:`._kernels`) take the differential range
 of each tile of up to 64 pixels along a row in float64 at the tile's centre, without
 cancellation (``Δr = (|x|² - 2 a·x) / (|a - x| + |a|) + (|a| - r0)``), and inside the tile either
 a quadratic in the pixel's offset or, near the radar where the quadratic's tiles would narrow, the
-exact range as that quadratic plus its float32 departure; :func:`._bp_kernels.tiling` picks the
+exact range as that quadratic plus its float32 departure; :func:`._kernels.tiling` picks the
 cheaper within the same error bound. Profile
 positions and interpolation weights are float32, the carrier phase float64 reduced modulo 2π and
 its sine and cosine a float32 polynomial (error 4e-7). ``precision`` sets the profiles and the
@@ -60,11 +60,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._native import using_threads
-from ..errors import SarcliInputError
-from .._util.progress import progress
-from ._bp_kernels import kernels
-from ._bp_setup import INTERPOLATORS, PAD, ProfileWork, Setup, check_data, profile_length, profiles
+from ..._native import using_threads
+from ...errors import SarcliInputError
+from ..._util.progress import progress
+from ._kernels import kernels
+from ._setup import INTERPOLATORS, PAD, ProfileWork, Setup, check_data, profile_length, profiles
 
 __all__ = ["backproject", "reproject", "pulse_contractions", "profile_length", "INTERPOLATORS", "DEFAULT_UPSAMPLE", "DEFAULT_PRECISION",
            "DEFAULT_INTERP"]
