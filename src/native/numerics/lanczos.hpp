@@ -11,10 +11,10 @@
 namespace sarcli {
 namespace interp {
 
-// sin(π d / 3) for |d| <= 3 by the float32 carrier (its argument stays within [−π, π]).
+// sin(π d / 3) for |d| < 3 by the float32 carrier (its argument stays within (−π, π)).
 SARCLI_INLINE float sin_third(float d) {
   float c, s;
-  carrier::cos_sin_f32(static_cast<double>(d) * (6.283185307179586 / 6.0), c, s);
+  carrier::cos_sin_small_f32(static_cast<double>(d) * (6.283185307179586 / 6.0), c, s);
   return s;
 }
 
@@ -22,7 +22,7 @@ SARCLI_INLINE float sin_third(float d) {
 // (d = t + 2 − k for tap k), normalised to sum to one; sin(π d) = ±sin(π t) from one carrier.
 SARCLI_INLINE void lanczos3(float t, float* w) {
   float c, s;
-  carrier::cos_sin_f32(static_cast<double>(t) * (6.283185307179586 / 2.0), c, s);  // sin(π t)
+  carrier::cos_sin_small_f32(static_cast<double>(t) * (6.283185307179586 / 2.0), c, s);  // sin(π t)
   const float spt = s;
   float tot = 0.0f;
   for (int k = 0; k < 6; ++k) {

@@ -55,6 +55,12 @@ SARCLI_INLINE void sincos_half_f32(double hp, float& c, float& s) {
 // (cos, sin) of a float64 phase ph in float32 (= sincos_half_f32(ph / 2)).
 SARCLI_INLINE void cos_sin_f32(double ph, float& c, float& s) { sincos_half_f32(0.5 * ph, c, s); }
 
+// cos_sin_f32 of a phase |ph| < π, whose half angle needs no reduction (k = 0 there): the same
+// bits without the reduction's work (the Lanczos weights' sines).
+SARCLI_INLINE void cos_sin_small_f32(double ph, float& c, float& s) {
+  double_angle_f32(static_cast<float>(0.5 * ph), c, s);
+}
+
 // (cos, sin) of a float32 phase of moderate size (|ph| up to ~1e4: k·2π_hi stays exact): a float32
 // Cody-Waite reduction to [−π, π], then the float32 half-angle polynomials. For phases already
 // reduced in float64 and carried a few radians further in float32 (stage 0 of ffbp).
