@@ -5,7 +5,10 @@ with their own builds of ``src/native``), one thread, ``$SARCLI_BP_ISA`` set for
 reports every kernel's best CPU seconds of a few calls. The table is the median over rounds of
 A's and B's seconds and the median of the rounds' ratios B/A. Usage::
 
-    python bench/bench_native_ab.py A/.venv/bin/python B/.venv/bin/python [--rounds 5] [--isa 2,1]
+    python bench/bench_native_ab.py A/.venv/bin/python B/.venv/bin/python [--rounds 5] [--isa 2,1] [--only bp/,points]
+
+``$SARCLI_BP_ISA`` caps the backprojection family's copies only; the other families pick theirs by
+the CPU.
 """
 
 from __future__ import annotations
@@ -24,7 +27,7 @@ CASES = ("bp/f32/cubic", "bp/f32/linear", "bp/f64/cubic", "bp/f32/lanczos", "bp-
          "points/f32/cubic", "ffbp/optimal", "ffbp/cubic", "ffbp/lanczos", "direct")
 
 
-def _measure(repeat: int) -> dict[str, float]:
+def _measure(repeat: int, only: str) -> dict[str, float]:
     from sarcli.core import geometry
     from sarcli.core.grid import Grid
     from sarcli.formers.backprojection import backproject, reproject
@@ -68,7 +71,7 @@ def _measure(repeat: int) -> dict[str, float]:
         "direct": lambda: direct_spherical(d[:, ::8], freq[::8], a, r0, Grid(64, 64, 0.8, 0.8)),
     }
     out = {}
-    for name in CASES:
+    for name in _cases(only):
         calls[name]()   # warm-up
         best = np.inf
         for _ in range(repeat):
@@ -79,16 +82,21 @@ def _measure(repeat: int) -> dict[str, float]:
     return out
 
 
+def _cases(only: str) -> list[str]:
+    return [c for c in CASES if not only or any(c.startswith(o) for o in only.split(","))]
+
+
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("python", nargs="*")
     ap.add_argument("--rounds", type=int, default=5)
     ap.add_argument("--isa", default="2,1")
     ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--only", default="", help="the cases whose names start with one of these (comma-separated)")
     ap.add_argument("--child", action="store_true")
     args = ap.parse_args()
     if args.child:
-        print(json.dumps(_measure(args.repeat)))
+        print(json.dumps(_measure(args.repeat, args.only)))
         return
     a, b = args.python
     print(f"A: {a}\nB: {b}\nload average at start: {os.getloadavg()[0]:.2f}")
@@ -97,12 +105,12 @@ def main() -> None:
         runs = {a: [], b: []}
         for _ in range(args.rounds):
             for py in (a, b):
-                res = subprocess.run([py, __file__, "--child", "--repeat", str(args.repeat)], env=env,
+                res = subprocess.run([py, __file__, "--child", "--repeat", str(args.repeat), "--only", args.only], env=env,
                                      capture_output=True, text=True, check=True)
                 runs[py].append(json.loads(res.stdout.strip().splitlines()[-1]))
         print(f"\nSARCLI_BP_ISA={isa} ({args.rounds} rounds, best of {args.repeat} calls a run, CPU s)")
         print(f"{'kernel':20s} {'A s':>9s} {'B s':>9s} {'B/A':>7s} {'B/A range':>15s}")
-        for name in CASES:
+        for name in _cases(args.only):
             ta = np.array([r[name] for r in runs[a]])
             tb = np.array([r[name] for r in runs[b]])
             q = tb / ta
