@@ -55,3 +55,11 @@ def test_table_rows_are_named_alike_in_python_and_the_kernels(family, name, rows
     native = getattr(load(family), name)
     assert native == {r.name.lower(): int(r) for r in rows}
     assert sorted(native.values()) == list(range(len(rows)))
+
+
+@pytest.mark.parametrize("family", ["backprojection", "ffbp"])
+def test_interpolator_codes_are_the_same_in_python_and_the_kernels(family):
+    from sarcli.core.sampling import INTERPOLATORS, PROFILE_INTERPOLATORS
+
+    names = PROFILE_INTERPOLATORS if family == "backprojection" else tuple(INTERPOLATORS)
+    assert load(family).INTERPOLATORS == {n: (INTERPOLATORS[n].code, INTERPOLATORS[n].taps) for n in names}

@@ -32,6 +32,7 @@
 
 #include "backprojection.hpp"
 #include "numerics/keys.hpp"
+#include "numerics/kinds.hpp"
 #include "numerics/lanczos.hpp"
 #include "numerics/sincos.hpp"
 #include "sarcli_simd.hpp"
@@ -49,8 +50,8 @@ constexpr double kTwoPiLo = 2.4492935982947064e-16;  // 2π - kTwoPi
 template <int K>
 struct Kernel;
 template <>
-struct Kernel<0> {  // linear
-  static constexpr int taps = 2, first = 0;
+struct Kernel<interp::kLinear> {
+  static constexpr int taps = interp::kTaps[interp::kLinear], first = 0;
   static SARCLI_INLINE void weights(const float* t, float (*w)[kLanes]) {
 #pragma omp simd
     for (int i = 0; i < kLanes; ++i) {
@@ -60,16 +61,16 @@ struct Kernel<0> {  // linear
   }
 };
 template <>
-struct Kernel<1> {  // Keys cubic
-  static constexpr int taps = 4, first = 1;
+struct Kernel<interp::kKeysCubic> {
+  static constexpr int taps = interp::kTaps[interp::kKeysCubic], first = 1;
   static SARCLI_INLINE void weights(const float* t, float (*w)[kLanes]) {
 #pragma omp simd
     for (int i = 0; i < kLanes; ++i) interp::keys(t[i], &w[0][i], kLanes);
   }
 };
 template <>
-struct Kernel<2> {  // Lanczos-3
-  static constexpr int taps = 6, first = 2;
+struct Kernel<interp::kLanczos3> {
+  static constexpr int taps = interp::kTaps[interp::kLanczos3], first = 2;
   static SARCLI_INLINE void weights(const float* t, float (*w)[kLanes]) {
     for (int i = 0; i < kLanes; ++i) {
       float v[6];
@@ -876,7 +877,8 @@ void bp_tiles(in<PT, 3> prof, in<double, 1> x, in<double, 1> y, in<double, 2> ge
   Args A = make_args(x, y, geo, static_cast<long>(prof.shape(1)), n_len, pad, width, bist, exact);
   if (prof.shape(0) != static_cast<size_t>(A.B) || prof.shape(2) != 2 ||
       ore.shape(0) != static_cast<size_t>(A.ny) || ore.shape(1) != static_cast<size_t>(A.nx) ||
-      oim.shape(0) != ore.shape(0) || oim.shape(1) != ore.shape(1) || kind < 0 || kind > 2)
+      oim.shape(0) != ore.shape(0) || oim.shape(1) != ore.shape(1) || kind < interp::kLinear ||
+      kind > interp::kLanczos3)
     throw nb::value_error("bp_tiles: inconsistent shapes or options");
   const long nb_ = std::max<long>(1, block);
   const PT* pr = prof.data();
@@ -901,7 +903,8 @@ void rp_tiles(in<PT, 2> fre, in<PT, 2> fim, in<double, 1> x, in<double, 1> y, in
   Args A = make_args(x, y, geo, static_cast<long>(h.shape(1)), n_len, pad, width, bist, exact);
   if (h.shape(0) != static_cast<size_t>(A.B) || h.shape(2) != 2 ||
       fre.shape(0) != static_cast<size_t>(A.ny) || fre.shape(1) != static_cast<size_t>(A.nx) ||
-      fim.shape(0) != fre.shape(0) || fim.shape(1) != fre.shape(1) || kind < 0 || kind > 2)
+      fim.shape(0) != fre.shape(0) || fim.shape(1) != fre.shape(1) || kind < interp::kLinear ||
+      kind > interp::kLanczos3)
     throw nb::value_error("rp_tiles: inconsistent shapes or options");
   const PT *f_r = fre.data(), *f_i = fim.data();
   PT* hp = h.data();
@@ -919,7 +922,8 @@ void bp_contract(in<PT, 3> prof, in<PT, 2> gre, in<PT, 2> gim, in<double, 1> x, 
   if (prof.shape(0) != static_cast<size_t>(A.B) || prof.shape(2) != 2 ||
       gre.shape(0) != static_cast<size_t>(A.ny) || gre.shape(1) != static_cast<size_t>(A.nx) ||
       gim.shape(0) != gre.shape(0) || gim.shape(1) != gre.shape(1) ||
-      acc.shape(0) != static_cast<size_t>(A.B) || acc.shape(1) != 2 || kind < 0 || kind > 2)
+      acc.shape(0) != static_cast<size_t>(A.B) || acc.shape(1) != 2 || kind < interp::kLinear ||
+      kind > interp::kLanczos3)
     throw nb::value_error("bp_contract: inconsistent shapes or options");
   const long nb_ = std::max<long>(1, block);
   const PT* pr = prof.data();
@@ -1091,8 +1095,8 @@ PointAdjFn<double> point_adj_fn<double>(int kind) { const int level = isa_level(
 
 PointArgs point_args(in<double, 2> pts, in<double, 2> geo, long lp, long n_len, long pad, bool bist, int kind,
                      const char* name) {
-  if (pts.shape(1) != 3 || geo.shape(0) != kPtRows || kind < 0 || kind > 2 || n_len < 2 || pad < 3 ||
-      lp != n_len + 2 * pad)
+  if (pts.shape(1) != 3 || geo.shape(0) != kPtRows || kind < interp::kLinear || kind > interp::kLanczos3 ||
+      n_len < 2 || pad < 3 || lp != n_len + 2 * pad)
     throw nb::value_error((std::string(name) + ": inconsistent shapes or options").c_str());
   PointArgs A;
   A.pts = pts.data();
@@ -1151,13 +1155,13 @@ void carrier_run(const double* ph, std::size_t n, float* c, float* s) {
 
 SARCLI_CLONES
 void weight_groups(const float* t, std::size_t n, int kind, float* w) {
-  const std::size_t taps = kind == 0 ? 2 : kind == 1 ? 4 : 6;
+  const std::size_t taps = interp::kTaps[kind];
   for (std::size_t i0 = 0; i0 < n; i0 += kLanes) {
     float tl[kLanes] = {}, wl[6][kLanes];
     for (std::size_t i = 0; i < kLanes && i0 + i < n; ++i) tl[i] = t[i0 + i];
-    if (kind == 0) Kernel<0>::weights(tl, wl);
-    else if (kind == 1) Kernel<1>::weights(tl, wl);
-    else Kernel<2>::weights(tl, wl);
+    if (kind == interp::kLinear) Kernel<interp::kLinear>::weights(tl, wl);
+    else if (kind == interp::kKeysCubic) Kernel<interp::kKeysCubic>::weights(tl, wl);
+    else Kernel<interp::kLanczos3>::weights(tl, wl);
     for (std::size_t i = 0; i < kLanes && i0 + i < n; ++i)
       for (std::size_t k = 0; k < taps; ++k) w[(i0 + i) * taps + k] = wl[k][i];
   }
@@ -1174,8 +1178,8 @@ void carrier_values(in<double, 1> ph, out<float, 1> c, out<float, 1> s) {
 
 void weight_values(in<float, 1> t, int kind, out<float, 2> w) {
   const size_t n = t.shape(0);
-  const size_t taps = kind == 0 ? 2 : kind == 1 ? 4 : 6;
-  if (w.shape(0) != n || w.shape(1) != taps || kind < 0 || kind > 2)
+  if (kind < interp::kLinear || kind > interp::kLanczos3 || w.shape(0) != n ||
+      w.shape(1) != static_cast<size_t>(interp::kTaps[kind]))
     throw nb::value_error("weight_values: shapes");
   weight_groups(t.data(), n, kind, w.data());
 }

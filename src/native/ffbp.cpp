@@ -19,6 +19,7 @@
 #include <omp.h>
 
 #include "numerics/keys.hpp"
+#include "numerics/kinds.hpp"
 #include "numerics/lanczos.hpp"
 #include "numerics/sincos.hpp"
 #include "ffbp.hpp"
@@ -32,8 +33,7 @@ using i32 = std::int32_t;
 #define SARCLI_LAMBDA_INLINE __attribute__((always_inline))
 using i64 = std::int64_t;
 
-// interpolation kernels: 0 linear, 1 Keys cubic, 2 Lanczos-3, 3 6-tap polynomial weights
-constexpr int kTaps[4] = {2, 4, 6, 6};
+using interp::kTaps;   // taps of each interpolation kernel (numerics/kinds.hpp)
 struct Frame {
   double cx, cy, cn, rho0, e0x, e0y, cz, q0, u0, du;
 };
@@ -100,15 +100,15 @@ SARCLI_INLINE void lanczos(T t, T* w) {
 // the loop over the row vectorises (float32: sixteen lanes a vector on AVX-512).
 template <typename T>
 SARCLI_INLINE void row_weights(int kind, const T* frac, std::size_t n, T* w, std::size_t stride, const T* tab) {
-  if (kind == 3) {
+  if (kind == interp::kPoly6) {
     for (int j = 0; j < 6; ++j) {
       const T* c = tab + 8 * j;
       T* wj = w + j * stride;
       for (std::size_t i = 0; i < n; ++i) wj[i] = poly7(c, T(2) * frac[i] - T(1));
     }
-  } else if (kind == 0) {
+  } else if (kind == interp::kLinear) {
     for (std::size_t i = 0; i < n; ++i) { w[i] = T(1) - frac[i]; w[stride + i] = frac[i]; }
-  } else if (kind == 1) {
+  } else if (kind == interp::kKeysCubic) {
 #pragma omp simd
     for (std::size_t i = 0; i < n; ++i) interp::keys(frac[i], w + i, stride);
   } else {
@@ -227,7 +227,7 @@ inline bool symmetric6(const float* tab) {
 }
 
 inline int weight_mode(int kind, const float* tab) {
-  return kind != 3 ? kWeightsRead : symmetric6(tab) ? kWeightsSymmetric : kWeightsPoly;
+  return kind != interp::kPoly6 ? kWeightsRead : symmetric6(tab) ? kWeightsSymmetric : kWeightsPoly;
 }
 
 // f(std::integral_constant<int, mode>{}): a kernel instantiated for each weight mode.
@@ -659,7 +659,7 @@ void stage0(in<float, 2> pre, in<float, 2> pim, in<i64, 1> first, in<i64, 1> cou
             out<float, 3> out_im) {
   const int kind = o.kind;
   const std::size_t S = out_re.shape(0), nt = out_re.shape(1), nq = out_re.shape(2), B = pre.shape(0);
-  if (kind < 0 || kind > 3) throw nb::value_error("stage0: unknown interpolation kind");
+  if (kind < interp::kLinear || kind > interp::kPoly6) throw nb::value_error("stage0: unknown interpolation kind");
   if (pim.shape(0) != B || pim.shape(1) != pre.shape(1) || pulses.shape(0) != kPulseRows || pulses.shape(1) != B ||
       first.shape(0) != S || count.shape(0) != S || series.shape(0) != S || frame.shape(0) != kFrameRows ||
       frame.shape(1) != S || tab.shape(0) != 6 || tab.shape(1) != 8 || out_im.shape(0) != S ||
@@ -773,7 +773,7 @@ SARCLI_INLINE void polar_row(const Child& C, double dq, double kref, const doubl
   }
   row_weights<float>(kind, ft, n, wt, n, tab_t);
   const std::size_t cq = C.nq, plane = C.nt * C.nq;
-  if (kind == 3) {
+  if (kind == interp::kPoly6) {
     v8f ck[8] = {};
     for (int k = 0; k < 8; ++k)
       for (int b = 0; b < 8; ++b) ck[k][b] = b < 6 ? tab_q[8 * b + k] : 0.0f;
@@ -1023,7 +1023,8 @@ void merge_row(const Merge& A, std::size_t s, std::size_t it, RowScratch& W) {
 }
 
 void check_tabs(in<float, 2>& tab_q, in<float, 2>& tab_t, int kind, const char* who) {
-  if (kind < 0 || kind > 3) throw nb::value_error((std::string(who) + ": unknown interpolation kind").c_str());
+  if (kind < interp::kLinear || kind > interp::kPoly6)
+    throw nb::value_error((std::string(who) + ": unknown interpolation kind").c_str());
   if (tab_q.shape(0) != 6 || tab_q.shape(1) != 8 || tab_t.shape(0) != 6 || tab_t.shape(1) != 8)
     throw nb::value_error((std::string(who) + ": kernel tables must be [6, 8]").c_str());
 }
@@ -1186,7 +1187,7 @@ void carrier_run(const double* ph, std::size_t n, float* c, float* s) {
 
 template <typename T>
 void weights_of(int kind, in<T, 1> frac, in<T, 2> tab, out<T, 2> w) {
-  if (kind < 0 || kind > 3) throw nb::value_error("row_weights: unknown interpolation kind");
+  if (kind < interp::kLinear || kind > interp::kPoly6) throw nb::value_error("row_weights: unknown interpolation kind");
   const std::size_t n = frac.shape(0);
   if (w.shape(0) != static_cast<std::size_t>(kTaps[kind]) || w.shape(1) != n || tab.shape(0) != 6 ||
       tab.shape(1) != 8)

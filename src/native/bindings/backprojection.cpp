@@ -1,5 +1,6 @@
 // The Python module sarcli._native._backprojection: bindings of backprojection.hpp.
 #include "backprojection.hpp"
+#include "numerics/kinds.hpp"
 
 NB_MODULE(_backprojection, m) {
   using namespace nanobind::literals;
@@ -46,6 +47,11 @@ NB_MODULE(_backprojection, m) {
   for (int r = 0; r < kGeoRows; ++r) geo_rows[geo_names[r]] = r;
   for (int r = 0; r < kPtRows; ++r) point_rows[point_names[r]] = r;
   m.attr("GEO_ROWS") = geo_rows;
+  // the interpolators by name: (code, taps), as sarcli.core.sampling.INTERPOLATORS names them
+  nanobind::dict interpolators;
+  for (int k = interp::kLinear; k <= interp::kLanczos3; ++k)
+    interpolators[interp::kNames[k]] = nanobind::make_tuple(k, interp::kTaps[k]);
+  m.attr("INTERPOLATORS") = interpolators;
   m.attr("POINT_ROWS") = point_rows;
   m.def("isa_level", &isa_level, "The kernels' instruction set here: 2 AVX-512, 1 AVX2, 0 baseline.");
   m.def("carrier_values", &carrier_values, "phase"_a, "cos"_a, "sin"_a,

@@ -1,5 +1,6 @@
 // The Python module sarcli._native._ffbp: bindings of ffbp.hpp.
 #include "ffbp.hpp"
+#include "numerics/kinds.hpp"
 
 NB_MODULE(_ffbp, m) {
   using namespace nanobind::literals;
@@ -18,6 +19,11 @@ NB_MODULE(_ffbp, m) {
   static_assert(sizeof frame_names / sizeof *frame_names == s::kFrameRows, "a name per frame row");
   static_assert(sizeof pulse_names / sizeof *pulse_names == s::kPulseRows, "a name per pulse row");
   m.attr("FRAME_ROWS") = frame_rows;
+  // the interpolators by name: (code, taps), as sarcli.core.sampling.INTERPOLATORS names them
+  nanobind::dict interpolators;
+  for (int k = sarcli::interp::kLinear; k <= sarcli::interp::kPoly6; ++k)
+    interpolators[sarcli::interp::kNames[k]] = nanobind::make_tuple(k, sarcli::interp::kTaps[k]);
+  m.attr("INTERPOLATORS") = interpolators;
   m.attr("PULSE_ROWS") = pulse_rows;
   // outputs are written in place: never an implicit (converted) copy
   nb::class_<s::Stage0Options>(m, "Stage0Options", "Stage 0's scalar settings.")
