@@ -28,7 +28,7 @@ help:
 # sarcli's kernels (src/native/) are C++17 compiled when the package is installed. The venv holds
 # the build requirements too, so `pip install -e .` runs without build isolation and an edit to a
 # kernel rebuilds only what changed (in build/): `make setup` after editing src/native.
-NATIVE := CMakeLists.txt $(wildcard src/native/*.cpp src/native/*.hpp)
+NATIVE := CMakeLists.txt $(wildcard src/native/*.cpp src/native/*.hpp src/native/*/*.cpp src/native/*/*.hpp)
 CXX ?= c++
 
 # a new subpackage (its __init__.py newer than the install) re-installs: the editable install maps each

@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from sarcli._native.layout import BpGeo
 from sarcli.core import geometry
 from sarcli.errors import AliasingWarning, SarcliInputError
 from sarcli.formers.backprojection._kernels import kernels, next_fast_len, tile_width
@@ -333,7 +334,7 @@ def test_range_model_error_within_its_bound(monkeypatch, model, r0):
         data, freq, a, r0s, grid = _tone_collection(r0, min(0.25, r0 / 300), tone=tone)
         ref = exact_mf(data, freq, a, r0s, grid)
         st = Setup(data.shape, freq, a, r0s, grid, None, DEFAULT_UPSAMPLE, "cubic", "float32")
-        scale = max(np.max(np.abs(st.geo[10])), np.max(np.abs(st.geo[9])))
+        scale = max(np.max(np.abs(st.geo[BpGeo.KC])), np.max(np.abs(st.geo[BpGeo.INV_BIN])))
         r_min = bk.min_range(a, grid)
         for width in (64, 16, 4):
             _forced_tiling(monkeypatch, model, width)

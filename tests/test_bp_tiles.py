@@ -17,6 +17,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from sarcli._native.layout import BpGeo as G
 from sarcli.core import geometry
 from sarcli.core.grid import Grid
 import sarcli.formers.backprojection._setup as _bp_setup
@@ -60,10 +61,10 @@ def model_read_out(t, q, grid, model, width):
     k = kernels()
     nt, nq = np.linalg.norm(t, axis=1), np.linalg.norm(q, axis=1)
     geo = np.empty((GEO_ROWS, len(t)))
-    geo[0], geo[1], geo[2], geo[3] = 2 * t[:, 0], 2 * t[:, 1], nt * nt, nt
-    geo[4], geo[5], geo[6], geo[7] = 2 * q[:, 0], 2 * q[:, 1], nq * nq, nq
-    geo[8] = 0.0  # r0 = (|t| + |q|) / 2
-    geo[9] = INV_BIN
+    geo[G.TWO_AX], geo[G.TWO_AY], geo[G.A2], geo[G.NA] = 2 * t[:, 0], 2 * t[:, 1], nt * nt, nt
+    geo[G.TWO_BX], geo[G.TWO_BY], geo[G.B2], geo[G.NB] = 2 * q[:, 0], 2 * q[:, 1], nq * nq, nq
+    geo[G.OFFSET] = 0.0  # r0 = (|t| + |q|) / 2
+    geo[G.INV_BIN] = INV_BIN
     bist = not np.array_equal(t, q)
     lp = N_LEN + 2 * PAD
     x, y = np.ascontiguousarray(grid.x), np.ascontiguousarray(grid.y)
@@ -76,7 +77,7 @@ def model_read_out(t, q, grid, model, width):
         g = np.array(geo[:, p:p + 1])
         out = []
         for prof, kc, kind in ((const, KC, 1), (ramp, 0.0, 0)):
-            g[10] = kc
+            g[G.KC] = kc
             re, im = np.zeros(grid.shape), np.zeros(grid.shape)
             k.bp_tiles(prof, x, y, g, N_LEN, PAD, kind, bist, width, model == EXACT, 1, re, im)
             out.append(re + 1j * im)

@@ -319,7 +319,9 @@ def test_analytic_kernel_weights(kind):
     else:
         ref = np.sinc(d) * np.sinc(d / 3)
         ref /= ref.sum(axis=0)
-    np.testing.assert_allclose(row_weights(kind, t), ref, rtol=0, atol=5e-15)   # measured 0, 0, 6.7e-16
+    # Lanczos-3 is float32 in every family (numerics/lanczos.hpp), so its float64 weights are those
+    # rounded: measured 0, 6.2e-16, 1.3e-7 (float64), 3.7e-8, 3.4e-7, 1.3e-7 (float32)
+    np.testing.assert_allclose(row_weights(kind, t), ref, rtol=0, atol=5e-15 if kind < 2 else 1e-6)
     np.testing.assert_allclose(row_weights(kind, t.astype(np.float32)), ref, rtol=0, atol=1e-6)
 
 

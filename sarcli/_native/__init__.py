@@ -1,9 +1,10 @@
 """sarcli's compiled kernels: C++17, built by CMake when the package is installed.
 
-One extension module per kernel family, each from one source in ``src/native/`` of the
-repository (``src/native/NAME.cpp`` is ``sarcli._native._NAME``), bound with nanobind. The
-kernels hold only loops: planning, geometry, error models and I/O stay in Python, in the module
-that wraps each family. They release the interpreter lock while they run (so dask threads and the
+One extension module per kernel family, each from its source in ``src/native/`` of the
+repository (``src/native/NAME.cpp`` is ``sarcli._native._NAME``), bound with nanobind in
+``src/native/bindings/NAME.cpp``; :mod:`sarcli._native.layout` names the rows of the tables the
+kernels read. The kernels hold only loops: planning, geometry, error models and I/O stay in
+Python, in the module that wraps each family. They release the interpreter lock while they run (so dask threads and the
 Ctrl-C watchdog run beside them), thread with OpenMP (static schedules, one parallel region per
 call) and pick their SIMD width when loaded (AVX-512, AVX2 + FMA or baseline x86-64).
 

@@ -24,6 +24,7 @@ from __future__ import annotations
 import numpy as np
 
 from .._native import using_threads
+from .._native.layout import BpGeo, BpPointGeo
 from ..core.geometry import bistatic_differential_range
 from ..core.grid import Grid
 from ..errors import AliasingWarning, SarcliInputError
@@ -62,14 +63,15 @@ def _setup(shape, freq_hz, antenna_position_m, range_to_center_m, pts, weights, 
                    precision, receive_position_m)
     a = np.asarray(antenna_position_m, dtype=np.float64)
     b = a if receive_position_m is None else np.asarray(receive_position_m, dtype=np.float64)
-    geo = np.empty((11, st.n_pulses))
-    geo[0:3], geo[3:6] = a.T, b.T
-    geo[6], geo[7] = np.linalg.norm(a, axis=1), np.linalg.norm(b, axis=1)
-    geo[8], geo[9], geo[10] = st.geo[8], st.geo[9], st.geo[10]
+    geo = np.empty((len(BpPointGeo), st.n_pulses))
+    geo[BpPointGeo.AX:BpPointGeo.AZ + 1], geo[BpPointGeo.BX:BpPointGeo.BZ + 1] = a.T, b.T
+    geo[BpPointGeo.NA], geo[BpPointGeo.NB] = np.linalg.norm(a, axis=1), np.linalg.norm(b, axis=1)
+    geo[BpPointGeo.OFFSET], geo[BpPointGeo.INV_BIN], geo[BpPointGeo.KC] = (st.geo[BpGeo.OFFSET], st.geo[BpGeo.INV_BIN],
+                                                                         st.geo[BpGeo.KC])
     # the window checked at every point for up to 17 pulses spread over the aperture (ends included)
     sel = np.unique(np.r_[np.arange(0, st.n_pulses, max(1, st.n_pulses // 16)), st.n_pulses - 1])
     r0 = np.asarray(range_to_center_m, dtype=np.float64)
-    half = np.abs(1.0 / st.geo[9][sel]) * st.n_len / 2.0
+    half = np.abs(1.0 / st.geo[BpGeo.INV_BIN][sel]) * st.n_len / 2.0
     excess = max(float(np.max(np.abs(bistatic_differential_range(a[sel], b[sel], r0[sel], flat[k:k + _CHECK_POINTS]))
                                 / half[:, None])) for k in range(0, flat.shape[0], _CHECK_POINTS))
     if excess >= 1.0:

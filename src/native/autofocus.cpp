@@ -22,9 +22,8 @@
 #include <complex>
 #include <vector>
 
-#include <nanobind/stl/optional.h>
-#include <nanobind/stl/tuple.h>
 
+#include "autofocus.hpp"
 #include "sarcli_simd.hpp"
 
 #if defined(SARCLI_HAVE_MVEC) && defined(__GNUC__) && !defined(__clang__)
@@ -158,6 +157,8 @@ void tile_sums(const float* stack, std::size_t n, std::size_t nb, const float* e
 }
 
 
+}  // namespace
+
 // (E, T); with x and y of length nb, X and Y written there.
 nb::tuple entropy_sums(in<cf, 2> stack, in<cf, 1> e, double alpha, std::optional<out<cd, 1>> x,
                        std::optional<out<cd, 1>> y) {
@@ -206,6 +207,8 @@ nb::tuple entropy_sums(in<cf, 2> stack, in<cf, 1> e, double alpha, std::optional
   }
   return nb::make_tuple(E, T);
 }
+
+namespace {
 
 
 // z[p, k] = (1/M) Σ_j d[p, j] e^{i κ_pj Δr_pk}: pulse p's matched filter at point k. With the
@@ -276,6 +279,8 @@ void point_signals_pulse(const cd* d, const double* kw, const double* dr, std::s
   }
 }
 
+}  // namespace
+
 // point_signals(d [P, M], kw [P, M] two-way wavenumbers, dr [P, K] differential ranges, z [P, K]).
 void point_signals(in<cd, 2> d, in<double, 2> kw, in<double, 2> dr, out<cd, 2> z) {
   const std::size_t P = d.shape(0), M = d.shape(1), K = dr.shape(1);
@@ -296,18 +301,4 @@ void point_signals(in<cd, 2> d, in<double, 2> kw, in<double, 2> dr, out<cd, 2> z
   }
 }
 
-}  // namespace
 }  // namespace sarcli
-
-NB_MODULE(_autofocus, m) {
-  using namespace nanobind::literals;
-  namespace s = sarcli;
-  m.doc() = "Entropy sums of a sub-aperture image stack (fused with its gradient's); pulses' matched filters at points.";
-  m.def("entropy_sums", &s::entropy_sums, "stack"_a, "e"_a, "alpha"_a, "x"_a.noconvert().none(),
-        "y"_a.noconvert().none(),
-        "(E, T) of f = e @ stack: E = Σ|f|², T = Σ I ln I (alpha = 1) or Σ I^alpha; with x, y "
-        "(complex128, one per image) also X_b = Σ_s stack[b,s] conj(f_s) a_s (a = ln I or "
-        "I^(alpha-1), 0 where I = 0) and Y_b = Σ_s stack[b,s] conj(f_s).");
-  m.def("point_signals", &s::point_signals, "d"_a, "kw"_a, "dr"_a, "z"_a.noconvert(),
-        "z[p, k] = (1/M) sum_j d[p, j] exp(i kw[p, j] dr[p, k]) (pulse p's matched filter at point k).");
-}

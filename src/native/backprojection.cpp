@@ -30,6 +30,11 @@
 #include <immintrin.h>
 #endif
 
+#include "backprojection.hpp"
+#include "numerics/keys.hpp"
+#include "numerics/kinds.hpp"
+#include "numerics/lanczos.hpp"
+#include "numerics/sincos.hpp"
 #include "sarcli_simd.hpp"
 
 namespace sarcli {
@@ -40,61 +45,13 @@ constexpr int kGroups = 4;  // lane groups a tile may hold (tiles of up to 64 pi
 constexpr double kTwoPi = 6.283185307179586;
 constexpr double kInvTwoPi = 0.15915494309189535;
 constexpr double kTwoPiLo = 2.4492935982947064e-16;  // 2π - kTwoPi
-// Minimax coefficients of sin h = h (1 + u S(u)), cos h = 1 + u C(u), u = h², |h| <= π/2
-// (sarcli.formers._bp_kernels._SIN32 / _COS32).
-constexpr float kS0 = -0.16666661057244608f, kS1 = 0.008333083661225673f,
-                kS2 = -0.00019809918539322803f, kS3 = 2.6050985599817745e-06f;
-constexpr float kC0 = -0.4999993229304565f, kC1 = 0.041663989454597754f,
-                kC2 = -0.001385592718265202f, kC3 = 2.3194386451824987e-05f;
 
-// Per-pulse geometry rows of the `geo` array [kGeoRows, B].
-enum Geo { G2AX, G2AY, GA2, GNA, G2BX, G2BY, GB2, GNB, GOFF, GIB, GKC, kGeoRows };
-
-// (cos, sin) of phase φ (float64, any size): reduction to r = φ - 2πk in float64, then the
-// half-angle polynomials in float32 and the double-angle formulas.
-SARCLI_INLINE void carrier(double ph, float& c, float& s) {
-  const double k = std::rint(ph * kInvTwoPi);
-  const float h = static_cast<float>(0.5 * ((ph - k * kTwoPi) - k * kTwoPiLo));
-  const float h2 = h * h;
-  const float ps = kS0 + h2 * (kS1 + h2 * (kS2 + h2 * kS3));
-  const float pc = kC0 + h2 * (kC1 + h2 * (kC2 + h2 * kC3));
-  const float sh = h * (1.0f + h2 * ps);
-  const float ch = 1.0f + h2 * pc;
-  c = ch * ch - sh * sh;
-  s = 2.0f * sh * ch;
-}
-
-// sin(π d / 3) for |d| <= 3 by the carrier polynomial (its argument stays within [-π, π]).
-SARCLI_INLINE float sin_third(float d) {
-  float c, s;
-  carrier(static_cast<double>(d) * (kTwoPi / 6.0), c, s);
-  return s;
-}
-
-// Normalised Lanczos-3 weights sinc(d) sinc(d/3) for offsets -2..3 at fraction t (d = t - k).
-SARCLI_INLINE void lanczos(float t, float* w) {
-  float c, s;
-  carrier(static_cast<double>(t) * (kTwoPi / 2.0), c, s);  // sin(π t)
-  const float spt = s;
-  float tot = 0.0f;
-  for (int k = 0; k < 6; ++k) {
-    const float d = t + static_cast<float>(2 - k);
-    const float sgn = (k & 1) ? -1.0f : 1.0f;  // sin(π (t + 2 - k)) = ±sin(π t)
-    const float num = 3.0f * sgn * spt * sin_third(d);
-    const float den = 9.869604401089358f * d * d;
-    const float v = std::fabs(d) < 1e-6f ? 1.0f : (std::fabs(d) >= 3.0f ? 0.0f : num / den);
-    w[k] = v;
-    tot += v;
-  }
-  const float inv = 1.0f / tot;
-  for (int k = 0; k < 6; ++k) w[k] *= inv;
-}
 
 template <int K>
 struct Kernel;
 template <>
-struct Kernel<0> {  // linear
-  static constexpr int taps = 2, first = 0;
+struct Kernel<interp::kLinear> {
+  static constexpr int taps = interp::kTaps[interp::kLinear], first = 0;
   static SARCLI_INLINE void weights(const float* t, float (*w)[kLanes]) {
 #pragma omp simd
     for (int i = 0; i < kLanes; ++i) {
@@ -104,26 +61,20 @@ struct Kernel<0> {  // linear
   }
 };
 template <>
-struct Kernel<1> {  // Keys cubic
-  static constexpr int taps = 4, first = 1;
+struct Kernel<interp::kKeysCubic> {
+  static constexpr int taps = interp::kTaps[interp::kKeysCubic], first = 1;
   static SARCLI_INLINE void weights(const float* t, float (*w)[kLanes]) {
 #pragma omp simd
-    for (int i = 0; i < kLanes; ++i) {
-      const float ti = t[i], d0 = ti + 1.0f, d2 = 1.0f - ti, d3 = 2.0f - ti;
-      w[0][i] = ((2.5f - 0.5f * d0) * d0 - 4.0f) * d0 + 2.0f;
-      w[1][i] = (1.5f * ti - 2.5f) * ti * ti + 1.0f;
-      w[2][i] = (1.5f * d2 - 2.5f) * d2 * d2 + 1.0f;
-      w[3][i] = ((2.5f - 0.5f * d3) * d3 - 4.0f) * d3 + 2.0f;
-    }
+    for (int i = 0; i < kLanes; ++i) interp::keys(t[i], &w[0][i], kLanes);
   }
 };
 template <>
-struct Kernel<2> {  // Lanczos-3
-  static constexpr int taps = 6, first = 2;
+struct Kernel<interp::kLanczos3> {
+  static constexpr int taps = interp::kTaps[interp::kLanczos3], first = 2;
   static SARCLI_INLINE void weights(const float* t, float (*w)[kLanes]) {
     for (int i = 0; i < kLanes; ++i) {
       float v[6];
-      lanczos(t[i], v);
+      interp::lanczos3(t[i], v);
       for (int k = 0; k < 6; ++k) w[k][i] = v[k];
     }
   }
@@ -367,7 +318,7 @@ SARCLI_INLINE void eval_lanes(const Anchor& an, const ExactAnchor* ex, const flo
     double ph = an.ph0 + v * (an.ph1 + v * an.ph2);
     if (NE > 0) ph += static_cast<double>(kc * rho[i]);
     float c, s;
-    carrier(ph, c, s);
+    carrier::cos_sin_f32(ph, c, s);
     L.c[i] = m[i] * c;
     L.s[i] = m[i] * s;
   }
@@ -828,18 +779,24 @@ SARCLI_INLINE void rp_pulse(const Args& A, const PT* fre, const PT* fim, long p,
                                   long row, long p0, long p1, Anchors& an, double* acc) {       \
     bp_contract_row<PT, K, ISA>(A, prof, gre, gim, row, p0, p1, an, acc);                       \
   }
-#define SARCLI_BP_ISA(SUF, ATTR, ISA)              \
-  SARCLI_BP_WORKER(float, 0, f0_##SUF, ATTR, ISA)  \
-  SARCLI_BP_WORKER(float, 1, f1_##SUF, ATTR, ISA)  \
-  SARCLI_BP_WORKER(float, 2, f2_##SUF, ATTR, ISA)  \
-  SARCLI_BP_WORKER(double, 0, d0_##SUF, ATTR, ISA) \
-  SARCLI_BP_WORKER(double, 1, d1_##SUF, ATTR, ISA) \
-  SARCLI_BP_WORKER(double, 2, d2_##SUF, ATTR, ISA)
-SARCLI_BP_ISA(v4, SARCLI_BP_V4, 2)
-SARCLI_BP_ISA(v3, SARCLI_BP_V3, 1)
-SARCLI_BP_ISA(v1, , 0)
-#undef SARCLI_BP_ISA
+// WORKER(PT, K, SUF, ATTR, ISA) for each precision and interpolator (SUF: f0 .. d2, then the
+// instruction set's v4, v3 or v1), then for each instruction set: the tiled kernels' workers and
+// the terrain kernels' (bp_points) alike, picked by SARCLI_PICK.
+#define SARCLI_INSTANCES(WORKER, SUF, ATTR, ISA) \
+  WORKER(float, 0, f0_##SUF, ATTR, ISA)          \
+  WORKER(float, 1, f1_##SUF, ATTR, ISA)          \
+  WORKER(float, 2, f2_##SUF, ATTR, ISA)          \
+  WORKER(double, 0, d0_##SUF, ATTR, ISA)         \
+  WORKER(double, 1, d1_##SUF, ATTR, ISA)         \
+  WORKER(double, 2, d2_##SUF, ATTR, ISA)
+#define SARCLI_ALL_ISAS(WORKER)                   \
+  SARCLI_INSTANCES(WORKER, v4, SARCLI_BP_V4, 2)   \
+  SARCLI_INSTANCES(WORKER, v3, SARCLI_BP_V3, 1)   \
+  SARCLI_INSTANCES(WORKER, v1, , 0)
+SARCLI_ALL_ISAS(SARCLI_BP_WORKER)
 #undef SARCLI_BP_WORKER
+
+}  // namespace
 
 // 2: AVX-512, 1: AVX2 + FMA, 0: baseline x86-64 ($SARCLI_BP_ISA caps it, for tests and timing).
 int isa_level() {
@@ -853,11 +810,14 @@ int isa_level() {
   return level;
 }
 
+namespace {
+
 template <typename PT>
 using RowFn = void (*)(const Args&, const PT*, long, long, long, Anchors&, double*, double*);
 template <typename PT>
 using PulseFn = void (*)(const Args&, const PT*, const PT*, long, PT*);
 
+// The worker NAME of precision P (f or d) for the interpolator `kind` on instruction set `level`.
 #define SARCLI_PICK(NAME, P)                                                               \
   (level == 2 ? (kind == 0 ? NAME##_##P##0_v4 : kind == 1 ? NAME##_##P##1_v4 : NAME##_##P##2_v4) \
    : level == 1 ? (kind == 0 ? NAME##_##P##0_v3 : kind == 1 ? NAME##_##P##1_v3 : NAME##_##P##2_v3) \
@@ -883,7 +843,6 @@ template <>
 ContractFn<float> contract_fn<float>(int kind) { const int level = isa_level(); return SARCLI_PICK(bp_contract_row, f); }
 template <>
 ContractFn<double> contract_fn<double>(int kind) { const int level = isa_level(); return SARCLI_PICK(bp_contract_row, d); }
-#undef SARCLI_PICK
 
 Args make_args(in<double, 1> x, in<double, 1> y, in<double, 2> geo, long lp, long n_len, long pad,
                long width, bool bist, bool exact) {
@@ -909,6 +868,8 @@ Args make_args(in<double, 1> x, in<double, 1> y, in<double, 2> geo, long lp, lon
   return A;
 }
 
+}  // namespace
+
 template <typename PT>
 void bp_tiles(in<PT, 3> prof, in<double, 1> x, in<double, 1> y, in<double, 2> geo, long n_len,
               long pad, int kind, bool bist, long width, bool exact, long block, out<double, 2> ore,
@@ -916,7 +877,8 @@ void bp_tiles(in<PT, 3> prof, in<double, 1> x, in<double, 1> y, in<double, 2> ge
   Args A = make_args(x, y, geo, static_cast<long>(prof.shape(1)), n_len, pad, width, bist, exact);
   if (prof.shape(0) != static_cast<size_t>(A.B) || prof.shape(2) != 2 ||
       ore.shape(0) != static_cast<size_t>(A.ny) || ore.shape(1) != static_cast<size_t>(A.nx) ||
-      oim.shape(0) != ore.shape(0) || oim.shape(1) != ore.shape(1) || kind < 0 || kind > 2)
+      oim.shape(0) != ore.shape(0) || oim.shape(1) != ore.shape(1) || kind < interp::kLinear ||
+      kind > interp::kLanczos3)
     throw nb::value_error("bp_tiles: inconsistent shapes or options");
   const long nb_ = std::max<long>(1, block);
   const PT* pr = prof.data();
@@ -941,7 +903,8 @@ void rp_tiles(in<PT, 2> fre, in<PT, 2> fim, in<double, 1> x, in<double, 1> y, in
   Args A = make_args(x, y, geo, static_cast<long>(h.shape(1)), n_len, pad, width, bist, exact);
   if (h.shape(0) != static_cast<size_t>(A.B) || h.shape(2) != 2 ||
       fre.shape(0) != static_cast<size_t>(A.ny) || fre.shape(1) != static_cast<size_t>(A.nx) ||
-      fim.shape(0) != fre.shape(0) || fim.shape(1) != fre.shape(1) || kind < 0 || kind > 2)
+      fim.shape(0) != fre.shape(0) || fim.shape(1) != fre.shape(1) || kind < interp::kLinear ||
+      kind > interp::kLanczos3)
     throw nb::value_error("rp_tiles: inconsistent shapes or options");
   const PT *f_r = fre.data(), *f_i = fim.data();
   PT* hp = h.data();
@@ -959,7 +922,8 @@ void bp_contract(in<PT, 3> prof, in<PT, 2> gre, in<PT, 2> gim, in<double, 1> x, 
   if (prof.shape(0) != static_cast<size_t>(A.B) || prof.shape(2) != 2 ||
       gre.shape(0) != static_cast<size_t>(A.ny) || gre.shape(1) != static_cast<size_t>(A.nx) ||
       gim.shape(0) != gre.shape(0) || gim.shape(1) != gre.shape(1) ||
-      acc.shape(0) != static_cast<size_t>(A.B) || acc.shape(1) != 2 || kind < 0 || kind > 2)
+      acc.shape(0) != static_cast<size_t>(A.B) || acc.shape(1) != 2 || kind < interp::kLinear ||
+      kind > interp::kLanczos3)
     throw nb::value_error("bp_contract: inconsistent shapes or options");
   const long nb_ = std::max<long>(1, block);
   const PT* pr = prof.data();
@@ -984,12 +948,12 @@ void bp_contract(in<PT, 3> prof, in<PT, 2> gre, in<PT, 2> gim, in<double, 1> x, 
     for (long k = 0; k < 2 * A.B; ++k) o[k] += rows[row * 2 * A.B + k];
 }
 
+namespace {
+
 // Backprojection onto pixels anywhere in 3-D (a map grid on terrain): no tiles, each pixel's
 // differential range exact in float64, Δr = (|p|² - 2 a·p) / (|a - p| + |a|) + offset (and the
 // mean of both ends when bistatic), then the same profile position, mask, interpolation weights
-// and carrier as the tiled kernel. geo rows [kPtRows, B]: ax, ay, az, bx, by, bz, |a|, |b|,
-// offset, 1/bin, kc.
-enum PtGeo { PAX, PAY, PAZ, PBX, PBY, PBZ, PNA, PNB, POFF, PIB, PKC, kPtRows };
+// and carrier as the tiled kernel (geo rows: PtGeo).
 
 struct PointArgs {
   const double* pts;  // [N, 3]
@@ -1046,7 +1010,7 @@ SARCLI_INLINE void point_lanes(const PointArgs& A, long i0, long q, Lanes<K>& L)
 #pragma omp simd
   for (int i = 0; i < kLanes; ++i) {
     float c, s;
-    carrier(kc * dr[i], c, s);
+    carrier::cos_sin_f32(kc * dr[i], c, s);
     L.c[i] = m[i] * c;
     L.s[i] = m[i] * s;
   }
@@ -1106,23 +1070,11 @@ SARCLI_INLINE void rp_points_pulse(const PointArgs& A, const PT* fre, const PT* 
   ATTR void rp_points_##SUF(const PointArgs& A, const PT* fre, const PT* fim, long q, PT* h) {       \
     rp_points_pulse<PT, K, ISA>(A, fre, fim, q, h);                                                  \
   }
-#define SARCLI_PT_ISA(SUF, ATTR, ISA)              \
-  SARCLI_PT_WORKER(float, 0, f0_##SUF, ATTR, ISA)  \
-  SARCLI_PT_WORKER(float, 1, f1_##SUF, ATTR, ISA)  \
-  SARCLI_PT_WORKER(float, 2, f2_##SUF, ATTR, ISA)  \
-  SARCLI_PT_WORKER(double, 0, d0_##SUF, ATTR, ISA) \
-  SARCLI_PT_WORKER(double, 1, d1_##SUF, ATTR, ISA) \
-  SARCLI_PT_WORKER(double, 2, d2_##SUF, ATTR, ISA)
-SARCLI_PT_ISA(v4, SARCLI_BP_V4, 2)
-SARCLI_PT_ISA(v3, SARCLI_BP_V3, 1)
-SARCLI_PT_ISA(v1, , 0)
-#undef SARCLI_PT_ISA
+SARCLI_ALL_ISAS(SARCLI_PT_WORKER)
 #undef SARCLI_PT_WORKER
+#undef SARCLI_ALL_ISAS
+#undef SARCLI_INSTANCES
 
-#define SARCLI_PT_PICK(NAME, P)                                                                   \
-  (level == 2 ? (kind == 0 ? NAME##_##P##0_v4 : kind == 1 ? NAME##_##P##1_v4 : NAME##_##P##2_v4) \
-   : level == 1 ? (kind == 0 ? NAME##_##P##0_v3 : kind == 1 ? NAME##_##P##1_v3 : NAME##_##P##2_v3) \
-                : (kind == 0 ? NAME##_##P##0_v1 : kind == 1 ? NAME##_##P##1_v1 : NAME##_##P##2_v1))
 template <typename PT>
 using PointFn = void (*)(const PointArgs&, const PT*, long, double*, double*);
 template <typename PT>
@@ -1130,21 +1082,21 @@ using PointAdjFn = void (*)(const PointArgs&, const PT*, const PT*, long, PT*);
 template <typename PT>
 PointFn<PT> point_fn(int kind);
 template <>
-PointFn<float> point_fn<float>(int kind) { const int level = isa_level(); return SARCLI_PT_PICK(bp_points, f); }
+PointFn<float> point_fn<float>(int kind) { const int level = isa_level(); return SARCLI_PICK(bp_points, f); }
 template <>
-PointFn<double> point_fn<double>(int kind) { const int level = isa_level(); return SARCLI_PT_PICK(bp_points, d); }
+PointFn<double> point_fn<double>(int kind) { const int level = isa_level(); return SARCLI_PICK(bp_points, d); }
 template <typename PT>
 PointAdjFn<PT> point_adj_fn(int kind);
 template <>
-PointAdjFn<float> point_adj_fn<float>(int kind) { const int level = isa_level(); return SARCLI_PT_PICK(rp_points, f); }
+PointAdjFn<float> point_adj_fn<float>(int kind) { const int level = isa_level(); return SARCLI_PICK(rp_points, f); }
 template <>
-PointAdjFn<double> point_adj_fn<double>(int kind) { const int level = isa_level(); return SARCLI_PT_PICK(rp_points, d); }
-#undef SARCLI_PT_PICK
+PointAdjFn<double> point_adj_fn<double>(int kind) { const int level = isa_level(); return SARCLI_PICK(rp_points, d); }
+#undef SARCLI_PICK
 
 PointArgs point_args(in<double, 2> pts, in<double, 2> geo, long lp, long n_len, long pad, bool bist, int kind,
                      const char* name) {
-  if (pts.shape(1) != 3 || geo.shape(0) != kPtRows || kind < 0 || kind > 2 || n_len < 2 || pad < 3 ||
-      lp != n_len + 2 * pad)
+  if (pts.shape(1) != 3 || geo.shape(0) != kPtRows || kind < interp::kLinear || kind > interp::kLanczos3 ||
+      n_len < 2 || pad < 3 || lp != n_len + 2 * pad)
     throw nb::value_error((std::string(name) + ": inconsistent shapes or options").c_str());
   PointArgs A;
   A.pts = pts.data();
@@ -1158,6 +1110,8 @@ PointArgs point_args(in<double, 2> pts, in<double, 2> geo, long lp, long n_len, 
   A.bist = bist;
   return A;
 }
+
+}  // namespace
 
 template <typename PT>
 void bp_points(in<PT, 3> prof, in<double, 2> pts, in<double, 2> geo, long n_len, long pad, int kind, bool bist,
@@ -1190,71 +1144,65 @@ void rp_points(in<PT, 1> fre, in<PT, 1> fim, in<double, 2> pts, in<double, 2> ge
   for (long q = 0; q < A.B; ++q) fn(A, f_r, f_i, q, hp);
 }
 
-// The carrier and interpolation weights as the kernels evaluate them (for tests).
-void carrier_values(in<double, 1> ph, out<float, 1> c, out<float, 1> s) {
-  const size_t n = ph.shape(0);
-  if (c.shape(0) != n || s.shape(0) != n) throw nb::value_error("carrier_values: shapes");
-  for (size_t i = 0; i < n; ++i) carrier(ph.data()[i], c.data()[i], s.data()[i]);
+namespace {
+
+// The carrier of phases ph[0 .. n) and the weights of fractions t[0 .. n) in groups of kLanes
+// lanes (Kernel<K>::weights, as the kernels call it), on the SIMD copy this CPU runs.
+SARCLI_CLONES
+void carrier_run(const double* ph, std::size_t n, float* c, float* s) {
+  for (std::size_t i = 0; i < n; ++i) carrier::cos_sin_f32(ph[i], c[i], s[i]);
 }
 
-void weight_values(in<float, 1> t, int kind, out<float, 2> w) {
-  const size_t n = t.shape(0);
-  const size_t taps = kind == 0 ? 2 : kind == 1 ? 4 : 6;
-  if (w.shape(0) != n || w.shape(1) != taps || kind < 0 || kind > 2)
-    throw nb::value_error("weight_values: shapes");
-  for (size_t i = 0; i < n; ++i) {
-    float* o = w.data() + i * taps;
+SARCLI_CLONES
+void weight_groups(const float* t, std::size_t n, int kind, float* w) {
+  const std::size_t taps = interp::kTaps[kind];
+  for (std::size_t i0 = 0; i0 < n; i0 += kLanes) {
     float tl[kLanes] = {}, wl[6][kLanes];
-    tl[0] = t.data()[i];
-    if (kind == 0) Kernel<0>::weights(tl, wl);
-    else if (kind == 1) Kernel<1>::weights(tl, wl);
-    else Kernel<2>::weights(tl, wl);
-    for (size_t k = 0; k < taps; ++k) o[k] = wl[k][0];
+    for (std::size_t i = 0; i < kLanes && i0 + i < n; ++i) tl[i] = t[i0 + i];
+    if (kind == interp::kLinear) Kernel<interp::kLinear>::weights(tl, wl);
+    else if (kind == interp::kKeysCubic) Kernel<interp::kKeysCubic>::weights(tl, wl);
+    else Kernel<interp::kLanczos3>::weights(tl, wl);
+    for (std::size_t i = 0; i < kLanes && i0 + i < n; ++i)
+      for (std::size_t k = 0; k < taps; ++k) w[(i0 + i) * taps + k] = wl[k][i];
   }
 }
 
 }  // namespace
-}  // namespace sarcli
 
-NB_MODULE(_backprojection, m) {
-  using namespace nanobind::literals;
-  using namespace sarcli;
-  m.doc() = "sarcli's backprojection loops: tiled forward kernel and its exact adjoint.";
-  const char* bp_doc =
-      "out[row, col] += sum_p w(Δr) profile_p(Δr) exp(+i kc_p Δr) over pulses (tiles of `width` "
-      "pixels along rows, float64 anchors); geo rows: 2ax, 2ay, |a|², |a|, 2bx, 2by, |b|², |b|, "
-      "offset, 1/bin, kc.";
-  const char* rp_doc = "Adjoint of bp_tiles: h[p, :] += transposed interpolation of f exp(-i kc Δr).";
-  m.def("bp_tiles", &bp_tiles<float>, "profiles"_a, "x"_a, "y"_a, "geo"_a, "n_len"_a, "pad"_a,
-        "kind"_a, "bist"_a, "width"_a, "exact"_a, "block"_a, "out_re"_a, "out_im"_a, bp_doc);
-  m.def("bp_tiles", &bp_tiles<double>, "profiles"_a, "x"_a, "y"_a, "geo"_a, "n_len"_a, "pad"_a,
-        "kind"_a, "bist"_a, "width"_a, "exact"_a, "block"_a, "out_re"_a, "out_im"_a, bp_doc);
-  m.def("rp_tiles", &rp_tiles<float>, "fre"_a, "fim"_a, "x"_a, "y"_a, "geo"_a, "n_len"_a, "pad"_a,
-        "kind"_a, "bist"_a, "width"_a, "exact"_a, "h"_a, rp_doc);
-  m.def("rp_tiles", &rp_tiles<double>, "fre"_a, "fim"_a, "x"_a, "y"_a, "geo"_a, "n_len"_a, "pad"_a,
-        "kind"_a, "bist"_a, "width"_a, "exact"_a, "h"_a, rp_doc);
-  const char* ct_doc =
-      "acc[p] = sum over pixels of g · (pulse p's part of bp_tiles), (re, im): the per-pulse "
-      "derivative of an image functional with gradient g, by gathering from the profiles.";
-  m.def("bp_contract", &bp_contract<float>, "profiles"_a, "gre"_a, "gim"_a, "x"_a, "y"_a, "geo"_a,
-        "n_len"_a, "pad"_a, "kind"_a, "bist"_a, "width"_a, "exact"_a, "block"_a, "acc"_a.noconvert(), ct_doc);
-  m.def("bp_contract", &bp_contract<double>, "profiles"_a, "gre"_a, "gim"_a, "x"_a, "y"_a, "geo"_a,
-        "n_len"_a, "pad"_a, "kind"_a, "bist"_a, "width"_a, "exact"_a, "block"_a, "acc"_a.noconvert(), ct_doc);
-  const char* pt_doc =
-      "out[i] += sum_p w(Δr) profile_p(Δr) exp(+i kc_p Δr) at 3-D pixels pts[i] (exact float64 ranges); "
-      "geo rows: ax, ay, az, bx, by, bz, |a|, |b|, offset, 1/bin, kc.";
-  const char* rpt_doc = "Adjoint of bp_points: h[p, :] += transposed interpolation of f exp(-i kc Δr).";
-  m.def("bp_points", &bp_points<float>, "profiles"_a, "pts"_a, "geo"_a, "n_len"_a, "pad"_a, "kind"_a, "bist"_a,
-        "out_re"_a.noconvert(), "out_im"_a.noconvert(), pt_doc);
-  m.def("bp_points", &bp_points<double>, "profiles"_a, "pts"_a, "geo"_a, "n_len"_a, "pad"_a, "kind"_a, "bist"_a,
-        "out_re"_a.noconvert(), "out_im"_a.noconvert(), pt_doc);
-  m.def("rp_points", &rp_points<float>, "fre"_a, "fim"_a, "pts"_a, "geo"_a, "n_len"_a, "pad"_a, "kind"_a,
-        "bist"_a, "h"_a.noconvert(), rpt_doc);
-  m.def("rp_points", &rp_points<double>, "fre"_a, "fim"_a, "pts"_a, "geo"_a, "n_len"_a, "pad"_a, "kind"_a,
-        "bist"_a, "h"_a.noconvert(), rpt_doc);
-  m.def("isa_level", &isa_level, "The kernels' instruction set here: 2 AVX-512, 1 AVX2, 0 baseline.");
-  m.def("carrier_values", &carrier_values, "phase"_a, "cos"_a, "sin"_a,
-        "(cos, sin) of float64 phases as the kernels evaluate them (float32).");
-  m.def("weight_values", &weight_values, "t"_a, "kind"_a, "w"_a,
-        "Interpolation weights at fractions t (kind 0 linear, 1 Keys cubic, 2 Lanczos-3).");
+// The carrier and interpolation weights as the kernels evaluate them (for tests).
+void carrier_values(in<double, 1> ph, out<float, 1> c, out<float, 1> s) {
+  const size_t n = ph.shape(0);
+  if (c.shape(0) != n || s.shape(0) != n) throw nb::value_error("carrier_values: shapes");
+  carrier_run(ph.data(), n, c.data(), s.data());
 }
+
+void weight_values(in<float, 1> t, int kind, out<float, 2> w) {
+  const size_t n = t.shape(0);
+  if (kind < interp::kLinear || kind > interp::kLanczos3 || w.shape(0) != n ||
+      w.shape(1) != static_cast<size_t>(interp::kTaps[kind]))
+    throw nb::value_error("weight_values: shapes");
+  weight_groups(t.data(), n, kind, w.data());
+}
+
+template void bp_tiles<float>(in<float, 3>, in<double, 1>, in<double, 1>, in<double, 2>, long, long, int, bool, long,
+                              bool, long, out<double, 2>, out<double, 2>);
+template void bp_tiles<double>(in<double, 3>, in<double, 1>, in<double, 1>, in<double, 2>, long, long, int, bool, long,
+                               bool, long, out<double, 2>, out<double, 2>);
+template void rp_tiles<float>(in<float, 2>, in<float, 2>, in<double, 1>, in<double, 1>, in<double, 2>, long, long, int,
+                              bool, long, bool, out<float, 3>);
+template void rp_tiles<double>(in<double, 2>, in<double, 2>, in<double, 1>, in<double, 1>, in<double, 2>, long, long,
+                               int, bool, long, bool, out<double, 3>);
+template void bp_contract<float>(in<float, 3>, in<float, 2>, in<float, 2>, in<double, 1>, in<double, 1>, in<double, 2>,
+                                 long, long, int, bool, long, bool, long, out<double, 2>);
+template void bp_contract<double>(in<double, 3>, in<double, 2>, in<double, 2>, in<double, 1>, in<double, 1>,
+                                  in<double, 2>, long, long, int, bool, long, bool, long, out<double, 2>);
+template void bp_points<float>(in<float, 3>, in<double, 2>, in<double, 2>, long, long, int, bool, out<double, 1>,
+                               out<double, 1>);
+template void bp_points<double>(in<double, 3>, in<double, 2>, in<double, 2>, long, long, int, bool, out<double, 1>,
+                                out<double, 1>);
+template void rp_points<float>(in<float, 1>, in<float, 1>, in<double, 2>, in<double, 2>, long, long, int, bool,
+                               out<float, 3>);
+template void rp_points<double>(in<double, 1>, in<double, 1>, in<double, 2>, in<double, 2>, long, long, int, bool,
+                                out<double, 3>);
+
+}  // namespace sarcli

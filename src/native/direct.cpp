@@ -1,18 +1,19 @@
 // The exact spherical-wave matched filter's sum (sarcli.formers.direct): every pulse and
 // frequency at every pixel, each term's phase in float64 and its own cosine and sine.
 //
-// The cosine and sine are Cephes' (Moshier) polynomials on [-π/4, π/4] after a three-part
-// Cody–Waite reduction by π/2, evaluated without branches so that a group of pixels runs as one
-// vector: within 2 ulp of the correctly rounded values for |phase| < kExactArg (tested against
-// the C library), beyond which a pulse's terms come from the C library's sin and cos.
+// The cosine and sine are the kernels' float64 ones (numerics/sincos.hpp: Cephes' polynomials,
+// evaluated without branches so that a group of pixels runs as one vector), within 2 ulp of the
+// correctly rounded values for |phase| < kExactArg (tested against the C library), beyond which
+// a pulse's terms come from the C library's sin and cos.
 #include <cmath>
 #include <complex>
 #include <cstring>
 #include <vector>
 #include <algorithm>
 
-#include <nanobind/stl/pair.h>
 
+#include "numerics/sincos.hpp"
+#include "direct.hpp"
 #include "sarcli_simd.hpp"
 
 namespace sarcli {
@@ -20,39 +21,8 @@ namespace {
 
 using cplx = std::complex<double>;
 constexpr std::size_t kPix = 8;  // pixels summed together (one read of each weight per group)
-constexpr double kExactArg = 1e8;  // |phase| up to which sin_cos is used (reduction exact to 2^29 π/2)
-
-// sin x and cos x: x = q π/2 + r with |r| <= π/4, then the quadrant q mod 4 picks and signs the
-// polynomials. π/2 = 2 (DP1 + DP2 + DP3), each part 24 bits, so q DPi is exact for |q| < 2^29.
-SARCLI_INLINE void sin_cos(double x, double& s_out, double& c_out) {
-  constexpr double kTwoOverPi = 0.63661977236758134308;
-  constexpr double kShift = 6755399441055744.0;  // 1.5 2^52: adding it rounds to an integer
-  constexpr double P1 = 2 * 7.85398125648498535156e-1, P2 = 2 * 3.77489470793079817668e-8,
-                   P3 = 2 * 2.69515142907905952645e-15;
-  const double t = x * kTwoOverPi + kShift;
-  const double q = t - kShift;
-  std::uint64_t qi;
-  std::memcpy(&qi, &t, sizeof qi);  // low bits: q in two's complement
-  const double r = ((x - q * P1) - q * P2) - q * P3;
-  const double z = r * r;
-  const double ps = ((((1.58962301576546568060e-10 * z - 2.50507477628578072866e-8) * z +
-                       2.75573136213857245213e-6) * z - 1.98412698295895385996e-4) * z +
-                     8.33333333332211858878e-3) * z - 1.66666666666666307295e-1;
-  const double pc = ((((-1.13585365213876817300e-11 * z + 2.08757008419747316778e-9) * z -
-                       2.75573141792967388112e-7) * z + 2.48015872888517045348e-5) * z -
-                     1.38888888888730564116e-3) * z + 4.16666666666665929218e-2;
-  const double sr = r + r * z * ps;
-  const double cr = 1.0 - 0.5 * z + z * z * pc;
-  std::uint64_t sb, cb;
-  std::memcpy(&sb, &sr, sizeof sb);
-  std::memcpy(&cb, &cr, sizeof cb);
-  const std::uint64_t swap = 0 - (qi & 1);  // odd quadrant: sin x = ±cos r, cos x = ∓sin r
-  std::uint64_t so = (sb & ~swap) | (cb & swap), co = (cb & ~swap) | (sb & swap);
-  so ^= (qi & 2) << 62;
-  co ^= ((qi + 1) & 2) << 62;
-  std::memcpy(&s_out, &so, sizeof so);
-  std::memcpy(&c_out, &co, sizeof co);
-}
+using carrier::kExactArg;  // |phase| up to which carrier::sin_cos holds its accuracy
+using carrier::sin_cos;
 
 // out[n] += Σ_p Σ_j wd[p, j] exp(i k4[p, j] dr[p, n]) for the pixels n0 <= n < n1; each pixel's
 // terms are added in pulse-major order. kmax[p] = max_j |k4[p, j]|.
@@ -95,6 +65,8 @@ void pixel_group(const double* dr, std::size_t n_pix, const double* k4, const do
   for (std::size_t l = 0; l < m; ++l) out[n0 + l] += cplx(re[l], im[l]);
 }
 
+}  // namespace
+
 void accumulate_spherical(out<cplx, 1> out, in<double, 2> dr, in<double, 2> k4, in<cplx, 2> wd) {
   const std::size_t P = dr.shape(0), n_pix = dr.shape(1), M = k4.shape(1);
   if (k4.shape(0) != P || wd.shape(0) != P || wd.shape(1) != M || out.shape(0) != n_pix)
@@ -114,10 +86,14 @@ void accumulate_spherical(out<cplx, 1> out, in<double, 2> dr, in<double, 2> k4, 
   }
 }
 
+namespace {
+
 SARCLI_CLONES
 void sin_cos_n(const double* x, std::size_t n, double* s, double* c) {
   for (std::size_t i = 0; i < n; ++i) sin_cos(x[i], s[i], c[i]);
 }
+
+}  // namespace
 
 // sin and cos of every x by the kernel's instruction set (tests of sin_cos against the C library).
 std::pair<nb::ndarray<nb::numpy, double, nb::ndim<1>>, nb::ndarray<nb::numpy, double, nb::ndim<1>>>
@@ -132,16 +108,4 @@ sin_cos_array(in<double, 1> x) {
           nb::ndarray<nb::numpy, double, nb::ndim<1>>(c, {n}, fc)};
 }
 
-}  // namespace
 }  // namespace sarcli
-
-NB_MODULE(_direct, m) {
-  using namespace nanobind::literals;
-  m.doc() = "The exact matched filter's spherical-wave sum (float64 phases).";
-  m.def("accumulate_spherical", &sarcli::accumulate_spherical, "out"_a.noconvert(), "dr"_a, "k4"_a,
-        "wd"_a,
-        "out[n] += sum_p sum_j wd[p, j] exp(i k4[p, j] dr[p, n]); out (n_pix,), dr (P, n_pix), "
-        "k4 (P, M) float64, wd (P, M) complex128.");
-  m.def("sin_cos", &sarcli::sin_cos_array, "x"_a,
-        "(sin x, cos x) by the kernel's own polynomials (valid for |x| < 1e8).");
-}

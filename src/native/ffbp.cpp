@@ -18,8 +18,12 @@
 
 #include <omp.h>
 
+#include "numerics/keys.hpp"
+#include "numerics/kinds.hpp"
+#include "numerics/lanczos.hpp"
+#include "numerics/sincos.hpp"
+#include "ffbp.hpp"
 #include "sarcli_simd.hpp"
-#include "sincos_poly.hpp"
 
 namespace sarcli {
 namespace {
@@ -29,10 +33,7 @@ using i32 = std::int32_t;
 #define SARCLI_LAMBDA_INLINE __attribute__((always_inline))
 using i64 = std::int64_t;
 
-// interpolation kernels: 0 linear, 1 Keys cubic, 2 Lanczos-3, 3 6-tap polynomial weights
-constexpr int kTaps[4] = {2, 4, 6, 6};
-enum FrameRow { kCx, kCy, kCn, kRho0, kE0x, kE0y, kCz, kQ0, kU0, kDu, kFrameRows };
-
+using interp::kTaps;   // taps of each interpolation kernel (numerics/kinds.hpp)
 struct Frame {
   double cx, cy, cn, rho0, e0x, e0y, cz, q0, u0, du;
 };
@@ -86,31 +87,12 @@ SARCLI_INLINE T poly7(const T* c, T x) {
   return ((((((c[7] * x + c[6]) * x + c[5]) * x + c[4]) * x + c[3]) * x + c[2]) * x + c[1]) * x + c[0];
 }
 
-// Keys cubic (a = −1/2) at offsets −1, 0, 1, 2.
-template <typename T>
-SARCLI_INLINE void keys(T t, T* w) {
-  const T d0 = t + T(1), d2 = T(1) - t, d3 = T(2) - t;
-  w[0] = ((T(2.5) - T(0.5) * d0) * d0 - T(4)) * d0 + T(2);
-  w[1] = (T(1.5) * t - T(2.5)) * t * t + T(1);
-  w[2] = (T(1.5) * d2 - T(2.5)) * d2 * d2 + T(1);
-  w[3] = ((T(2.5) - T(0.5) * d3) * d3 - T(4)) * d3 + T(2);
-}
-
-// sinc(d) sinc(d/3) for |d| < 3 (0 beyond), float64.
-SARCLI_INLINE double lanczos3(double d) {
-  constexpr double pi = 3.14159265358979323846;
-  if (std::abs(d) < 1e-12) return 1.0;
-  if (std::abs(d) >= 3.0) return 0.0;
-  return 3.0 * std::sin(pi * d) * std::sin(pi * d / 3.0) / (pi * pi * d * d);
-}
-
-// Normalised Lanczos-3 weights at offsets −2 .. 3 (float64, rounded to T).
+// Lanczos-3 weights at offsets −2 .. 3 (numerics/lanczos.hpp: float32, rounded to T).
 template <typename T>
 SARCLI_INLINE void lanczos(T t, T* w) {
-  const double x = t;
-  double v[6], tot = 0.0;
-  for (int j = 0; j < 6; ++j) { v[j] = lanczos3(x + 2.0 - j); tot += v[j]; }
-  for (int j = 0; j < 6; ++j) w[j] = static_cast<T>(v[j] / tot);
+  float v[6];
+  interp::lanczos3(static_cast<float>(t), v);
+  for (int j = 0; j < 6; ++j) w[j] = static_cast<T>(v[j]);
 }
 
 // w[tap * stride + i]: the weights of every fraction of a row. Kind 3: polynomials of degree 7
@@ -118,19 +100,22 @@ SARCLI_INLINE void lanczos(T t, T* w) {
 // the loop over the row vectorises (float32: sixteen lanes a vector on AVX-512).
 template <typename T>
 SARCLI_INLINE void row_weights(int kind, const T* frac, std::size_t n, T* w, std::size_t stride, const T* tab) {
-  if (kind == 3) {
+  if (kind == interp::kPoly6) {
     for (int j = 0; j < 6; ++j) {
       const T* c = tab + 8 * j;
       T* wj = w + j * stride;
       for (std::size_t i = 0; i < n; ++i) wj[i] = poly7(c, T(2) * frac[i] - T(1));
     }
-  } else if (kind == 0) {
+  } else if (kind == interp::kLinear) {
     for (std::size_t i = 0; i < n; ++i) { w[i] = T(1) - frac[i]; w[stride + i] = frac[i]; }
+  } else if (kind == interp::kKeysCubic) {
+#pragma omp simd
+    for (std::size_t i = 0; i < n; ++i) interp::keys(frac[i], w + i, stride);
   } else {
     T v[6] = {};
     for (std::size_t i = 0; i < n; ++i) {
-      if (kind == 1) keys(frac[i], v); else lanczos(frac[i], v);
-      for (int j = 0; j < kTaps[kind]; ++j) w[j * stride + i] = v[j];
+      lanczos(frac[i], v);
+      for (int j = 0; j < 6; ++j) w[j * stride + i] = v[j];
     }
   }
 }
@@ -143,11 +128,6 @@ SARCLI_INLINE double sqrt_series(double e) {
                    c6 = -0.0205078125, c7 = 0.01611328125, c8 = -0.013092041015625;
   return e * (c1 + e * (c2 + e * (c3 + e * (c4 + e * (c5 + e * (c6 + e * (c7 + e * c8)))))));
 }
-
-// Rows of the per-pulse table of stage 0: the exact range's inputs (tx, ty, |t|², |t|, qx, qy,
-// |q|², |q|, offset), the series' (Δt, |Δt|², Δq, |Δq|², |c| − r0), the inverse profile bin and
-// the carrier wavenumber.
-enum PulseRow { kGeo = 0, kDlt = 9, kInvBin = 18, kKc = 19, kPulseRows = 20 };
 
 struct Stage0 {
   const float *pre, *pim;   // profiles [B, plen]
@@ -247,7 +227,7 @@ inline bool symmetric6(const float* tab) {
 }
 
 inline int weight_mode(int kind, const float* tab) {
-  return kind != 3 ? kWeightsRead : symmetric6(tab) ? kWeightsSymmetric : kWeightsPoly;
+  return kind != interp::kPoly6 ? kWeightsRead : symmetric6(tab) ? kWeightsSymmetric : kWeightsPoly;
 }
 
 // f(std::integral_constant<int, mode>{}): a kernel instantiated for each weight mode.
@@ -400,19 +380,19 @@ struct NodeGeo {
 SARCLI_INLINE double exact_dr(const Stage0& A, const double* g, bool series, const NodeGeo& N, std::size_t iq) {
   const std::size_t B = A.B;
   if (series) {
-    const double e = N.ax[iq] * g[kDlt * B] + N.ay[iq] * g[(kDlt + 1) * B] + N.az[iq] * g[(kDlt + 2) * B] +
-                     g[(kDlt + 3) * B] * N.ir2[iq];
+    const double e = N.ax[iq] * g[kDtx * B] + N.ay[iq] * g[kDty * B] + N.az[iq] * g[kDtz * B] +
+                     g[kDt2 * B] * N.ir2[iq];
     double s = sqrt_series(e);
     if (A.bistatic) {
-      const double eb = N.ax[iq] * g[(kDlt + 4) * B] + N.ay[iq] * g[(kDlt + 5) * B] +
-                        N.az[iq] * g[(kDlt + 6) * B] + g[(kDlt + 7) * B] * N.ir2[iq];
+      const double eb = N.ax[iq] * g[kDrx * B] + N.ay[iq] * g[kDry * B] +
+                        N.az[iq] * g[kDrz * B] + g[kDr2 * B] * N.ir2[iq];
       s = 0.5 * (s + sqrt_series(eb));
     }
-    return N.qq[iq] + N.rr[iq] * s + g[(kDlt + 8) * B];
+    return N.qq[iq] + N.rr[iq] * s + g[kCentreOffset * B];
   }
-  double d = one_way(N.xs[iq], N.ys[iq], g[0], g[B], g[2 * B], g[3 * B]);
-  if (A.bistatic) d = 0.5 * (d + one_way(N.xs[iq], N.ys[iq], g[4 * B], g[5 * B], g[6 * B], g[7 * B]));
-  return d + g[8 * B];
+  double d = one_way(N.xs[iq], N.ys[iq], g[kTx * B], g[kTy * B], g[kT2 * B], g[kTn * B]);
+  if (A.bistatic) d = 0.5 * (d + one_way(N.xs[iq], N.ys[iq], g[kRx * B], g[kRy * B], g[kR2 * B], g[kRn * B]));
+  return d + g[kOffset * B];
 }
 
 SARCLI_INLINE NodeGeo row_geo(const Scratch0& W) {
@@ -656,19 +636,6 @@ void stage0_row(const Stage0& A, std::size_t s, std::size_t it, Scratch0& W) {
   }
 }
 
-// Stage 0's scalar settings (Python: Stage0Options(kind=, bistatic=, half_len=, n_len=, pad=, dq=, kref=)).
-struct Stage0Options {
-  int kind = 3;             // interpolation kernel of the profiles (kTaps)
-  bool bistatic = false;    // separate receive positions in the pulse table
-  double half_len = 0.0;    // L // 2: the profile bin of zero range
-  double n_len = 0.0;       // L, the profile length
-  int pad = 0;              // bins of padding on each side of the profiles
-  double dq = 0.0;          // range spacing of the polar grids
-  double kref = 0.0;        // reference wavenumber of the demodulation
-  int weights_first = -1;   // 1, 0: whether stage0_row forms the 6-tap weights in a pass of their own; -1: as
-                            // stage0_weights_first says for this CPU (the same sums either way)
-};
-
 // Whether stage 0 forms a row's 6-tap weights in a pass of their own before its blocks read them,
 // or inside each block of kBlock0 nodes (the same operations, so the same image bit for bit). On
 // the AVX2 and baseline copies a block's loop broadcasts the polynomials' coefficients again for
@@ -685,12 +652,14 @@ inline bool stage0_weights_first() {
 #endif
 }
 
+}  // namespace
+
 void stage0(in<float, 2> pre, in<float, 2> pim, in<i64, 1> first, in<i64, 1> count, in<double, 2> pulses,
             in<bool, 1> series, in<double, 2> frame, in<float, 2> tab, const Stage0Options& o, out<float, 3> out_re,
             out<float, 3> out_im) {
   const int kind = o.kind;
   const std::size_t S = out_re.shape(0), nt = out_re.shape(1), nq = out_re.shape(2), B = pre.shape(0);
-  if (kind < 0 || kind > 3) throw nb::value_error("stage0: unknown interpolation kind");
+  if (kind < interp::kLinear || kind > interp::kPoly6) throw nb::value_error("stage0: unknown interpolation kind");
   if (pim.shape(0) != B || pim.shape(1) != pre.shape(1) || pulses.shape(0) != kPulseRows || pulses.shape(1) != B ||
       first.shape(0) != S || count.shape(0) != S || series.shape(0) != S || frame.shape(0) != kFrameRows ||
       frame.shape(1) != S || tab.shape(0) != 6 || tab.shape(1) != 8 || out_im.shape(0) != S ||
@@ -716,6 +685,8 @@ void stage0(in<float, 2> pre, in<float, 2> pim, in<i64, 1> first, in<i64, 1> cou
     for (long job = 0; job < jobs; ++job) stage0_row(A, job / nt, job % nt, W);
   }
 }
+
+namespace {
 
 // ---- merges and the final stage ----------------------------------------------------------------
 
@@ -802,7 +773,7 @@ SARCLI_INLINE void polar_row(const Child& C, double dq, double kref, const doubl
   }
   row_weights<float>(kind, ft, n, wt, n, tab_t);
   const std::size_t cq = C.nq, plane = C.nt * C.nq;
-  if (kind == 3) {
+  if (kind == interp::kPoly6) {
     v8f ck[8] = {};
     for (int k = 0; k < 8; ++k)
       for (int b = 0; b < 8; ++b) ck[k][b] = b < 6 ? tab_q[8 * b + k] : 0.0f;
@@ -1052,10 +1023,13 @@ void merge_row(const Merge& A, std::size_t s, std::size_t it, RowScratch& W) {
 }
 
 void check_tabs(in<float, 2>& tab_q, in<float, 2>& tab_t, int kind, const char* who) {
-  if (kind < 0 || kind > 3) throw nb::value_error((std::string(who) + ": unknown interpolation kind").c_str());
+  if (kind < interp::kLinear || kind > interp::kPoly6)
+    throw nb::value_error((std::string(who) + ": unknown interpolation kind").c_str());
   if (tab_q.shape(0) != 6 || tab_q.shape(1) != 8 || tab_t.shape(0) != 6 || tab_t.shape(1) != 8)
     throw nb::value_error((std::string(who) + ": kernel tables must be [6, 8]").c_str());
 }
+
+}  // namespace
 
 void merge(in<float, 3> cre, in<float, 3> cim, in<double, 2> cframe, in<double, 2> pframe, in<i64, 1> first,
            in<i64, 1> count, in<float, 2> tab_q, in<float, 2> tab_t, int kind, double dq, double kref,
@@ -1084,6 +1058,8 @@ void merge(in<float, 3> cre, in<float, 3> cim, in<double, 2> cframe, in<double, 
     for (long job = 0; job < jobs; ++job) merge_row(A, job / nt, job % nt, W);
   }
 }
+
+namespace {
 
 struct Final {
   const float *cre, *cim;
@@ -1123,6 +1099,8 @@ void final_row(const Final& A, std::size_t row, RowScratch& W) {
   }
 }
 
+}  // namespace
+
 void final_stage(in<float, 3> cre, in<float, 3> cim, in<double, 2> cframe, in<double, 1> x, in<double, 1> y,
                  in<float, 2> tab_q, in<float, 2> tab_t, int kind, double dq, double kref,
                  out<std::complex<double>, 2> img) {
@@ -1143,6 +1121,8 @@ void final_stage(in<float, 3> cre, in<float, 3> cim, in<double, 2> cframe, in<do
   }
 }
 
+namespace {
+
 // ---- deapodization at each pulse's tones -------------------------------------------------------
 
 SARCLI_CLONES
@@ -1161,6 +1141,8 @@ void tone_pulse(const double* k, const double* a, std::size_t L, std::size_t P, 
   }
   for (std::size_t j = 0; j < M; ++j) o[j] *= acc[j];
 }
+
+}  // namespace
 
 void tone_weights(in<double, 2> k, in<double, 2> a, double b, double inv_h, in<double, 1> inv_psi,
                   out<double, 2> w) {
@@ -1183,55 +1165,45 @@ void tone_weights(in<double, 2> k, in<double, 2> a, double b, double inv_h, in<d
   }
 }
 
+namespace {
+
+// row_weights and the carrier on the SIMD copy this CPU runs (as the kernels call them).
+SARCLI_CLONES
+void weights_run(int kind, const float* frac, std::size_t n, float* w, const float* tab) {
+  row_weights<float>(kind, frac, n, w, n, tab);
+}
+
+SARCLI_CLONES
+void weights_run(int kind, const double* frac, std::size_t n, double* w, const double* tab) {
+  row_weights<double>(kind, frac, n, w, n, tab);
+}
+
+SARCLI_CLONES
+void carrier_run(const double* ph, std::size_t n, float* c, float* s) {
+  for (std::size_t i = 0; i < n; ++i) carrier::cos_sin_f32(ph[i], c[i], s[i]);
+}
+
+}  // namespace
+
 template <typename T>
 void weights_of(int kind, in<T, 1> frac, in<T, 2> tab, out<T, 2> w) {
-  if (kind < 0 || kind > 3) throw nb::value_error("row_weights: unknown interpolation kind");
+  if (kind < interp::kLinear || kind > interp::kPoly6) throw nb::value_error("row_weights: unknown interpolation kind");
   const std::size_t n = frac.shape(0);
   if (w.shape(0) != static_cast<std::size_t>(kTaps[kind]) || w.shape(1) != n || tab.shape(0) != 6 ||
       tab.shape(1) != 8)
     throw nb::value_error("row_weights: out must be [taps, n] and tab [6, 8]");
-  row_weights<T>(kind, frac.data(), n, w.data(), n, tab.data());
+  weights_run(kind, frac.data(), n, w.data(), tab.data());
 }
 
-}  // namespace
+// The carrier (cos, sin) of float64 phases in float32 as the merges and the final stage evaluate
+// it (carrier::cos_sin_f32, backprojection's too; for tests).
+void carrier_values(in<double, 1> ph, out<float, 1> c, out<float, 1> s) {
+  const std::size_t n = ph.shape(0);
+  if (c.shape(0) != n || s.shape(0) != n) throw nb::value_error("carrier_values: shapes");
+  carrier_run(ph.data(), n, c.data(), s.data());
+}
+
+template void weights_of<float>(int, in<float, 1>, in<float, 2>, out<float, 2>);
+template void weights_of<double>(int, in<double, 1>, in<double, 2>, out<double, 2>);
+
 }  // namespace sarcli
-
-NB_MODULE(_ffbp, m) {
-  using namespace nanobind::literals;
-  namespace s = sarcli;
-  namespace nb = nanobind;
-  m.doc() = "Fast factorised backprojection kernels (sarcli.formers.ffbp): stage 0, merges, final stage, "
-            "tone weights.";
-  m.attr("FRAME_ROWS") = static_cast<int>(s::kFrameRows);
-  m.attr("PULSE_ROWS") = static_cast<int>(s::kPulseRows);
-  // outputs are written in place: never an implicit (converted) copy
-  nb::class_<s::Stage0Options>(m, "Stage0Options", "Stage 0's scalar settings.")
-      .def(nb::init<>())
-      .def("__init__",
-           [](s::Stage0Options* o, int kind, bool bistatic, double half_len, double n_len, int pad, double dq,
-              double kref) { new (o) s::Stage0Options{kind, bistatic, half_len, n_len, pad, dq, kref}; },
-           nb::kw_only(), "kind"_a, "bistatic"_a, "half_len"_a, "n_len"_a, "pad"_a, "dq"_a, "kref"_a)
-      .def_rw("kind", &s::Stage0Options::kind)
-      .def_rw("bistatic", &s::Stage0Options::bistatic)
-      .def_rw("half_len", &s::Stage0Options::half_len)
-      .def_rw("n_len", &s::Stage0Options::n_len)
-      .def_rw("pad", &s::Stage0Options::pad)
-      .def_rw("dq", &s::Stage0Options::dq)
-      .def_rw("kref", &s::Stage0Options::kref)
-      .def_rw("weights_first", &s::Stage0Options::weights_first);
-  m.def("stage0", &s::stage0, "pre"_a, "pim"_a, "first"_a, "count"_a, "pulses"_a, "series"_a, "frame"_a, "tab"_a,
-        "options"_a, nb::arg("out_re").noconvert(), nb::arg("out_im").noconvert(),
-        "Backproject each sub-aperture's pulses (first[s] .. +count[s]) onto its polar grid (out[s]).");
-  m.def("merge", &s::merge, "cre"_a, "cim"_a, "cframe"_a, "pframe"_a, "first"_a, "count"_a, "tab_q"_a, "tab_t"_a,
-        "kind"_a, "dq"_a, "kref"_a, nb::arg("out_re").noconvert(), nb::arg("out_im").noconvert(),
-        "Parent sub-image s = sum of children first[s] .. +count[s] interpolated at its nodes.");
-  m.def("final_stage", &s::final_stage, "cre"_a, "cim"_a, "cframe"_a, "x"_a, "y"_a, "tab_q"_a, "tab_t"_a,
-        "kind"_a, "dq"_a, "kref"_a, nb::arg("img").noconvert(),
-        "Add the sub-images, interpolated at every pixel and re-modulated, to img [ny, nx].");
-  m.def("tone_weights", &s::tone_weights, "k"_a, "a"_a, "b"_a, "inv_h"_a, "inv_psi"_a, nb::arg("w").noconvert(),
-        "w[p, j] *= prod_l inv_psi(|k_j a[l, p] + b| inv_h), linearly interpolated.");
-  m.def("row_weights", &s::weights_of<double>, "kind"_a, "frac"_a, "tab"_a, nb::arg("w").noconvert(),
-        "Interpolation weights w[tap, i] of fractions frac (float64).");
-  m.def("row_weights", &s::weights_of<float>, "kind"_a, "frac"_a, "tab"_a, nb::arg("w").noconvert(),
-        "Interpolation weights w[tap, i] of fractions frac (float32, as the kernels use).");
-}

@@ -15,8 +15,8 @@
 #include <string>
 #include <vector>
 
-#include <nanobind/stl/optional.h>
 
+#include "linops.hpp"
 #include "sarcli_simd.hpp"
 
 namespace sarcli {
@@ -147,6 +147,8 @@ void same_size(std::initializer_list<std::size_t> sizes, const char* what) {
     if (n != n0) throw nb::value_error((std::string(what) + ": arrays of different sizes").c_str());
 }
 
+}  // namespace
+
 double rdot(cin x, cin y) {
   same_size({x.size(), y.size()}, "rdot");
   const double* s[5] = {dbl(x.data()), dbl(y.data()), nullptr, nullptr, nullptr};
@@ -190,12 +192,16 @@ nb::tuple step_dots(cin f, cin f_old, cin gf, cin gf_old, cin atb) {
   return nb::make_tuple(r[0], r[1], r[2], r[3], r[4]);
 }
 
+namespace {
+
 // ---- x - a y ----------------------------------------------------------------------------------
 
 SARCLI_CLONES
 void axpy_block(const double* x, double a, const double* y, double* o, std::size_t n) {
   for (std::size_t i = 0; i < n; ++i) o[i] = x[i] - a * y[i];
 }
+
+}  // namespace
 
 void axpy(cin x, double a, cin y, out<cplx, 1> o) {
   same_size({x.size(), y.size(), o.size()}, "axpy");
@@ -210,6 +216,8 @@ void axpy(cin x, double a, cin y, out<cplx, 1> o) {
     axpy_block(px + i0, a, py + i0, po + i0, i0 + kBlock <= n ? kBlock : n - i0);
   }
 }
+
+namespace {
 
 // ---- shrinkage and multiplier update of ADMM ---------------------------------------------------
 //
@@ -296,6 +304,8 @@ double shrink_block(int K, const cplx* tf, const cplx* sig, std::size_t n, std::
   return lane_sum(acc);
 }
 
+}  // namespace
+
 double shrink_update(in<cplx, 2> tf, in<cplx, 2> sigma, double beta, double thr, out<cplx, 2> g,
                      out<cplx, 2> sig_out, std::optional<out<cplx, 2>> w) {
   const std::size_t K = tf.shape(0), n = tf.shape(1);
@@ -320,6 +330,8 @@ double shrink_update(in<cplx, 2> tf, in<cplx, 2> sigma, double beta, double thr,
   for (long k = 0; k < nb; ++k) reg += part[k];
   return reg;
 }
+
+namespace {
 
 // ---- periodic first differences of a 2-D image -------------------------------------------------
 //
@@ -380,6 +392,8 @@ void diff_adjoint_row(const double* y0p, const double* y0, const double* y1, con
   }
 }
 
+}  // namespace
+
 void diff2d_forward(in<cplx, 2> x, std::optional<in<cplx, 2>> d, out<cplx, 3> o) {
   const std::size_t ny = x.shape(0), nx = x.shape(1);
   if (o.shape(0) != 2 || o.shape(1) != ny || o.shape(2) != nx || (d && (d->shape(0) != ny || d->shape(1) != nx)))
@@ -418,28 +432,4 @@ void diff2d_adjoint(in<cplx, 3> y, std::optional<in<cplx, 2>> d, out<cplx, 2> o)
   }
 }
 
-}  // namespace
 }  // namespace sarcli
-
-NB_MODULE(_linops, m) {
-  using namespace nanobind::literals;
-  namespace s = sarcli;
-  m.doc() = "Streaming kernels of sarcli's operators and ADMM (float64 sums, deterministic).";
-  m.def("rdot", &s::rdot, "x"_a, "y"_a, "Re <x, y> of 1-D complex128 arrays.");
-  m.def("norm2", &s::norm2, "x"_a, "||x||^2.");
-  m.def("rdot_diff", &s::rdot_diff, "x"_a, "a"_a, "b"_a, "Re <x, a - b>.");
-  m.def("norm2_diff", &s::norm2_diff, "a"_a, "b"_a, "||a - b||^2.");
-  m.def("rdot_diff2", &s::rdot_diff2, "a"_a, "b"_a, "c"_a, "d"_a, "Re <a - b, c - d>.");
-  m.def("add_twice_diff", &s::add_twice_diff, "a"_a, "b"_a, "v"_a.noconvert(),
-        "v <- 2 (a - b) + v in place; returns ||v||^2.");
-  m.def("step_dots", &s::step_dots, "f"_a, "f_old"_a, "gf"_a, "gf_old"_a, "atb"_a,
-        "(||f||^2, ||f - f_old||^2, Re <f - f_old, gf - gf_old>, Re <f, gf>, Re <f, atb>).");
-  m.def("axpy", &s::axpy, "x"_a, "a"_a, "y"_a, "out"_a.noconvert(), "out = x - a y.");
-  m.def("shrink_update", &s::shrink_update, "tf"_a, "sigma"_a, "beta"_a, "threshold"_a,
-        "g"_a.noconvert(), "sigma_out"_a.noconvert(), "w"_a.noconvert() = nanobind::none(),
-        "Grouped shrinkage and multiplier update of ADMM over arrays (K, n); returns sum |tf|.");
-  m.def("diff2d_forward", &s::diff2d_forward, "x"_a, "d"_a.none(), "out"_a.noconvert(),
-        "Periodic first differences of d x (rows, then columns) into out (2, ny, nx).");
-  m.def("diff2d_adjoint", &s::diff2d_adjoint, "y"_a, "d"_a.none(), "out"_a.noconvert(),
-        "conj(d) times the adjoint of diff2d_forward, into out (ny, nx).");
-}

@@ -10,10 +10,10 @@
 #include <cstring>
 #include <string>
 
-#include <nanobind/stl/string.h>
 
 #include <omp.h>
 
+#include "pfa.hpp"
 #include "sarcli_simd.hpp"
 
 namespace sarcli {
@@ -173,6 +173,8 @@ void spread_rows(cplx* grid, std::size_t nkx, const double* u, const double* v, 
   }
 }
 
+}  // namespace
+
 void spread(out<cplx, 2> grid, in<double, 1> u, in<double, 1> v, in<cplx, 1> c,
             const std::string& kernel, int width, double beta) {
   const std::size_t S = c.shape(0);
@@ -200,6 +202,8 @@ void spread(out<cplx, 2> grid, in<double, 1> u, in<double, 1> v, in<cplx, 1> c,
   }
 }
 
+namespace {
+
 SARCLI_CLONES
 void taps_n(const double* u, std::size_t S, bool linear, int w, double beta, std::int64_t* first,
             double* t) {
@@ -209,6 +213,8 @@ void taps_n(const double* u, std::size_t S, bool linear, int w, double beta, std
     taps_xy(u[s], first[s], u[s], first[s], linear, w, beta, t + s * w, unused);
   }
 }
+
+}  // namespace
 
 // The taps of every sample by the kernel's instruction set (tests against the NumPy formulas).
 void kernel_taps(in<double, 1> u, const std::string& kernel, int width, double beta,
@@ -220,18 +226,4 @@ void kernel_taps(in<double, 1> u, const std::string& kernel, int width, double b
   taps_n(u.data(), S, kernel == "linear", width, beta, first.data(), t.data());
 }
 
-}  // namespace
 }  // namespace sarcli
-
-NB_MODULE(_pfa, m) {
-  using namespace nanobind::literals;
-  m.doc() = "The polar format algorithm's gridding (spreading) loop.";
-  m.def("spread", &sarcli::spread, "grid"_a.noconvert(), "u"_a, "v"_a, "c"_a, "kernel"_a, "width"_a,
-        "beta"_a,
-        "grid[fy + b, fx + a] += c[s] ty[b] tx[a] with the kernel ('kaiser' of shape beta, or "
-        "'linear') of width cells centred at the fractional grid indices (u[s], v[s]); grid "
-        "(nky, nkx) complex128.");
-  m.def("kernel_taps", &sarcli::kernel_taps, "u"_a, "kernel"_a, "width"_a, "beta"_a,
-        "first"_a.noconvert(), "taps"_a.noconvert(),
-        "First grid index and taps of the kernel centred at each fractional index u.");
-}

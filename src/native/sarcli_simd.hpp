@@ -13,12 +13,13 @@
 #include <nanobind/nanobind.h>
 #include <nanobind/ndarray.h>
 
+#include "numerics/inline.hpp"
+
 #if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__)) && !defined(SARCLI_NO_CLONES)
 #define SARCLI_CLONES __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default")))
 #else
 #define SARCLI_CLONES
 #endif
-#define SARCLI_INLINE inline __attribute__((always_inline))
 
 namespace sarcli {
 

@@ -4,6 +4,7 @@
 #include <complex>
 #include <vector>
 
+#include "simulate.hpp"
 #include "sarcli_simd.hpp"
 
 namespace sarcli {
@@ -43,6 +44,8 @@ void pulse_sum(const double* f, std::size_t M, const double* a, double offset, c
   }
 }
 
+}  // namespace
+
 void spherical_sum(in<double, 2> freq, in<double, 2> antenna, in<double, 1> offset,
                    in<double, 2> points_xy, in<cplx, 1> amp, out<cplx, 2> result) {
   const long P = static_cast<long>(freq.shape(0));
@@ -67,14 +70,4 @@ void spherical_sum(in<double, 2> freq, in<double, 2> antenna, in<double, 1> offs
   }
 }
 
-}  // namespace
 }  // namespace sarcli
-
-NB_MODULE(_simulate, m) {
-  using namespace nanobind::literals;
-  m.doc() = "sarcli's simulator loops (exact spherical-model sums).";
-  m.def("spherical_sum", &sarcli::spherical_sum, "freq"_a, "antenna"_a, "offset"_a, "points_xy"_a,
-        "amp"_a, "out"_a,
-        "out[p, j] += sum_s amp[s] exp(-i 4 pi f[p, j] (|a_p - x_s| - r0_p) / c), float64; "
-        "offset[p] = |a_p| - r0_p.");
-}

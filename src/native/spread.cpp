@@ -20,6 +20,7 @@
 
 #include <omp.h>
 
+#include "spread.hpp"
 #include "sarcli_simd.hpp"
 
 namespace sarcli {
@@ -165,6 +166,8 @@ Points check(in<int, 1> i0, in<int, 1> j0, in<float, 2> wy, in<float, 2> wx, in<
   return Points{pi, pj, wy.data(), wx.data(), phase.data()};
 }
 
+}  // namespace
+
 void spread(in<int, 1> i0, in<int, 1> j0, in<float, 2> wy, in<float, 2> wx, in<cf, 1> phase, in<cf, 1> f,
             out<cf, 2> grid, out<cf, 3> scratch) {
   const std::size_t n0 = grid.shape(0), n1 = grid.shape(1);
@@ -188,6 +191,8 @@ void interp(in<int, 1> i0, in<int, 1> j0, in<float, 2> wy, in<float, 2> wx, in<c
   by_taps<Interp>(w, p, grid.data(), static_cast<long>(o.shape(0)), n1, o.data());
 }
 
+namespace {
+
 SARCLI_CLONES void weights_range(const double* x, long lo, long hi, int taps, const double* v, long nv, double z0,
                                  double step, int* first, float* w) {
   for (long n = lo; n < hi; ++n) {
@@ -202,6 +207,8 @@ SARCLI_CLONES void weights_range(const double* x, long lo, long hi, int taps, co
     }
   }
 }
+
+}  // namespace
 
 // first[n] = ceil(x[n] - taps/2) and w[n, j] = the table's value at node - x = first + j - x,
 // interpolated linearly in the uniform table v of z = z0 + k step
@@ -224,19 +231,4 @@ void kernel_weights(in<double, 1> x, int taps, in<double, 1> v, double z0, doubl
   }
 }
 
-}  // namespace
 }  // namespace sarcli
-
-NB_MODULE(_spread, m) {
-  using namespace nanobind::literals;
-  namespace s = sarcli;
-  m.doc() = "Separable spreading / interpolation with precomputed weights (complex64).";
-  m.def("spread", &s::spread, "i0"_a, "j0"_a, "wy"_a, "wx"_a, "phase"_a, "f"_a, "grid"_a.noconvert(),
-        "scratch"_a.noconvert(),
-        "grid[i0+a, j0+b] = sum over points of phase f wy[a] wx[b] (grid overwritten); scratch: "
-        "(threads - 1, n0, n1) grids for the other threads' shares.");
-  m.def("kernel_weights", &s::kernel_weights, "x"_a, "taps"_a, "v"_a, "z0"_a, "step"_a, "first"_a.noconvert(),
-        "w"_a.noconvert(), "first = ceil(x - taps/2); w[n, j] = table v (z = z0 + k step) at first + j - x, linearly.");
-  m.def("interp", &s::interp, "i0"_a, "j0"_a, "wy"_a, "wx"_a, "phase"_a, "grid"_a, "out"_a.noconvert(),
-        "out[n] = conj(phase[n]) sum_ab grid[i0+a, j0+b] wy[n, a] wx[n, b]: the adjoint of spread.");
-}

@@ -42,13 +42,13 @@ from typing import NamedTuple
 import numpy as np
 
 from ..._native import load
+from ..._native.layout import BpGeo
 
 __all__ = ["GEO_ROWS", "MODEL_TOLERANCE", "QUADRATIC", "EXACT", "Tiling", "next_fast_len", "quadratic_error",
            "exact_error", "tile_cost", "tile_width", "tiling", "kernels"]
 
-#: Rows of the per-pulse geometry table the kernels read: 2a_x, 2a_y, |a|², |a|, 2b_x, 2b_y, |b|²,
-#: |b| (transmit a, receive b), (|a| + |b|)/2 - r0, 1/bin and the carrier wavenumber kc.
-GEO_ROWS = 11
+#: Rows of the per-pulse geometry table the kernels read (:class:`sarcli._native.layout.BpGeo`).
+GEO_ROWS = len(BpGeo)
 #: Largest model error of a tile, in radians of carrier phase and in profile bins.
 MODEL_TOLERANCE = 1e-5
 _WIDTHS = (64, 48, 32, 16, 12, 8, 4, 2, 1)

@@ -15,6 +15,7 @@ from ...core.geometry import C, bistatic_differential_range
 from ...core.grid import Grid
 from ...core.sampling import INTERPOLATORS as ALL_INTERPOLATORS, PROFILE_INTERPOLATORS, equally_spaced, frequency_line
 from ...errors import AliasingWarning, SarcliInputError
+from ..._native.layout import BpGeo
 from ._kernels import EXACT, GEO_ROWS, min_range, next_fast_len, tiling
 from .._samples import is_lazy
 
@@ -244,19 +245,19 @@ class Setup:
         bin_m = C / (2.0 * dalpha * self.n_len)   # signed for decreasing frequencies
         na = np.linalg.norm(a, axis=1)
         nb = np.linalg.norm(b, axis=1)
-        # per-pulse geometry in float64, the rows _kernels.GEO_ROWS names
-        self.geo = np.empty((GEO_ROWS, n_pulses))
-        self.geo[0], self.geo[1], self.geo[2], self.geo[3] = 2.0 * a[:, 0], 2.0 * a[:, 1], na * na, na
-        self.geo[4], self.geo[5], self.geo[6], self.geo[7] = 2.0 * b[:, 0], 2.0 * b[:, 1], nb * nb, nb
+        # per-pulse geometry in float64, the rows sarcli._native.layout.BpGeo names
+        g = self.geo = np.empty((GEO_ROWS, n_pulses))
+        g[BpGeo.TWO_AX], g[BpGeo.TWO_AY], g[BpGeo.A2], g[BpGeo.NA] = 2.0 * a[:, 0], 2.0 * a[:, 1], na * na, na
+        g[BpGeo.TWO_BX], g[BpGeo.TWO_BY], g[BpGeo.B2], g[BpGeo.NB] = 2.0 * b[:, 0], 2.0 * b[:, 1], nb * nb, nb
         # (|a| + |b|)/2 - r0: exactly |a| - r0 when a = b
-        self.geo[8] = (0.5 * (na + nb) if self.bistatic else na) - r0
-        self.geo[9] = 1.0 / bin_m
-        self.geo[10] = 4.0 * np.pi * alpha_ref / C
+        g[BpGeo.OFFSET] = (0.5 * (na + nb) if self.bistatic else na) - r0
+        g[BpGeo.INV_BIN] = 1.0 / bin_m
+        g[BpGeo.KC] = 4.0 * np.pi * alpha_ref / C
         self.x = np.ascontiguousarray(grid.x, dtype=np.float64)
         self.y = np.ascontiguousarray(grid.y, dtype=np.float64)
         self.shape = grid.shape
         #: the range model and tile width (:func:`._kernels.tiling`)
-        self.tiling = _tiling(grid, a, b, float(np.max(np.abs(self.geo[10]))), float(np.max(np.abs(self.geo[9]))))
+        self.tiling = _tiling(grid, a, b, float(np.max(np.abs(g[BpGeo.KC]))), float(np.max(np.abs(g[BpGeo.INV_BIN]))))
         self.model, self.width = self.tiling.model, self.tiling.width
         self._check_window(a, b, r0, grid, np.abs(bin_m) * self.n_len / 2.0)
         # pulses per pass over the image inside a kernel call: their profiles stay in cache; at

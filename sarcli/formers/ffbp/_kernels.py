@@ -24,6 +24,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..._native import load
+from ..._native.layout import FfbpFrame
 from ...core import sampling
 
 #: Taps of each interpolator, by its code (:data:`sarcli.core.sampling.INTERPOLATORS`).
@@ -36,11 +37,14 @@ def native():
 
 
 def frame(level, a=0, b=None):
-    """The kernels' description of sub-apertures ``a .. b-1`` of a level: rows cx, cy, |c|, ρ0,
-    e0x, e0y, cz (``level.geo``), q0, u0, Δu, float64 ``[10, n]``."""
+    """The kernels' description of sub-apertures ``a .. b-1`` of a level: the rows
+    :class:`sarcli._native.layout.FfbpFrame` names (cx, cy, |c|, ρ0, e0x, e0y, cz from ``level.geo``,
+    then q0, u0, Δu), float64 ``[10, n]``."""
     sl = slice(a, b)
-    return np.ascontiguousarray(np.vstack([level.geo[:7, sl], level.q0[None, sl], level.u0[None, sl],
-                                           level.du[None, sl]]), dtype=np.float64)
+    f = np.empty((len(FfbpFrame), len(level.q0[sl])))
+    f[:FfbpFrame.Q0] = level.geo[:FfbpFrame.Q0, sl]
+    f[FfbpFrame.Q0], f[FfbpFrame.U0], f[FfbpFrame.DU] = level.q0[sl], level.u0[sl], level.du[sl]
+    return f
 
 
 def table(coef):

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..._native.layout import FfbpPulse
 from ._kernels import native, table
 
 #: Largest phase (radians) the truncated range series of stage 0 may cost (:func:`series_inputs`).
@@ -81,9 +82,14 @@ def stage0(pre, pim, first, count, pulses, series, frame, tab, kind, bistatic, h
 
 
 def pulse_table(geo, dlt, inv_bin, kc):
-    """Stage 0's per-pulse rows, float64 ``[20, B]``: :func:`pulse_geometry` (exact ranges),
-    :func:`series_inputs`' rows (the series), the inverse profile bin and the carrier wavenumber."""
-    return np.ascontiguousarray(np.vstack([geo, dlt, inv_bin[None, :], kc[None, :]]), dtype=np.float64)
+    """Stage 0's per-pulse rows, float64 ``[20, B]`` (:class:`sarcli._native.layout.FfbpPulse`):
+    :func:`pulse_geometry` (exact ranges), :func:`series_inputs`' rows (the series), the inverse
+    profile bin and the carrier wavenumber."""
+    t = np.empty((len(FfbpPulse), geo.shape[1]))
+    t[FfbpPulse.TX:FfbpPulse.OFFSET + 1] = geo
+    t[FfbpPulse.DTX:FfbpPulse.CENTRE_OFFSET + 1] = dlt
+    t[FfbpPulse.INV_BIN], t[FfbpPulse.KC] = inv_bin, kc
+    return t
 
 
 def series_inputs(t, rcv, r0, lev, dq, kmax):
