@@ -558,7 +558,7 @@ def test_searches_on_threads_give_the_serial_estimate(case, monkeypatch):
 
     clean, bad, err = case
     threaded = min_entropy(bad)
-    monkeypatch.setattr(entropy, "_each", lambda fn, jobs: [fn(j) for j in jobs])
+    monkeypatch.setattr(entropy, "each", lambda fn, jobs: [fn(j) for j in jobs])
     serial = min_entropy(bad)
     np.testing.assert_array_equal(threaded.phase_rad, serial.phase_rad)
     assert threaded.history["evaluations"] == serial.history["evaluations"]
