@@ -177,20 +177,11 @@ def image_quality(img, ph_or_acq, *, at=None, truth=None, window=None, nbar=None
 
     acq = getattr(ph_or_acq, "acquisition", ph_or_acq)
     truth = getattr(ph_or_acq, "truth", None) if truth is None else truth
-    rec_win, rec_nbar, rec_sll = _window_from_parameters(getattr(img, "parameters", {}))
-    window = rec_win if window is None else window
-    nbar = rec_nbar if nbar is None else int(nbar)
-    sll_db = rec_sll if sll_db is None else float(sll_db)
     x, y = np.asarray(img.x_m, dtype=np.float64), np.asarray(img.y_m, dtype=np.float64)
     targets = _targets(at, truth, x, y, acq)
-    theta_c, rho, predicted = _predicted(acq, window, nbar, sll_db, sidelobe_extent_cells)
+    theta_c, rho, predicted = _predicted(acq, img, (window, nbar, sll_db), sidelobe_extent_cells)
     pixel = max(float(x[1] - x[0]), float(y[1] - y[0]))
-    finest = min(c for c in (rho or (np.inf,)))
-    undersampled = bool(pixel > finest)
-    if undersampled:
-        warnings.warn(f"pixel {pixel:.4g} m exceeds the resolution cell {finest:.4g} m of the predicted "
-                      "PSF: the image undersamples its main lobe and the measured widths follow the grid",
-                      AliasingWarning, stacklevel=2)
+    undersampled = _undersampled(pixel, rho)
     cells = rho or (4 * pixel, 4 * pixel)
     expected = np.array([t[2] for t in targets])
     sep = _cells(expected[:, None, :] - expected[None, :, :], theta_c, cells)
@@ -218,9 +209,26 @@ def image_quality(img, ph_or_acq, *, at=None, truth=None, window=None, nbar=None
     return results
 
 
-def _predicted(acq, window, nbar, sll_db, sidelobe_extent_cells):
+def _undersampled(pixel, rho) -> bool:
+    """Whether the pixel is larger than the finest predicted resolution cell (then an
+    :class:`AliasingWarning` to the caller of :func:`image_quality`)."""
+    finest = min(c for c in (rho or (np.inf,)))
+    if pixel > finest:
+        warnings.warn(f"pixel {pixel:.4g} m exceeds the resolution cell {finest:.4g} m of the predicted "
+                      "PSF: the image undersamples its main lobe and the measured widths follow the grid",
+                      AliasingWarning, stacklevel=3)
+    return bool(pixel > finest)
+
+
+def _predicted(acq, img, taper, sidelobe_extent_cells):
     """The range direction, the resolution cells (None where one is unknown) and the predicted
-    cut figures of :func:`image_quality` (:func:`~sarcli.analysis.psf.predicted_ipr`)."""
+    cut figures of :func:`image_quality` (:func:`~sarcli.analysis.psf.predicted_ipr`); ``taper``
+    is the window, nbar and sidelobe level asked for (None: those recorded in ``img``)."""
+    rec_win, rec_nbar, rec_sll = _window_from_parameters(getattr(img, "parameters", {}))
+    window, nbar, sll_db = taper
+    window = rec_win if window is None else window
+    nbar = rec_nbar if nbar is None else int(nbar)
+    sll_db = rec_sll if sll_db is None else float(sll_db)
     pred = predicted_ipr(acq, window=window, nbar=nbar, sll_db=sll_db,
                          sidelobe_extent_cells=sidelobe_extent_cells)
     rho = (pred["range"].get("cell_m"), pred["cross_range"].get("cell_m"))
