@@ -315,21 +315,6 @@ def keep_if_sharper(ph: PhaseHistory, grid: Grid, result: AutofocusResult, candi
     return result
 
 
-def with_options(cls, options, knobs: dict):
-    """``options`` (an instance of the dataclass ``cls``; default ``cls()``) with the fields named in
-    ``knobs`` replaced: how :func:`~sarcli.autofocus.pga.pga` and
-    :func:`~sarcli.autofocus.entropy.min_entropy` take an options object, keyword arguments, or
-    both. A name that is no field of ``cls`` is a :class:`TypeError`, as an unknown keyword
-    argument is."""
-    from dataclasses import fields, replace
-
-    unknown = sorted(set(knobs) - {f.name for f in fields(cls)})
-    if unknown:
-        raise TypeError(f"{cls.__name__} has no option {unknown[0]!r}")
-    base = cls() if options is None else options
-    return replace(base, **knobs) if knobs else base
-
-
 class AutofocusWarning(SarcliWarning):
     """Autofocus found no correction that sharpens the image; the message gives the sharpness."""
 

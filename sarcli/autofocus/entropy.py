@@ -88,10 +88,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .._util.options import with_options
 from ..core.grid import Grid
 from ..errors import SarcliInputError
 from ._common import (MAX_ESTIMATION_PIXELS, MAX_GUARDED_PIXELS, AutofocusResult, AutofocusWarning,
-                      agreement_threshold, estimation_grid, guarded_grid, sharpness, with_options)
+                      agreement_threshold, estimation_grid, guarded_grid, sharpness)
 from ._common import correlation
 from ._imager import (SPLIT_GAP, BlockImager, Imager, check_splittable, every_nth_line, range_axis,
                       single_threaded_blas, split_grid)

@@ -65,10 +65,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..analysis.speckle import image_entropy
+from .._util.options import with_options
 from ..core.grid import Grid
 from ..errors import SarcliInputError
 from ._common import (AutofocusResult, AutofocusWarning, agreement_threshold, correlation, estimation_grid, form,
-                      keep_if_sharper, pulse_signals, remove_linear_phase, with_options)
+                      keep_if_sharper, pulse_signals, remove_linear_phase)
 
 __all__ = ["pga", "PGAOptions", "select_scatterers", "phase_gradient_estimate", "scatterer_weights", "principal_vector",
            "ESTIMATORS"]
