@@ -208,7 +208,11 @@ def min_entropy(ph, *, grid: Grid | None = None, options: MinEntropyOptions | No
     AutofocusResult
         ``history`` records the start, the whole grid's entropy at the mean of the halves'
         estimates per level, the held-out gains and the correlation between the halves per level,
-        the level kept and why (``'decision'``).
+        the level kept (``'level'``; ``'block_level'`` the one kept on the sub-apertures, None
+        when none passed), whether one phase per pulse was searched and kept (``'pulse_level'``:
+        ``kept``, ``from_zero``), the estimation grid's pixel (``'estimation_pixel_m'``), the
+        sharpness (entropy, peak-to-mean) before and after on the guarded grid and on the grid
+        asked for (``'guarded_sharpness'``, ``'asked_sharpness'``) and why (``'decision'``).
     """
     from ._lbfgs import find_setulb
 
@@ -387,6 +391,7 @@ class _Run:
             hist["decision"] = (f"Rényi entropy of order {self.chosen:g} (the halves' finest detail correlates "
                                 + ", ".join(f"{v:.2f} with order {k.rstrip('0').rstrip('.')}" for k, v in agree.items())
                                 + "); " + hist["decision"])
+        hist["block_level"] = hist["level"]  # the level kept on the sub-apertures (None: none passed)
         self.judge = full  # the images the estimate is exact for
         # the halves' own estimates at the level applied (the prediction of its residual compares them)
         self.pair = (paths[0][best], paths[1][best]) if kept else None
@@ -419,7 +424,9 @@ class _Run:
         hist["halves_correlation"] = self.corrs + [c1]
         hist["levels"] = self.names + ["1"]
         what = ("increment", "increments") if kept else ("estimate (from zero)", "estimates (from zero)")
-        if min(g1) > 0 and c1 > max(REFINE_CORRELATION, agreement_threshold(P - gauge.shape[1])):
+        ok = bool(min(g1) > 0 and c1 > max(REFINE_CORRELATION, agreement_threshold(P - gauge.shape[1])))
+        hist["pulse_level"] = {"kept": ok, "from_zero": not kept}
+        if ok:
             # the whole grid: from its sub-aperture estimate plus the mean of the halves'
             # per-pulse increments, a few more iterations on all of it
             exact = Imager(self.ph, self.full.grid, self.chosen, like=self.full)
@@ -442,6 +449,7 @@ class _Run:
         halves trust it and it leaves the image no less sharp (``guard``); warnings name the
         caller of :func:`min_entropy`."""
         phi, hist, est, asked, full, guard = self.phi, self.hist, self.est, self.asked, self.full, self.o.guard
+        hist["estimation_pixel_m"] = [est.dx, est.dy]
         if (est.dx, est.dy) != (asked.dx, asked.dy):
             hist["decision"] = (f"estimated on {est.nx} x {est.ny} pixels of {est.dx:.3g} x {est.dy:.3g} m, the "
                                 f"grid's {asked.dx:.3g} x {asked.dy:.3g} m being too coarse for the image's band; "
@@ -460,6 +468,7 @@ class _Run:
         (u0, n0), (u1, n1) = sharpness(mine.image(self.zero)), sharpness(mine.image(phi))
         res.entropy_before, res.peak_to_mean_before = u0, n0
         res.entropy_after, res.peak_to_mean_after = u1, n1
+        hist["asked_sharpness"] = {"before": (u0, n0), "after": (u1, n1)}
         trust = hist.get("trust")
         if not np.any(phi):
             res.code = "no_common_error"
