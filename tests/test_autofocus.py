@@ -553,11 +553,11 @@ def test_every_nth_line_keeps_whole_lines_of_the_grid(axis):
 
 def test_searches_on_threads_give_the_serial_estimate(case, monkeypatch):
     """The halves' searches run side by side on threads; each is what it would be alone."""
-    import sarcli.autofocus.entropy as entropy
+    import sarcli.autofocus._run as run
 
     clean, bad, err = case
     threaded = min_entropy(bad)
-    monkeypatch.setattr(entropy, "each", lambda fn, jobs: [fn(j) for j in jobs])
+    monkeypatch.setattr(run, "each", lambda fn, jobs: [fn(j) for j in jobs])
     serial = min_entropy(bad)
     np.testing.assert_array_equal(threaded.phase_rad, serial.phase_rad)
     assert threaded.history["evaluations"] == serial.history["evaluations"]
