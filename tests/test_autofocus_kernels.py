@@ -140,13 +140,32 @@ def test_group_images_add_up_to_the_backprojection():
         next(bp.group_images([0, 5, 5, 23]))
 
 
+def test_scipy_still_ships_the_lbfgsb_routine_the_driver_was_written_for():
+    """The pin on scipy's private ``scipy.optimize._lbfgsb.setulb``. ``sarcli.autofocus._lbfgs``
+    drives it without importing ``scipy.optimize`` (whose import costs about 0.3 s of CPU time and
+    44 MiB per ``sar autofocus`` run on GOTCHA); on a scipy that moved or changed it the driver
+    falls back to ``scipy.optimize.minimize`` (the same points, so the same estimates) and this
+    test fails, so that the change is seen rather than paid silently."""
+    import scipy
+
+    from sarcli.autofocus._lbfgs import _works, find_setulb
+
+    setulb = find_setulb()
+    assert setulb is not None, (
+        f"scipy {scipy.__version__} has no loadable scipy.optimize._lbfgsb.setulb: sarcli's L-BFGS "
+        "driver (sarcli/autofocus/_lbfgs.py) runs scipy.optimize.minimize instead; port _drive to the "
+        "new routine or make minimize the only route")
+    assert _works(setulb), (
+        f"scipy {scipy.__version__}'s scipy.optimize._lbfgsb.setulb takes other arguments than the "
+        "scipy 1.17 routine sarcli/autofocus/_lbfgs.py drives: port _drive to it")
+
+
 def test_lbfgs_driver_refuses_a_routine_of_another_interface():
-    from sarcli.autofocus._lbfgs import find_setulb, _works
+    from sarcli.autofocus._lbfgs import _works
 
     def wrong_arguments(*args):
         raise TypeError("setulb() takes 18 arguments")
 
-    assert find_setulb() is not None and _works(find_setulb())
     assert not _works(wrong_arguments)
     assert not _works(lambda *args: None)  # asks for nothing: never reaches the minimum
 

@@ -140,4 +140,9 @@ def test_info_prints_the_numbers(tmp_path):
 
     info = json.loads(res.output)
     assert info["alias_free_radius_m"]["range"] == pytest.approx(73.7055, rel=1e-6)   # measured 3.8e-7 (the rounded literal)
-    assert any("would defocus the grid corner" in n for n in info["notes"]) and not info["warnings"]
+    # the far-field defocus at the grid corner exceeds the threshold: a note names it, no warning
+    from sarcli.core.geometry import DEFOCUS_WARN_RAD
+
+    defocus = info["farfield_phase_error_rad_at_grid_corner"]
+    assert defocus > DEFOCUS_WARN_RAD and not info["warnings"]
+    assert sum(f"by {defocus:.3g} rad" in n for n in info["notes"]) == 1

@@ -210,20 +210,8 @@ def measure_ipr(image, x_m, y_m, at=None, *, range_direction_rad=0.0, resolution
         ``oversample``, ``patch_truncated`` (the neighbourhood hit the image border),
         ``islr_definition``.
     """
-    img = np.asarray(image)
-    if img.ndim != 2:
-        raise SarcliInputError(f"the image must be a 2-D array, got shape {img.shape}")
-    img = img.astype(np.complex128, copy=False)
-    x = np.asarray(x_m, dtype=np.float64)
-    y = np.asarray(y_m, dtype=np.float64)
-    ny, nx = img.shape
-    if x.size != nx or y.size != ny or nx < 4 or ny < 4:
-        raise SarcliInputError(f"image of shape {img.shape} needs x_m ({x.size}) and y_m ({y.size}) "
-                               "to match, and at least 4 x 4 pixels")
+    img, x, y, oversample = _checked(image, x_m, y_m, oversample)
     dx, dy = float(x[1] - x[0]), float(y[1] - y[0])
-    oversample = int(oversample)
-    if oversample < 1:
-        raise SarcliInputError(f"oversample must be a positive integer, got {oversample}")
     if resolution_m is None:
         first = measure_ipr(img, x, y, at, range_direction_rad=range_direction_rad,
                             resolution_m=(4 * max(dx, dy),) * 2, oversample=oversample,
@@ -231,79 +219,17 @@ def measure_ipr(image, x_m, y_m, at=None, *, range_direction_rad=0.0, resolution
         irws = [first[d]["irw_m"] or 2 * max(dx, dy) for d in ("range", "cross_range")]
         resolution_m = tuple(w / IRW_FACTOR_UNIFORM for w in irws)
     rho = tuple(float(r) for r in resolution_m)
-
-    # 1. coarse peak near `at`
-    mag = np.abs(img)
-    if at is None:
-        r0, c0 = np.unravel_index(int(np.argmax(mag)), mag.shape)
-    else:
-        ax, ay = float(at[0]), float(at[1])
-        radius = 3 * max(rho) if search_radius_m is None else float(search_radius_m)
-        radius = max(radius, 1.5 * max(dx, dy))
-        near = ((x[None, :] - ax) ** 2 + (y[:, None] - ay) ** 2) <= radius ** 2
-        if not np.any(near):
-            raise SarcliInputError(f"target ({ax:g}, {ay:g}) m is not within {radius:g} m of the image "
-                                   f"(x {x[0]:g}..{x[-1]:g}, y {y[0]:g}..{y[-1]:g} m)")
-        masked = np.where(near, mag, -1.0)
-        r0, c0 = np.unravel_index(int(np.argmax(masked)), mag.shape)
-
-    # 2. neighbourhood and band-limited interpolation (at most MAX_PATCH pixels a side before,
-    #    MAX_FINE after interpolation: the oversampling drops to 2 before the patch shrinks)
-    half = (sidelobe_extent_cells + 2.0) * max(rho)
-    hx = min(int(math.ceil(half / dx)), MAX_PATCH // 2)
-    hy = min(int(math.ceil(half / dy)), MAX_PATCH // 2)
-    half = min(half, hx * dx, hy * dy)
-    oversample = max(min(oversample, MAX_FINE // (2 * max(hx, hy) + 1)), 2)
-    rlo, rhi = max(0, r0 - hy), min(ny, r0 + hy + 1)
-    clo, chi = max(0, c0 - hx), min(nx, c0 + hx + 1)
-    truncated = bool(rlo > r0 - hy or rhi < r0 + hy + 1 or clo > c0 - hx or chi < c0 + hx + 1)
-    patch = img[rlo:rhi, clo:chi]
-    fine = upsample_patch(patch, oversample)
-    fdx, fdy = dx / oversample, dy / oversample
-
-    # 3. fine peak near the coarse one, parabolic refinement in each axis
-    fr, fc = (r0 - rlo) * oversample, (c0 - clo) * oversample
-    w = oversample
-    win = np.abs(fine[max(0, fr - w):fr + w + 1, max(0, fc - w):fc + w + 1])
-    pr, pc = np.unravel_index(int(np.argmax(win)), win.shape)
-    pr += max(0, fr - w)
-    pc += max(0, fc - w)
-    fmag = np.abs(fine)
-    sub = []
-    for axis, idx, n in ((0, pr, fine.shape[0]), (1, pc, fine.shape[1])):
-        if 0 < idx < n - 1:
-            line = fmag[idx - 1:idx + 2, pc] if axis == 0 else fmag[pr, idx - 1:idx + 2]
-            den = line[0] - 2 * line[1] + line[2]
-            sub.append(0.5 * (line[0] - line[2]) / den if den < 0 else 0.0)
-        else:
-            sub.append(0.0)
-    prow, pcol = pr + sub[0], pc + sub[1]
-    px = x[clo] + pcol * fdx
-    py = y[rlo] + prow * fdy
-
-    # 4. cuts through the peak (cubic spline on the complex fine image)
-    re = ndimage.spline_filter(fine.real, order=3)
-    im = ndimage.spline_filter(fine.imag, order=3)
-    ds = min(fdx, fdy)
-    cuts = {}
-    for name, theta, r in (("range", range_direction_rad, rho[0]),
-                           ("cross_range", range_direction_rad + np.pi / 2, rho[1])):
-        u = np.array([math.cos(theta), math.sin(theta)])
-        # stay inside the measured patch (beyond it the FFT interpolant wraps around)
-        room = [half]
-        for pos, step, n, comp in ((pcol, fdx, patch.shape[1], abs(u[0])),
-                                   (prow, fdy, patch.shape[0], abs(u[1]))):
-            if comp > 1e-12:
-                room.append(min(pos, (n - 1) * oversample - pos) * step / comp)
-        length = max(min((sidelobe_extent_cells + 1.0) * r, *room), 4 * ds)
-        s = np.arange(-length, length + ds / 2, ds)
-        col = pcol + s * u[0] / fdx
-        row = prow + s * u[1] / fdy
-        vals = (ndimage.map_coordinates(re, [row, col], order=3, mode="nearest", prefilter=False)
-                + 1j * ndimage.map_coordinates(im, [row, col], order=3, mode="nearest", prefilter=False))
-        cuts[name] = profile_metrics(s, np.abs(vals), sidelobe_extent=min(sidelobe_extent_cells * r, length),
-                                     peak_near=0.0)
-        cuts[name]["resolution_m"] = r
+    r0, c0 = _coarse_peak(img, x, y, at, rho, search_radius_m)
+    p = _Patch(img, r0, c0, (sidelobe_extent_cells + 2.0) * max(rho), oversample, dx, dy)
+    prow, pcol = p.peak()
+    px = x[p.clo] + pcol * p.fdx
+    py = y[p.rlo] + prow * p.fdy
+    # cuts through the peak (cubic spline on the complex fine image)
+    re = ndimage.spline_filter(p.fine.real, order=3)
+    im = ndimage.spline_filter(p.fine.imag, order=3)
+    cuts = {name: p.cut(re, im, (prow, pcol), theta, r, sidelobe_extent_cells)
+            for name, theta, r in (("range", range_direction_rad, rho[0]),
+                                   ("cross_range", range_direction_rad + np.pi / 2, rho[1]))}
     peak = max(cuts["range"]["peak"], cuts["cross_range"]["peak"])
     err = None if at is None else float(math.hypot(px - float(at[0]), py - float(at[1])))
     return {
@@ -316,11 +242,108 @@ def measure_ipr(image, x_m, y_m, at=None, *, range_direction_rad=0.0, resolution
         "range": cuts["range"],
         "cross_range": cuts["cross_range"],
         "range_direction_deg": float(np.degrees(range_direction_rad)),
-        "oversample": oversample,
+        "oversample": p.oversample,
         "sidelobe_extent_cells": float(sidelobe_extent_cells),
-        "patch_truncated": truncated,
+        "patch_truncated": p.truncated,
         "islr_definition": ISLR_DEFINITION,
     }
+
+
+def _checked(image, x_m, y_m, oversample):
+    """:func:`measure_ipr`'s inputs as arrays, or an input error that names what is wrong."""
+    img = np.asarray(image)
+    if img.ndim != 2:
+        raise SarcliInputError(f"the image must be a 2-D array, got shape {img.shape}")
+    img = img.astype(np.complex128, copy=False)
+    x = np.asarray(x_m, dtype=np.float64)
+    y = np.asarray(y_m, dtype=np.float64)
+    ny, nx = img.shape
+    if x.size != nx or y.size != ny or nx < 4 or ny < 4:
+        raise SarcliInputError(f"image of shape {img.shape} needs x_m ({x.size}) and y_m ({y.size}) "
+                               "to match, and at least 4 x 4 pixels")
+    oversample = int(oversample)
+    if oversample < 1:
+        raise SarcliInputError(f"oversample must be a positive integer, got {oversample}")
+    return img, x, y, oversample
+
+
+def _coarse_peak(img, x, y, at, rho, search_radius_m):
+    """Row and column of the brightest pixel (within the search radius of ``at`` when given)."""
+    mag = np.abs(img)
+    if at is None:
+        return np.unravel_index(int(np.argmax(mag)), mag.shape)
+    dx, dy = float(x[1] - x[0]), float(y[1] - y[0])
+    ax, ay = float(at[0]), float(at[1])
+    radius = 3 * max(rho) if search_radius_m is None else float(search_radius_m)
+    radius = max(radius, 1.5 * max(dx, dy))
+    near = ((x[None, :] - ax) ** 2 + (y[:, None] - ay) ** 2) <= radius ** 2
+    if not np.any(near):
+        raise SarcliInputError(f"target ({ax:g}, {ay:g}) m is not within {radius:g} m of the image "
+                               f"(x {x[0]:g}..{x[-1]:g}, y {y[0]:g}..{y[-1]:g} m)")
+    masked = np.where(near, mag, -1.0)
+    return np.unravel_index(int(np.argmax(masked)), mag.shape)
+
+
+class _Patch:
+    """The neighbourhood of the coarse peak ``(r0, c0)`` within ``half`` metres, interpolated
+    band-limited (:func:`upsample_patch`): at most :data:`MAX_PATCH` pixels a side before and
+    :data:`MAX_FINE` after interpolation (the oversampling drops to 2 before the patch shrinks)."""
+
+    def __init__(self, img, r0, c0, half, oversample, dx, dy):
+        ny, nx = img.shape
+        hx = min(int(math.ceil(half / dx)), MAX_PATCH // 2)
+        hy = min(int(math.ceil(half / dy)), MAX_PATCH // 2)
+        self.half = min(half, hx * dx, hy * dy)
+        self.oversample = max(min(oversample, MAX_FINE // (2 * max(hx, hy) + 1)), 2)
+        self.rlo, rhi = max(0, r0 - hy), min(ny, r0 + hy + 1)
+        self.clo, chi = max(0, c0 - hx), min(nx, c0 + hx + 1)
+        self.truncated = bool(self.rlo > r0 - hy or rhi < r0 + hy + 1 or self.clo > c0 - hx or chi < c0 + hx + 1)
+        self.shape = (rhi - self.rlo, chi - self.clo)
+        self.fine = upsample_patch(img[self.rlo:rhi, self.clo:chi], self.oversample)
+        self.fdx, self.fdy = dx / self.oversample, dy / self.oversample
+        self.coarse = (r0 - self.rlo) * self.oversample, (c0 - self.clo) * self.oversample
+
+    def peak(self):
+        """The fine peak near the coarse one, refined by a parabola in each axis (fine row, col)."""
+        fine, w = self.fine, self.oversample
+        fr, fc = self.coarse
+        win = np.abs(fine[max(0, fr - w):fr + w + 1, max(0, fc - w):fc + w + 1])
+        pr, pc = np.unravel_index(int(np.argmax(win)), win.shape)
+        pr += max(0, fr - w)
+        pc += max(0, fc - w)
+        fmag = np.abs(fine)
+        sub = []
+        for axis, idx, n in ((0, pr, fine.shape[0]), (1, pc, fine.shape[1])):
+            if 0 < idx < n - 1:
+                line = fmag[idx - 1:idx + 2, pc] if axis == 0 else fmag[pr, idx - 1:idx + 2]
+                den = line[0] - 2 * line[1] + line[2]
+                sub.append(0.5 * (line[0] - line[2]) / den if den < 0 else 0.0)
+            else:
+                sub.append(0.0)
+        return pr + sub[0], pc + sub[1]
+
+    def cut(self, re, im, at, theta, r, extent_cells) -> dict:
+        """:func:`profile_metrics` of the cut through fine ``at`` (row, col) along azimuth
+        ``theta`` (resolution cell ``r``), on the spline coefficients ``re``, ``im`` of the fine
+        image."""
+        prow, pcol = at
+        ds = min(self.fdx, self.fdy)
+        u = np.array([math.cos(theta), math.sin(theta)])
+        # stay inside the measured patch (beyond it the FFT interpolant wraps around)
+        room = [self.half]
+        for pos, step, n, comp in ((pcol, self.fdx, self.shape[1], abs(u[0])),
+                                   (prow, self.fdy, self.shape[0], abs(u[1]))):
+            if comp > 1e-12:
+                room.append(min(pos, (n - 1) * self.oversample - pos) * step / comp)
+        length = max(min((extent_cells + 1.0) * r, *room), 4 * ds)
+        s = np.arange(-length, length + ds / 2, ds)
+        col = pcol + s * u[0] / self.fdx
+        row = prow + s * u[1] / self.fdy
+        vals = (ndimage.map_coordinates(re, [row, col], order=3, mode="nearest", prefilter=False)
+                + 1j * ndimage.map_coordinates(im, [row, col], order=3, mode="nearest", prefilter=False))
+        out = profile_metrics(s, np.abs(vals), sidelobe_extent=min(extent_cells * r, length), peak_near=0.0)
+        out["resolution_m"] = r
+        return out
 
 
 @functools.lru_cache(maxsize=32)

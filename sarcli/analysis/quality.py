@@ -177,51 +177,25 @@ def image_quality(img, ph_or_acq, *, at=None, truth=None, window=None, nbar=None
 
     acq = getattr(ph_or_acq, "acquisition", ph_or_acq)
     truth = getattr(ph_or_acq, "truth", None) if truth is None else truth
-    rec_win, rec_nbar, rec_sll = _window_from_parameters(getattr(img, "parameters", {}))
-    window = rec_win if window is None else window
-    nbar = rec_nbar if nbar is None else int(nbar)
-    sll_db = rec_sll if sll_db is None else float(sll_db)
     x, y = np.asarray(img.x_m, dtype=np.float64), np.asarray(img.y_m, dtype=np.float64)
     targets = _targets(at, truth, x, y, acq)
-    pred = predicted_ipr(acq, window=window, nbar=nbar, sll_db=sll_db,
-                         sidelobe_extent_cells=sidelobe_extent_cells)
-    theta_c = pred["range_direction_rad"]
-    rho = (pred["range"].get("cell_m"), pred["cross_range"].get("cell_m"))
-    rho = None if None in rho else rho
-    keep = ("irw_m", "pslr_db", "islr_db", "first_nulls_m", "resolution_m", "cell_m", "sidelobe_extent_m")
-    predicted = {d: {k: pred[d].get(k) for k in keep} for d in ("range", "cross_range")}
-    predicted.update(method=pred.get("method"), window=pred["window"], textbook=pred.get("textbook"))
+    theta_c, rho, predicted = _predicted(acq, img, (window, nbar, sll_db), sidelobe_extent_cells)
     pixel = max(float(x[1] - x[0]), float(y[1] - y[0]))
-    finest = min(c for c in (rho or (np.inf,)))
-    undersampled = bool(pixel > finest)
-    if undersampled:
-        warnings.warn(f"pixel {pixel:.4g} m exceeds the resolution cell {finest:.4g} m of the predicted "
-                      "PSF: the image undersamples its main lobe and the measured widths follow the grid",
-                      AliasingWarning, stacklevel=2)
+    undersampled = _undersampled(pixel, rho)
     cells = rho or (4 * pixel, 4 * pixel)
     expected = np.array([t[2] for t in targets])
     sep = _cells(expected[:, None, :] - expected[None, :, :], theta_c, cells)
     np.fill_diagonal(sep, np.inf)
     peaks = _match_peaks(img.image, x, y, expected, theta_c, cells, by_brightness=at is not None)
-    reach = 0.75 * np.hypot(x[1] - x[0], y[1] - y[0])
+    ipr_options = dict(range_direction_rad=theta_c, resolution_m=rho, oversample=oversample,
+                       search_radius_m=0.75 * np.hypot(x[1] - x[0], y[1] - y[0]),
+                       sidelobe_extent_cells=sidelobe_extent_cells)
     results = []
     for (name, p3, pos, amp), pk, row in zip(targets, peaks, sep):
         j = int(np.argmin(row)) if row.size > 1 else None
         close = j is not None and row[j] < CLOSE_CELLS
         status = "no peak" if pk is None else ("close" if close else "ok")
-        m, ratio = None, {"range": None, "cross_range": None}
-        if pk is not None:
-            m = measure_ipr(img.image, x, y, at=(x[pk[1]], y[pk[0]]), range_direction_rad=theta_c,
-                            resolution_m=rho, oversample=oversample, search_radius_m=reach,
-                            sidelobe_extent_cells=sidelobe_extent_cells)
-            m["requested_at_m"] = list(pos)
-            m["peak_position_error_m"] = float(np.hypot(m["x_m"] - pos[0], m["y_m"] - pos[1]))
-            if close:
-                for d in ("range", "cross_range"):
-                    m[d].update(irw_m=None, pslr_db=None, islr_db=None)
-            for d in ("range", "cross_range"):
-                mi, pi = m[d]["irw_m"], predicted[d]["irw_m"]
-                ratio[d] = None if mi is None or not pi else float(mi / pi)
+        m, ratio = _measured(img, pk, pos, close, predicted, ipr_options)
         results.append({"name": name, "status": status,
                         "neighbour": targets[j][0] if close else None,
                         "neighbour_cells": float(row[j]) if close else None,
@@ -233,6 +207,56 @@ def image_quality(img, ph_or_acq, *, at=None, truth=None, window=None, nbar=None
                         "undersampled": undersampled,
                         "image_method": getattr(img, "method", "")})
     return results
+
+
+def _undersampled(pixel, rho) -> bool:
+    """Whether the pixel is larger than the finest predicted resolution cell (then an
+    :class:`AliasingWarning` to the caller of :func:`image_quality`)."""
+    finest = min(c for c in (rho or (np.inf,)))
+    if pixel > finest:
+        warnings.warn(f"pixel {pixel:.4g} m exceeds the resolution cell {finest:.4g} m of the predicted "
+                      "PSF: the image undersamples its main lobe and the measured widths follow the grid",
+                      AliasingWarning, stacklevel=3)
+    return bool(pixel > finest)
+
+
+def _predicted(acq, img, taper, sidelobe_extent_cells):
+    """The range direction, the resolution cells (None where one is unknown) and the predicted
+    cut figures of :func:`image_quality` (:func:`~sarcli.analysis.psf.predicted_ipr`); ``taper``
+    is the window, nbar and sidelobe level asked for (None: those recorded in ``img``)."""
+    rec_win, rec_nbar, rec_sll = _window_from_parameters(getattr(img, "parameters", {}))
+    window, nbar, sll_db = taper
+    window = rec_win if window is None else window
+    nbar = rec_nbar if nbar is None else int(nbar)
+    sll_db = rec_sll if sll_db is None else float(sll_db)
+    pred = predicted_ipr(acq, window=window, nbar=nbar, sll_db=sll_db,
+                         sidelobe_extent_cells=sidelobe_extent_cells)
+    rho = (pred["range"].get("cell_m"), pred["cross_range"].get("cell_m"))
+    rho = None if None in rho else rho
+    keep = ("irw_m", "pslr_db", "islr_db", "first_nulls_m", "resolution_m", "cell_m", "sidelobe_extent_m")
+    predicted = {d: {k: pred[d].get(k) for k in keep} for d in ("range", "cross_range")}
+    predicted.update(method=pred.get("method"), window=pred["window"], textbook=pred.get("textbook"))
+    return pred["range_direction_rad"], rho, predicted
+
+
+def _measured(img, pk, pos, close, predicted, ipr_options):
+    """One target's :func:`measure_ipr` at its peak ``pk`` (row, col; None: no peak, nothing
+    measured), against its expected position ``pos``, without cut figures when ``close``; and
+    the measured over predicted IRW per direction."""
+    ratio = {"range": None, "cross_range": None}
+    if pk is None:
+        return None, ratio
+    x, y = np.asarray(img.x_m, dtype=np.float64), np.asarray(img.y_m, dtype=np.float64)
+    m = measure_ipr(img.image, x, y, at=(x[pk[1]], y[pk[0]]), **ipr_options)
+    m["requested_at_m"] = list(pos)
+    m["peak_position_error_m"] = float(np.hypot(m["x_m"] - pos[0], m["y_m"] - pos[1]))
+    if close:
+        for d in ("range", "cross_range"):
+            m[d].update(irw_m=None, pslr_db=None, islr_db=None)
+    for d in ("range", "cross_range"):
+        mi, pi = m[d]["irw_m"], predicted[d]["irw_m"]
+        ratio[d] = None if mi is None or not pi else float(mi / pi)
+    return m, ratio
 
 
 def load_reference(path):

@@ -62,7 +62,9 @@ def autofocus(ph, method: str = DEFAULT_METHOD, *, grid=None, **options):
         The image grid to focus (default the acquisition's); large grids are cut to a central
         estimation window (:func:`estimation_grid`).
     **options
-        Passed to :func:`sarcli.autofocus.pga.pga` or :func:`sarcli.autofocus.entropy.min_entropy`.
+        Passed to :func:`sarcli.autofocus.pga.pga` or :func:`sarcli.autofocus.entropy.min_entropy`:
+        fields of :class:`~sarcli.autofocus.pga.PGAOptions` or
+        :class:`~sarcli.autofocus.entropy.MinEntropyOptions`, or ``options=`` one of them.
 
     Returns
     -------
@@ -76,13 +78,14 @@ def autofocus(ph, method: str = DEFAULT_METHOD, *, grid=None, **options):
     if method not in METHODS:
         raise SarcliInputError(f"unknown autofocus method {method!r}; choose one of {', '.join(METHODS)}")
     if method == "pga":
+        from .pga import PGAOptions as Options
         from .pga import pga as estimate
     else:
+        from .entropy import MinEntropyOptions as Options
         from .entropy import min_entropy as estimate
-    import inspect
+    from dataclasses import fields
 
-    known = [n for n, p in inspect.signature(estimate).parameters.items()
-             if p.kind == p.KEYWORD_ONLY and n != "grid"]
+    known = [f.name for f in fields(Options)] + ["options"]
     unknown = sorted(set(options) - set(known))
     if unknown:
         raise SarcliInputError(f"unknown {method} option {unknown[0]!r}; choose from {', '.join(known)}")

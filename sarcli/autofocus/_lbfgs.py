@@ -1,15 +1,18 @@
 """Unbounded L-BFGS: scipy's L-BFGS-B routine (``setulb``) driven without importing ``scipy.optimize``.
 
-``scipy.optimize`` takes longer to import (about 0.6 s of CPU time, most of it ``scipy.linalg``,
-``scipy.sparse`` and the linear-programming modules) than ``sar form-image`` takes to run on the
-GOTCHA grid, and minimum entropy needs only the compiled L-BFGS-B routine. :func:`lbfgs` loads that
-extension module by itself (it imports nothing from ``scipy.optimize``) and runs the same
-reverse-communication loop as ``scipy.optimize.minimize(method='L-BFGS-B')`` without bounds: the
-same points are evaluated in the same order (``tests/test_autofocus_kernels.py`` checks it). Where the
-module cannot be loaded that way (another scipy layout) or takes other arguments (older scipy
-releases had the Fortran routine's; a trial on a small quadratic tells), ``scipy.optimize.minimize``
-runs instead. :func:`minimize` is the search of one level of minimum entropy: L-BFGS from zero within
-a budget of evaluations, ended when an iteration gains less than :data:`LEVEL_FTOL`, returning the
+Importing ``scipy.optimize`` (most of it ``scipy.linalg``, ``scipy.sparse`` and the
+linear-programming modules) costs a ``sar autofocus`` run a tenth of its CPU time and a fifth of
+its memory (docs/autofocus.md, "Cost"), and minimum entropy needs only the compiled L-BFGS-B
+routine. :func:`lbfgs` loads that extension module by itself (it imports nothing from
+``scipy.optimize``) and runs the same reverse-communication loop as
+``scipy.optimize.minimize(method='L-BFGS-B')`` without bounds: the same points are evaluated in the
+same order (``tests/test_autofocus_kernels.py`` checks it). The routine is private to scipy, so
+the driver is pinned: where the module cannot be loaded that way (another scipy layout) or takes
+other arguments (older scipy releases had the Fortran routine's; a trial on a small quadratic
+tells), ``scipy.optimize.minimize`` runs instead (the same estimates, at that cost), and
+``test_scipy_still_ships_the_lbfgsb_routine_the_driver_was_written_for`` fails, naming the scipy
+release. :func:`minimize` is the search of one level of minimum entropy: L-BFGS from zero within a
+budget of evaluations, ended when an iteration gains less than :data:`LEVEL_FTOL`, returning the
 best point it evaluated.
 """
 

@@ -83,133 +83,26 @@ is an input error that names it and the pixels it needs
 
 from __future__ import annotations
 
-import warnings
+from dataclasses import dataclass
 
-import numpy as np
-
+from .._util.options import with_options
 from ..core.grid import Grid
-from ..errors import SarcliInputError
-from ._common import (MAX_ESTIMATION_PIXELS, MAX_GUARDED_PIXELS, AutofocusResult, AutofocusWarning,
-                      agreement_threshold, estimation_grid, guarded_grid, sharpness)
-from ._common import correlation
-from ._imager import (SPLIT_GAP, BlockImager, Imager, check_splittable, every_nth_line, range_axis,
-                      single_threaded_blas, split_grid)
-from ._lbfgs import minimize
-from ._sharpness import sharpness_imager
-from ._levels import LEVELS, dof, gauge_basis, level_basis, phase_mean, predicted_residual, spacing, without_gauge
+from ._common import AutofocusResult
+from ._imager import single_threaded_blas
+from ._levels import LEVELS, level_basis
+from ._run import ORDERS, REFINE_CORRELATION, MinEntropyRun
+from ._search import DEFOCUS_SCAN, coarse_to_fine
 
-__all__ = ["min_entropy", "coarse_to_fine", "level_basis", "LEVELS"]
-
-#: Quadratic phases tried before the smooth level (rad at the aperture ends): a large quadratic
-#: error puts the smooth level's L-BFGS in a local minimum, a scan over it does not.
-DEFOCUS_SCAN = np.arange(-12.0, 12.5, 2.0)
+__all__ = ["min_entropy", "MinEntropyOptions", "coarse_to_fine", "level_basis", "LEVELS", "DEFOCUS_SCAN", "ORDERS",
+           "REFINE_CORRELATION"]
 
 
-def _defocus_search(imager, phi, quad) -> np.ndarray:
-    """``phi + a · quad`` for the ``a`` of :data:`DEFOCUS_SCAN` (``quad`` scaled to 1 at the ends)
-    of lowest entropy (``a = 0`` included)."""
-    q = quad / np.max(np.abs(quad))
-    h = [imager.entropy(phi + a * q) for a in DEFOCUS_SCAN]
-    return phi + DEFOCUS_SCAN[int(np.argmin(h))] * q
+@dataclass(frozen=True)
+class MinEntropyOptions:
+    """The knobs of :func:`min_entropy` (each also a keyword argument of it).
 
-
-def coarse_to_fine(imager: Imager, start, gauge, levels=LEVELS, max_iter: int = 30,
-                   max_fun: int | None = None):
-    """The minimum-entropy estimate after each level, started from ``start``: at most ``max_iter``
-    L-BFGS iterations and ``max_fun`` evaluations (default ``2 max_iter``) per level.
-
-    Returns
-    -------
-    list of ndarray
-        ``φ`` after each level of ``levels`` (each continues from the previous one).
-    """
-    P = gauge.shape[0]
-    phi = np.asarray(start, np.float64).copy()
-    out = []
-    for level in levels:
-        A = level_basis(level, P, gauge)
-        # a phase smooth over `spacing` pulses needs no finer sub-apertures than that
-        im = imager.coarsened(spacing(level, P))
-        if level == "smooth" and A is not None:
-            phi = _defocus_search(im, phi, A[:, 0])
-        base = phi
-
-        if A is None:
-            def fun(c, base=base, im=im):
-                h, g = im.entropy_and_gradient(base + c)
-                return h, g - gauge @ (gauge.T @ g)
-            n = P
-        else:
-            def fun(c, base=base, A=A, im=im):
-                h, g = im.entropy_and_gradient(base + A @ c)
-                return h, A.T @ g
-            n = A.shape[1]
-        x = minimize(fun, n, max_iter, max_fun)
-        step = x if A is None else A @ x
-        # the phase the imager's images are exact for (block means on sub-apertures), constant
-        # and linear part removed
-        phi = without_gauge(imager.blockwise(base + step), gauge)
-        out.append(phi.copy())
-    return out
-
-
-def _each(fn, jobs) -> list:
-    """``[fn(j) for j in jobs]``, the jobs side by side on up to ``sarcli._native.threads()``
-    threads, each running its kernels on one (independent searches; each returns what it would
-    alone)."""
-    from .._native import threads, using_threads
-
-    jobs = list(jobs)
-    workers = min(len(jobs), threads())
-    if workers <= 1:
-        return [fn(j) for j in jobs]
-    from concurrent.futures import ThreadPoolExecutor
-
-    def one(j):
-        with using_threads(1):
-            return fn(j)
-
-    with ThreadPoolExecutor(max_workers=workers) as pool:
-        return list(pool.map(one, jobs))
-
-
-#: Orders of the Rényi entropy tried by ``order='auto'``, each on all levels of both halves.
-ORDERS = (1.0, 0.5)
-
-
-def _block_size(P: int, max_blocks: int) -> int:
-    return max(1, -(-P // max_blocks))
-
-
-def _crossvalidate(halves, paths):
-    """Per level, the held-out entropy gains (each half's estimate applied to the other half,
-    against no correction) and the correlation of the two halves' estimates."""
-    P = len(paths[0][0])
-    h0 = [im.entropy(np.zeros(P)) for im in halves]
-    gains = [(h0[0] - halves[0].entropy(b), h0[1] - halves[1].entropy(a)) for a, b in zip(*paths)]
-    return gains, [correlation(a, b) for a, b in zip(*paths)]
-
-
-#: Least correlation of the detail two halves add at a finer level for that level to be taken:
-#: with ``ρ = s/(s + n)`` (``s`` the common detail's power, ``n`` one half's estimation noise),
-#: the whole scene's estimate (noise about ``n/2``) gains from the detail when ``s > n/2``, i.e.
-#: ``ρ > 1/3``.
-REFINE_CORRELATION = 1.0 / 3.0
-
-
-def min_entropy(ph, *, grid: Grid | None = None, start="zero", levels=LEVELS, max_iter: int = 15,
-                pulse_iter: int = 3, pulse_lines: int = 2, full_pulse_iter: int = 0, max_blocks: int = 128,
-                max_stack_mib: float = 64.0, validate: bool = True, guard: bool = True,
-                pga_options=None, order="auto") -> AutofocusResult:
-    """Minimum-entropy autofocus: coarse to fine to one phase per pulse, cross-validated.
-
-    Parameters
+    Attributes
     ----------
-    ph : PhaseHistory
-    grid : Grid, optional
-        The image grid (default the acquisition's); the entropy is measured on all of it, at
-        most :data:`~sarcli.autofocus._common.MAX_ESTIMATION_PIXELS` pixels (a central window beyond), widened by a guard band
-        where that stays within :data:`~sarcli.autofocus._common.MAX_GUARDED_PIXELS`.
     start : 'zero', 'pga' or array_like
         Start of the search on the whole grid: no correction (default; the smooth level finds
         what PGA would), PGA's estimate where it lowers the entropy, or a given estimate. The
@@ -237,6 +130,9 @@ def min_entropy(ph, *, grid: Grid | None = None, start="zero", levels=LEVELS, ma
         finest level is taken.
     guard : bool
         Keep the estimate only when it leaves the image no less sharp.
+    pga_options : PGAOptions or dict, optional
+        PGA's knobs for ``start='pga'`` (:class:`~sarcli.autofocus.pga.PGAOptions`, or a dict of
+        its fields).
     order : 'auto' or float
         Order of the Rényi entropy minimised (:func:`~sarcli.autofocus._imager.entropy_of`; 1 is
         Shannon's). Orders below 1 weigh dim pixels more: their minimum lies closer to the true
@@ -245,226 +141,62 @@ def min_entropy(ph, *, grid: Grid | None = None, start="zero", levels=LEVELS, ma
         (:data:`ORDERS`; the searches side by side on threads), and the order whose halves agree
         more on the detail of the finest level is used from there on (module docstring). The
         sharpness guard measures Shannon's entropy whatever the order.
+    """
+
+    start: object = "zero"
+    levels: tuple = LEVELS
+    max_iter: int = 15
+    pulse_iter: int = 3
+    pulse_lines: int = 2
+    full_pulse_iter: int = 0
+    max_blocks: int = 128
+    max_stack_mib: float = 64.0
+    validate: bool = True
+    guard: bool = True
+    pga_options: object = None
+    order: object = "auto"
+
+
+def min_entropy(ph, *, grid: Grid | None = None, options: MinEntropyOptions | None = None,
+                **knobs) -> AutofocusResult:
+    """Minimum-entropy autofocus: coarse to fine to one phase per pulse, cross-validated.
+
+    Parameters
+    ----------
+    ph : PhaseHistory
+    grid : Grid, optional
+        The image grid (default the acquisition's); the entropy is measured on all of it, at
+        most :data:`~sarcli.autofocus._common.MAX_ESTIMATION_PIXELS` pixels (a central window beyond), widened by a guard band
+        where that stays within :data:`~sarcli.autofocus._common.MAX_GUARDED_PIXELS`.
+    options : MinEntropyOptions, optional
+        The knobs (default ``MinEntropyOptions()``).
+    **knobs
+        Fields of :class:`MinEntropyOptions` given as keyword arguments
+        (``min_entropy(ph, max_blocks=32)``); they replace those of ``options``.
 
     Returns
     -------
     AutofocusResult
         ``history`` records the start, the whole grid's entropy at the mean of the halves'
         estimates per level, the held-out gains and the correlation between the halves per level,
-        the level kept and why (``'decision'``).
+        the level kept (``'level'``; ``'block_level'`` the one kept on the sub-apertures, None
+        when none passed), whether one phase per pulse was searched and kept (``'pulse_level'``:
+        ``kept``, ``from_zero``), the estimation grid's pixel (``'estimation_pixel_m'``), the
+        sharpness (entropy, peak-to-mean) before and after on the guarded grid and on the grid
+        asked for (``'guarded_sharpness'``, ``'asked_sharpness'``) and why (``'decision'``).
     """
     from ._lbfgs import find_setulb
 
+    o = with_options(MinEntropyOptions, options, knobs)
     # L-BFGS-B's BLAS (scipy's own OpenBLAS) is loaded first, so that the one-thread limit reaches
     # it too: its idle threads spin after every call, on cores shared with other jobs
     find_setulb()
     with single_threaded_blas():
-        return _min_entropy(ph, grid, start, levels, max_iter, pulse_iter, pulse_lines, full_pulse_iter, max_blocks,
-                            max_stack_mib, validate, guard, pga_options, order)
-
-
-def _min_entropy(ph, grid, start, levels, max_iter, pulse_iter, pulse_lines, full_pulse_iter, max_blocks,
-                 max_stack_mib, validate, guard, pga_options, order):
-    if order == "auto":
-        orders = ORDERS
-    else:
-        try:
-            orders = (float(order),)
-        except (TypeError, ValueError):
-            orders = (float("nan"),)
-        if not orders[0] > 0:
-            raise SarcliInputError(f"entropy order must be 'auto' or a positive number, got {order!r}")
-    acq = ph.acquisition
-    asked = grid or acq.grid
-    est = estimation_grid(asked, MAX_ESTIMATION_PIXELS, acq)
-    P = ph.data.shape[0]
-    gauge = gauge_basis(acq)
-    g_est = guarded_grid(est, acq, max_pixels=max(est.nx * est.ny, MAX_GUARDED_PIXELS))
-    image_mib = g_est.nx * g_est.ny * 8 / 2 ** 20
-    K = max(_block_size(P, max_blocks), int(np.ceil(P * image_mib / max_stack_mib)))
-    coarse = tuple(lv for lv in levels if lv == "smooth" or int(lv) > K)
-    if any(lv != "smooth" and int(lv) <= K for lv in levels):
-        coarse += (K,)
-    axis = range_axis(acq)
-    check_splittable(asked, est, g_est, acq, axis)
-    full = BlockImager(ph, g_est, K, axis, order=orders[0])
-    halves = full.halves()
-    hist: dict = {"levels": [str(lv) for lv in coarse], "block_pulses": K,
-                  "estimation_grid": [est.ny, est.nx], "guarded_grid": [full.grid.ny, full.grid.nx]}
-    zero = np.zeros(P)
-    phi0, hist["start"] = zero, "zero"
-    if isinstance(start, str) and start == "pga":
-        from .pga import pga
-
-        cand = pga(ph, grid=est, guard=False, **(pga_options or {})).phase_rad
-        cand = cand - gauge @ (gauge.T @ cand)
-        if full.entropy(cand) < full.entropy(zero):
-            phi0, hist["start"] = cand, "pga"
-        else:
-            hist["start"] = "zero (pga did not lower the entropy)"
-    elif not isinstance(start, str):
-        phi0 = np.asarray(start, np.float64)
-        phi0, hist["start"] = phi0 - gauge @ (gauge.T @ phi0), "given"
-    # each half with each order, from zero: independent searches, side by side on threads (a
-    # pass over the stack runs on one thread and releases the GIL)
-    for im in halves:  # the merged stacks, built before the threads share them
-        for lv in coarse:
-            im.coarsened(spacing(lv, P))
-    runs = _each(lambda im: coarse_to_fine(im, zero, gauge, coarse, max_iter),
-                 [im.with_order(o) for o in orders for im in halves])
-    by_order = {o: runs[2 * k:2 * k + 2] for k, o in enumerate(orders)}
-    chosen, hist["order"] = orders[0], orders[0]
-    if len(orders) > 1:
-        # the order whose halves agree more on the detail of the finest level is the one less
-        # drawn to what is particular to each half (clutter, or the sidelobes of a few points)
-        def detail(ps):
-            return correlation(*(p[-1] - (p[-2] if len(p) > 1 else 0.0) for p in ps))
-
-        agree = {o: detail(by_order[o]) for o in orders}
-        for o in orders[1:]:
-            if agree[o] > agree[chosen]:
-                chosen = o
-        halves = [im.with_order(chosen) for im in halves]
-        hist["order"], hist["order_agreement"] = chosen, {str(k): v for k, v in agree.items()}
-    paths = by_order[chosen]
-    full = full.with_order(chosen)
-    gains, corrs = _crossvalidate(halves, paths)
-    names = [str(lv) for lv in coarse]
-    dofs = [dof(lv, P, gauge) for lv in coarse]
-    # a level passes when each half's estimate lowers the other half's entropy and the two
-    # halves' estimates agree beyond chance; the one kept has the largest total held-out gain
-    passed = [min(g) > 0 and c > agreement_threshold(n) for g, c, n in zip(gains, corrs, dofs)]
-    score = [sum(g) if ok else -np.inf for g, ok in zip(gains, passed)]
-    best = int(np.argmax(score)) if validate else len(coarse) - 1
-    kept = validate is False or np.isfinite(score[best])
-    refined = []
-    if validate and kept:
-        # a finer level that passes is taken when the detail each half adds to the level kept
-        # agrees between the halves: a half's held-out gain undervalues it (the whole scene
-        # estimates that detail with half a half's noise, REFINE_CORRELATION)
-        for j in range(best + 1, len(coarse)):
-            rho = correlation(paths[0][j] - paths[0][best], paths[1][j] - paths[1][best])
-            if passed[j] and rho > max(REFINE_CORRELATION, agreement_threshold(dofs[j])):
-                best = j
-                refined.append(f"{names[j]} (the detail it adds correlates {rho:.2f} between the halves)")
-    phi = zero
-    if kept and np.any(phi0):
-        phi = coarse_to_fine(full, phi0, gauge, coarse[:best + 1], max_iter)[-1]
-    elif kept:
-        # the whole grid searches the level kept only, from the mean of the halves' estimates
-        # at that level (the coarser levels have brought each half there already)
-        phi = coarse_to_fine(full, phase_mean(paths[0][best], paths[1][best]), gauge, coarse[best:best + 1],
-                             max_iter, max_fun=max_iter)[-1]
-    hist.update(entropy_start=full.entropy(phi0),
-                entropy_levels=[full.entropy(phase_mean(a, b)) for a, b in zip(*paths)],
-                heldout_gain=gains, halves_correlation=corrs, level=names[best] if kept else None,
-                detail_correlation=[correlation(*(p[j] - (p[j - 1] if j else 0.0) for p in paths))
-                                    for j in range(len(coarse))])
-    if not validate:
-        hist["decision"] = f"finest level {names[-1]} (not cross-validated)"
-    elif not kept:
-        hist["decision"] = (f"no error common to the scene{' at the sub-apertures' if K > 1 else ''}: at no level "
-                            "did the estimates from the two halves of the scene both lower the other half's entropy "
-                            "and agree beyond chance")
-    else:
-        first = int(np.argmax(score))
-        hist["decision"] = (f"level {names[first]}: its estimates from each half of the scene lower the "
-                            f"entropy of the other half the most (held-out gains {gains[first][0]:.4f}, "
-                            f"{gains[first][1]:.4f} nats; halves' estimates correlate {corrs[first]:.2f}, "
-                            f"chance {agreement_threshold(dofs[first]):.2f})")
-        if refined:
-            hist["decision"] += "; refined to level " + ", then ".join(refined)
-    if validate and len(orders) > 1:
-        agree = hist["order_agreement"]
-        hist["decision"] = (f"Rényi entropy of order {chosen:g} (the halves' finest detail correlates "
-                            + ", ".join(f"{v:.2f} with order {k.rstrip('0').rstrip('.')}" for k, v in agree.items())
-                            + "); " + hist["decision"])
-    judge, fine_imagers = full, []  # the images the estimate is exact for
-    # the halves' own estimates at the level applied (the prediction of its residual compares them)
-    pair = (paths[0][best], paths[1][best]) if kept else None
-    if K > 1 and pulse_iter > 0 and any(lv != "smooth" and int(lv) < K for lv in levels):
-        # one phase per pulse, beyond the sub-apertures, on the exact backprojection pair (no
-        # stack) on every `pulse_lines`-th range line of each half (whole cross-range lines):
-        # each half refines its own estimate at the level kept (from zero when none was: an error
-        # from pulse to pulse can be all there is), and the level is kept when each half's
-        # per-pulse increment lowers the other half's entropy
-        low, high = split_grid(every_nth_line(full.grid, axis, pulse_lines), axis, SPLIT_GAP)[:2]
-        # the range profiles of the stack's backprojector, made once
-        sides = [Imager(ph, g, chosen, like=full) for g in (low, high)]
-        starts = [p[best] if kept else zero for p in paths]
-        # a finer level of knots first where the sub-apertures hold three of its knots or more: one
-        # phase per pulse alone, in a few iterations, leaves much of a smooth error within them
-        fine = tuple(lv for lv in levels if lv != "smooth" and 1 < int(lv) and 3 * int(lv) <= K) + (1,)
-        ends = [coarse_to_fine(im, s0, gauge, fine, pulse_iter)[-1] for im, s0 in zip(sides, starts)]
-        # on the half's lines, the other half's start against its per-pulse estimate
-        g1 = tuple(side.entropy(starts[1 - i]) - side.entropy(ends[1 - i]) for i, side in enumerate(sides))
-        # each half's increment, continuous across the pulses (2π jumps between the start's and
-        # the end's representations undone; a smooth increment of any size kept)
-        steps = [np.unwrap(e - s0) for e, s0 in zip(ends, starts)]
-        c1 = correlation(*steps)
-        fine_imagers += sides
-        hist["heldout_gain"] = gains + [g1]
-        hist["halves_correlation"] = corrs + [c1]
-        hist["levels"] = names + ["1"]
-        what = ("increment", "increments") if kept else ("estimate (from zero)", "estimates (from zero)")
-        if min(g1) > 0 and c1 > max(REFINE_CORRELATION, agreement_threshold(P - gauge.shape[1])):
-            # the whole grid: from its sub-aperture estimate plus the mean of the halves'
-            # per-pulse increments, a few more iterations on all of it
-            exact = Imager(ph, full.grid, chosen, like=full)
-            fine_imagers.append(exact)
-            start1 = without_gauge(phi + phase_mean(steps[0], steps[1]), gauge)
-            if full_pulse_iter > 0:
-                start1 = coarse_to_fine(exact, start1, gauge, (1,), full_pulse_iter)[-1]
-            phi, judge, hist["level"] = start1, exact, "1"
-            pair = tuple(ends)
-            hist["decision"] += (f"; {'then ' if kept else 'but at '}one phase per pulse: each half's per-pulse {what[0]} "
-                                 f"lowers the other half's entropy ({g1[0]:.4f}, {g1[1]:.4f} nats; correlation "
-                                 f"{c1:.2f})")
-        else:
-            hist["decision"] += (f"; one phase per pulse not kept: the halves' per-pulse {what[1]} (held-out gains "
-                                 f"{g1[0]:.4f}, {g1[1]:.4f} nats; correlation {c1:.2f}) do not both lower the "
-                                 f"other half's entropy and agree")
-    if (est.dx, est.dy) != (asked.dx, asked.dy):
-        hist["decision"] = (f"estimated on {est.nx} x {est.ny} pixels of {est.dx:.3g} x {est.dy:.3g} m, the grid's "
-                            f"{asked.dx:.3g} x {asked.dy:.3g} m being too coarse for the image's band; "
-                            + hist["decision"])
-    if pair is not None and np.any(phi):
-        hist["trust"] = predicted_residual(phi, *pair, gauge)
-    hist["evaluations"] = evals = full.evaluations + sum(im.evaluations for im in [*halves, *fine_imagers])
-    res = AutofocusResult(phi, "min-entropy", iterations=evals, history=hist)
-    # the uncorrected image from the stack (exact for a zero phase; sharpness ignores pixel order)
-    (h0, m0), (h1, m1) = sharpness(full.image(zero)), sharpness(judge.image(phi))
-    hist["guarded_sharpness"] = {"before": (h0, m0), "after": (h1, m1)}
-    # what is reported, and judged last: the images of the grid asked for (the estimation grid),
-    # formed as PGA forms them (sharpness_imager), so both methods report the same numbers
-    mine = sharpness_imager(ph, est, like=full)
-    (u0, n0), (u1, n1) = sharpness(mine.image(zero)), sharpness(mine.image(phi))
-    res.entropy_before, res.peak_to_mean_before = u0, n0
-    res.entropy_after, res.peak_to_mean_after = u1, n1
-    trust = hist.get("trust")
-    if not np.any(phi):
-        res.code = "no_common_error"
-    if validate and trust is not None and not trust["trusted"]:
-        # the halves' own estimates at the level applied: their spread plus the whole scene's
-        # departure from their mean is the residual they predict, and it is not below the least
-        # error they are sure of (predicted_residual)
-        why = (f"the halves predict it leaves {trust['predicted_rad']:.3f} rad rms (spread {trust['spread_rad']:.3f} "
-               f"+ departure {trust['departure_rad']:.3f}), not below the {trust['signal_low_rad']:.3f} rad rms of "
-               f"error they are sure of")
-        res.reject(f"; but {why}: not applied", code="untrusted")
-        warnings.warn(f"autofocus (min-entropy) applied no correction: {why}", AutofocusWarning, stacklevel=3)
-    elif guard and np.any(phi) and not (h1 < h0 and m1 >= m0):
-        # never less sharp, on the images the estimate was made on (exact for its block phases)
-        res.reject("; but it left the image less sharp (entropy or peak-to-mean): not applied")
-        warnings.warn(f"autofocus (min-entropy) did not sharpen the image (entropy {h0:.4f}, peak-to-mean "
-                      f"{m0:.4g} before): no correction applied", AutofocusWarning, stacklevel=3)
-    elif guard and np.any(phi) and not (u1 < u0 and n1 >= n0):
-        # and on the grid asked for, inside the guard band: on a grid of a few pixels a search
-        # can sharpen the band by moving energy that the grid itself loses
-        which = f"{est.nx} x {est.ny} pixel " + (
-            "grid asked for" if (est.dx, est.dy) == (asked.dx, asked.dy) else "estimation grid")
-        res.reject(f"; but it left the {which} less sharp (entropy {u0:.4f} -> {u1:.4f}, peak-to-mean "
-                   f"{n0:.4g} -> {n1:.4g}): not applied")
-        warnings.warn(f"autofocus (min-entropy) did not sharpen the {which} (entropy {u0:.4f}, peak-to-mean "
-                      f"{n0:.4g} before): no correction applied", AutofocusWarning, stacklevel=3)
-    return res
+        run = MinEntropyRun(ph, grid, o)
+        run.choose_start()
+        run.search_halves()
+        run.choose_level()
+        run.search_whole()
+        run.describe()
+        run.per_pulse()
+        return run.result()  # its warnings name the caller of min_entropy (stacklevel 3)

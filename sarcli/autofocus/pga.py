@@ -60,16 +60,19 @@ scene as readily as the true error a blurred one).
 from __future__ import annotations
 
 import warnings
+from dataclasses import dataclass
 
 import numpy as np
 
 from ..analysis.speckle import image_entropy
+from .._util.options import with_options
 from ..core.grid import Grid
 from ..errors import SarcliInputError
 from ._common import (AutofocusResult, AutofocusWarning, agreement_threshold, correlation, estimation_grid, form,
                       keep_if_sharper, pulse_signals, remove_linear_phase)
 
-__all__ = ["pga", "select_scatterers", "phase_gradient_estimate", "scatterer_weights", "principal_vector", "ESTIMATORS"]
+__all__ = ["pga", "PGAOptions", "select_scatterers", "phase_gradient_estimate", "scatterer_weights", "principal_vector",
+           "ESTIMATORS"]
 
 #: Phase estimators of one PGA step: maximum likelihood (principal eigenvector) or the classic
 #: phase-difference estimate.
@@ -238,17 +241,12 @@ def principal_vector(g, tol: float = 1e-12, max_iter: int = 1000, start=None) ->
     return u
 
 
-def pga(ph, *, grid: Grid | None = None, n_scatterers: int | None = None, separation: int = 3,
-        window_db: float = -10.0, min_window: int = 4, max_iter: int = 10, tol: float = 2e-3,
-        guard: bool = True, start=None, estimator: str = "eigen", validate: bool = True):
-    """Phase gradient autofocus (see the module docstring for the steps).
+@dataclass(frozen=True)
+class PGAOptions:
+    """The knobs of :func:`pga` (each also a keyword argument of it).
 
-    Parameters
+    Attributes
     ----------
-    ph : PhaseHistory
-    grid : Grid, optional
-        Image grid the scatterers are selected on (default the acquisition's, cut to
-        :func:`estimation_grid`).
     n_scatterers : int, optional
         Dominant scatterers per iteration (default: as many as grid rows, 32 to 256; the textbook
         one per range line).
@@ -269,11 +267,42 @@ def pga(ph, *, grid: Grid | None = None, n_scatterers: int | None = None, separa
         With ``guard``: apply the estimate only when PGA's estimates from two halves of the scene
         agree beyond chance and, each applied to the other half, lower its entropy in sum (module
         docstring).
+    """
+
+    n_scatterers: int | None = None
+    separation: int = 3
+    window_db: float = -10.0
+    min_window: int = 4
+    max_iter: int = 10
+    tol: float = 2e-3
+    guard: bool = True
+    start: object = None
+    estimator: str = "eigen"
+    validate: bool = True
+
+
+def pga(ph, *, grid: Grid | None = None, options: PGAOptions | None = None, **knobs) -> AutofocusResult:
+    """Phase gradient autofocus (see the module docstring for the steps).
+
+    Parameters
+    ----------
+    ph : PhaseHistory
+    grid : Grid, optional
+        Image grid the scatterers are selected on (default the acquisition's, cut to
+        :func:`estimation_grid`).
+    options : PGAOptions, optional
+        The knobs (default ``PGAOptions()``).
+    **knobs
+        Fields of :class:`PGAOptions` given as keyword arguments (``pga(ph, max_iter=4)``); they
+        replace those of ``options``.
 
     Returns
     -------
     AutofocusResult
     """
+    o = with_options(PGAOptions, options, knobs)
+    n_scatterers, separation, window_db, min_window = o.n_scatterers, o.separation, o.window_db, o.min_window
+    max_iter, tol, start, estimator = o.max_iter, o.tol, o.start, o.estimator
     _check_estimator(estimator)
     acq = ph.acquisition
     grid = estimation_grid(grid or acq.grid, acq=acq)
@@ -307,14 +336,12 @@ def pga(ph, *, grid: Grid | None = None, n_scatterers: int | None = None, separa
         best_h, best_phi = h, phi
     # the iterate of lowest entropy (a narrowing window can drift once the image is focused)
     res = AutofocusResult(best_phi, "pga", iterations=it, history=hist)
-    if guard:
+    if o.guard:
         from ._sharpness import sharpness_imager
 
         res = keep_if_sharper(ph, grid, res, [best_phi, phi], sharpness_imager(ph, grid))
-        if validate and np.any(res.phase_rad):
-            _crossvalidate(ph, grid, res, dict(n_scatterers=n_scatterers, separation=separation,
-                                               window_db=window_db, min_window=min_window, max_iter=max_iter,
-                                               tol=tol, start=start, estimator=estimator))
+        if o.validate and np.any(res.phase_rad):
+            _crossvalidate(ph, grid, res, o)
     return res
 
 
@@ -341,7 +368,7 @@ def halves_agreement(a, b, gauge) -> tuple[float, float]:
     return correlation(a, a - d), predicted_residual(a, a, b, gauge)["spread_rad"]
 
 
-def _crossvalidate(ph, grid: Grid, res: AutofocusResult, options: dict) -> None:
+def _crossvalidate(ph, grid: Grid, res: AutofocusResult, options: PGAOptions) -> None:
     """Keep ``res``'s estimate only if PGA's estimates from the two halves of ``grid`` agree (modulo
     ``2π``) beyond chance and beyond ``1/3``, lower each other's entropy in sum, differ by at most
     :data:`MAX_PREDICTED_RESIDUAL_RAD` (half the rms of their difference, the noise of their
@@ -373,7 +400,7 @@ def _crossvalidate(ph, grid: Grid, res: AutofocusResult, options: dict) -> None:
         res.reject(code="not_cross_validated")
         warnings.warn(f"autofocus (pga) applied no correction: {why}", AutofocusWarning, stacklevel=4)
         return
-    ests = [pga(ph, grid=g, guard=False, validate=False, **options).phase_rad for g in halves]
+    ests = [pga(ph, grid=g, options=options, guard=False, validate=False).phase_rad for g in halves]
     h0 = [image_entropy(form(ph, g)) for g in halves]
     gains = (h0[0] - image_entropy(form(ph, halves[0], ests[1])), h0[1] - image_entropy(form(ph, halves[1], ests[0])))
     gauge = gauge_basis(acq)

@@ -43,6 +43,7 @@ from pathlib import Path
 import numpy as np
 
 from .._util.atomic import atomic_path
+from .._util.options import with_options
 from ..analysis.accuracy import MAX_REFERENCE_COST, pareto_front, reference_grid, truth_error, truth_on_grid
 from ..errors import SarcliInputError
 from ..formers.formation import form_image, image_error
@@ -50,7 +51,7 @@ from ..core.grid import Grid, resolve_grid
 from ..core.types import PhaseHistory
 from .._util.progress import progress
 
-__all__ = ["BenchRow", "BenchResult", "sweep", "run_benchmark", "regularizer_sweep", "measure",
+__all__ = ["BenchRow", "BenchResult", "BenchOptions", "sweep", "run_benchmark", "regularizer_sweep", "measure",
            "write_csv", "format_table",
            "load_input", "NUFFT_EPS", "PFA_OVERSAMPLE", "PFA_WIDTH", "BP_UPSAMPLE", "BP_INTERP",
            "BP_PRECISION", "CSV_COLUMNS"]
@@ -193,21 +194,17 @@ def measure(fn, repeat: int = 3, *, memory: bool = True):
     return out, med, max(0.0, first - med), peak, names
 
 
-def run_benchmark(ph: PhaseHistory, *, methods=("direct",) + FAST_METHODS, repeat: int = 3, grid: Grid | None = None,
-                  center=None, extent=None, pixel_size=None, max_reference_cost: float = MAX_REFERENCE_COST,
-                  windows=("none", "taylor"), settings=None, regularizers=(), reg_iters=(1, 2, 5, 10, 20, 50),
-                  memory: bool = True, nthreads=None) -> BenchResult:
-    """Measure error, time and memory of every method over its knob sweep (module docstring).
+@dataclass(frozen=True)
+class BenchOptions:
+    """What :func:`run_benchmark` sweeps and how it measures (each field also a keyword argument
+    of it).
 
-    Parameters
+    Attributes
     ----------
-    ph : PhaseHistory
     methods : sequence of str
         Among 'direct', 'nufft', 'pfa', 'backprojection' ('direct' adds the reference's own row).
     repeat : int
         Timed calls per setting (after one warm-up).
-    grid, center, extent, pixel_size :
-        Image grid (default the acquisition's), as in :func:`sarcli.form_image`.
     max_reference_cost : float
         Largest ``P·M·pixels`` for the exact reference on the full grid (else a strided sub-grid over the whole image).
     windows : sequence of str
@@ -216,32 +213,53 @@ def run_benchmark(ph: PhaseHistory, *, methods=("direct",) + FAST_METHODS, repea
         Replace :func:`sweep` (used by tests and reduced runs).
     regularizers : sequence of str
         Priors of :func:`sarcli.regularize.regularize` to sweep over ``reg_iters`` (needs a truth).
+    reg_iters : sequence of int
+        Iteration caps of the regularisers' sweep.
     memory : bool
         Measure peak memory (one extra call per setting).
+    nthreads : int, optional
+        Threads of the formers (default: all).
+    """
+
+    methods: tuple = ("direct",) + FAST_METHODS
+    repeat: int = 3
+    max_reference_cost: float = MAX_REFERENCE_COST
+    windows: tuple = ("none", "taylor")
+    settings: object = None
+    regularizers: tuple = ()
+    reg_iters: tuple = (1, 2, 5, 10, 20, 50)
+    memory: bool = True
+    nthreads: object = None
+
+
+def run_benchmark(ph: PhaseHistory, *, grid: Grid | None = None, center=None, extent=None, pixel_size=None,
+                  options: BenchOptions | None = None, **knobs) -> BenchResult:
+    """Measure error, time and memory of every method over its knob sweep (module docstring).
+
+    Parameters
+    ----------
+    ph : PhaseHistory
+    grid, center, extent, pixel_size :
+        Image grid (default the acquisition's), as in :func:`sarcli.form_image`.
+    options : BenchOptions, optional
+        What is swept and measured (default ``BenchOptions()``).
+    **knobs
+        Fields of :class:`BenchOptions` as keyword arguments (``run_benchmark(ph, repeat=1)``);
+        they replace those of ``options``.
 
     Returns
     -------
     BenchResult
     """
-    if int(repeat) < 1:
-        raise SarcliInputError(f"repeat must be >= 1, got {repeat}")
+    o = with_options(BenchOptions, options, knobs)
+    if int(o.repeat) < 1:
+        raise SarcliInputError(f"repeat must be >= 1, got {o.repeat}")
     grid = resolve_grid(grid or ph.acquisition.grid, center=center, extent=extent, pixel_size=pixel_size)
-    sub, rs, cs, cost = reference_grid(ph, grid, max_reference_cost)
-    notes = [f"reference: exact matched filter ('direct') on {sub.ny} x {sub.nx} pixels"
-             + ("" if sub == grid else
-                f" (every {int(round(sub.dx / grid.dx))}th pixel of the {grid.ny} x {grid.nx} image: "
-                f"P*M*pixels = {cost:.3g} > {max_reference_cost:.3g}; errors are measured on that sub-grid)")]
+    sub, rs, cs, cost = reference_grid(ph, grid, o.max_reference_cost)
     truth = truth_on_grid(ph, grid)
-    if truth is None:
-        notes.append("error_truth: not available (no truth on this grid)")
-    elif truth[1] is None:
-        notes.append("error_truth: || |f| - |truth| || / ||truth|| over the grid (truth: the simulated scene)")
-    else:
-        notes.append(f"error_truth: || |f| - |a| || / ||a|| at the {int(truth[1].sum())} point targets' pixels "
-                     "(peak amplitudes)")
-    notes.append("peak_mb: tracemalloc (Python/NumPy allocations; FINUFFT and C++ kernel memory not seen)")
-    settings = list(settings) if settings is not None else sweep([m for m in methods if m != "direct"],
-                                                                 windows=windows)
+    notes = _notes(grid, sub, cost, o.max_reference_cost, truth)
+    settings = list(o.settings) if o.settings is not None else sweep([m for m in o.methods if m != "direct"],
+                                                                     windows=o.windows)
     refs = {}
     rows = []
 
@@ -251,30 +269,47 @@ def run_benchmark(ph: PhaseHistory, *, methods=("direct",) + FAST_METHODS, repea
                 lambda: form_image(ph, "direct", grid=sub, window=window), 1 if sub.nx * sub.ny < 4096 else 0,
                 memory=False)
             refs[window] = out.image
-            if "direct" in methods:
+            if "direct" in o.methods:
                 rows.append(BenchRow("direct", {"window": window, "pixels": sub.nx * sub.ny}, 0.0,
                                      truth_error(out.image, truth) if sub == grid else float("nan"),
                                      sec, comp, float("nan"), wn))
         return refs[window]
 
-    for method, knobs in progress(settings, desc="bench", unit="setting"):
-        window = knobs.get("window", "none")
+    for method, setting in progress(settings, desc="bench", unit="setting"):
+        window = setting.get("window", "none")
         ref = ref_for(window)
-        kw = dict(knobs)
+        kw = dict(setting)
         kw.setdefault("window", window)
         try:
-            out, sec, comp, peak, wn = measure(lambda: form_image(ph, method, grid=grid, nthreads=nthreads, **kw),
-                                               repeat, memory=memory)
+            out, sec, comp, peak, wn = measure(lambda: form_image(ph, method, grid=grid, nthreads=o.nthreads, **kw),
+                                               o.repeat, memory=o.memory)
         except SarcliInputError as exc:  # a method that refuses these data (e.g. one frequency): say so
             nan = float("nan")
-            rows.append(BenchRow(method, knobs, nan, nan, nan, nan, nan, [f"refused: {exc}"]))
+            rows.append(BenchRow(method, setting, nan, nan, nan, nan, nan, [f"refused: {exc}"]))
             continue
         img = out.image
-        rows.append(BenchRow(method, knobs, image_error(img[np.ix_(rs, cs)], ref), truth_error(img, truth),
+        rows.append(BenchRow(method, setting, image_error(img[np.ix_(rs, cs)], ref), truth_error(img, truth),
                              sec, comp, peak, wn))
-    for prior in regularizers:
-        rows += regularizer_sweep(ph, prior, grid=grid, iters=reg_iters, truth=truth)
+    for prior in o.regularizers:
+        rows += regularizer_sweep(ph, prior, grid=grid, iters=o.reg_iters, truth=truth)
     return BenchResult(rows, grid, sub, cost, notes)
+
+
+def _notes(grid: Grid, sub: Grid, cost: float, max_reference_cost: float, truth) -> list:
+    """What the table's reference, truth error and memory figures are."""
+    notes = [f"reference: exact matched filter ('direct') on {sub.ny} x {sub.nx} pixels"
+             + ("" if sub == grid else
+                f" (every {int(round(sub.dx / grid.dx))}th pixel of the {grid.ny} x {grid.nx} image: "
+                f"P*M*pixels = {cost:.3g} > {max_reference_cost:.3g}; errors are measured on that sub-grid)")]
+    if truth is None:
+        notes.append("error_truth: not available (no truth on this grid)")
+    elif truth[1] is None:
+        notes.append("error_truth: || |f| - |truth| || / ||truth|| over the grid (truth: the simulated scene)")
+    else:
+        notes.append(f"error_truth: || |f| - |a| || / ||a|| at the {int(truth[1].sum())} point targets' pixels "
+                     "(peak amplitudes)")
+    notes.append("peak_mb: tracemalloc (Python/NumPy allocations; FINUFFT and C++ kernel memory not seen)")
+    return notes
 
 
 def regularizer_sweep(ph: PhaseHistory, prior: str, *, grid: Grid, iters=(1, 2, 5, 10, 20, 50), truth=None,

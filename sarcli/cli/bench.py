@@ -31,33 +31,21 @@ from .options import (echo_info, grid_options, handle_errors, output_folder, par
 @grid_options
 @click.pass_context
 @handle_errors
-def command(ctx, inputs, out_dir, methods, repeat, windows, regularizers, reg_iters, max_reference_cost, model,
-            seed, no_memory, nthreads, center, extent, pixel_size):
+def command(ctx, inputs, out_dir, **options):
     """Form the image with every method and knob setting; write error against run time (CSV, PNG)."""
     from pathlib import Path
 
     from ..batch import benchmark as bm
     from ..viz import plot_benchmark
-    from ..errors import SarcliInputError
 
-    def split(text):
-        return tuple(t.strip() for t in text.split(",") if t.strip())
-
-    try:
-        iters = tuple(int(t) for t in split(reg_iters))
-    except ValueError:
-        raise SarcliInputError(f"--reg-iters expects comma-separated integers, got {reg_iters!r}") from None
+    o = options
+    iters = _reg_iters(o["reg_iters"])  # before anything is read or made
     output_folder(out_dir)
     prepare_outputs([("input", i) for i in inputs], [("output", Path(out_dir) / "error_vs_time.csv"),
                                                     ("output", Path(out_dir) / "error_vs_time.png")])
-    ph = bm.load_input(inputs, seed=seed, model=model)
-    if methods is None:
-        methods = ",".join(("direct",) + bm.FAST_METHODS + (bm.SPHERICAL_METHODS if ph.model == "spherical" else ()))
-    res = bm.run_benchmark(ph, methods=split(methods), repeat=repeat, windows=split(windows) or ("none",),
-                           center=parse_pair(center, "--center"), extent=parse_pair(extent, "--extent"),
-                           pixel_size=pixel_size, max_reference_cost=max_reference_cost,
-                           regularizers=split(regularizers), reg_iters=iters, memory=not no_memory,
-                           nthreads=nthreads)
+    ph = bm.load_input(inputs, seed=o["seed"], model=o["model"])
+    res = bm.run_benchmark(ph, center=parse_pair(o["center"], "--center"), extent=parse_pair(o["extent"], "--extent"),
+                           pixel_size=o["pixel_size"], options=_bench_options(o, ph.model, iters))
     out = Path(out_dir)
     csv_path = bm.write_csv(res, out / "error_vs_time.csv")
     png_path = plot_benchmark(res, out / "error_vs_time.png", title=f"{ph.acquisition.name or Path(inputs[0]).name}: "
@@ -65,3 +53,29 @@ def command(ctx, inputs, out_dir, methods, repeat, windows, regularizers, reg_it
     echo_info(ctx, bm.format_table(res))
     wrote(csv_path, f"{len(res.rows)} rows")
     wrote(png_path, "error against run time")
+
+
+def _split(text):
+    return tuple(t.strip() for t in text.split(",") if t.strip())
+
+
+def _reg_iters(text: str) -> tuple:
+    from ..errors import SarcliInputError
+
+    try:
+        return tuple(int(t) for t in _split(text))
+    except ValueError:
+        raise SarcliInputError(f"--reg-iters expects comma-separated integers, got {text!r}") from None
+
+
+def _bench_options(o: dict, model: str, iters: tuple):
+    """The :class:`~sarcli.batch.benchmark.BenchOptions` of the command's options ``o`` (data of
+    ``model``: the default methods add the spherical ones for spherical data)."""
+    from ..batch import benchmark as bm
+
+    methods = o["methods"]
+    if methods is None:
+        methods = ",".join(("direct",) + bm.FAST_METHODS + (bm.SPHERICAL_METHODS if model == "spherical" else ()))
+    return bm.BenchOptions(methods=_split(methods), repeat=o["repeat"], windows=_split(o["windows"]) or ("none",),
+                           max_reference_cost=o["max_reference_cost"], regularizers=_split(o["regularizers"]),
+                           reg_iters=iters, memory=not o["no_memory"], nthreads=o["nthreads"])

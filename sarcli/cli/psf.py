@@ -22,8 +22,7 @@ from .options import (echo_info, grid_options, handle_errors, parse_pair, prepar
 @grid_options
 @click.pass_context
 @handle_errors
-def command(ctx, source, output, window, nbar, sll_db, method, png, dynamic_range_db, center, extent,
-            pixel_size):
+def command(ctx, source, output, **options):
     """Write the PSF of a unit point at the grid centre for SOURCE's sampling (a YAML or a phase history).
 
     Prints the predicted -3 dB widths, PSLR and ISLR (also stored in the file's attributes).
@@ -36,23 +35,29 @@ def command(ctx, source, output, window, nbar, sll_db, method, png, dynamic_rang
 
     from .._util.resources import check_memory
 
+    o = options
+    png, window = o["png"], o["window"]
     prepare_outputs([("input", source)], [("output", output), ("--png", png)])
     acq, _ = load_reference(source)
     try:
-        grid = resolve_grid(acq.grid, center=parse_pair(center, "--center"),
-                            extent=parse_pair(extent, "--extent"), pixel_size=pixel_size)
+        grid = resolve_grid(acq.grid, center=parse_pair(o["center"], "--center"),
+                            extent=parse_pair(o["extent"], "--extent"), pixel_size=o["pixel_size"])
     except ValueError as exc:
         raise click.BadParameter(str(exc)) from None
     check_memory(8.0 * grid.nx * grid.ny * 16 + 3.0 * acq.azimuth_rad.size * acq.frequency_hz.shape[-1] * 16,
                  f"a {grid.nx} x {grid.ny} PSF")
-    img = psf_image(acq, grid, window=window, nbar=nbar, sll_db=sll_db, method=method)
+    img = psf_image(acq, grid, window=window, nbar=o["nbar"], sll_db=o["sll_db"], method=o["method"])
     write_image(output, img)
     if png:
-        plot_psf(img, png, dynamic_range_db=dynamic_range_db)
-    pred = img.attrs["predicted_ipr"]
+        plot_psf(img, png, dynamic_range_db=o["dynamic_range_db"])
     wrote(output, f"{grid.ny} x {grid.nx} PSF, {img.parameters['evaluation']}, window {window}")
     if png:
         wrote(png, "PSF figure")
+    echo_info(ctx, _summary(img.attrs["predicted_ipr"]))
+
+
+def _summary(pred: dict) -> str:
+    """The predicted impulse response's figures, a line per direction and the window's textbook."""
     lines = ["predicted impulse response:"]
     for d in ("range", "cross_range"):
         p = pred[d]
@@ -63,4 +68,4 @@ def command(ctx, source, output, window, nbar, sll_db, method, png, dynamic_rang
     if tb:
         lines.append(f"  textbook (1-D window): IRW {tb['irw_factor']:.3f} x resolution, "
                      f"PSLR {tb['pslr_db']:.2f} dB, ISLR {tb['islr_db']:.2f} dB (infinite extent)")
-    echo_info(ctx, "\n".join(lines))
+    return "\n".join(lines)

@@ -20,8 +20,7 @@ from .options import grid_options, handle_errors, parse_pair, prepare_outputs, w
               help="Kaiser-Bessel kernel width (cells).")
 @click.pass_context
 @handle_errors
-def command(ctx, input_path, output, window, taylor_nbar, taylor_sll_db, center, extent, pixel_size,
-            kernel, oversample, width):
+def command(ctx, input_path, output, **options):
     """Interpolate polar phase history onto a Cartesian k-grid covering only the data's support."""
     from ..formers.formation import regrid
     from ..core.grid import resolve_grid
@@ -30,12 +29,13 @@ def command(ctx, input_path, output, window, taylor_nbar, taylor_sll_db, center,
 
     from ..formers.formation import check_form_image
 
+    o = options
     prepare_outputs([("input", input_path)], [("output", output)])
     _, ph = open_input(input_path, expect=("phase-history", "gotcha", "cphd"), truth=False)
-    grid = resolve_grid(ph.acquisition.grid, center=parse_pair(center, "--center"),
-                        extent=parse_pair(extent, "--extent"), pixel_size=pixel_size)
-    check_form_image(ph, "pfa", grid, oversample=oversample, width=width)
-    kg = regrid(ph, grid=grid, window=window, taylor_nbar=taylor_nbar, taylor_sll_db=taylor_sll_db,
-                kernel=kernel, oversample=oversample, width=width)
+    grid = resolve_grid(ph.acquisition.grid, center=parse_pair(o["center"], "--center"),
+                        extent=parse_pair(o["extent"], "--extent"), pixel_size=o["pixel_size"])
+    check_form_image(ph, "pfa", grid, oversample=o["oversample"], width=o["width"])
+    kg = regrid(ph, grid=grid, window=o["window"], taylor_nbar=o["taylor_nbar"], taylor_sll_db=o["taylor_sll_db"],
+                kernel=o["kernel"], oversample=o["oversample"], width=o["width"])
     write_kgrid(output, kg)
     wrote(output, f"k-grid {kg.shape[1]} x {kg.shape[0]}")

@@ -274,6 +274,24 @@ def parse_acquisition(cfg, *, source=None, text=None) -> Acquisition:
         _check_keys(ctx, "scene", cfg["scene"])
         base = Path(source).parent if source else Path(".")
         scene = scene_spec.validate_scene(cfg["scene"], ctx=ctx, base_dir=base)
+    extra = _parse_extra(ctx, cfg, path)
+    grid, scene_radius = _parse_image(ctx, cfg.get("image") or {}, scene, (freq, az, el_arr, pos, model))
+    acq = Acquisition(frequency_hz=freq, azimuth_rad=az, elevation_rad=el_arr, grid=grid,
+                      antenna_position_m=pos, model=model, snr_db=snr, scene=scene,
+                      name=str(cfg.get("name", Path(source).stem if source else "")),
+                      source=None if source is None else str(source), config_text=text, extra=extra)
+    if scene_radius:
+        r_rg, r_cr = acq.alias_free_radii()
+        limit = min(r_rg, r_cr)
+        if scene_radius > limit:
+            warnings.warn(f"{ctx.source}: the scene reaches {scene_radius:.4g} m from the centre but the alias-free "
+                          f"radius is {limit:.4g} m (range {r_rg:.4g} m, cross-range {r_cr:.4g} m): "
+                          "scatterers beyond it wrap around", AliasingWarning, stacklevel=2)
+    return acq
+
+
+def _parse_extra(ctx, cfg, path) -> dict:
+    """The acquisition's extras: the flight path's kind, the scene centre's location, the seed."""
     extra = {"geometry_path": path}
     if cfg.get("location") is not None:
         _check_keys(ctx, "location", cfg["location"])
@@ -286,8 +304,16 @@ def parse_acquisition(cfg, *, source=None, text=None) -> Acquisition:
                                                  loc.get("scene_center_height_m", 0.0))
     if cfg.get("seed") is not None:
         extra["seed"] = _number(ctx, "seed", cfg["seed"], lo=0, integer=True)
-    # -- grid ----------------------------------------------------------------------------------
-    img = cfg.get("image") or {}
+    return extra
+
+
+def _parse_image(ctx, img: dict, scene, collection):
+    """The image grid (``image.half_width_m`` and ``image.pixels``, or derived from the collection
+    and the scene at ``image.oversampling``) and the scene's radius (None without a scene).
+    ``collection``: frequencies, azimuths, elevations, antenna positions and model."""
+    from . import scene_spec
+
+    freq, az, el_arr, pos, model = collection
     _check_keys(ctx, "image", img)
     over = _number(ctx, "image.oversampling", img.get("oversampling", 2.0), lo=0.5, hi=64)
     scene_half = scene_radius = None
@@ -303,24 +329,11 @@ def parse_acquisition(cfg, *, source=None, text=None) -> Acquisition:
         n = _number(ctx, "image.pixels", img["pixels"], lo=2, integer=True, what=" (an even pixel count N)")
         if n % 2:
             ctx.fail("image.pixels", f"value {n} is odd: expected an even pixel count N >= 2")
-        grid = Grid.square(r, n)
-    else:
-        try:
-            grid = derive_grid(freq, az, el_arr, scene_half_width_m=scene_half, oversampling=over)
-        except ConfigError as exc:
-            ctx.fail(exc.key, str(exc).split(": ", 1)[-1])
-    acq = Acquisition(frequency_hz=freq, azimuth_rad=az, elevation_rad=el_arr, grid=grid,
-                      antenna_position_m=pos, model=model, snr_db=snr, scene=scene,
-                      name=str(cfg.get("name", Path(source).stem if source else "")),
-                      source=None if source is None else str(source), config_text=text, extra=extra)
-    if scene_radius:
-        r_rg, r_cr = acq.alias_free_radii()
-        limit = min(r_rg, r_cr)
-        if scene_radius > limit:
-            warnings.warn(f"{ctx.source}: the scene reaches {scene_radius:.4g} m from the centre but the alias-free "
-                          f"radius is {limit:.4g} m (range {r_rg:.4g} m, cross-range {r_cr:.4g} m): "
-                          "scatterers beyond it wrap around", AliasingWarning, stacklevel=2)
-    return acq
+        return Grid.square(r, n), scene_radius
+    try:
+        return derive_grid(freq, az, el_arr, scene_half_width_m=scene_half, oversampling=over), scene_radius
+    except ConfigError as exc:
+        ctx.fail(exc.key, str(exc).split(": ", 1)[-1])
 
 
 def check_count(ctx, key, n, *, per_item_bytes=8 * 4):

@@ -113,7 +113,7 @@ def image_geometry(image, phase_history=None) -> ImageGeometry:
     SarcliInputError
         No georeference, or a collection without antenna positions.
     """
-    from .sicd import arp_polynomial
+    from .arp import arp_polynomial
 
     if not hasattr(image, "image") or not hasattr(image, "x_m"):
         from .export import load_image

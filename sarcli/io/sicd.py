@@ -40,6 +40,7 @@ from .._version import __version__
 from ..core.acquisition import Acquisition
 from ..errors import SarcliInputError
 from ..core.types import Image
+from .arp import arp_polynomial
 from .georef import enu_basis, enu_to_ecf, plane_reference, reference_point
 
 __all__ = ["write_sicd", "read_sicd", "sicd_orientation", "nominal_acquisition", "arp_polynomial", "SICD_NS"]
@@ -190,112 +191,34 @@ def _grid_dim(E, tag, uvect_ecf, ss, kctr, extent, parameters):
     return getattr(E, tag)(*children)
 
 
-def _pulse_times(acq: Acquisition):
-    """Pulse times (s from the collection start) and ARP positions (local ENU).
-
-    A collection read from CPHD keeps its own transmit and receive times
-    (``acq.extra['tx_time_s']``, ``['rcv_time_s']``): then the aperture reference point of a
-    pulse is the midpoint of its transmit and receive positions at the mid time (SICD's ARP for
-    a monostatic collection). Other collections are timed synthetically as in :mod:`.cphd`.
-    """
-    from .cphd import pulse_times
-
-    extra = acq.extra or {}
-    pos = np.asarray(acq.antenna_position_m, np.float64)
-    tx_t, rcv_t = extra.get("tx_time_s"), extra.get("rcv_time_s")
-    if tx_t is not None and rcv_t is not None and len(tx_t) == pos.shape[0]:
-        return 0.5 * (np.asarray(tx_t, np.float64) + np.asarray(rcv_t, np.float64)), pos, True
-    return pulse_times(pos)[0], pos, False
-
-
-def arp_polynomial(acq: Acquisition, ref):
-    """The aperture reference point as SICD writes it (``Position/ARPPoly``) and the COA time.
-
-    Parameters
-    ----------
-    acq : Acquisition
-        With antenna positions.
-    ref : ReferencePoint
-        Where the local frame sits on the Earth.
-
-    Returns
-    -------
-    t : ndarray (P,)
-        Pulse times (s from the collection start), see :func:`_pulse_times`.
-    coefs : ndarray (3, order + 1)
-        ECF X, Y, Z polynomial coefficients in t (increasing powers), order ``min(5, P - 1)``,
-        fitted by least squares about the mid time.
-    t_coa : float
-        The centre-of-aperture time (the middle of the collection, ``Grid/TimeCOAPoly``).
-    true_times : bool
-        Whether the times are the collection's own (CPHD) or synthetic.
-    """
-    t, pos, true_times = _pulse_times(acq)
-    P = pos.shape[0]
-    if P < 2:
-        raise SarcliInputError("SICD export needs a collection of at least two pulses")
-    pos_ecf = enu_to_ecf(pos, ref)
-    order = int(min(5, P - 1))
-    t_mid = 0.5 * float(t[0] + t[-1])  # fit about the middle (conditioning), then shift back
-    arp = [np.polynomial.Polynomial.fit(t - t_mid, pos_ecf[:, axis], order).convert() for axis in range(3)]
-    shift = np.polynomial.Polynomial([-t_mid, 1.0])
-    arp = [a(shift).coef for a in arp]
-    coefs = np.stack([np.pad(c, (0, order + 1 - c.size)) for c in arp])
-    return t, coefs, t_mid, true_times
-
-
 def _build_xml(img: Image, acq: Acquisition, ref, orient, *, nominal: bool, ph_attrs=None):
-    from sarkit import wgs84
-
     E = lxml.builder.ElementMaker(namespace=SICD_NS, nsmap={None: SICD_NS})
     ph_attrs = ph_attrs or {}
-    grid = img.grid
-    basis = enu_basis(ref)
     arr = orient["array"]
     nrows, ncols = arr.shape
     srow, scol = orient["scp_pixel"]
+    scp_ecf, scp_llh, corners = _scp_and_corners(img.grid, ref, orient)
+    basis = enu_basis(ref)
     row_ecf = orient["row_enu"] @ basis
     col_ecf = orient["col_enu"] @ basis
-    scp_enu = np.array([grid.cx, grid.cy, 0.0])
-    scp_ecf = enu_to_ecf(scp_enu, ref)
-    scp_llh = wgs84.cartesian_to_geodetic(scp_ecf)
-    # image corners (FRFC, FRLC, LRLC, LRFC) in the ground plane through the SCP
-    corners = []
-    for r, c in ((0, 0), (0, ncols - 1), (nrows - 1, ncols - 1), (nrows - 1, 0)):
-        enu = (scp_enu + (r - srow) * orient["row_ss"] * orient["row_enu"]
-               + (c - scol) * orient["col_ss"] * orient["col_enu"])
-        corners.append(wgs84.cartesian_to_geodetic(enu_to_ecf(enu, ref)))
     # timing and ARP polynomial
     t, arp, t_coa, true_times = arp_polynomial(acq, ref)
     P = t.size
     duration = float(t[-1] + (t[1] - t[0]) if not true_times else t[-1] + (t[-1] - t[-2]))
-    f = acq.frequency_hz
-    fmin, fmax = float(f.min()), float(f.max())
     kctr_r, ext_r = _support(acq, orient["row_enu"])
     kctr_c, ext_c = _support(acq, orient["col_enu"])
     params = img.parameters or {}
     pol = str((img.attrs or {}).get("polarization", ph_attrs.get("polarization", ""))).upper()
     txrcv = f"{pol[0]}:{pol[1]}" if len(pol) == 2 and set(pol) <= set("HV") else "UNKNOWN"
-    tx_pol = pol[0] if txrcv != "UNKNOWN" else "UNKNOWN"
-    notes = [f"sarcli {__version__}; image method {img.method or 'unknown'}",
-             f"ground-plane image, SICD rows run {orient['name']}"]
-    if ref.is_default:
-        notes.append("scene centre at a PLACEHOLDER location (0N 0E): no scene_center_lat_deg/lon_deg given")
-    if nominal:
-        notes.append("NOMINAL collection geometry: the image's phase history was not given")
+    notes = _notes(img, acq, ref, orient, nominal, ph_attrs, true_times)
     now = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%dT%H:%M:%S.%fZ")
     start = str((img.attrs or {}).get("collection_start") or ph_attrs.get("collection_start")
                 or "2000-01-01T00:00:00.000000Z")
-    if acq.is_bistatic and str(ph_attrs.get("collect_type", "")).upper() == "BISTATIC":
-        notes.append("BISTATIC collection written with the transmit/receive midpoint as ARP (approximate SCPCOA)")
-    if not true_times:
-        notes.append("pulse times synthetic (the phase history carries none): platform speed "
-                     "nominal, Timeline and SCPCOA times not those of the collection")
 
     def pt(tag, llh, **kw):
         return getattr(E, tag)(E.Lat(repr(float(llh[0]))), E.Lon(repr(float(llh[1]))), **kw)
 
-    root = E.SICD(
+    return E.SICD(
         E.CollectionInfo(
             E.CollectorName((str(ph_attrs.get("collector_name") or "") or "sarcli")[:60]),
             E.CoreName((acq.name or img.method or "sarcli-image")[:60]),
@@ -336,6 +259,49 @@ def _build_xml(img: Image, acq: Acquisition, ref, orient, *, nominal: bool, ph_a
                         _poly1(E, "IPPPoly", [0.0, P / duration]), index="1"), size="1"),
         ),
         E.Position(E.ARPPoly(*[_poly1(E, ax, arp[i]) for i, ax in enumerate("XYZ")])),
+        *_formation(E, img, acq.frequency_hz, t, txrcv),
+    )
+
+
+def _scp_and_corners(grid, ref, orient):
+    """The SCP (ECF and geodetic) and the image corners (FRFC, FRLC, LRLC, LRFC, geodetic) in the
+    ground plane through it."""
+    from sarkit import wgs84
+
+    nrows, ncols = orient["array"].shape
+    srow, scol = orient["scp_pixel"]
+    scp_enu = np.array([grid.cx, grid.cy, 0.0])
+    scp_ecf = enu_to_ecf(scp_enu, ref)
+    scp_llh = wgs84.cartesian_to_geodetic(scp_ecf)
+    corners = []
+    for r, c in ((0, 0), (0, ncols - 1), (nrows - 1, ncols - 1), (nrows - 1, 0)):
+        enu = (scp_enu + (r - srow) * orient["row_ss"] * orient["row_enu"]
+               + (c - scol) * orient["col_ss"] * orient["col_enu"])
+        corners.append(wgs84.cartesian_to_geodetic(enu_to_ecf(enu, ref)))
+    return scp_ecf, scp_llh, corners
+
+
+def _notes(img: Image, acq: Acquisition, ref, orient, nominal: bool, ph_attrs: dict, true_times: bool) -> list:
+    """The file's notes (``CollectionInfo/Parameter``): what wrote it, and what in it is nominal."""
+    notes = [f"sarcli {__version__}; image method {img.method or 'unknown'}",
+             f"ground-plane image, SICD rows run {orient['name']}"]
+    if ref.is_default:
+        notes.append("scene centre at a PLACEHOLDER location (0N 0E): no scene_center_lat_deg/lon_deg given")
+    if nominal:
+        notes.append("NOMINAL collection geometry: the image's phase history was not given")
+    if acq.is_bistatic and str(ph_attrs.get("collect_type", "")).upper() == "BISTATIC":
+        notes.append("BISTATIC collection written with the transmit/receive midpoint as ARP (approximate SCPCOA)")
+    if not true_times:
+        notes.append("pulse times synthetic (the phase history carries none): platform speed "
+                     "nominal, Timeline and SCPCOA times not those of the collection")
+    return notes
+
+
+def _formation(E, img: Image, f, t, txrcv: str):
+    """``RadarCollection`` and ``ImageFormation`` (frequencies ``f``, pulse times ``t``)."""
+    fmin, fmax = float(f.min()), float(f.max())
+    tx_pol = txrcv[0] if txrcv != "UNKNOWN" else "UNKNOWN"
+    return (
         E.RadarCollection(
             E.TxFrequency(E.Min(repr(fmin)), E.Max(repr(fmax))),
             E.TxPolarization(tx_pol),
@@ -352,7 +318,6 @@ def _build_xml(img: Image, acq: Acquisition, ref, orient, *, nominal: bool, ph_a
             E.Processing(E.Type(f"sarcli {img.method or 'image formation'}"), E.Applied("true")),
         ),
     )
-    return root
 
 
 def write_sicd(img: Image, path, *, phase_history=None):

@@ -115,15 +115,46 @@ def write_sidd(img: Image, path, *, phase_history=None, kind: str = "db", dynami
     dict
         ``projection`` ('plane' or 'polynomial'), ``nominal``, and for a map image ``error_m``.
     """
-    import sarkit.sidd as sksidd
-    from sarkit import wgs84
-
-    from .geotiff import map_info
     from .png import display_values
-    from .sicd import arp_polynomial, nominal_acquisition
+    from .arp import arp_polynomial
 
     if kind not in ("db", "magnitude"):
         raise SarcliInputError(f"SIDD holds a detected picture: kind 'db' or 'magnitude', not {kind!r}")
+    acq, nominal, ref, mp = _collection(img, phase_history)
+    pixels = np.ascontiguousarray(display_values(img, kind=kind, dynamic_range_db=dynamic_range_db)[::-1])
+    x = _SiddXml(img, ref, mp, *pixels.shape)
+    t, arp, t_coa, true_times = arp_polynomial(acq, ref)
+    info = {"nominal": nominal}
+    notes = [f"sarcli {__version__}; image method {img.method or 'unknown'}; {kind} display"]
+    if mp is not None:
+        info.update(projection="polynomial", error_m=x.fit["error_m"])
+        notes.append(f"map image on a DEM in {mp['crs']}: PolynomialProjection fitted to the map CRS, largest error "
+                     f"{x.fit['error_m']:.3g} m")
+        projection = x.polynomial_projection()
+    else:
+        info.update(projection="plane")
+        projection = x.plane_projection(t_coa)
+    if nominal:
+        notes.append("NOMINAL collection geometry: the image's phase history was not given")
+    if not true_times:
+        notes.append("pulse times synthetic: Measurement/ARPPoly times are not those of the collection")
+    if ref.is_default:
+        notes.append("scene centre at a PLACEHOLDER location (0N 0E)")
+    corners = [x.pixel_llh(r, c) for r, c in x.corner_pixels]
+    now = datetime.datetime.now(datetime.timezone.utc)
+    duration = float(t[-1] - t[0]) if t.size > 1 else 0.0
+    root = x.S.SIDD(x.product_creation(notes, kind, now), x.display(kind), x.geo_data(corners),
+                    x.measurement(projection, arp, true_times), x.exploitation(acq, duration))
+    _write_nitf(path, root.getroottree(), pixels)
+    return info
+
+
+def _collection(img: Image, phase_history):
+    """The collection (the given one or a nominal one), whether it is nominal, the reference point
+    and the map information of ``img``; what SIDD export cannot do without is an input error."""
+    from .geotiff import map_info
+    from .sicd import nominal_acquisition
+
     acq = getattr(phase_history, "acquisition", phase_history)
     nominal = acq is None
     if nominal:
@@ -135,86 +166,94 @@ def write_sidd(img: Image, path, *, phase_history=None, kind: str = "db", dynami
     if ref.is_default and mp is None:
         raise SarcliInputError("SIDD export needs the scene centre's latitude and longitude "
                                "(scene_center_lat_deg / scene_center_lon_deg)")
-    pixels = np.ascontiguousarray(display_values(img, kind=kind, dynamic_range_db=dynamic_range_db)[::-1])
-    rows, cols = pixels.shape
-    t, arp, t_coa, true_times = arp_polynomial(acq, ref)
-    duration = float(t[-1] - t[0]) if t.size > 1 else 0.0
-    grid = img.grid
-    S = lxml.builder.ElementMaker(namespace=SIDD_NS, nsmap={None: SIDD_NS, "sicommon": _SI, "ism": _ISM})
-    C = lxml.builder.ElementMaker(namespace=_SI)
+    return acq, nominal, ref, mp
 
-    def rc(tag, r, c):
-        return getattr(S, tag)(C.Row(repr(r)), C.Col(repr(c)))
 
-    def pixel_llh(r, c):
+def _write_nitf(path, tree, pixels) -> None:
+    """The NITF of the SIDD ``tree`` and its 8-bit ``pixels``, written whole or not at all."""
+    import sarkit.sidd as sksidd
+
+    sec = sksidd.NitfSecurityFields(clas="U")
+    meta = sksidd.NitfMetadata(
+        file_header_part=sksidd.NitfFileHeaderPart(ostaid="sarcli", security=sec),
+        images=[sksidd.NitfProductImageMetadata(
+            xmltree=tree, im_subheader_part=sksidd.NitfImSubheaderPart(security=sec),
+            de_subheader_part=sksidd.NitfDeSubheaderPart(security=sec))])
+    with atomic_path(path) as tmp:
+        with open(tmp, "wb") as f, sksidd.NitfWriter(f, meta) as w:
+            w.write_image(0, pixels)
+
+
+class _SiddXml:
+    """The SIDD elements of one image of ``rows`` x ``cols`` file pixels: one method a top-level
+    element (or the projection inside ``Measurement``)."""
+
+    def __init__(self, img: Image, ref, mp, rows: int, cols: int):
+        self.img, self.ref, self.mp, self.rows, self.cols = img, ref, mp, rows, cols
+        self.S = lxml.builder.ElementMaker(namespace=SIDD_NS, nsmap={None: SIDD_NS, "sicommon": _SI, "ism": _ISM})
+        self.C = lxml.builder.ElementMaker(namespace=_SI)
+        self.fit = map_polynomials(img, rows, cols) if mp is not None else None
+        self.corner_pixels = ((0, 0), (0, cols - 1), (rows - 1, cols - 1), (rows - 1, 0))
+
+    def pixel_llh(self, r, c):
         """Geodetic position of a (file row, col) pixel centre."""
-        if mp is not None:
-            lat = _eval2(fit["lat"], r, c)
-            lon = _eval2(fit["lon"], r, c)
+        from sarkit import wgs84
+
+        if self.mp is not None:
+            lat = _eval2(self.fit["lat"], r, c)
+            lon = _eval2(self.fit["lon"], r, c)
             return float(lat), float(lon)
-        x = float(img.x_m[0]) + c * grid.dx
-        y = float(img.y_m[-1]) - r * grid.dy
-        llh = wgs84.cartesian_to_geodetic(enu_to_ecf([x, y, 0.0], ref))
+        x = float(self.img.x_m[0]) + c * self.img.grid.dx
+        y = float(self.img.y_m[-1]) - r * self.img.grid.dy
+        llh = wgs84.cartesian_to_geodetic(enu_to_ecf([x, y, 0.0], self.ref))
         return float(llh[0]), float(llh[1])
 
-    info = {"nominal": nominal}
-    notes = [f"sarcli {__version__}; image method {img.method or 'unknown'}; {kind} display"]
-    if mp is not None:
-        fit = map_polynomials(img, rows, cols)
-        info.update(projection="polynomial", error_m=fit["error_m"])
-        notes.append(f"map image on a DEM in {mp['crs']}: PolynomialProjection fitted to the map CRS, largest error "
-                     f"{fit['error_m']:.3g} m")
-        # the reference point: the centre pixel at the middle of the DEM heights the image was formed at
-        rc_, cc_ = (rows - 1) / 2.0, (cols - 1) / 2.0
-        la_, lo_ = pixel_llh(rc_, cc_)
+    def _reference_point(self, ecf, row, col):
+        S, C = self.S, self.C
+        return S.ReferencePoint(C.ECEF(C.X(repr(float(ecf[0]))), C.Y(repr(float(ecf[1]))), C.Z(repr(float(ecf[2])))),
+                                C.Point(C.Row(repr(row)), C.Col(repr(col))))
+
+    def polynomial_projection(self):
+        """A map image's ``PolynomialProjection``: the reference point is the centre pixel at the
+        middle of the DEM heights the image was formed at."""
+        from sarkit import wgs84
+
+        S, C, mp, fit = self.S, self.C, self.mp, self.fit
+        rc_, cc_ = (self.rows - 1) / 2.0, (self.cols - 1) / 2.0
+        la_, lo_ = self.pixel_llh(rc_, cc_)
         h_ = 0.5 * (float(mp.get("height_min_m", 0.0)) + float(mp.get("height_max_m", 0.0)))
         ecf = wgs84.geodetic_to_cartesian([la_, lo_, h_])
-        projection = S.PolynomialProjection(
-            S.ReferencePoint(C.ECEF(C.X(repr(float(ecf[0]))), C.Y(repr(float(ecf[1]))), C.Z(repr(float(ecf[2])))),
-                             C.Point(C.Row(repr(rc_)), C.Col(repr(cc_)))),
+        return S.PolynomialProjection(
+            self._reference_point(ecf, rc_, cc_),
             _poly2(S, C, "RowColToLat", fit["lat"]), _poly2(S, C, "RowColToLon", fit["lon"]),
             _poly2(S, C, "LatLonToRow", fit["row"]), _poly2(S, C, "LatLonToCol", fit["col"]))
-    else:
-        info.update(projection="plane")
-        r0, c0 = (rows - 1) // 2, (cols - 1) // 2
-        ref_enu = np.array([float(img.x_m[0]) + c0 * grid.dx, float(img.y_m[-1]) - r0 * grid.dy, 0.0])
+
+    def plane_projection(self, t_coa):
+        """A plane image's ``PlaneProjection``: rows south, columns east of the scene centre."""
         from .georef import enu_basis
 
-        basis = enu_basis(ref)
-        ecf = enu_to_ecf(ref_enu, ref)
+        S, C, img, grid = self.S, self.C, self.img, self.img.grid
+        r0, c0 = (self.rows - 1) // 2, (self.cols - 1) // 2
+        ref_enu = np.array([float(img.x_m[0]) + c0 * grid.dx, float(img.y_m[-1]) - r0 * grid.dy, 0.0])
+        basis = enu_basis(self.ref)
+        ecf = enu_to_ecf(ref_enu, self.ref)
         row_v, col_v = -basis[1], basis[0]
-        projection = S.PlaneProjection(
-            S.ReferencePoint(C.ECEF(C.X(repr(float(ecf[0]))), C.Y(repr(float(ecf[1]))), C.Z(repr(float(ecf[2])))),
-                             C.Point(C.Row(repr(float(r0))), C.Col(repr(float(c0))))),
+        return S.PlaneProjection(
+            self._reference_point(ecf, float(r0), float(c0)),
             S.SampleSpacing(C.Row(repr(float(grid.dy))), C.Col(repr(float(grid.dx)))),
             S.TimeCOAPoly(C.Coef(repr(float(t_coa)), exponent1="0", exponent2="0"), order1="0", order2="0"),
             S.ProductPlane(S.RowUnitVector(*[getattr(C, a)(repr(float(v))) for a, v in zip("XYZ", row_v)]),
                            S.ColUnitVector(*[getattr(C, a)(repr(float(v))) for a, v in zip("XYZ", col_v)])))
-    if nominal:
-        notes.append("NOMINAL collection geometry: the image's phase history was not given")
-    if not true_times:
-        notes.append("pulse times synthetic: Measurement/ARPPoly times are not those of the collection")
-    if ref.is_default:
-        notes.append("scene centre at a PLACEHOLDER location (0N 0E)")
-    corners = [pixel_llh(r, c) for r, c in ((0, 0), (0, cols - 1), (rows - 1, cols - 1), (rows - 1, 0))]
-    now = datetime.datetime.now(datetime.timezone.utc)
-    start = str((img.attrs or {}).get("collection_start") or "2000-01-01T00:00:00.000000Z")
-    arp_xyz = [_poly1(C, ax, arp[i]) for i, ax in enumerate("XYZ")]
-    ext = [S.ProductCreationExtension(n, name=f"sarcli-note-{i}") for i, n in enumerate(notes)]
-    ext.append(S.ProductCreationExtension(json.dumps({"method": img.method, "parameters": img.parameters or {}},
-                                                     default=str), name="sarcli-image"))
-    if mp is not None:
-        ext.append(S.ProductCreationExtension(repr(fit["error_m"]), name="sarcli-fit-error-m"))
-    # ground range and cross-range resolution along the product's rows (north-south) or columns (east-west),
-    # whichever is nearer the look direction
-    rho_r, rho_cr = (float(v) for v in geometry.resolutions(acq.frequency_hz, acq.azimuth_rad, acq.elevation_rad))
-    theta = float(np.angle(np.mean(np.exp(1j * acq.azimuth_rad))))
-    res_row, res_col = (rho_cr, rho_r) if abs(np.cos(theta)) >= abs(np.sin(theta)) else (rho_r, rho_cr)
-    pol = str((img.attrs or {}).get("polarization", "")).upper()
-    tx, rcv = (pol[0], pol[1]) if len(pol) == 2 and set(pol) <= set("HV") else ("UNKNOWN", "UNKNOWN")
-    ism = f"{{{_ISM}}}"
-    root = S.SIDD(
-        S.ProductCreation(
+
+    def product_creation(self, notes, kind, now):
+        S, img = self.S, self.img
+        ext = [S.ProductCreationExtension(n, name=f"sarcli-note-{i}") for i, n in enumerate(notes)]
+        ext.append(S.ProductCreationExtension(json.dumps({"method": img.method, "parameters": img.parameters or {}},
+                                                         default=str), name="sarcli-image"))
+        if self.mp is not None:
+            ext.append(S.ProductCreationExtension(repr(self.fit["error_m"]), name="sarcli-fit-error-m"))
+        ism = f"{{{_ISM}}}"
+        return S.ProductCreation(
             S.ProcessorInformation(S.Application(f"sarcli {__version__}"),
                                    S.ProcessingDateTime(now.strftime("%Y-%m-%dT%H:%M:%S.%fZ")), S.Site("sarcli")),
             S.Classification(**{f"{ism}DESVersion": "13", f"{ism}resourceElement": "true",
@@ -224,8 +263,11 @@ def write_sidd(img: Image, path, *, phase_history=None, kind: str = "db", dynami
             S.ProductName((img.attrs or {}).get("source_name") or img.method or "sarcli image"),
             S.ProductClass("Detected Image"),
             *ext,
-        ),
-        S.Display(
+        )
+
+    def display(self, kind):
+        S = self.S
+        return S.Display(
             S.PixelType("MONO8I"), S.NumBands("1"),
             S.NonInteractiveProcessing(
                 S.ProductGenerationOptions(S.DataRemapping(S.LUTName("sarcli-" + kind), S.Predefined(
@@ -239,40 +281,45 @@ def write_sidd(img: Image, path, *, phase_history=None, kind: str = "db", dynami
                 S.SharpnessEnhancement(S.ModularTransferFunctionCompensation(S.FilterName("none"), S.FilterBank(
                     S.Predefined(S.DatabaseName("BILINEAR"))), S.Operation("CONVOLUTION"))),
                 S.DynamicRangeAdjustment(S.AlgorithmType("NONE"), S.BandStatsSource("1")), band="1"),
-        ),
-        S.GeoData(
+        )
+
+    def geo_data(self, corners):
+        S, C = self.S, self.C
+        return S.GeoData(
             S.EarthModel("WGS_84"),
             S.ImageCorners(*[S.ICP(C.Lat(repr(la)), C.Lon(repr(lo)), index=i)
                              for (la, lo), i in zip(corners, ("1:FRFC", "2:FRLC", "3:LRLC", "4:LRFC"))]),
             S.ValidData(*[S.Vertex(C.Lat(repr(la)), C.Lon(repr(lo)), index=str(k + 1))
                           for k, (la, lo) in enumerate(corners)], size="4"),
-        ),
-        S.Measurement(
+        )
+
+    def measurement(self, projection, arp, true_times):
+        S, C = self.S, self.C
+        return S.Measurement(
             projection,
-            S.PixelFootprint(C.Row(str(rows)), C.Col(str(cols))),
+            S.PixelFootprint(C.Row(str(self.rows)), C.Col(str(self.cols))),
             S.ARPFlag("REALTIME" if true_times else "PREDICTED"),
-            S.ARPPoly(*arp_xyz),
-            S.ValidData(*[S.Vertex(C.Row(str(r)), C.Col(str(c)), index=str(k + 1)) for k, (r, c) in
-                          enumerate(((0, 0), (0, cols - 1), (rows - 1, cols - 1), (rows - 1, 0)))], size="4"),
-        ),
-        S.ExploitationFeatures(
+            S.ARPPoly(*[_poly1(C, ax, arp[i]) for i, ax in enumerate("XYZ")]),
+            S.ValidData(*[S.Vertex(C.Row(str(r)), C.Col(str(c)), index=str(k + 1))
+                          for k, (r, c) in enumerate(self.corner_pixels)], size="4"),
+        )
+
+    def exploitation(self, acq, duration):
+        """``ExploitationFeatures``: ground range and cross-range resolution along the product's
+        rows (north-south) or columns (east-west), whichever is nearer the look direction."""
+        S, C, attrs = self.S, self.C, self.img.attrs or {}
+        rho_r, rho_cr = (float(v) for v in geometry.resolutions(acq.frequency_hz, acq.azimuth_rad, acq.elevation_rad))
+        theta = float(np.angle(np.mean(np.exp(1j * acq.azimuth_rad))))
+        res_row, res_col = (rho_cr, rho_r) if abs(np.cos(theta)) >= abs(np.sin(theta)) else (rho_r, rho_cr)
+        pol = str(attrs.get("polarization", "")).upper()
+        tx, rcv = (pol[0], pol[1]) if len(pol) == 2 and set(pol) <= set("HV") else ("UNKNOWN", "UNKNOWN")
+        start = str(attrs.get("collection_start") or "2000-01-01T00:00:00.000000Z")
+        return S.ExploitationFeatures(
             S.Collection(S.Information(S.SensorName("sarcli"), S.RadarMode(C.ModeType("SPOTLIGHT")),
                                        S.CollectionDateTime(start), S.CollectionDuration(repr(duration)),
                                        S.Resolution(C.Range(repr(rho_r)), C.Azimuth(repr(rho_cr)))),
-                         identifier=(img.attrs or {}).get("source_name") or "sarcli"),
+                         identifier=attrs.get("source_name") or "sarcli"),
             S.Product(S.Resolution(C.Row(repr(res_row)), C.Col(repr(res_col))),
                       S.Ellipticity(repr(max(res_row, res_col) / min(res_row, res_col))),
                       S.Polarization(S.TxPolarizationProc(tx), S.RcvPolarizationProc(rcv))),
-        ),
-    )
-    tree = root.getroottree()
-    sec = sksidd.NitfSecurityFields(clas="U")
-    meta = sksidd.NitfMetadata(
-        file_header_part=sksidd.NitfFileHeaderPart(ostaid="sarcli", security=sec),
-        images=[sksidd.NitfProductImageMetadata(
-            xmltree=tree, im_subheader_part=sksidd.NitfImSubheaderPart(security=sec),
-            de_subheader_part=sksidd.NitfDeSubheaderPart(security=sec))])
-    with atomic_path(path) as tmp:
-        with open(tmp, "wb") as f, sksidd.NitfWriter(f, meta) as w:
-            w.write_image(0, pixels)
-    return info
+        )

@@ -108,37 +108,15 @@ def _pvp_dtype():
 
 def _build_xml(ph: PhaseHistory, ref: ReferencePoint, pvp: np.ndarray, signal_format: str):
     """The CPHD XML (without ReferenceGeometry) for a phase history and its PVPs."""
-    from sarkit import wgs84
-
     E = lxml.builder.ElementMaker(namespace=CPHD_NS, nsmap={None: CPHD_NS})
     acq = ph.acquisition
     P, M = ph.data.shape
-    grid = acq.grid
     fx1, fx2 = pvp["FX1"], pvp["FX2"]
-    x_lo, x_hi = grid.x[0] - grid.dx / 2, grid.x[-1] + grid.dx / 2
-    y_lo, y_hi = grid.y[0] - grid.dy / 2, grid.y[-1] + grid.dy / 2
-    corners_enu = np.array([[x_lo, y_lo, 0], [x_lo, y_hi, 0], [x_hi, y_hi, 0], [x_hi, y_lo, 0]], float)
-    corners_llh = wgs84.cartesian_to_geodetic(enu_to_ecf(corners_enu, ref))
-    basis = enu_basis(ref)
-    fixed_fx = bool(np.all(fx1 == fx1[0]) and np.all(fx2 == fx2[0]) and np.all(pvp["SCSS"] == pvp["SCSS"][0]))
-    fixed_toa = bool(np.all(pvp["TOA1"] == pvp["TOA1"][0]) and np.all(pvp["TOA2"] == pvp["TOA2"][0]))
-    fixed_srp = bool(np.all(pvp["SRPPos"] == pvp["SRPPos"][0]))
     t0, t1 = float(pvp["TxTime"][0]), float(pvp["TxTime"][-1])
-    # dwell in reference time: when each pulse meets the SRP (TxTime + |Tx - SRP| / c); at
-    # spaceborne ranges that differs from TxTime by milliseconds
-    tref = pvp["TxTime"] + np.linalg.norm(pvp["TxPos"] - pvp["SRPPos"], axis=1) / geometry.C
-    r0_t, r1_t = float(tref.min()), float(tref.max())
-    toa_saved = float(np.max(pvp["TOA2"] - pvp["TOA1"]))
     note = "sarcli " + __version__ + (
         "; scene centre at a PLACEHOLDER location (0N 0E): no scene_center_lat_deg/lon_deg given"
         if ref.is_default else "")
-    pol = str(ph.attrs.get("polarization", "")).upper()
-    tx_pol, rcv_pol = (pol[0], pol[1]) if len(pol) == 2 and set(pol) <= set("HV") else ("UNSPECIFIED",) * 2
-
-    def area(tag):
-        return getattr(E, tag)(_xy(E, "X1Y1", x_lo, y_lo), _xy(E, "X2Y2", x_hi, y_hi))
-
-    root = E.CPHD(
+    return E.CPHD(
         E.CollectionID(
             E.CollectorName(str(ph.attrs.get("collector_name", "sarcli"))[:60] or "sarcli"),
             E.CoreName((acq.name or "sarcli-phase-history")[:60]),
@@ -157,23 +135,7 @@ def _build_xml(ph: PhaseHistory, ref: ReferencePoint, pvp: np.ndarray, signal_fo
             E.FxBand(E.FxMin(repr(float(fx1.min()))), E.FxMax(repr(float(fx2.max())))),
             E.TOASwath(E.TOAMin(repr(float(pvp["TOA1"].min()))), E.TOAMax(repr(float(pvp["TOA2"].max())))),
         ),
-        E.SceneCoordinates(
-            E.EarthModel("WGS_84"),
-            E.IARP(_xyz(E, "ECF", ref.ecf),
-                   E.LLH(E.Lat(repr(ref.lat_deg)), E.Lon(repr(ref.lon_deg)), E.HAE(repr(ref.hae_m)))),
-            E.ReferenceSurface(E.Planar(_xyz(E, "uIAX", basis[0]), _xyz(E, "uIAY", basis[1]))),
-            area("ImageArea"),
-            E.ImageAreaCornerPoints(*[
-                E.IACP(E.Lat(repr(float(c[0]))), E.Lon(repr(float(c[1]))), index=str(i + 1))
-                for i, c in enumerate(corners_llh)]),
-            E.ImageGrid(
-                E.Identifier("sarcli-grid"),
-                E.IARPLocation(E.Line(repr(grid.nx // 2 - grid.cx / grid.dx)),
-                               E.Sample(repr(grid.ny // 2 - grid.cy / grid.dy))),
-                E.IAXExtent(E.LineSpacing(repr(float(grid.dx))), E.FirstLine("0"), E.NumLines(str(grid.nx))),
-                E.IAYExtent(E.SampleSpacing(repr(float(grid.dy))), E.FirstSample("0"), E.NumSamples(str(grid.ny))),
-            ),
-        ),
+        _scene_coordinates(E, ref, acq.grid),
         E.Data(
             E.SignalArrayFormat(signal_format),
             E.NumBytesPVP(str(pvp.dtype.itemsize)),
@@ -182,34 +144,90 @@ def _build_xml(ph: PhaseHistory, ref: ReferencePoint, pvp: np.ndarray, signal_fo
                       E.SignalArrayByteOffset("0"), E.PVPArrayByteOffset("0")),
             E.NumSupportArrays("0"),
         ),
-        E.Channel(
-            E.RefChId(CHANNEL_ID),
-            E.FXFixedCPHD(str(fixed_fx).lower()),
-            E.TOAFixedCPHD(str(fixed_toa).lower()),
-            E.SRPFixedCPHD(str(fixed_srp).lower()),
-            E.Parameters(
-                E.Identifier(CHANNEL_ID),
-                E.RefVectorIndex(str(P // 2)),
-                E.FXFixed(str(fixed_fx).lower()),
-                E.TOAFixed(str(fixed_toa).lower()),
-                E.SRPFixed(str(fixed_srp).lower()),
-                E.Polarization(E.TxPol(tx_pol), E.RcvPol(rcv_pol)),
-                E.FxC(repr(0.5 * float(fx1.min() + fx2.max()))),
-                E.FxBW(repr(float(fx2.max() - fx1.min()))),
-                E.TOASaved(repr(toa_saved)),
-                E.DwellTimes(E.CODId("1"), E.DwellId("1")),
-                area("ImageArea"),
-            ),
-        ),
+        _channel(E, pvp, acq.grid, str(ph.attrs.get("polarization", ""))),
         E.PVP(*_pvp_xml(E)),
-        E.Dwell(
-            E.NumCODTimes("1"),
-            E.CODTime(E.Identifier("1"), _poly0(E, "CODTimePoly", 0.5 * (r0_t + r1_t))),
-            E.NumDwellTimes("1"),
-            E.DwellTime(E.Identifier("1"), _poly0(E, "DwellTimePoly", r1_t - r0_t)),
+        _dwell(E, pvp),
+    )
+
+
+def _area_bounds(grid):
+    """The grid's area (pixel edges) in the scene's plane: x low, x high, y low, y high."""
+    return grid.x[0] - grid.dx / 2, grid.x[-1] + grid.dx / 2, grid.y[0] - grid.dy / 2, grid.y[-1] + grid.dy / 2
+
+
+def _image_area(E, tag, grid):
+    x_lo, x_hi, y_lo, y_hi = _area_bounds(grid)
+    return getattr(E, tag)(_xy(E, "X1Y1", x_lo, y_lo), _xy(E, "X2Y2", x_hi, y_hi))
+
+
+def _scene_coordinates(E, ref: ReferencePoint, grid):
+    """``SceneCoordinates``: the IARP on the Earth, its tangent plane, and the grid on it."""
+    from sarkit import wgs84
+
+    x_lo, x_hi, y_lo, y_hi = _area_bounds(grid)
+    corners_enu = np.array([[x_lo, y_lo, 0], [x_lo, y_hi, 0], [x_hi, y_hi, 0], [x_hi, y_lo, 0]], float)
+    corners_llh = wgs84.cartesian_to_geodetic(enu_to_ecf(corners_enu, ref))
+    basis = enu_basis(ref)
+    return E.SceneCoordinates(
+        E.EarthModel("WGS_84"),
+        E.IARP(_xyz(E, "ECF", ref.ecf),
+               E.LLH(E.Lat(repr(ref.lat_deg)), E.Lon(repr(ref.lon_deg)), E.HAE(repr(ref.hae_m)))),
+        E.ReferenceSurface(E.Planar(_xyz(E, "uIAX", basis[0]), _xyz(E, "uIAY", basis[1]))),
+        _image_area(E, "ImageArea", grid),
+        E.ImageAreaCornerPoints(*[
+            E.IACP(E.Lat(repr(float(c[0]))), E.Lon(repr(float(c[1]))), index=str(i + 1))
+            for i, c in enumerate(corners_llh)]),
+        E.ImageGrid(
+            E.Identifier("sarcli-grid"),
+            E.IARPLocation(E.Line(repr(grid.nx // 2 - grid.cx / grid.dx)),
+                           E.Sample(repr(grid.ny // 2 - grid.cy / grid.dy))),
+            E.IAXExtent(E.LineSpacing(repr(float(grid.dx))), E.FirstLine("0"), E.NumLines(str(grid.nx))),
+            E.IAYExtent(E.SampleSpacing(repr(float(grid.dy))), E.FirstSample("0"), E.NumSamples(str(grid.ny))),
         ),
     )
-    return root
+
+
+def _channel(E, pvp: np.ndarray, grid, polarization: str):
+    """``Channel``: what is fixed over the pulses, the band and the polarisation."""
+    fx1, fx2 = pvp["FX1"], pvp["FX2"]
+    fixed_fx = bool(np.all(fx1 == fx1[0]) and np.all(fx2 == fx2[0]) and np.all(pvp["SCSS"] == pvp["SCSS"][0]))
+    fixed_toa = bool(np.all(pvp["TOA1"] == pvp["TOA1"][0]) and np.all(pvp["TOA2"] == pvp["TOA2"][0]))
+    fixed_srp = bool(np.all(pvp["SRPPos"] == pvp["SRPPos"][0]))
+    toa_saved = float(np.max(pvp["TOA2"] - pvp["TOA1"]))
+    pol = polarization.upper()
+    tx_pol, rcv_pol = (pol[0], pol[1]) if len(pol) == 2 and set(pol) <= set("HV") else ("UNSPECIFIED",) * 2
+    return E.Channel(
+        E.RefChId(CHANNEL_ID),
+        E.FXFixedCPHD(str(fixed_fx).lower()),
+        E.TOAFixedCPHD(str(fixed_toa).lower()),
+        E.SRPFixedCPHD(str(fixed_srp).lower()),
+        E.Parameters(
+            E.Identifier(CHANNEL_ID),
+            E.RefVectorIndex(str(pvp.shape[0] // 2)),
+            E.FXFixed(str(fixed_fx).lower()),
+            E.TOAFixed(str(fixed_toa).lower()),
+            E.SRPFixed(str(fixed_srp).lower()),
+            E.Polarization(E.TxPol(tx_pol), E.RcvPol(rcv_pol)),
+            E.FxC(repr(0.5 * float(fx1.min() + fx2.max()))),
+            E.FxBW(repr(float(fx2.max() - fx1.min()))),
+            E.TOASaved(repr(toa_saved)),
+            E.DwellTimes(E.CODId("1"), E.DwellId("1")),
+            _image_area(E, "ImageArea", grid),
+        ),
+    )
+
+
+def _dwell(E, pvp: np.ndarray):
+    """``Dwell`` in reference time: when each pulse meets the SRP (TxTime + |Tx - SRP| / c); at
+    spaceborne ranges that differs from TxTime by milliseconds."""
+    tref = pvp["TxTime"] + np.linalg.norm(pvp["TxPos"] - pvp["SRPPos"], axis=1) / geometry.C
+    r0_t, r1_t = float(tref.min()), float(tref.max())
+    return E.Dwell(
+        E.NumCODTimes("1"),
+        E.CODTime(E.Identifier("1"), _poly0(E, "CODTimePoly", 0.5 * (r0_t + r1_t))),
+        E.NumDwellTimes("1"),
+        E.DwellTime(E.Identifier("1"), _poly0(E, "DwellTimePoly", r1_t - r0_t)),
+    )
 
 
 def _poly0(E, tag, value):
