@@ -51,9 +51,9 @@ def _quality_table(img_path, ph_path) -> tuple[str, list]:
     from sarcli.io.hdf5 import read_image, read_phase_history
 
     results = image_quality(read_image(img_path), read_phase_history(ph_path))
-    from sarcli.cli.quality import _table
+    from sarcli.cli.quality import results_table
 
-    return _table(results), results
+    return results_table(results), results
 
 
 def render(out: Path) -> str:

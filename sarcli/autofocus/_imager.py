@@ -456,7 +456,7 @@ class BlockImager:
         x = np.empty(nb, np.complex128) if grad else None
         y = np.empty(nb, np.complex128) if grad else None
         # the calling thread's count: the halves' searches, side by side, run theirs on one each
-        # (entropy._each); a search alone uses the idle cores too
+        # (_search.each); a search alone uses the idle cores too
         for part in self.parts:
             dE, dT = kern.entropy_sums(part, e, self.order, x, y)
             E, T = E + dE, T + dT

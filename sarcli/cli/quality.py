@@ -23,7 +23,7 @@ def _irw_definition(predicted) -> str:
             f"{1 / IRW_FACTOR_UNIFORM:.3f} x the IRW without a window")
 
 
-def _table(results) -> str:
+def results_table(results) -> str:
     """The results as a table: every number is the JSON's, rounded (``measured`` x_m, y_m, ...)."""
     head = (f"{'target':<7s} {'status':<7s} {'exp_x':>8s} {'exp_y':>8s} {'x_m':>8s} {'y_m':>8s} {'err_m':>7s} "
             f"{'peak':>7s} | {'IRW_r m':>8s} {'pred':>8s} {'PSLR_r':>7s} {'pred':>7s} {'ISLR_r':>7s} {'pred':>7s} | "
@@ -136,4 +136,4 @@ def command(image, ph_path, config_path, at, window, oversample, extent_cells, a
     targets = [parse_pair(a, "--at") for a in at] or None
     results = image_quality(img, acq, at=targets, truth=truth, window=window, oversample=oversample,
                             sidelobe_extent_cells=extent_cells)
-    click.echo(json.dumps(json.loads(to_json(results)), indent=2) if as_json else _table(results))
+    click.echo(json.dumps(json.loads(to_json(results)), indent=2) if as_json else results_table(results))

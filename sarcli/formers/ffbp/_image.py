@@ -88,7 +88,7 @@ sampled that much finer (``_grids.band_excess``, ``FfbpPlan.band_scale``).
 
 Planning
 --------
-:func:`plan_stages` (in ``_ffbp_plan``) needs no data: :func:`layout_stages` splits the pulses
+:func:`plan_stages` (in ``._plan``) needs no data: :func:`layout_stages` splits the pulses
 into sub-apertures (:data:`DEFAULTS`' ``base`` and ``merge``), places each level's polar frame and
 merges while a merge costs less than it saves in the final stage (:class:`StageLayout`: frames,
 then grids and operation counts); :meth:`StageLayout.plan` then decides the deapodization and
