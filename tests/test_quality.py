@@ -138,14 +138,14 @@ def test_cli_quality_json_and_table(tmp_path):
 
 
 def test_quality_table_names_the_targets_at_the_border_and_says_what_irw_is():
-    from sarcli.cli.quality import _table
+    from sarcli.cli.quality import results_table
     from sarcli.core.windows import IRW_FACTOR_UNIFORM
 
     ph, image = _ph_and_image()
     res = image_quality(image, ph)
     cut = {r["name"] for r in res if r["measured"]["patch_truncated"]}
     assert cut and cut != {"T1", "T2", "T3"}  # T1 at the centre keeps its whole neighbourhood
-    text = _table(res)
+    text = results_table(res)
     for r in res:
         m = r["measured"]
         note = f"note: {r['name']} at ({m['x_m']:.3f}, {m['y_m']:.3f}) m lies near the image border"
