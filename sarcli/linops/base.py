@@ -80,15 +80,6 @@ class Linop:
         """``AᴴA``; operators with a faster normal operator (Toeplitz) override this."""
         return Compose(self.H, self)
 
-    def concurrent(self) -> "Linop | None":
-        """An equal operator that another thread may apply while this one runs, or None.
-
-        It shares this operator's tables and owns its work arrays; operators that keep no state
-        between calls return themselves. None (the default) where that is not known to be safe:
-        a caller then applies the operator from one thread at a time.
-        """
-        return None
-
     # -- algebra ------------------------------------------------------------------------------
     def __matmul__(self, other):
         if isinstance(other, Linop):
@@ -136,10 +127,6 @@ class Adjoint(Linop):
     def H(self):
         return self.op
 
-    def concurrent(self):
-        op = self.op.concurrent()
-        return None if op is None else (self if op is self.op else Adjoint(op))
-
 
 class Compose(Linop):
     """``A B``: apply ``B`` then ``A``."""
@@ -156,9 +143,6 @@ class Compose(Linop):
     def _adjoint(self, y):
         return self.b._adjoint(self.a._adjoint(y))
 
-    def concurrent(self):
-        return _pair(self, Compose)
-
 
 class Sum(Linop):
     """``A + B`` (same shapes)."""
@@ -174,17 +158,6 @@ class Sum(Linop):
 
     def _adjoint(self, y):
         return self.a._adjoint(y) + self.b._adjoint(y)
-
-    def concurrent(self):
-        return _pair(self, Sum)
-
-
-def _pair(op, cls):
-    """:meth:`Linop.concurrent` of an operator made of ``op.a`` and ``op.b``."""
-    a, b = op.a.concurrent(), op.b.concurrent()
-    if a is None or b is None:
-        return None
-    return op if (a is op.a and b is op.b) else cls(a, b)
 
 
 class Scaled(Linop):
@@ -203,10 +176,6 @@ class Scaled(Linop):
     def gram(self):
         return Scaled(self.op.gram(), abs(self.scalar) ** 2)
 
-    def concurrent(self):
-        op = self.op.concurrent()
-        return None if op is None else (self if op is self.op else Scaled(op, self.scalar))
-
 
 class Identity(Linop):
     """The identity on arrays of ``shape`` (the ℓ1 prior's T)."""
@@ -219,9 +188,6 @@ class Identity(Linop):
 
     def _adjoint(self, y):
         return y.astype(self.dtype, copy=True)
-
-    def concurrent(self):
-        return self  # no state between calls
 
 
 class Diagonal(Linop):
@@ -237,9 +203,6 @@ class Diagonal(Linop):
 
     def _adjoint(self, y):
         return np.conj(self.d) * y
-
-    def concurrent(self):
-        return self  # no state between calls
 
 
 class MatrixLinop(Linop):
@@ -266,9 +229,6 @@ class MatrixLinop(Linop):
 
     def _adjoint(self, y):
         return (self.matrix.conj().T @ y.reshape(-1)).reshape(self.ishape)
-
-    def concurrent(self):
-        return self  # no state between calls
 
 
 def gram_eigmax(gram: Linop, *, iters: int = 30, seed: int = 0, callback=None) -> float:

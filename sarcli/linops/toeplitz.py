@@ -10,7 +10,6 @@ NUFFT adjoint; the grid-centre phase ramp cancels in ``AᴴA``.
 
 from __future__ import annotations
 
-import copy
 import threading
 
 import finufft
@@ -80,12 +79,6 @@ class ToeplitzGram(Linop):
 
     def _adjoint(self, y):
         return self.apply(y)  # Hermitian
-
-    def concurrent(self) -> "ToeplitzGram":
-        """The same operator (its kernel shared) with work arrays of its own."""
-        other = copy.copy(self)
-        other._lock, other._work = threading.Lock(), None
-        return other
 
     def _forward_scaled(self, x, scale):
         return self.apply(x, scale)

@@ -20,11 +20,10 @@ __all__ = ["WarpedGram"]
 
 class _RunWork:
     """A Gram's work arrays for one run, kept between calls: fresh arrays of this size cost page
-    faults that outweigh the arithmetic. Each :class:`WarpedGram` has its own, so two of them
-    (:meth:`WarpedGram.concurrent`) run in two threads at once."""
+    faults that outweigh the arithmetic."""
 
     def __init__(self, run):
-        self.toeplitz = run.toeplitz().concurrent()
+        self.toeplitz = run.toeplitz()
         self.grid = np.empty(run.shape, np.complex64)
         self.applied = np.empty(run.shape, np.complex64)
         self.scratch = np.empty((0,) + run.shape, np.complex64)
@@ -51,10 +50,6 @@ class WarpedGram(Linop):
         self._sums = []      # per thread: (complex64 part, complex128 sum), made on first use
         self._pool, self._pool_size = None, 0    # threads beside the caller's, one per run at most
         self._lock = threading.Lock()   # the work arrays serve one call at a time
-
-    def concurrent(self) -> "WarpedGram":
-        """The same ``AᴴA`` (the runs' tables shared) with work arrays of its own."""
-        return WarpedGram(self.op)
 
     def _forward(self, x):
         return self._forward_scaled(x, 1.0)

@@ -20,8 +20,7 @@ from ..formers.planning.cost import regularize_bytes
 from ..solvers import ADMM, tikhonov
 from ..linops import sparsifying_operator
 from .forecast import Forecast, solver_overhead
-from .._native import using_threads
-from .lampath import PATH_FIRST_ITERS, PATH_ITERS, auto_lambda, path_normal
+from .lampath import PATH_FIRST_ITERS, PATH_ITERS, auto_lambda
 from .options import (DEFAULT_BETA_RATIO, DEFAULT_LAM, OPERATORS, PRIORS, RegularizeOptions)
 from .problem import Problem, matched_filter, scale_problem
 from .regparam import SELECT_PATH
@@ -84,7 +83,7 @@ class Regularization:
         o = self.options
         self.lam = DEFAULT_LAM[o.prior] if o.auto else float(o.lam)
         self.beta = float(o.beta) if o.beta is not None else DEFAULT_BETA_RATIO * self.lam
-        self.problem = self.forecast = self.u0 = self.path = None
+        self.problem = self.forecast = self.u0 = self.path_normal = self.path_counter = None
         self._path_start = 0
         self.params, self.products = {}, {}
 
@@ -129,20 +128,14 @@ class Regularization:
         return True
 
     def _time_path(self, overhead: float) -> None:
-        """The λ path's normal equations (:meth:`Problem.path_normal`), and one of its products and
-        its solver's passes timed as the path will run them (the probe's solver beside the other,
-        each with its share of the threads): the forecast's path term. The product is the path's."""
+        """The λ path's normal equations (:meth:`Problem.path_normal`), and one of its products timed
+        for the forecast's path term (counted with the path's)."""
         pb = self.problem
         self._path_start = pb.counter.count
-        self.path = path_normal(*pb.path_normal(self.params))
-        with using_threads(None if self.path.split is None else self.path.split[1]):
-            x = pb.mf * (pb.s_a / pb.s_b)
-            t0 = time.perf_counter()
-            self.path.normal.gram.forward(x)
-            product = time.perf_counter() - t0
-            if self.path.split is not None:
-                overhead = solver_overhead(self.T, self.D, pb.mf)
-        self.forecast.path_timed(product, overhead, side_by_side=self.path.split is not None)
+        self.path_normal, self.path_counter = pb.path_normal(self.params)
+        t0 = time.perf_counter()
+        self.path_normal.gram.forward(pb.mf * (pb.s_a / pb.s_b))
+        self.forecast.path_timed(time.perf_counter() - t0, overhead)
 
     def choose_lambda(self) -> None:
         """λ (and β at the kept ratio) by the warm-started path; its last solution warm-starts the
@@ -150,10 +143,11 @@ class Regularization:
         pb, o = self.problem, self.options
         if self.progress is not None:
             self.progress.set_description(f"regularize {o.prior}: lam path")
-        self.lam, self.beta, self.u0 = auto_lambda(pb, self.path, self.T, self.D, self.u0, self.params, self.tick)
-        counter = self.path.counter
+        self.lam, self.beta, self.u0 = auto_lambda(pb, self.path_normal, self.T, self.D, self.u0, self.params,
+                                                   self.tick)
+        counter = self.path_counter
         self.products["path"] = pb.counter.count - self._path_start + (counter.count if counter is not pb.counter else 0)
-        self.path = None
+        self.path_normal = self.path_counter = None
         if self.progress is not None:
             # the path stopped early: the total shrinks to what is left (not reset, so the bar's rate
             # and time estimate carry on)

@@ -8,7 +8,6 @@ counted" and "Progress and the forecast").
 
 from __future__ import annotations
 
-import threading
 import time
 
 import numpy as np
@@ -31,40 +30,26 @@ PATH_POINTS, FINAL_SHARE = 5, 0.55
 
 class CountedGram(Linop):
     """``AᴴA`` that counts its applications (``count``): the cost of a run in products, the same on
-    every machine, for the scaling's power iterations, the λ path and the final solve alike.
-    Its :meth:`concurrent` copies add to the same count."""
+    every machine, for the scaling's power iterations, the λ path and the final solve alike."""
 
-    def __init__(self, op: Linop, *, _tally=None):
+    def __init__(self, op: Linop):
         super().__init__(op.ishape, op.oshape, op.dtype)
-        self.op = op
-        self._tally = [0, threading.Lock()] if _tally is None else _tally
-
-    @property
-    def count(self) -> int:
-        return self._tally[0]
-
-    def _add(self):
-        with self._tally[1]:
-            self._tally[0] += 1
-
-    def concurrent(self):
-        op = self.op.concurrent()
-        return None if op is None else CountedGram(op, _tally=self._tally)
+        self.op, self.count = op, 0
 
     def _forward(self, x):
-        self._add()
+        self.count += 1
         return self.op.forward(x)
 
     def _adjoint(self, y):
-        self._add()
+        self.count += 1
         return self.op.adjoint(y)
 
     def _forward_scaled(self, x, scale):
-        self._add()
+        self.count += 1
         return self.op._forward_scaled(x, scale)
 
     def _adjoint_scaled(self, y, scale):
-        self._add()
+        self.count += 1
         return self.op._adjoint_scaled(y, scale)
 
 
@@ -78,8 +63,8 @@ class Forecast:
     its cap. Each iteration costs one product (two for CG, which logs its residual) plus the
     solver's passes over the image (differences, shrinkage, reductions), measured by
     :func:`solver_overhead`: with a fast operator they are a third of an iteration. A path
-    iteration is timed as the path runs it (:meth:`path_timed`: its own operator, for a warped one
-    half the sub-apertures; the two solvers side by side on their share of the threads).
+    iteration is timed on its own operator (:meth:`path_timed`: for a warped one, half the
+    sub-apertures).
     """
 
     def __init__(self, prior, operator, power_iters, iters, auto, notice, tick):
@@ -92,13 +77,10 @@ class Forecast:
         self.notice, self.tick, self.estimate, self.t = notice, tick, {}, [time.perf_counter()]
         self.gram_s = None
         self.path_s = None   # one path iteration of one solver, timed (:meth:`path_timed`)
-        self.side_by_side = False
 
-    def path_timed(self, product_s: float, overhead_s: float, *, side_by_side: bool) -> None:
-        """One of the path's products and its solver's passes, timed as the path runs them;
-        ``side_by_side``: its two solvers run at once (an iteration of both costs one of either)."""
+    def path_timed(self, product_s: float, overhead_s: float) -> None:
+        """One of the path's products (its own operator) and its solver's passes."""
         self.path_s = self.per * product_s + overhead_s
-        self.side_by_side = bool(side_by_side)
 
     def _path_iterations(self, points):
         return 2 * ((PATH_ITERS + 1) * points + self.first) if self.auto else 0
@@ -117,7 +99,7 @@ class Forecast:
         if self.path_s is None:
             path_s = path * (self.per * g + overhead_s)
         else:
-            path_s = path * self.path_s / (2 if self.side_by_side else 1)
+            path_s = path * self.path_s
         return g * self.power_iters + path_s + final_iterations * (self.per * g + overhead_s)
 
     def announce(self, overhead_s: float, memory_bytes: float | None = None) -> None:
