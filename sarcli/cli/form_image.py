@@ -55,6 +55,10 @@ _METHOD_KNOBS = ("eps", "kernel", "oversample", "width", "upsample", "interp", "
               help="The DEM's heights: above the WGS-84 ellipsoid or the EGM96/EGM2008 geoid (default: its metadata, else ellipsoid).")
 @click.option("--crs", default=None, metavar="EPSG:NNNN",
               help="The map grid's CRS with --dem (default: the UTM zone of the scene centre).")
+@click.option("--complex128", "complex128", is_flag=True,
+              help="Store the image complex128 (default: complex64 where the samples are complex64, unless "
+                   "the accuracy asked (--tolerance, nufft's --eps, direct, float64 precision) is finer "
+                   "than complex64's rounding; else complex128).")
 @threads_option
 @cphd_options
 @export_options
@@ -63,14 +67,16 @@ _METHOD_KNOBS = ("eps", "kernel", "oversample", "width", "upsample", "interp", "
 def command(ctx, input_path, output, method, autofocus_method, window, taylor_nbar, taylor_sll_db, center, extent,
             pixel_size,
             eps, kernel, oversample, width, upsample, interp, precision, base, merge, os_range, os_angle, tile,
-            tolerance, dem_path, dem_datum, crs, nthreads, channel, sgn, troposphere, png_path, tif_path):
+            tolerance, dem_path, dem_datum, crs, complex128, nthreads, channel, sgn, troposphere, png_path, tif_path):
     """Form the matched-filter image of a phase history (or of a k-grid file with --method pfa)."""
     from ..formers.formation import form_image
     from pathlib import Path
 
     from ..io import open_input
     from ..io.export import SICD_SUFFIXES
-    from ..io.hdf5 import write_image
+    import numpy as np
+
+    from ..io.hdf5 import stored_image_dtype, write_image
     from ..core.grid import resolve_grid
     from ..formers.cost import check_form_image
 
@@ -127,10 +133,25 @@ def command(ctx, input_path, output, method, autofocus_method, window, taylor_nb
             raise click.BadParameter("SICD output needs a phase history (the collection geometry); "
                                      "a k-grid file has none", param_hint="--output")
         write_sicd(img, output, phase_history=src)
-    else:
-        write_image(output, img)
+    else:   # the samples' type (a k-grid's are complex128) and the accuracy asked set the stored image's
+        samples = getattr(getattr(src, "data", None), "dtype", np.complex128)
+        write_image(output, img, stored_image_dtype(samples, tolerance=_accuracy(method, tolerance, eps, precision),
+                                                    complex128=complex128))
     write_side_outputs(img, png_path, tif_path)
     wrote(output, f"{img.method}, {img.image.shape[1]} x {img.image.shape[0]} pixels, {img.runtime_s:.3g} s")
+
+
+def _accuracy(method, tolerance, eps, precision):
+    """The relative error the image is asked to meet: ``--tolerance``; else nufft's ``--eps``, 0 for
+    the exact ``direct`` and for float64 backprojection; else None (the former's defaults, whose
+    errors exceed complex64's rounding)."""
+    if tolerance is not None:
+        return tolerance
+    if method == "nufft":
+        return eps
+    if method == "direct" or precision == "float64":
+        return 0.0
+    return None
 
 
 def _autofocused(src, method, grid):
