@@ -155,14 +155,21 @@ class StageLayout:
         ntap = NTAPS[INTERPOLATORS[self.knobs["interp"]]]
         n_pix = self.grid.nx * self.grid.ny
         P = self.pos.shape[0]
+        n_freq = int(np.shape(self.freq_hz)[-1])
         ops = {"stage0": float(P) * levels[0].n_u * levels[0].n_q * ntap, "merge": 0.0,
                "final": float(n_pix) * levels[-1].n * ntap * ntap,
                "nodes": float(max(lv.n * lv.n_u * lv.n_q for lv in levels)),
                "stage0_nodes": float(levels[0].n) * levels[0].n_u * levels[0].n_q,
-               "pairs": float(n_pix) * levels[-1].n}
+               "final_pairs": float(n_pix) * levels[-1].n, "merge_pairs": 0.0,
+               # the deapodized kernels' weights: per pulse, sample, level and axis (both axes
+               # counted, before the plan decides which it deapodizes)
+               "tones": float(P) * n_freq * len(levels) * 2 if self.knobs["interp"] == "optimal" else 0.0,
+               # bytes first touched: every level's polar grids and the complex128 image
+               "fresh_bytes": float(sum(lv.nbytes for lv in levels)) + 16.0 * n_pix}
         for lv in levels[1:]:
             ops["merge"] += float(lv.n) * lv.n_u * lv.n_q * merge * 2 * ntap
-            ops["pairs"] += float(lv.n) * lv.n_u * lv.n_q * merge
+            ops["merge_pairs"] += float(lv.n) * lv.n_u * lv.n_q * merge
+        ops["pairs"] = ops["merge_pairs"] + ops["final_pairs"]
         return ops
 
     @property

@@ -30,7 +30,8 @@ COST_MODEL_PATH = Path(__file__).with_name("cost_model.json")
 #: Per-operation seconds (one core) where neither a calibration nor the shipped file has one;
 #: ``startup``, ``planning``: seconds; ``read_per_byte``, ``write_per_byte``: seconds per byte.
 DEFAULT_COSTS = {"direct": 6e-9, "bp": 3e-9, "bp_fft": 4e-9, "ffbp_stage0": 4e-9, "ffbp_mac": 1.5e-9,
-                 "ffbp_node0": 5e-9, "ffbp_pair": 5e-9, "nufft_spread": 3e-9, "nufft_fft": 3e-9,
+                 "ffbp_node0": 5e-9, "ffbp_pair": 5e-9, "ffbp_final": 1.5e-8, "ffbp_tone": 3e-9,
+                 "ffbp_touch": 5e-10, "nufft_spread": 3e-9, "nufft_fft": 3e-9,
                  "subimage_point": 2e-9, "threads": 2, "startup": 0.5, "planning": 0.02,
                  "read_per_byte": 1e-9, "write_per_byte": 2e-9}
 #: What a fresh ``sar form-image`` imports before it forms an image (the start-up it pays).

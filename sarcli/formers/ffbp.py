@@ -152,7 +152,7 @@ def _descend(levels, a, b):
 # ---------------------------------------------------------------------------------------------
 def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weights=None, *, base=None,
          merge=None, os_range=None, os_angle=None, interp=None, upsample=None, final=None, nthreads=None,
-         receive_position_m=None, return_plan=False):
+         receive_position_m=None, return_plan=False, timings=None):
     """Spherical matched-filter image by fast factorised backprojection (module docstring).
 
     Parameters
@@ -187,6 +187,10 @@ def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weigh
         Separate receive positions ``r`` (range ``(|t − x| + |r − x|)/2 − r0``).
     return_plan : bool
         Also return the :class:`FfbpPlan` (stages, predicted error).
+    timings : dict, optional
+        Processor seconds (all threads, :func:`time.process_time`) of each part added to it under
+        ``profiles`` (reading and the FFTs), ``tones``, ``stage0``, ``merge`` and ``final``: what
+        the planner's calibration measures (:func:`sarcli.formers.planner.calibrate`).
 
     Returns
     -------
@@ -251,6 +255,7 @@ def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weigh
     work = None   # the profiles' buffers, made at the first block
     # the pulses through stage 0 (each group's merges and final stage follow its own pulses)
     bar = progress(total=P, desc="ffbp", unit="pulse")
+    clock = _Clock(timings)
     with bar, using_threads(nthreads) as nthr:
         # depth first: the last level's sub-images in groups, each group's whole subtree (stage 0,
         # merges) formed, added to the image and freed, so memory does not grow with the pulses
@@ -271,15 +276,19 @@ def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weigh
                     wb = deap if wb is None else wb * deap
                     if tones:   # per pulse: a [pulses, M] block of its own
                         wb = np.array(np.broadcast_to(wb, (p1 - p0, M)), order="C")
+                    clock("profiles")
                     for rates, off, (h_psi, inv_psi) in tones:
                         tone_weights(k_all if k_all.shape[0] == 1 else k_all[p0:p1], rates[:, p0:p1], off,
                                      1.0 / h_psi, inv_psi, wb)
+                    clock("tones")
                 pre, pim = range_profiles(work.samples(d, slice(p0, p1)), wb, total, n_len, nthr,
                                           dtype=np.complex64, work=work)
+                clock("profiles")
                 stage0(pre, pim, lev.first[s0:s1] - p0, lev.count[s0:s1], np.ascontiguousarray(pulses[:, p0:p1]),
                        series[s0:s1], frame(lev, s0, s1), tab_p, kind, bistatic, n_len // 2, n_len, PAD,
                        plan.dq, plan.kref, cur_re[s0 - lo:s1 - lo], cur_im[s0 - lo:s1 - lo])
                 del pre, pim
+                clock("stage0")
                 bar.update(p1 - p0)
             for l in range(1, len(levels)):
                 child, parent = levels[l - 1], levels[l]
@@ -291,13 +300,31 @@ def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weigh
                            pc[u0:u1], kind, tab_q, tab_t, plan.dq, plan.kref, nxt_re, nxt_im)
                 cur_re, cur_im = nxt_re, nxt_im
                 del nxt_re, nxt_im
+                clock("merge")
             last = levels[-1]
             if img is None:
                 img = np.zeros(grid.shape, dtype=np.complex128)
             final_stage(cur_re, cur_im, frame(last, a0, b0), grid.x, grid.y, kind, tab_q, tab_t, plan.dq,
                        plan.kref, img)
             del cur_re, cur_im
+            clock("final")
     return (img, plan) if return_plan else img
+
+
+class _Clock:
+    """Processor seconds since the last call added to ``timings[part]`` (nothing without a dict)."""
+
+    def __init__(self, timings):
+        import time
+
+        self.timings, self.now = timings, time.process_time
+        self.last = self.now() if timings is not None else 0.0
+
+    def __call__(self, part):
+        if self.timings is not None:
+            t = self.now()
+            self.timings[part] = self.timings.get(part, 0.0) + t - self.last
+            self.last = t
 
 
 def ffbp_image(data, freq_hz, antenna_position_m, range_to_center_m, grid, weights=None, **knobs):

@@ -68,9 +68,17 @@ class Candidate:
                 "predicted_s": self.seconds, "memory_bytes": self.memory, "meets": self.meets}
 
 
-#: ffbp's per-operation constants and the plan counts (``FfbpPlan.ops``) they multiply.
-_FFBP_TERMS = (("ffbp_stage0", ("stage0",)), ("ffbp_node0", ("stage0_nodes",)), ("ffbp_mac", ("merge", "final")),
-               ("ffbp_pair", ("pairs",)))
+#: ffbp's per-operation constants and the plan counts (``FfbpPlan.ops``) they multiply: stage 0
+#: per pulse-node tap and per node, the merges per multiply-add and per (node, child) pair, the
+#: final stage per (pixel, child) pair, the deapodized kernels' weights per pulse-sample-level-axis,
+#: and every byte first touched (polar grids and image: page faults, which small calibration runs,
+#: reusing their memory, do not pay).
+_FFBP_TERMS = (("ffbp_stage0", ("stage0",)), ("ffbp_node0", ("stage0_nodes",)), ("ffbp_mac", ("merge",)),
+               ("ffbp_pair", ("merge_pairs",)), ("ffbp_final", ("final_pairs",)), ("ffbp_tone", ("tones",)),
+               ("ffbp_touch", ("fresh_bytes",)))
+#: The part of ffbp (:func:`sarcli.formers.ffbp.ffbp`'s ``timings``) each constant is fitted to.
+_FFBP_PARTS = {"stage0": ("ffbp_stage0", "ffbp_node0"), "merge": ("ffbp_mac", "ffbp_pair"),
+               "final": ("ffbp_final",), "tones": ("ffbp_tone",)}
 
 
 def _ffbp_counts(ops) -> list:
@@ -367,14 +375,18 @@ def ffbp_knobs(ph, grid: Grid, tolerance: float, *, nthreads=None) -> dict | Non
     return dict(min(met, key=lambda x: x.seconds).knobs if met else min(ff, key=lambda x: x.predicted_error).knobs)
 
 
-def command_seconds(cand: Candidate, ph, grid: Grid, costs=None, *, auto=False) -> float:
+def command_seconds(cand: Candidate, ph, grid: Grid, costs=None, *, auto=False, tolerance=None) -> float:
     """Predicted wall time of the whole ``sar form-image`` command for ``cand``: start-up (imports,
     kernel loads), reading the data, the formation, writing the image, and for ``auto`` the
-    planning too, from the calibrated constants (:func:`sarcli.formers.calibration.calibrate`)."""
+    planning too, from the calibrated constants (:func:`sarcli.formers.calibration.calibrate`).
+    ``tolerance``: the command's ``--tolerance`` (with the samples' type, the stored image's)."""
+    from ..io.hdf5 import stored_image_dtype
+
     c = load_cost_model() if costs is None else costs
     P, M = ph.data.shape
-    # the samples at their stored size; the image written complex128, as the formers return it
-    io = c["read_per_byte"] * np.dtype(ph.data.dtype).itemsize * P * M + c["write_per_byte"] * 16.0 * grid.nx * grid.ny
+    # the samples at their stored size; the image as `sar form-image` stores it
+    image = stored_image_dtype(ph.data.dtype, tolerance=tolerance).itemsize
+    io = c["read_per_byte"] * np.dtype(ph.data.dtype).itemsize * P * M + c["write_per_byte"] * image * grid.nx * grid.ny
     return c["startup"] + (c["planning"] if auto else 0.0) + io + cand.seconds
 
 
@@ -386,6 +398,42 @@ def _best(fn, repeat):
         fn()
         ts.append(time.perf_counter() - t0)
     return min(ts)
+
+
+#: Bytes of each fresh array :func:`_touch_cost` touches: above the largest block the C library
+#: keeps for reuse, so every one is new memory.
+_TOUCH_BYTES = 64 * 2 ** 20
+
+
+def _touch_cost(repeat) -> float:
+    """Processor seconds per byte of writing memory first touched (page faults and the writes),
+    best of ``repeat`` fresh arrays of :data:`_TOUCH_BYTES`."""
+    best = math.inf
+    for _ in range(max(1, repeat)):
+        t = time.process_time()
+        a = np.empty(_TOUCH_BYTES // 8)
+        a.fill(1.0)
+        best = min(best, time.process_time() - t)
+        del a
+    return best / _TOUCH_BYTES
+
+
+def _fft_cost(repeat, thr) -> float:
+    """``c["bp_fft"]``: processor seconds x ``thr`` of the range profiles (numpy's FFT, one thread)
+    per pulse and ``L log2 L``, on long pulses (32 x 4096 samples, profiles of 2x), where the
+    transforms of large collections spend their time; best of ``repeat``."""
+    from ._bp_setup import profiles
+    from .backprojection import profile_length
+
+    rng = np.random.default_rng(1)
+    d = (rng.normal(size=(32, 4096)) + 1j * rng.normal(size=(32, 4096))).astype(np.complex64)
+    L = profile_length(d.shape[1], 2.0)
+    best = math.inf
+    for _ in range(max(1, repeat) + 1):
+        t = time.process_time()
+        profiles(d, None, float(d.size), L, np.complex64)
+        best = min(best, time.process_time() - t)
+    return best * thr / (d.shape[0] * L * math.log2(L))
 
 
 def _command_costs(repeat) -> dict:
@@ -419,15 +467,17 @@ def _command_costs(repeat) -> dict:
 FFBP_FLOOR = 0.1
 
 
-def _fit_ffbp(rows, rhs) -> np.ndarray:
-    """ffbp's constants (:data:`_FFBP_TERMS`) from operation counts ``rows`` [settings, terms] and
-    measured seconds ``rhs``: non-negative least squares above a floor of :data:`FFBP_FLOOR` times
-    the default constants scaled to the first setting's time, so no constant is 0."""
+def _fit_ffbp(rows, rhs, names=None) -> np.ndarray:
+    """ffbp's constants ``names`` (default: all of :data:`_FFBP_TERMS`) from operation counts
+    ``rows`` [settings, terms] and measured seconds ``rhs``: non-negative least squares above a
+    floor of :data:`FFBP_FLOOR` times the default constants scaled to the settings' time, so no
+    constant is 0."""
     from scipy.optimize import nnls
 
-    default = np.array([DEFAULT_COSTS[name] for name, _ in _FFBP_TERMS])
-    floor = FFBP_FLOOR * default * rhs[0] / float(rows[0] @ default)
-    scale = np.max(rows, axis=0)
+    names = [name for name, _ in _FFBP_TERMS] if names is None else names
+    default = np.array([DEFAULT_COSTS[name] for name in names])
+    floor = FFBP_FLOOR * default * float(np.sum(rhs)) / max(float(np.sum(rows @ default)), 1e-300)
+    scale = np.maximum(np.max(rows, axis=0), 1e-300)
     return floor + nnls(rows / scale, np.maximum(rhs - rows @ floor, 0.0))[0] / scale
 
 
@@ -437,9 +487,12 @@ def calibrate(path=None, *, repeat: int = 3) -> dict:
     reference is :data:`~sarcli.formers.calibration.COST_MODEL_PATH`); returns them.
 
     Small instances of every former (a few seconds in all); each constant is its measured time
-    (best of ``repeat``) divided by its operation count, except ffbp's four
-    (:data:`_FFBP_TERMS`), fitted by non-negative least squares to six settings with
-    different shares of each (:func:`_fit_ffbp`); then the whole command's start-up, planning, reading and writing.
+    (best of ``repeat``) divided by its operation count, except ffbp's (:data:`_FFBP_TERMS`):
+    six settings with different shares of each term are formed, each part's processor seconds
+    (``timings`` of :func:`sarcli.formers.ffbp.ffbp`, so that other jobs on the machine do not
+    inflate them) fitted by non-negative least squares to its own counts (:data:`_FFBP_PARTS`,
+    :func:`_fit_ffbp`), and the first touch of fresh memory timed on arrays too large to be
+    recycled; then the whole command's start-up, planning, reading and writing.
     """
     from ..core import geometry
     from . import ffbp as fb
@@ -466,16 +519,25 @@ def calibrate(path=None, *, repeat: int = 3) -> dict:
     c["direct"] = best(lambda: direct_spherical(d, freq, a, r0, small)) * thr / (P * M * 32 * 32)
     # ffbp: settings whose shares of stage 0 (per pulse-node tap and per node), interpolation taps
     # and (node, child) pairs differ; non-negative least squares gives the four constants
-    rows, rhs = [], []
+    rows, parts = [], []
     for knobs in ({}, {"base": 8}, {"base": 32}, {"base": 4}, {"os_range": 2.0, "os_angle": 2.0},
                   {"base": 8, "os_range": 3.0, "os_angle": 3.0}):
         plan = fb.plan_stages(a, freq, grid, **knobs)
-        lf = profile_length(M, plan.knobs["upsample"])
-        t = best(lambda: fb.ffbp(d, freq, a, r0, grid, **knobs)) * thr
+        runs = []
+        for _ in range(repeat + 1):   # the first warms up
+            runs.append({})
+            fb.ffbp(d, freq, a, r0, grid, timings=runs[-1], **knobs)
+        parts.append(min(runs[1:], key=lambda t: sum(t.values())))
         rows.append(_ffbp_counts(plan.ops))
-        rhs.append(max(t - c["bp_fft"] * P * lf * math.log2(lf), 0.0))
-    for name, v in zip((name for name, _ in _FFBP_TERMS), _fit_ffbp(np.array(rows), np.array(rhs))):
-        c[name] = float(v)
+    rows = np.array(rows)
+    names = [name for name, _ in _FFBP_TERMS]
+    for part, fitted in _FFBP_PARTS.items():
+        cols = [names.index(name) for name in fitted]
+        rhs = np.array([t.get(part, 0.0) for t in parts])
+        for name, v in zip(fitted, _fit_ffbp(rows[:, cols], rhs, list(fitted))):
+            c[name] = float(v)
+    c["ffbp_touch"] = _touch_cost(repeat)
+    c["bp_fft"] = _fft_cost(repeat, thr)
     kx, ky = geometry.kspace_coordinates(freq, az, np.radians(30))
     w = _nufft_width(1e-6)
     t = best(lambda: nufft_farfield(d, kx, ky, grid, eps=1e-6)) * thr
