@@ -116,7 +116,7 @@ from ._ffbp_grids import deapodization
 from ._ffbp_plan import (BAND_SLACK, DEFAULTS, OS_ANGLE_DEAPODIZED, OS_RANGE_DEAPODIZED, SUBTREE_BYTES,
                          UPSAMPLE_ANALYTIC, FfbpPlan, StageLayout, layout_stages, plan_stages, subtree_groups)
 
-__all__ = ["ffbp", "ffbp_image", "optimal_kernel", "plan_stages", "layout_stages", "predict_error", "interp_error",
+__all__ = ["ffbp", "ffbp_image", "optimal_kernel", "FINAL_COLUMNS", "plan_stages", "layout_stages", "predict_error", "interp_error",
            "FfbpPlan", "StageLayout", "DEFAULTS", "BAND_SLACK", "OS_RANGE_DEAPODIZED", "OS_ANGLE_DEAPODIZED",
            "UPSAMPLE_ANALYTIC", "SUBTREE_BYTES"]
 
@@ -125,6 +125,10 @@ __all__ = ["ffbp", "ffbp_image", "optimal_kernel", "plan_stages", "layout_stages
 _STORE = np.float32
 #: Pulses whose range profiles are held at once in stage 0.
 _PROFILE_BLOCK = 64
+#: Pixel columns the final stage forms at once (into a band of its own, then added to the image):
+#: a row of a narrow band reads few rows of the polar grids, which then stay in the caches and
+#: the TLB; a row across a wide image reads thousands, a page each (docs/performance.md).
+FINAL_COLUMNS = 256
 
 
 # ---------------------------------------------------------------------------------------------
@@ -253,6 +257,7 @@ def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weigh
     deap = deapodization(f, plan, n_len) if deapodize else None
     img = None   # made at the first final stage (when only the last level is alive); parts add in place
     work = None   # the profiles' buffers, made at the first block
+    band = None   # the final stage's band of columns
     # the pulses through stage 0 (each group's merges and final stage follow its own pulses)
     bar = progress(total=P, desc="ffbp", unit="pulse")
     clock = _Clock(timings)
@@ -302,10 +307,20 @@ def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weigh
                 del nxt_re, nxt_im
                 clock("merge")
             last = levels[-1]
-            if img is None:
-                img = np.zeros(grid.shape, dtype=np.complex128)
-            final_stage(cur_re, cur_im, frame(last, a0, b0), grid.x, grid.y, kind, tab_q, tab_t, plan.dq,
-                       plan.kref, img)
+            first = img is None
+            if first:
+                img = np.empty(grid.shape, dtype=np.complex128)
+            fr = frame(last, a0, b0)
+            for c0 in range(0, grid.nx, FINAL_COLUMNS):   # by bands of columns (FINAL_COLUMNS)
+                c1 = min(grid.nx, c0 + FINAL_COLUMNS)
+                if band is None or band.shape[1] != c1 - c0:
+                    band = np.empty((grid.ny, c1 - c0), dtype=np.complex128)
+                band.fill(0.0)
+                final_stage(cur_re, cur_im, fr, grid.x[c0:c1], grid.y, kind, tab_q, tab_t, plan.dq, plan.kref, band)
+                if first:
+                    img[:, c0:c1] = band
+                else:
+                    img[:, c0:c1] += band
             del cur_re, cur_im
             clock("final")
     return (img, plan) if return_plan else img
