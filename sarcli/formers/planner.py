@@ -24,20 +24,17 @@ import functools
 import hashlib
 import json
 import math
-import subprocess
-import sys
 import threading
-import time
 from collections import OrderedDict
 from dataclasses import dataclass, field, replace
-from pathlib import Path
 
 import numpy as np
 
 from ..core import sampling
 from ..core.grid import Grid
 from ..errors import SarcliInputError
-from .calibration import DEFAULT_COSTS, STARTUP_IMPORTS, load_cost_model, save_cost_model
+from .calibration import (DEFAULT_COSTS, best_of, command_costs, fft_cost, load_cost_model, save_cost_model,
+                          touch_cost)
 from .cost import bp_constants, bp_seconds
 
 __all__ = ["Candidate", "candidates", "recommend", "ffbp_knobs", "command_seconds", "load_cost_model", "calibrate"]
@@ -390,78 +387,6 @@ def command_seconds(cand: Candidate, ph, grid: Grid, costs=None, *, auto=False, 
     return c["startup"] + (c["planning"] if auto else 0.0) + io + cand.seconds
 
 
-def _best(fn, repeat):
-    fn()
-    ts = []
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        fn()
-        ts.append(time.perf_counter() - t0)
-    return min(ts)
-
-
-#: Bytes of each fresh array :func:`_touch_cost` touches: above the largest block the C library
-#: keeps for reuse, so every one is new memory.
-_TOUCH_BYTES = 64 * 2 ** 20
-
-
-def _touch_cost(repeat) -> float:
-    """Processor seconds per byte of writing memory first touched (page faults and the writes),
-    best of ``repeat`` fresh arrays of :data:`_TOUCH_BYTES`."""
-    best = math.inf
-    for _ in range(max(1, repeat)):
-        t = time.process_time()
-        a = np.empty(_TOUCH_BYTES // 8)
-        a.fill(1.0)
-        best = min(best, time.process_time() - t)
-        del a
-    return best / _TOUCH_BYTES
-
-
-def _fft_cost(repeat, thr) -> float:
-    """``c["bp_fft"]``: processor seconds x ``thr`` of the range profiles (numpy's FFT, one thread)
-    per pulse and ``L log2 L``, on long pulses (32 x 4096 samples, profiles of 2x), where the
-    transforms of large collections spend their time; best of ``repeat``."""
-    from ._bp_setup import profiles
-    from .backprojection import profile_length
-
-    rng = np.random.default_rng(1)
-    d = (rng.normal(size=(32, 4096)) + 1j * rng.normal(size=(32, 4096))).astype(np.complex64)
-    L = profile_length(d.shape[1], 2.0)
-    best = math.inf
-    for _ in range(max(1, repeat) + 1):
-        t = time.process_time()
-        profiles(d, None, float(d.size), L, np.complex64)
-        best = min(best, time.process_time() - t)
-    return best * thr / (d.shape[0] * L * math.log2(L))
-
-
-def _command_costs(repeat) -> dict:
-    """Start-up of a fresh interpreter importing what ``sar form-image`` does, and HDF5 read and
-    write seconds per byte (a 32 MiB complex array)."""
-    import tempfile
-
-    import h5py
-
-    startup = _best(lambda: subprocess.run([sys.executable, "-c", STARTUP_IMPORTS], check=True,
-                                           stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL), repeat)
-    a = np.zeros((2048, 1024), np.complex128)
-    with tempfile.TemporaryDirectory() as tmp:
-        path = Path(tmp) / "io.h5"
-
-        def write():
-            with h5py.File(path, "w") as f:
-                f["a"] = a
-
-        def read():
-            with h5py.File(path, "r") as f:
-                f["a"][()]
-
-        w = _best(write, repeat)
-        r = _best(read, repeat)
-    return {"startup": startup, "read_per_byte": r / a.nbytes, "write_per_byte": w / a.nbytes}
-
-
 #: Least share of its default-ratio value each of ffbp's fitted constants keeps (every term costs
 #: something; six settings do not always separate four terms).
 FFBP_FLOOR = 0.1
@@ -502,7 +427,7 @@ def calibrate(path=None, *, repeat: int = 3) -> dict:
     from .subimage import subimage_nufft
 
     def best(fn):
-        return _best(fn, repeat)
+        return best_of(fn, repeat)
 
     P, M, N = 256, 256, 256
     freq = 9.6e9 + 2e6 * np.arange(M)
@@ -536,8 +461,8 @@ def calibrate(path=None, *, repeat: int = 3) -> dict:
         rhs = np.array([t.get(part, 0.0) for t in parts])
         for name, v in zip(fitted, _fit_ffbp(rows[:, cols], rhs, list(fitted))):
             c[name] = float(v)
-    c["ffbp_touch"] = _touch_cost(repeat)
-    c["bp_fft"] = _fft_cost(repeat, thr)
+    c["ffbp_touch"] = touch_cost(repeat)
+    c["bp_fft"] = fft_cost(repeat, thr)
     kx, ky = geometry.kspace_coordinates(freq, az, np.radians(30))
     w = _nufft_width(1e-6)
     t = best(lambda: nufft_farfield(d, kx, ky, grid, eps=1e-6)) * thr
@@ -548,12 +473,12 @@ def calibrate(path=None, *, repeat: int = 3) -> dict:
     t = best(lambda: subimage_nufft(d, freq, a, r0, grid, tile=tile, eps=1e-3)) * thr
     n_tiles = (N // tile) ** 2
     c["subimage_point"] = t / (n_tiles * P * M * _nufft_width(1e-3) ** 2)
-    c.update(_command_costs(repeat))
+    c.update(command_costs(repeat))
     from ..core.acquisition import Acquisition
     from ..core.types import PhaseHistory
 
     ph = PhaseHistory(d, Acquisition(freq, az, np.full(P, np.radians(30)), grid, antenna_position_m=a,
                                      range_to_center_m=r0, model="spherical"))
-    c["planning"] = _best(lambda: recommend(ph, grid, 1e-3, costs=dict(DEFAULT_COSTS, **c)), repeat)
+    c["planning"] = best_of(lambda: recommend(ph, grid, 1e-3, costs=dict(DEFAULT_COSTS, **c)), repeat)
     save_cost_model(c, path)
     return c
