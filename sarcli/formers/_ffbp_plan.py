@@ -243,8 +243,9 @@ def layout_stages(antenna_position_m, freq_hz, grid: Grid, *, base=None, merge=N
     Parameters as for :func:`ffbp`. ``ops`` holds the multiply-add counts of stage 0
     (pulse × node × taps), the merges (node × child × 2 taps: two 1-D passes) and the final stage
     (pixel × child × taps²), the stage-0 nodes and the (node or pixel, child) pairs of the merges
-    and the final stage (each with its own coordinates and carrier), from which
-    :mod:`sarcli.formers.planner` predicts the time; the completed plan adds ``grid_bytes``, the
+    and the final stage (each with its own coordinates and carrier; ``merge_pairs`` and
+    ``final_pairs`` apart), the deapodized kernels' tone weights (``tones``) and the bytes first
+    touched (``fresh_bytes``), from which :mod:`sarcli.formers.planner` predicts the time; the completed plan adds ``grid_bytes``, the
     peak bytes of polar grids (two adjacent levels of one depth-first group).
 
     ``final``: merge until at most that many sub-images remain (default: while a merge costs less
