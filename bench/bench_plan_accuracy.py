@@ -20,7 +20,10 @@ circle of 1024 x 1024 samples onto 1024² (10 km), the four GOTCHA files onto 80
 ``sarcli.io.gotcha.gotcha_dir()`` holds them), and, with ``--panama PH.h5``, a phase history written
 by ``bench/bench_panama.py --keep`` (its grid: ``--panama-extent W,H`` at 0.15 m).
 
-    python bench/bench_plan_accuracy.py [--repeat 2] [--panama DIR/ph.h5 --panama-extent 900,900]
+With ``--ranges`` the cases are instead ``bench_bp_range.py``'s collection at 200 m, 1 km and 10 km,
+formed by ffbp's default knobs (base 16, os 2/2).
+
+    python bench/bench_plan_accuracy.py [--repeat 2] [--panama DIR/ph.h5 --panama-extent 900,900] [--ranges]
 """
 
 from __future__ import annotations
@@ -56,7 +59,27 @@ def circle(P, M, N):
     return PhaseHistory(d.astype(np.complex64), acq), grid
 
 
+def at_range(range_m, P=512, M=256, N=512):
+    """``bench_bp_range.py``'s collection at ``range_m``: X band, 30° elevation, ±1.5° of a circle,
+    pixels of 0.25 m (smaller where the range is short), frequencies alias-free over the scene."""
+    h = min(0.25, range_m / (np.sqrt(2.0) * N))
+    grid = Grid(N, N, h, h)
+    el = np.radians(30.0)
+    dalpha = geometry.C / (4.0 * 1.1 * grid.half_diagonal * np.cos(el))
+    freq = 10e9 - dalpha * M / 2 + dalpha * np.arange(M)
+    az = np.radians(np.linspace(-1.5, 1.5, P))
+    a = geometry.antenna_positions_circle(az, el, range_m)
+    d = np.random.default_rng(1).normal(size=(P, M)) + 1j * np.random.default_rng(2).normal(size=(P, M))
+    acq = Acquisition(freq, az, np.full(P, el), grid, antenna_position_m=a,
+                      range_to_center_m=np.linalg.norm(a, axis=1), model="spherical")
+    return PhaseHistory(d.astype(np.complex64), acq), grid
+
+
 def cases(args):
+    if args.ranges:
+        for r in (200.0, 1e3, 10e3):
+            yield f"{r:g} m, 512 x 256 -> 512²", *at_range(r)
+        return
     from sarcli.io.gotcha import gotcha_dir, gotcha_files, read_gotcha
 
     yield "calibration collection, 256 x 256 -> 256²", *circle(256, 256, 256)
@@ -92,6 +115,8 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--repeat", type=int, default=2)
     ap.add_argument("--panama", default=None, help="a phase history written by bench_panama.py --keep")
+    ap.add_argument("--ranges", action="store_true",
+                    help="instead: bench_bp_range.py's collection at 200 m, 1 km and 10 km (ffbp's default knobs)")
     ap.add_argument("--panama-extent", default="900,900", help="its grid's extent W,H in metres (0.15 m pixels)")
     args = ap.parse_args()
     from sarcli.formers import ffbp as fb
@@ -102,11 +127,13 @@ def main():
         c = calibrate(os.path.join(tmp, "cost.json"))
     thr = int(c["threads"])
     print(f"load average {os.getloadavg()[0]:.1f}; calibrated in this run\n")
-    print("| case | pick | predicted s | measured wall s (/ predicted) | idle estimate s (/ predicted) | processor s by part (/ predicted) |")
-    print("|---|---|---|---|---|---|")
+    print("| case | pick | predicted s | measured wall s (/ predicted) | idle estimate s (/ predicted) "
+          "| processor s by part (/ predicted) | grids (n x n_u x n_q); stage-0 taps, merge pairs, final pairs |")
+    print("|---|---|---|---|---|---|---|")
     for name, ph, grid in cases(args):
         acq = ph.acquisition
-        knobs = ffbp_knobs(ph, grid, 1e-3)
+        knobs = dict(fb.DEFAULTS, base=16, os_range=2.0, os_angle=2.0, upsample=2.0) if args.ranges else \
+            ffbp_knobs(ph, grid, 1e-3)
         plan = fb.plan_stages(acq.antenna_position_m, acq.frequency_hz, grid,
                               **{k: knobs[k] for k in ("base", "merge", "os_range", "os_angle", "upsample")})
         P, M = ph.data.shape
@@ -124,8 +151,11 @@ def main():
         pick = f"base {knobs['base']}, os {knobs['os_range']:g}/{knobs['os_angle']:g}, {plan.n_stages} stages"
         want = part_predictions(c, plan.ops, P, profile_length(M, plan.knobs["upsample"]))
         by_part = ", ".join(f"{k} {v:.3g} ({v / want[k]:.2f})" for k, v in best_parts.items() if k in want)
+        ops = plan.ops
+        grids = " ".join(f"{lv.n}x{lv.n_u}x{lv.n_q}" for lv in plan.levels)
         print(f"| {name} | {pick} | {pred:.3g} | {best_wall:.3g} ({best_wall / pred:.2f}) | {idle:.3g} "
-              f"({idle / pred:.2f}) | {by_part} |", flush=True)
+              f"({idle / pred:.2f}) | {by_part} | {grids}; {ops['stage0']:.3g}, {ops['merge_pairs']:.3g}, "
+              f"{ops['final_pairs']:.3g} |", flush=True)
     print(f"\nload average after: {os.getloadavg()[0]:.1f}")
 
 
