@@ -576,3 +576,20 @@ def test_final_stage_by_bands_of_columns_gives_the_same_image(monkeypatch):
     banded = ffbp(d, FREQ, a, r0, GRID, base=2, final=8)
     assert np.array_equal(banded, whole)
     assert image_error(banded, direct_spherical(d, FREQ, a, r0, GRID)) <= 5e-3
+
+
+def test_timings_give_each_part_its_processor_seconds():
+    """``timings`` (what the planner's calibration fits) gets every part, and together they are
+    the call's processor seconds, less its planning."""
+    import time
+
+    a, r0 = circle(P=512, aperture_deg=8.0)
+    d = point_data(a, r0)
+    parts = {}
+    t = time.process_time()
+    _, plan = ffbp(d, FREQ, a, r0, GRID, base=2, final=8, timings=parts, return_plan=True)
+    total = time.process_time() - t
+    assert plan.n_stages >= 2 and plan.range_deapodized   # merges and tone weights both run
+    assert set(parts) == {"profiles", "tones", "stage0", "merge", "final"}
+    assert all(v >= 0 for v in parts.values()) and sum(parts.values()) <= total + 1e-9
+    assert ffbp(d, FREQ, a, r0, GRID, base=2, final=8) is not None   # no timings: nothing kept

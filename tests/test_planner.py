@@ -254,8 +254,9 @@ def test_calibrate_measures_every_constant(tmp_path):
     c = calibrate(path, repeat=1)
     doc = json.loads(path.read_text())
     assert doc["seconds_per_op"] == c and doc["machine"]["cpus"] >= 1
-    for key in ("bp", "direct", "ffbp_stage0", "nufft_spread", "subimage_point", "startup", "planning",
-                "read_per_byte", "write_per_byte"):
+    for key in ("bp", "bp_fft", "direct", "ffbp_stage0", "ffbp_mac", "ffbp_pair", "ffbp_final", "ffbp_tone",
+                "ffbp_touch", "nufft_spread", "subimage_point", "startup", "planning", "read_per_byte",
+                "write_per_byte"):
         assert c[key] > 0, key
 
 
