@@ -14,7 +14,9 @@ Measured, each command in its own process (peak memory from ``wait4``):
 
 - ``sar simulate``: wall time and peak memory (it writes by blocks of pulses);
 - ``sar plan --json``: auto's choice and its predicted whole-command time; the ratio
-  measured / predicted (target within 1.5x either way);
+  measured / predicted (target within 1.5x either way), and the command's processor seconds over
+  the vCPUs / predicted (a lower bound of the ratio the machine would give idle, where other jobs
+  stretch the wall time);
 - ``sar form-image`` with the default method, under a pseudo-terminal so the progress bar draws:
   wall time, the formation's own ``runtime_s``, peak memory against 1.5 x (phase history + image as
   stored: the datasets' bytes), and how many different percentages the progress bar showed;
@@ -105,6 +107,7 @@ def run(cmd, *, tty=False):
     proc.returncode = os.waitstatus_to_exitcode(status)
     if proc.returncode:
         sys.exit(f"{' '.join(map(str, cmd))} failed ({proc.returncode}):\n{out[-2000:]}")
+    run.cpu_s = usage.ru_utime + usage.ru_stime
     return wall, usage.ru_maxrss * 1024, out
 
 
@@ -215,6 +218,10 @@ def main(argv=None):
         "rss_over_stored": rss / (hist_bytes + img_bytes), "within_1.5x": rss <= bound,
         "progress_percentages_seen": len(set(re.findall(r"(\d+)%\|", out))),
         "plan_ratio_measured_over_predicted": t / res["plan"]["predicted_command_s"],
+        # processor seconds of the whole command over threads: on a machine shared with other jobs
+        # the wall time overstates what the command costs, and this bounds the ratio from below
+        "cpu_s": run.cpu_s,
+        "plan_ratio_cpu_over_threads": run.cpu_s / vcpus / res["plan"]["predicted_command_s"],
         "rate_per_vcpu": pp / (runtime * vcpus), "rate_vs_fastsar": pp / (runtime * vcpus) / FASTSAR_RATE,
         "rate_vs_fastsar_whole_command": pp / (t * vcpus) / FASTSAR_RATE,
     }

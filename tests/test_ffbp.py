@@ -559,3 +559,39 @@ def test_weight_polynomials_of_an_asymmetric_kernel_give_the_same_image(monkeypa
     monkeypatch.setattr(mod, "optimal_kernel", skewed(mod.optimal_kernel))
     asym = ffbp(data, FREQ, a, r0, GRID)
     assert 0 < image_error(asym, sym) < 1e-4   # measured 2.3e-5
+
+
+def test_final_stage_by_bands_of_columns_gives_the_same_image(monkeypatch):
+    """The final stage forms the image by bands of FINAL_COLUMNS columns (ragged last band), in
+    every depth-first group: the same image, bit for bit, as in one call per group."""
+    import sarcli.formers.ffbp._image as fb
+
+    a, r0 = circle(P=512, aperture_deg=8.0)
+    d = point_data(a, r0)
+    plan = plan_stages(a, FREQ, GRID, base=2, final=8)
+    per = sum(lv.nbytes for lv in plan.levels) / plan.levels[-1].n
+    monkeypatch.setattr(fb, "SUBTREE_BYTES", per)   # one last-level sub-image a group
+    assert len(fb.subtree_groups(plan, fb.SUBTREE_BYTES)) >= 2
+    monkeypatch.setattr(fb, "FINAL_COLUMNS", 10 ** 6)
+    whole = ffbp(d, FREQ, a, r0, GRID, base=2, final=8)
+    monkeypatch.setattr(fb, "FINAL_COLUMNS", 7)
+    banded = ffbp(d, FREQ, a, r0, GRID, base=2, final=8)
+    assert np.array_equal(banded, whole)
+    assert image_error(banded, direct_spherical(d, FREQ, a, r0, GRID)) <= 5e-3
+
+
+def test_timings_give_each_part_its_processor_seconds():
+    """``timings`` (what the planner's calibration fits) gets every part, and together they are
+    the call's processor seconds, less its planning."""
+    import time
+
+    a, r0 = circle(P=512, aperture_deg=8.0)
+    d = point_data(a, r0)
+    parts = {}
+    t = time.process_time()
+    _, plan = ffbp(d, FREQ, a, r0, GRID, base=2, final=8, timings=parts, return_plan=True)
+    total = time.process_time() - t
+    assert plan.n_stages >= 2 and plan.range_deapodized   # merges and tone weights both run
+    assert set(parts) == {"profiles", "tones", "stage0", "merge", "final"}
+    assert all(v >= 0 for v in parts.values()) and sum(parts.values()) <= total + 1e-9
+    assert ffbp(d, FREQ, a, r0, GRID, base=2, final=8) is not None   # no timings: nothing kept

@@ -146,3 +146,46 @@ def test_info_prints_the_numbers(tmp_path):
     defocus = info["farfield_phase_error_rad_at_grid_corner"]
     assert defocus > DEFOCUS_WARN_RAD and not info["warnings"]
     assert sum(f"by {defocus:.3g} rad" in n for n in info["notes"]) == 1
+
+
+def test_an_image_is_stored_in_the_type_asked_cast_by_blocks_of_rows(tmp_path, monkeypatch):
+    from sarcli.core.types import Image
+    from sarcli.io import hdf5
+
+    rng = np.random.default_rng(3)
+    a = rng.normal(size=(37, 16)) + 1j * rng.normal(size=(37, 16))
+    img = Image(image=a, x_m=np.arange(16.0), y_m=np.arange(37.0), method="direct", parameters={}, runtime_s=0.0)
+    monkeypatch.setattr(hdf5, "_CAST_ROWS_BYTES", 5 * a[:1].nbytes)   # eight blocks, the last short
+    for dtype in (np.complex64, np.complex128, None):
+        path = tmp_path / f"{np.dtype(dtype).name if dtype else 'own'}.h5"
+        sarcli.write_image(path, img, dtype)
+        back = sarcli.read_image(path)
+        want = a if dtype is None else a.astype(dtype)
+        assert back.image.dtype == want.dtype and np.array_equal(back.image, want)
+    with pytest.raises(ValueError, match="complex64 or complex128"):
+        sarcli.write_image(tmp_path / "f.h5", img, np.float32)
+    assert not (tmp_path / "f.h5").exists()
+
+
+def test_form_image_stores_complex64_from_complex64_samples_unless_asked(ph_file, tmp_path):
+    from sarcli.io.hdf5 import COMPLEX64_TOLERANCE, stored_image_dtype
+
+    assert stored_image_dtype(np.complex64) == np.complex64
+    assert stored_image_dtype(np.complex128) == np.complex128
+    assert stored_image_dtype(np.complex64, complex128=True) == np.complex128
+    assert stored_image_dtype(np.complex64, tolerance=COMPLEX64_TOLERANCE / 10) == np.complex128
+    assert stored_image_dtype(np.complex64, tolerance=COMPLEX64_TOLERANCE) == np.complex64
+    ph, path = ph_file
+    assert ph.data.dtype == np.complex64
+    runner = CliRunner()
+    out = {}
+    for name, extra in (("default", []), ("wide", ["--complex128"]), ("fine", ["--tolerance", "1e-7"]),
+                        ("exact", ["--method", "direct"]), ("bp", ["--method", "backprojection"]),
+                        ("bp64", ["--method", "backprojection", "--precision", "float64"])):
+        res = runner.invoke(cli, ["-q", "form-image", str(path), "-o", str(tmp_path / f"{name}.h5"), *extra])
+        assert res.exit_code == 0, res.output
+        out[name] = sarcli.read_image(tmp_path / f"{name}.h5").image
+    assert out["default"].dtype == np.complex64 and out["bp"].dtype == np.complex64
+    assert all(out[name].dtype == np.complex128 for name in ("wide", "fine", "exact", "bp64"))
+    # the stored image differs from the complex128 one by complex64's rounding only
+    assert np.linalg.norm(out["default"] - out["wide"]) <= 1e-7 * np.linalg.norm(out["wide"])

@@ -184,3 +184,20 @@ def test_a_folder_output_is_created_only_under_an_existing_parent(tmp_path):
     with pytest.raises(SarcliInputError, match="tpyo.* does not exist"):
         output_folder(tmp_path / "tpyo" / "new")
     assert not (tmp_path / "tpyo").exists()
+
+
+@pytest.mark.parametrize("user, advised", [(None, False), ("1", True)])
+def test_the_command_line_leaves_huge_pages_off_unless_the_user_asks(user, advised):
+    # the `sar` entry sets numpy's variable before numpy is imported, and leaves a user's setting
+    import os
+    import subprocess
+    import sys
+
+    code = ("import sys\nfrom sarcli.cli.main import cli\nsys.argv = ['sar', 'info', '--help']\n"
+            "try:\n    cli()\nexcept SystemExit:\n    pass\nimport numpy\n"
+            "print('advised', numpy._core.multiarray._get_madvise_hugepage())")
+    env = {k: v for k, v in os.environ.items() if k != "NUMPY_MADVISE_HUGEPAGE"}
+    if user is not None:
+        env["NUMPY_MADVISE_HUGEPAGE"] = user
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True).stdout
+    assert f"advised {advised}" in out

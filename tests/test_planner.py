@@ -83,12 +83,16 @@ def test_ffbp_fit_recovers_constants_and_keeps_a_floor():
     from sarcli.formers.planning.cost import FFBP_TERMS
     from sarcli.formers.planning.planner import FFBP_FLOOR, _fit_ffbp
 
-    d = np.array([DEFAULT_COSTS[name] for name, _ in FFBP_TERMS])
+    names = [name for name, _ in FFBP_TERMS][:4]
+    d = np.array([DEFAULT_COSTS[name] for name in names])
     rows = np.random.default_rng(0).uniform(1e6, 1e8, (6, 4))
     true = d * np.array([2.0, 0.5, 1.0, 3.0])
-    np.testing.assert_allclose(_fit_ffbp(rows, rows @ true), true, rtol=1e-9)
-    got = _fit_ffbp(rows, rows @ (d * np.array([1.0, 0.0, 0.0, 1.0])))
+    np.testing.assert_allclose(_fit_ffbp(rows, rows @ true, names), true, rtol=1e-9)
+    got = _fit_ffbp(rows, rows @ (d * np.array([1.0, 0.0, 0.0, 1.0])), names)
     assert np.all(got > 0) and np.all(got[1:3] <= 2 * FFBP_FLOOR * d[1:3])
+    # a setting with no work in a term (no merges) leaves the fit finite
+    rows[0, 2:] = 0.0
+    assert np.all(np.isfinite(_fit_ffbp(rows, rows @ true, names)))
 
 
 def test_cost_model_has_every_constant():
@@ -251,8 +255,9 @@ def test_calibrate_measures_every_constant(tmp_path):
     c = calibrate(path, repeat=1)
     doc = json.loads(path.read_text())
     assert doc["seconds_per_op"] == c and doc["machine"]["cpus"] >= 1
-    for key in ("bp", "direct", "ffbp_stage0", "nufft_spread", "subimage_point", "startup", "planning",
-                "read_per_byte", "write_per_byte"):
+    for key in ("bp", "bp_fft", "direct", "ffbp_stage0", "ffbp_mac", "ffbp_pair", "ffbp_final", "ffbp_tone",
+                "ffbp_touch", "nufft_spread", "subimage_point", "startup", "planning", "read_per_byte",
+                "write_per_byte"):
         assert c[key] > 0, key
 
 

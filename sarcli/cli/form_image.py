@@ -30,6 +30,10 @@ from .options import (cphd_arguments, cphd_options, echo_notes, export_options, 
               help="The DEM's heights: above the WGS-84 ellipsoid or the EGM96/EGM2008 geoid (default: its metadata, else ellipsoid).")
 @click.option("--crs", default=None, metavar="EPSG:NNNN",
               help="The map grid's CRS with --dem (default: the UTM zone of the scene centre).")
+@click.option("--complex128", "complex128", is_flag=True,
+              help="Store the image complex128 (default: complex64 where the samples are complex64, unless "
+                   "the accuracy asked (--tolerance, nufft's --eps, direct, float64 precision) is finer "
+                   "than complex64's rounding; else complex128).")
 @threads_option
 @cphd_options
 @export_options
@@ -38,14 +42,17 @@ def command(input_path, output, method, **options):
     """Form the matched-filter image of a phase history (or of a k-grid file with --method pfa)."""
     from pathlib import Path
 
+    import numpy as np
+
     from ..core.grid import resolve_grid
     from ..formers.formation import check_form_image, form_image
     from ..io import open_input
     from ..io.export import SICD_SUFFIXES
-    from ..io.hdf5 import write_image
+    from ..io.hdf5 import stored_image_dtype, write_image
 
     o = options
-    given = method_options(method, {k: o.pop(k) for k in KNOB_NAMES}).given()
+    knobs = method_options(method, {k: o.pop(k) for k in KNOB_NAMES})
+    given = knobs.given()
     prepare_outputs([("input", input_path), ("--dem", o["dem_path"])],
                     [("output", output), ("--png", o["png_path"]), ("--geotiff", o["tif_path"])])
     dem = _dem(method, output, o["autofocus_method"], o["dem_path"], o["dem_datum"], o["crs"])
@@ -71,10 +78,25 @@ def command(input_path, output, method, **options):
             raise click.BadParameter("SICD output needs a phase history (the collection geometry); "
                                      "a k-grid file has none", param_hint="--output")
         write_sicd(img, output, phase_history=src)
-    else:
-        write_image(output, img)
+    else:   # the samples' type (a k-grid's are complex128) and the accuracy asked set the stored image's
+        samples = getattr(getattr(src, "data", None), "dtype", np.complex128)
+        write_image(output, img, stored_image_dtype(samples, tolerance=_accuracy(method, knobs, given),
+                                                    complex128=o["complex128"]))
     write_side_outputs(img, o["png_path"], o["tif_path"])
     wrote(output, f"{img.method}, {img.image.shape[1]} x {img.image.shape[0]} pixels, {img.runtime_s:.3g} s")
+
+
+def _accuracy(method, knobs, given):
+    """The relative error the image is asked to meet: ``--tolerance`` given; else nufft's ``--eps``,
+    0 for the exact ``direct`` and for float64 backprojection; else None (the former's defaults,
+    whose errors exceed complex64's rounding)."""
+    if given.get("tolerance") is not None:
+        return given["tolerance"]
+    if method == "nufft":
+        return knobs.eps
+    if method == "direct" or getattr(knobs, "precision", None) == "float64":
+        return 0.0
+    return None
 
 
 def _dem(method, output, autofocus_method, dem_path, dem_datum, crs):

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import importlib
 import logging
+import os
 import sys
 
 import click
@@ -72,6 +73,7 @@ class LazyGroup(click.Group):
             from .._util.interrupt import install
 
             install()
+            no_huge_pages()
         if not standalone_mode:
             return super().main(args, prog_name, complete_var, False, **extra)
         try:
@@ -93,6 +95,23 @@ class LazyGroup(click.Group):
         rows = [(name, COMMANDS[name][1]) for name in sorted(COMMANDS)]
         with formatter.section("Commands"):
             formatter.write_dl(rows)
+
+
+#: numpy's environment variable: whether it asks the kernel to back arrays of 4 MiB and more with
+#: transparent huge pages (read once, when numpy is first imported).
+HUGE_PAGE_VARIABLE = "NUMPY_MADVISE_HUGEPAGE"
+
+
+def no_huge_pages() -> None:
+    """Ask numpy not to advise transparent huge pages for this process and its children, unless the
+    user set :data:`HUGE_PAGE_VARIABLE`; before numpy is imported (this module does not import it).
+
+    A command's large arrays (polar grids, the image, read buffers) are touched once, so a huge
+    page saves few TLB misses, while a fresh one must be found, zeroed and, on a virtual machine
+    that returns free memory to its host, backed by the host first: there the first touch of a
+    huge-page array costs many times that of small pages (docs/performance.md, "Huge pages").
+    """
+    os.environ.setdefault(HUGE_PAGE_VARIABLE, "0")
 
 
 @click.group(cls=LazyGroup, context_settings={"help_option_names": ["-h", "--help"]})

@@ -107,10 +107,10 @@ def command(input_path, center, extent, pixel_size, tolerance, as_json, calibrat
                         extent=parse_pair(extent, "--extent"), pixel_size=pixel_size)
     cands = plan_rows(ph, grid, tolerance, nthreads=nthreads)
     pick = recommend(ph, grid, tolerance, nthreads=nthreads)
-    whole = [command_seconds(c, ph, grid) for c in cands]
+    whole = [command_seconds(c, ph, grid, tolerance=tolerance) for c in cands]
     if as_json:
         click.echo(json.dumps({"tolerance": tolerance, "grid": grid.as_dict(),
-                               "auto": {**pick.as_dict(), "predicted_command_s": command_seconds(pick, ph, grid, auto=True)},
+                               "auto": {**pick.as_dict(), "predicted_command_s": command_seconds(pick, ph, grid, auto=True, tolerance=tolerance)},
                                "status_legend": {w: t.format(safety=SAFETY) for w, t in STATUS_LEGEND},
                                "candidates": [{**c.as_dict(), "predicted_command_s": None if w != w else w,
                                                "status": status_of(c, tolerance, SAFETY)}

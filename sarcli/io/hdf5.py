@@ -9,7 +9,8 @@ Public API
 read_phase_history(path) -> PhaseHistory
 write_phase_history(path, ph)
 read_image(path) -> Image
-write_image(path, img)
+write_image(path, img, dtype=None)
+stored_image_dtype(samples_dtype, tolerance=None, complex128=False)
 read_kgrid(path) -> KGrid
 write_kgrid(path, kgrid)
 """
@@ -35,6 +36,8 @@ __all__ = [
     "read_phase_history",
     "write_phase_history",
     "read_image",
+    "stored_image_dtype",
+    "COMPLEX64_TOLERANCE",
     "write_image",
     "read_kgrid",
     "write_kgrid",
@@ -351,10 +354,37 @@ def _default_grid(freq, az, el) -> Grid:
 # --------------------------------------------------------------------------------------------
 # image
 # --------------------------------------------------------------------------------------------
-def write_image(path, img: Image) -> Path:
-    """Write an image file (atomic). ``parameters`` is stored as a JSON string."""
+#: Below this tolerance (relative error against the exact matched filter) an image formed from
+#: complex64 samples is still stored complex128: complex64 rounds each value by up to 6e-8.
+COMPLEX64_TOLERANCE = 1e-6
+
+
+def stored_image_dtype(samples_dtype, *, tolerance=None, complex128=False) -> np.dtype:
+    """The type ``sar form-image`` stores an image in: complex64 when the samples it is formed from
+    are complex64 (or narrower) and ``tolerance`` (where given) is at least
+    :data:`COMPLEX64_TOLERANCE`, else complex128; ``complex128``: complex128 whatever the samples."""
+    narrow = np.dtype(samples_dtype).itemsize <= np.dtype(np.complex64).itemsize
+    if complex128 or not narrow or (tolerance is not None and tolerance < COMPLEX64_TOLERANCE):
+        return np.dtype(np.complex128)
+    return np.dtype(np.complex64)
+
+
+#: Rows of the image cast and written at once when it is stored in another dtype than it has.
+_CAST_ROWS_BYTES = 16 * 2 ** 20
+
+
+def write_image(path, img: Image, dtype=None) -> Path:
+    """Write an image file (atomic). ``parameters`` is stored as a JSON string.
+
+    ``dtype``: complex64 or complex128, the stored type of ``/image`` (default: the image's own);
+    an image of another type is cast by blocks of rows as it is written (no whole copy in memory).
+    """
+    data = np.asarray(img.image)
+    stored = np.dtype(data.dtype if dtype is None else dtype)
+    if stored not in (np.dtype(np.complex64), np.dtype(np.complex128)):
+        raise ValueError(f"an image is stored complex64 or complex128, not {stored}")
     with atomic_path(path) as tmp:
-        with _h5_output(tmp, np.asarray(img.image).nbytes) as f:
+        with _h5_output(tmp, data.size * stored.itemsize) as f:
             f.attrs["format"] = IMAGE_FORMAT
             f.attrs["version"] = FILE_VERSION
             f.attrs["method"] = img.method
@@ -362,7 +392,13 @@ def write_image(path, img: Image) -> Path:
             f.attrs["runtime_s"] = float(img.runtime_s)
             f.attrs["sarcli_version"] = __version__
             _write_attrs(f, img.attrs, skip=("format", "version", "method", "parameters", "runtime_s"))
-            f.create_dataset("image", data=img.image)
+            if data.dtype == stored:
+                f.create_dataset("image", data=data)
+            else:
+                ds = f.create_dataset("image", shape=data.shape, dtype=stored)
+                step = max(1, _CAST_ROWS_BYTES // max(1, data[:1].nbytes))
+                for r in range(0, data.shape[0], step):
+                    ds[r:r + step] = data[r:r + step].astype(stored)
             f.create_dataset("x_m", data=np.asarray(img.x_m, np.float64))
             f.create_dataset("y_m", data=np.asarray(img.y_m, np.float64))
             if img.history:

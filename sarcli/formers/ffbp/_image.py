@@ -116,7 +116,7 @@ from ._grids import deapodization
 from ._plan import (BAND_SLACK, DEFAULTS, OS_ANGLE_DEAPODIZED, OS_RANGE_DEAPODIZED, SUBTREE_BYTES, UPSAMPLE_ANALYTIC,
                     FfbpPlan, StageLayout, layout_stages, plan_stages, subtree_groups)
 
-__all__ = ["ffbp", "ffbp_image", "optimal_kernel", "plan_stages", "layout_stages", "predict_error", "interp_error",
+__all__ = ["ffbp", "ffbp_image", "optimal_kernel", "FINAL_COLUMNS", "plan_stages", "layout_stages", "predict_error", "interp_error",
            "FfbpPlan", "StageLayout", "DEFAULTS", "BAND_SLACK", "OS_RANGE_DEAPODIZED", "OS_ANGLE_DEAPODIZED",
            "UPSAMPLE_ANALYTIC", "SUBTREE_BYTES"]
 
@@ -125,6 +125,10 @@ __all__ = ["ffbp", "ffbp_image", "optimal_kernel", "plan_stages", "layout_stages
 _STORE = np.float32
 #: Pulses whose range profiles are held at once in stage 0.
 _PROFILE_BLOCK = 64
+#: Pixel columns the final stage forms at once (into a band of its own, then added to the image):
+#: a row of a narrow band reads few rows of the polar grids, which then stay in the caches and
+#: the TLB; a row across a wide image reads thousands, a page each (docs/performance.md).
+FINAL_COLUMNS = 256
 
 
 # ---------------------------------------------------------------------------------------------
@@ -151,7 +155,7 @@ def _descend(levels, a, b):
 # public function
 # ---------------------------------------------------------------------------------------------
 def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weights=None, *, nthreads=None,
-         receive_position_m=None, return_plan=False, plan=None, **knobs):
+         receive_position_m=None, return_plan=False, plan=None, timings=None, **knobs):
     """Spherical matched-filter image by fast factorised backprojection (module docstring).
 
     Parameters
@@ -191,6 +195,10 @@ def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weigh
         (at least 1.5: :func:`default_upsample`) for ``optimal``, 4 for the analytic kernels.
     final : int, optional
         Merge until at most this many sub-images remain (default: as long as a merge pays).
+    timings : dict, optional
+        Processor seconds (all threads, :func:`time.process_time`) of each part added to it under
+        ``profiles`` (reading and the FFTs), ``tones``, ``stage0``, ``merge`` and ``final``: what
+        the planner's calibration measures (:func:`sarcli.formers.planning.planner.calibrate`).
 
     Returns
     -------
@@ -202,7 +210,7 @@ def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weigh
     inp = _Inputs(data, freq_hz, antenna_position_m, range_to_center_m, weights, receive_position_m)
     if plan is None:
         plan = plan_stages(inp.t, inp.f, grid, receive_position_m=inp.rcv if inp.bistatic else None, **knobs)
-    run = _Pass(inp, plan)
+    run = _Pass(inp, plan, _Clock(timings))
     img = None   # made at the first final stage (when only the last level is alive); parts add in place
     # the pulses through stage 0 (each group's merges and final stage follow its own pulses)
     bar = progress(total=inp.P, desc="ffbp", unit="pulse")
@@ -215,6 +223,7 @@ def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weigh
             if img is None:
                 img = np.zeros(grid.shape, dtype=np.complex128)
             run.final(cur_re, cur_im, a0, b0, grid, img)
+            run.clock("final")
             del cur_re, cur_im
     return (img, plan) if return_plan else img
 
@@ -257,11 +266,13 @@ class _Pass:
     and the deapodization, made once; :meth:`stage0`, :meth:`merged` and :meth:`final` form one
     depth-first group after another."""
 
-    def __init__(self, inp: _Inputs, plan):
+    def __init__(self, inp: _Inputs, plan, clock=None):
         from ._stage0 import pulse_geometry, pulse_table, series_inputs
         from ..backprojection import profile_length
 
         self.inp, self.plan = inp, plan
+        self.clock = _Clock(None) if clock is None else clock
+        self.band = None   # the final stage's band of columns
         knobs = plan.knobs
         self.kind = INTERPOLATORS[knobs["interp"]]
         self.n_len = n_len = profile_length(inp.M, knobs["upsample"])
@@ -299,9 +310,11 @@ class _Pass:
             if self.tones:   # per pulse: a [pulses, M] block of its own
                 wb = np.array(np.broadcast_to(wb, (p1 - p0, M)), order="C")
             k_all = self.k_all
+            self.clock("profiles")
             for rates, off, (h_psi, inv_psi) in self.tones:
                 tone_weights(k_all if k_all.shape[0] == 1 else k_all[p0:p1], rates[:, p0:p1], off,
                              1.0 / h_psi, inv_psi, wb)
+            self.clock("tones")
         return wb
 
     def stage0(self, lo, hi, nthr, bar):
@@ -322,10 +335,12 @@ class _Pass:
             p0, p1 = int(lev.first[s0]), int(lev.first[s1 - 1] + lev.count[s1 - 1])
             pre, pim = range_profiles(self.work.samples(inp.d, slice(p0, p1)), self._block_weights(p0, p1),
                                       inp.total, n_len, nthr, dtype=np.complex64, work=self.work)
+            self.clock("profiles")
             stage0(pre, pim, lev.first[s0:s1] - p0, lev.count[s0:s1], np.ascontiguousarray(self.pulses[:, p0:p1]),
                    self.series[s0:s1], frame(lev, s0, s1), self.tab_p, self.kind, inp.bistatic, n_len // 2, n_len,
                    PAD, plan.dq, plan.kref, cur_re[s0 - lo:s1 - lo], cur_im[s0 - lo:s1 - lo])
             del pre, pim
+            self.clock("stage0")
             bar.update(p1 - p0)
         return cur_re, cur_im
 
@@ -344,15 +359,40 @@ class _Pass:
                         pc[u0:u1], self.kind, self.tab_q, self.tab_t, plan.dq, plan.kref, nxt_re, nxt_im)
             cur_re, cur_im = nxt_re, nxt_im
             del nxt_re, nxt_im
+            self.clock("merge")
         return cur_re, cur_im
 
     def final(self, cur_re, cur_im, a0, b0, grid, img):
-        """The last level's sub-images ``a0 .. b0-1`` interpolated onto ``grid``, added to ``img``."""
+        """The last level's sub-images ``a0 .. b0-1`` interpolated onto ``grid``, added to ``img``,
+        by bands of :data:`FINAL_COLUMNS` columns."""
         from ._kernels import final as final_stage, frame
 
         plan = self.plan
-        final_stage(cur_re, cur_im, frame(plan.levels[-1], a0, b0), grid.x, grid.y, self.kind, self.tab_q,
-                    self.tab_t, plan.dq, plan.kref, img)
+        fr = frame(plan.levels[-1], a0, b0)
+        for c0 in range(0, grid.nx, FINAL_COLUMNS):
+            c1 = min(grid.nx, c0 + FINAL_COLUMNS)
+            if self.band is None or self.band.shape[1] != c1 - c0:
+                self.band = np.empty((grid.ny, c1 - c0), dtype=np.complex128)
+            self.band.fill(0.0)
+            final_stage(cur_re, cur_im, fr, grid.x[c0:c1], grid.y, self.kind, self.tab_q, self.tab_t, plan.dq,
+                        plan.kref, self.band)
+            img[:, c0:c1] += self.band
+
+
+class _Clock:
+    """Processor seconds since the last call added to ``timings[part]`` (nothing without a dict)."""
+
+    def __init__(self, timings):
+        import time
+
+        self.timings, self.now = timings, time.process_time
+        self.last = self.now() if timings is not None else 0.0
+
+    def __call__(self, part):
+        if self.timings is not None:
+            t = self.now()
+            self.timings[part] = self.timings.get(part, 0.0) + t - self.last
+            self.last = t
 
 
 def ffbp_image(data, freq_hz, antenna_position_m, range_to_center_m, grid, weights=None, **knobs):

@@ -155,14 +155,21 @@ class StageLayout:
         ntap = NTAPS[INTERPOLATORS[self.knobs["interp"]]]
         n_pix = self.grid.nx * self.grid.ny
         P = self.pos.shape[0]
+        n_freq = int(np.shape(self.freq_hz)[-1])
         ops = {"stage0": float(P) * levels[0].n_u * levels[0].n_q * ntap, "merge": 0.0,
                "final": float(n_pix) * levels[-1].n * ntap * ntap,
                "nodes": float(max(lv.n * lv.n_u * lv.n_q for lv in levels)),
                "stage0_nodes": float(levels[0].n) * levels[0].n_u * levels[0].n_q,
-               "pairs": float(n_pix) * levels[-1].n}
+               "final_pairs": float(n_pix) * levels[-1].n, "merge_pairs": 0.0,
+               # the deapodized kernels' weights: per pulse, sample, level and axis (both axes
+               # counted, before the plan decides which it deapodizes)
+               "tones": float(P) * n_freq * len(levels) * 2 if self.knobs["interp"] == "optimal" else 0.0,
+               # bytes first touched: every level's polar grids and the complex128 image
+               "fresh_bytes": float(sum(lv.nbytes for lv in levels)) + 16.0 * n_pix}
         for lv in levels[1:]:
             ops["merge"] += float(lv.n) * lv.n_u * lv.n_q * merge * 2 * ntap
-            ops["pairs"] += float(lv.n) * lv.n_u * lv.n_q * merge
+            ops["merge_pairs"] += float(lv.n) * lv.n_u * lv.n_q * merge
+        ops["pairs"] = ops["merge_pairs"] + ops["final_pairs"]
         return ops
 
     @property
@@ -236,8 +243,9 @@ def layout_stages(antenna_position_m, freq_hz, grid: Grid, *, base=None, merge=N
     Parameters as for :func:`ffbp`. ``ops`` holds the multiply-add counts of stage 0
     (pulse × node × taps), the merges (node × child × 2 taps: two 1-D passes) and the final stage
     (pixel × child × taps²), the stage-0 nodes and the (node or pixel, child) pairs of the merges
-    and the final stage (each with its own coordinates and carrier), from which
-    :mod:`sarcli.formers.planning.planner` predicts the time; the completed plan adds ``grid_bytes``, the
+    and the final stage (each with its own coordinates and carrier; ``merge_pairs`` and
+    ``final_pairs`` apart), the deapodized kernels' tone weights (``tones``) and the bytes first
+    touched (``fresh_bytes``), from which :mod:`sarcli.formers.planning.planner` predicts the time; the completed plan adds ``grid_bytes``, the
     peak bytes of polar grids (two adjacent levels of one depth-first group).
 
     ``final``: merge until at most that many sub-images remain (default: while a merge costs less

@@ -18,19 +18,25 @@ from __future__ import annotations
 import functools
 import hashlib
 import json
+import math
 import os
+import subprocess
+import sys
 import time
 from pathlib import Path
 
-__all__ = ["DEFAULT_COSTS", "COST_MODEL_PATH", "STARTUP_IMPORTS", "load_cost_model", "save_cost_model",
-           "is_calibrated", "machine", "user_cost_model_path"]
+import numpy as np
+
+__all__ = ["DEFAULT_COSTS", "COST_MODEL_PATH", "STARTUP_IMPORTS", "TOUCH_BYTES", "load_cost_model", "save_cost_model",
+           "is_calibrated", "machine", "user_cost_model_path", "best_of", "touch_cost", "fft_cost", "command_costs"]
 
 #: The reference machine's constants, shipped with the package.
 COST_MODEL_PATH = Path(__file__).with_name("cost_model.json")
 #: Per-operation seconds (one core) where neither a calibration nor the shipped file has one;
 #: ``startup``, ``planning``: seconds; ``read_per_byte``, ``write_per_byte``: seconds per byte.
 DEFAULT_COSTS = {"direct": 6e-9, "bp": 3e-9, "bp_fft": 4e-9, "ffbp_stage0": 4e-9, "ffbp_mac": 1.5e-9,
-                 "ffbp_node0": 5e-9, "ffbp_pair": 5e-9, "nufft_spread": 3e-9, "nufft_fft": 3e-9,
+                 "ffbp_node0": 5e-9, "ffbp_pair": 5e-9, "ffbp_final": 1.5e-8, "ffbp_tone": 3e-9,
+                 "ffbp_touch": 5e-10, "nufft_spread": 3e-9, "nufft_fft": 3e-9,
                  "subimage_point": 2e-9, "threads": 2, "startup": 0.5, "planning": 0.02,
                  "read_per_byte": 1e-9, "write_per_byte": 2e-9}
 #: What a fresh ``sar form-image`` imports before it forms an image (the start-up it pays).
@@ -100,3 +106,76 @@ def save_cost_model(costs: dict, path=None) -> Path:
                                "seconds_per_op": costs}, indent=1) + "\n")
     tmp.replace(path)
     return path
+
+
+def best_of(fn, repeat):
+    """The least wall seconds of ``repeat`` calls of ``fn`` after one call to warm up."""
+    fn()
+    ts = []
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        fn()
+        ts.append(time.perf_counter() - t0)
+    return min(ts)
+
+
+#: Bytes of each fresh array :func:`touch_cost` touches: above the largest block the C library
+#: keeps for reuse, so every one is new memory.
+TOUCH_BYTES = 64 * 2 ** 20
+
+
+def touch_cost(repeat) -> float:
+    """Processor seconds per byte of writing memory first touched (page faults and the writes),
+    best of ``repeat`` fresh arrays of :data:`TOUCH_BYTES`."""
+    best = math.inf
+    for _ in range(max(1, repeat)):
+        t = time.process_time()
+        a = np.empty(TOUCH_BYTES // 8)
+        a.fill(1.0)
+        best = min(best, time.process_time() - t)
+        del a
+    return best / TOUCH_BYTES
+
+
+def fft_cost(repeat, thr) -> float:
+    """``c["bp_fft"]``: processor seconds x ``thr`` of the range profiles (numpy's FFT, one thread)
+    per pulse and ``L log2 L``, on long pulses (32 x 4096 samples, profiles of 2x), where the
+    transforms of large collections spend their time; best of ``repeat``."""
+    from ._bp_setup import profiles
+    from .backprojection import profile_length
+
+    rng = np.random.default_rng(1)
+    d = (rng.normal(size=(32, 4096)) + 1j * rng.normal(size=(32, 4096))).astype(np.complex64)
+    L = profile_length(d.shape[1], 2.0)
+    best = math.inf
+    for _ in range(max(1, repeat) + 1):
+        t = time.process_time()
+        profiles(d, None, float(d.size), L, np.complex64)
+        best = min(best, time.process_time() - t)
+    return best * thr / (d.shape[0] * L * math.log2(L))
+
+
+def command_costs(repeat) -> dict:
+    """Start-up of a fresh interpreter importing what ``sar form-image`` does, and HDF5 read and
+    write seconds per byte (a 32 MiB complex array)."""
+    import tempfile
+
+    import h5py
+
+    startup = best_of(lambda: subprocess.run([sys.executable, "-c", STARTUP_IMPORTS], check=True,
+                                           stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL), repeat)
+    a = np.zeros((2048, 1024), np.complex128)
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "io.h5"
+
+        def write():
+            with h5py.File(path, "w") as f:
+                f["a"] = a
+
+        def read():
+            with h5py.File(path, "r") as f:
+                f["a"][()]
+
+        w = best_of(write, repeat)
+        r = best_of(read, repeat)
+    return {"startup": startup, "read_per_byte": r / a.nbytes, "write_per_byte": w / a.nbytes}

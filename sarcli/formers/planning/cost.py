@@ -26,7 +26,7 @@ from ...errors import SarcliInputError, SarcliWarning
 
 __all__ = ["UPSAMPLE_RANGE", "OVERSAMPLE_RANGE", "WIDTH_RANGE", "EPS_RANGE", "check_knobs", "Samples", "threads",
            "form_image_bytes", "kgrid_bytes", "direct_seconds", "nufft_width", "nufft_seconds", "n_tiles",
-           "subimage_seconds", "bp_seconds", "bp_units", "bp_constants", "FFBP_TERMS", "ffbp_counts", "ffbp_seconds",
+           "subimage_seconds", "bp_seconds", "bp_units", "bp_constants", "FFBP_TERMS", "FFBP_PARTS", "ffbp_counts", "ffbp_seconds",
            "regularize_bytes", "check_regularize", "DIRECT_WARN_S"]
 
 #: backprojection range-profile upsampling (1: no upsampling; 64 reaches 1e-5 peak accuracy)
@@ -183,8 +183,12 @@ def subimage_seconds(c, n_samples, tiles, eps, threads=1) -> float:
 
 
 #: ffbp's per-operation constants and the plan counts (``FfbpPlan.ops``) they multiply.
-FFBP_TERMS = (("ffbp_stage0", ("stage0",)), ("ffbp_node0", ("stage0_nodes",)), ("ffbp_mac", ("merge", "final")),
-              ("ffbp_pair", ("pairs",)))
+FFBP_TERMS = (("ffbp_stage0", ("stage0",)), ("ffbp_node0", ("stage0_nodes",)), ("ffbp_mac", ("merge",)),
+              ("ffbp_pair", ("merge_pairs",)), ("ffbp_final", ("final_pairs",)), ("ffbp_tone", ("tones",)),
+              ("ffbp_touch", ("fresh_bytes",)))
+#: The part of ffbp (:func:`sarcli.formers.ffbp.ffbp`'s ``timings``) each constant is fitted to.
+FFBP_PARTS = {"stage0": ("ffbp_stage0", "ffbp_node0"), "merge": ("ffbp_mac", "ffbp_pair"),
+              "final": ("ffbp_final",), "tones": ("ffbp_tone",)}
 
 
 def ffbp_counts(ops) -> list:

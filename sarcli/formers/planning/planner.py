@@ -24,13 +24,10 @@ import functools
 import hashlib
 import json
 import math
-import subprocess
-import sys
 import threading
 import time
 from collections import OrderedDict
 from dataclasses import dataclass, field, replace
-from pathlib import Path
 
 import numpy as np
 
@@ -38,8 +35,9 @@ from ...core import sampling
 from ...core.grid import Grid
 from ...errors import SarcliInputError
 from ..options import OPTIONS
-from .calibration import DEFAULT_COSTS, STARTUP_IMPORTS, load_cost_model, save_cost_model
-from .cost import (FFBP_TERMS, Samples, bp_constants, bp_seconds, direct_seconds, ffbp_counts, ffbp_seconds,
+from .calibration import (DEFAULT_COSTS, best_of, command_costs, fft_cost, load_cost_model, save_cost_model,
+                          touch_cost)
+from .cost import (FFBP_PARTS, FFBP_TERMS, Samples, bp_constants, bp_seconds, direct_seconds, ffbp_counts, ffbp_seconds,
                    form_image_bytes, n_tiles, nufft_seconds, nufft_width, subimage_seconds, threads)
 
 __all__ = ["Candidate", "candidates", "recommend", "same_run", "ffbp_knobs", "command_seconds", "load_cost_model", "calibrate"]
@@ -352,51 +350,19 @@ def ffbp_knobs(ph, grid: Grid, tolerance: float, *, nthreads=None, costs=None) -
     return dict(min(met, key=lambda x: x.seconds).knobs if met else min(ff, key=lambda x: x.predicted_error).knobs)
 
 
-def command_seconds(cand: Candidate, ph, grid: Grid, costs=None, *, auto=False) -> float:
+def command_seconds(cand: Candidate, ph, grid: Grid, costs=None, *, auto=False, tolerance=None) -> float:
     """Predicted wall time of the whole ``sar form-image`` command for ``cand``: start-up (imports,
     kernel loads), reading the data, the formation, writing the image, and for ``auto`` the
-    planning too, from the calibrated constants (:func:`sarcli.formers.planning.calibration.calibrate`)."""
+    planning too, from the calibrated constants (:func:`calibrate`). ``tolerance``: the command's
+    ``--tolerance`` (with the samples' type, the stored image's)."""
+    from ...io.hdf5 import stored_image_dtype
+
     c = load_cost_model() if costs is None else costs
     P, M = ph.data.shape
-    # the samples at their stored size; the image written complex128, as the formers return it
-    io = c["read_per_byte"] * np.dtype(ph.data.dtype).itemsize * P * M + c["write_per_byte"] * 16.0 * grid.nx * grid.ny
+    # the samples at their stored size; the image as `sar form-image` stores it
+    image = stored_image_dtype(ph.data.dtype, tolerance=tolerance).itemsize
+    io = c["read_per_byte"] * np.dtype(ph.data.dtype).itemsize * P * M + c["write_per_byte"] * image * grid.nx * grid.ny
     return c["startup"] + (c["planning"] if auto else 0.0) + io + cand.seconds
-
-
-def _best(fn, repeat):
-    fn()
-    ts = []
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        fn()
-        ts.append(time.perf_counter() - t0)
-    return min(ts)
-
-
-def _command_costs(repeat) -> dict:
-    """Start-up of a fresh interpreter importing what ``sar form-image`` does, and HDF5 read and
-    write seconds per byte (a 32 MiB complex array)."""
-    import tempfile
-
-    import h5py
-
-    startup = _best(lambda: subprocess.run([sys.executable, "-c", STARTUP_IMPORTS], check=True,
-                                           stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL), repeat)
-    a = np.zeros((2048, 1024), np.complex128)
-    with tempfile.TemporaryDirectory() as tmp:
-        path = Path(tmp) / "io.h5"
-
-        def write():
-            with h5py.File(path, "w") as f:
-                f["a"] = a
-
-        def read():
-            with h5py.File(path, "r") as f:
-                f["a"][()]
-
-        w = _best(write, repeat)
-        r = _best(read, repeat)
-    return {"startup": startup, "read_per_byte": r / a.nbytes, "write_per_byte": w / a.nbytes}
 
 
 #: Least share of its default-ratio value each of ffbp's fitted constants keeps (every term costs
@@ -404,15 +370,17 @@ def _command_costs(repeat) -> dict:
 FFBP_FLOOR = 0.1
 
 
-def _fit_ffbp(rows, rhs) -> np.ndarray:
-    """ffbp's constants (:data:`FFBP_TERMS`) from operation counts ``rows`` [settings, terms] and
-    measured seconds ``rhs``: non-negative least squares above a floor of :data:`FFBP_FLOOR` times
-    the default constants scaled to the first setting's time, so no constant is 0."""
+def _fit_ffbp(rows, rhs, names=None) -> np.ndarray:
+    """ffbp's constants ``names`` (default: all of :data:`FFBP_TERMS`) from operation counts
+    ``rows`` [settings, terms] and measured seconds ``rhs``: non-negative least squares above a
+    floor of :data:`FFBP_FLOOR` times the default constants scaled to the settings' time, so no
+    constant is 0."""
     from scipy.optimize import nnls
 
-    default = np.array([DEFAULT_COSTS[name] for name, _ in FFBP_TERMS])
-    floor = FFBP_FLOOR * default * rhs[0] / float(rows[0] @ default)
-    scale = np.max(rows, axis=0)
+    names = [name for name, _ in FFBP_TERMS] if names is None else names
+    default = np.array([DEFAULT_COSTS[name] for name in names])
+    floor = FFBP_FLOOR * default * float(np.sum(rhs)) / max(float(np.sum(rows @ default)), 1e-300)
+    scale = np.maximum(np.max(rows, axis=0), 1e-300)
     return floor + nnls(rows / scale, np.maximum(rhs - rows @ floor, 0.0))[0] / scale
 
 
@@ -422,19 +390,22 @@ def calibrate(path=None, *, repeat: int = 3) -> dict:
     reference is :data:`~sarcli.formers.planning.calibration.COST_MODEL_PATH`); returns them.
 
     Small instances of every former (a few seconds in all); each constant is its measured time
-    (best of ``repeat``) divided by its operation count, except ffbp's four
-    (:data:`FFBP_TERMS`), fitted by non-negative least squares to six settings with
-    different shares of each (:func:`_fit_ffbp`); then the whole command's start-up, planning, reading and writing.
+    (best of ``repeat``) divided by its operation count, except ffbp's (:data:`FFBP_TERMS`):
+    six settings with different shares of each term are formed, each part's processor seconds
+    (``timings`` of :func:`sarcli.formers.ffbp.ffbp`, so that other jobs on the machine do not
+    inflate them) fitted by non-negative least squares to its own counts (:data:`FFBP_PARTS`,
+    :func:`_fit_ffbp`), and the first touch of fresh memory timed on arrays too large to be
+    recycled; then the whole command's start-up, planning, reading and writing.
     """
     from ...core import geometry
     from .. import ffbp as fb
-    from ..backprojection import DEFAULT_PRECISION, backproject, profile_length
+    from ..backprojection import DEFAULT_PRECISION, backproject
     from ..direct import direct_spherical
     from ..nufft import nufft_farfield
     from ..subimage import subimage_nufft
 
     def best(fn):
-        return _best(fn, repeat)
+        return best_of(fn, repeat)
 
     P, M, N = 256, 256, 256
     freq = 9.6e9 + 2e6 * np.arange(M)
@@ -451,16 +422,25 @@ def calibrate(path=None, *, repeat: int = 3) -> dict:
     c["direct"] = best(lambda: direct_spherical(d, freq, a, r0, small)) * thr / (P * M * 32 * 32)
     # ffbp: settings whose shares of stage 0 (per pulse-node tap and per node), interpolation taps
     # and (node, child) pairs differ; non-negative least squares gives the four constants
-    rows, rhs = [], []
+    rows, parts = [], []
     for knobs in ({}, {"base": 8}, {"base": 32}, {"base": 4}, {"os_range": 2.0, "os_angle": 2.0},
                   {"base": 8, "os_range": 3.0, "os_angle": 3.0}):
         plan = fb.plan_stages(a, freq, grid, **knobs)
-        lf = profile_length(M, plan.knobs["upsample"])
-        t = best(lambda: fb.ffbp(d, freq, a, r0, grid, **knobs)) * thr
+        runs = []
+        for _ in range(repeat + 1):   # the first warms up
+            runs.append({})
+            fb.ffbp(d, freq, a, r0, grid, timings=runs[-1], **knobs)
+        parts.append(min(runs[1:], key=lambda t: sum(t.values())))
         rows.append(ffbp_counts(plan.ops))
-        rhs.append(max(t - c["bp_fft"] * P * lf * math.log2(lf), 0.0))
-    for name, v in zip((name for name, _ in FFBP_TERMS), _fit_ffbp(np.array(rows), np.array(rhs))):
-        c[name] = float(v)
+    rows = np.array(rows)
+    names = [name for name, _ in FFBP_TERMS]
+    for part, fitted in FFBP_PARTS.items():
+        cols = [names.index(name) for name in fitted]
+        rhs = np.array([t.get(part, 0.0) for t in parts])
+        for name, v in zip(fitted, _fit_ffbp(rows[:, cols], rhs, list(fitted))):
+            c[name] = float(v)
+    c["ffbp_touch"] = touch_cost(repeat)
+    c["bp_fft"] = fft_cost(repeat, thr)
     kx, ky = geometry.kspace_coordinates(freq, az, np.radians(30))
     w = nufft_width(1e-6)
     t = best(lambda: nufft_farfield(d, kx, ky, grid, eps=1e-6)) * thr
@@ -470,12 +450,12 @@ def calibrate(path=None, *, repeat: int = 3) -> dict:
     tile = 16
     t = best(lambda: subimage_nufft(d, freq, a, r0, grid, tile=tile, eps=1e-3)) * thr
     c["subimage_point"] = t / ((N // tile) ** 2 * P * M * nufft_width(1e-3) ** 2)
-    c.update(_command_costs(repeat))
+    c.update(command_costs(repeat))
     from ...core.acquisition import Acquisition
     from ...core.types import PhaseHistory
 
     ph = PhaseHistory(d, Acquisition(freq, az, np.full(P, np.radians(30)), grid, antenna_position_m=a,
                                      range_to_center_m=r0, model="spherical"))
-    c["planning"] = _best(lambda: recommend(ph, grid, 1e-3, costs=dict(DEFAULT_COSTS, **c)), repeat)
+    c["planning"] = best_of(lambda: recommend(ph, grid, 1e-3, costs=dict(DEFAULT_COSTS, **c)), repeat)
     save_cost_model(c, path)
     return c
