@@ -25,13 +25,11 @@ import hashlib
 import json
 import math
 import threading
-import time
 from collections import OrderedDict
 from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from ...core import sampling
 from ...core.grid import Grid
 from ...errors import SarcliInputError
 from ..options import OPTIONS
@@ -399,7 +397,7 @@ def calibrate(path=None, *, repeat: int = 3) -> dict:
     """
     from ...core import geometry
     from .. import ffbp as fb
-    from ..backprojection import DEFAULT_PRECISION, backproject
+
     from ..direct import direct_spherical
     from ..nufft import nufft_farfield
     from ..subimage import subimage_nufft
