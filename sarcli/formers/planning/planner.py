@@ -397,7 +397,6 @@ def calibrate(path=None, *, repeat: int = 3) -> dict:
     """
     from ...core import geometry
     from .. import ffbp as fb
-
     from ..direct import direct_spherical
     from ..nufft import nufft_farfield
     from ..subimage import subimage_nufft
