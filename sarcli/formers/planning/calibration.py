@@ -141,8 +141,7 @@ def fft_cost(repeat, thr) -> float:
     """``c["bp_fft"]``: processor seconds x ``thr`` of the range profiles (numpy's FFT, one thread)
     per pulse and ``L log2 L``, on long pulses (32 x 4096 samples, profiles of 2x), where the
     transforms of large collections spend their time; best of ``repeat``."""
-    from ._bp_setup import profiles
-    from .backprojection import profile_length
+    from ..backprojection import profile_length, profiles
 
     rng = np.random.default_rng(1)
     d = (rng.normal(size=(32, 4096)) + 1j * rng.normal(size=(32, 4096))).astype(np.complex64)
