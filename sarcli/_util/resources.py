@@ -14,7 +14,7 @@ import re
 from ..errors import SarcliInputError
 
 __all__ = ["available_memory", "memory_limit", "set_memory_limit", "check_memory", "parse_size",
-           "format_bytes", "retain_freed_memory"]
+           "format_bytes"]
 
 _state: dict = {"limit": None}
 _UNITS = {"": 1, "B": 1, "K": 1 << 10, "M": 1 << 20, "G": 1 << 30, "T": 1 << 40}
@@ -83,34 +83,3 @@ def check_memory(estimate_bytes: float, what: str) -> None:
     raise SarcliInputError(f"{what} needs about {format_bytes(estimate_bytes)} of memory, more than the limit "
                            f"{format_bytes(limit)} ({src}); reduce the size or raise sar --max-memory")
 
-
-#: glibc's ``mallopt`` parameters (malloc.h).
-_M_TRIM_THRESHOLD, _M_MMAP_THRESHOLD = -1, -3
-
-
-def retain_freed_memory(block_bytes: int = 256 << 20) -> bool:
-    """Let the process reuse the memory it frees (glibc; elsewhere nothing happens).
-
-    By default glibc maps every block above its (adaptive) threshold afresh and unmaps it when
-    freed, so a loop that makes and drops image-sized arrays pays page faults and the kernel's
-    zeroing on every pass: a quarter of an ADMM iteration's time on an 800² grid. Here blocks up
-    to ``block_bytes`` come from the heap and, freed, stay there for the next allocation (the top
-    of the heap is returned beyond ``4 · block_bytes``); larger blocks are mapped as before.
-    Process-wide: the ``sar`` commands that iterate call it; a library call does not.
-
-    Returns
-    -------
-    bool
-        Whether the allocator took the setting.
-    """
-    import ctypes
-    import ctypes.util
-
-    try:
-        libc = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6")
-        mallopt = libc.mallopt
-    except (OSError, AttributeError):
-        return False
-    mallopt.argtypes, mallopt.restype = (ctypes.c_int, ctypes.c_int), ctypes.c_int
-    block = int(min(block_bytes, 1 << 30))
-    return bool(mallopt(_M_MMAP_THRESHOLD, block)) and bool(mallopt(_M_TRIM_THRESHOLD, 4 * block))

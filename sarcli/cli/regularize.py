@@ -70,10 +70,7 @@ def command(ctx, input_path, output, **knobs):
 
     from ..core.grid import resolve_grid
     from ..formers.planning.cost import check_regularize
-    from .._util.resources import retain_freed_memory
     from .options import prepare_outputs
-
-    retain_freed_memory()   # each iteration makes and drops image-sized arrays
 
     outside_path, init_path, history_png = knobs.pop("outside_path"), knobs.pop("init_path"), knobs.pop("history_png")
     center, extent, pixel_size = knobs.pop("center"), knobs.pop("extent"), knobs.pop("pixel_size")
