@@ -509,7 +509,7 @@ def test_merge_matches_its_numpy_reference(name, beta_q, beta_t):
     make = optimal_kernel if name == "optimal" else deapodized_kernel
     tab_q, tab_t = make(beta_q), make(beta_t)
     out_re, out_im = (np.zeros((parent.n, parent.n_u, parent.n_q), np.float32) for _ in range(2))
-    kern.merge(cre, cim, cf, pf, first, count, 3, tab_q, tab_t, plan.dq, plan.kref, out_re, out_im)
+    kern.merge((cre, cim), cf, pf, (first, count), kern.Interp(3, tab_q, tab_t, plan.dq, plan.kref), (out_re, out_im))
     ref = _merge_reference(cre, cim, cf, pf, first, count, tab_q, tab_t, plan.dq, plan.kref, parent.n_u,
                            parent.n_q)
     got = out_re + 1j * out_im

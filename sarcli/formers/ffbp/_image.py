@@ -113,6 +113,7 @@ from ..._util.progress import progress
 from .model import INTERPOLATORS, interp_error, optimal_kernel, predict_error
 from .model import deapodized_inverse, deapodized_kernel
 from ._grids import deapodization
+from ._kernels import Interp
 from ._plan import (BAND_SLACK, DEFAULTS, OS_ANGLE_DEAPODIZED, OS_RANGE_DEAPODIZED, SUBTREE_BYTES, UPSAMPLE_ANALYTIC,
                     FfbpPlan, StageLayout, layout_stages, plan_stages, subtree_groups)
 
@@ -285,11 +286,12 @@ class _Pass:
         self.deapodize = plan.profiles_deapodized or plan.range_deapodized or plan.angle_deapodized
         # each interpolation's weight polynomials (profiles, range, angle): the deapodized kernel where
         # the plan says, else the minimax one for ``optimal``; the analytic kernels read none
-        self.tab_p, self.tab_q, self.tab_t = (
+        self.tab_p, tab_q, tab_t = (
             deapodized_kernel(float(knobs[name])) if on else
             optimal_kernel(float(knobs[name])) if knobs["interp"] == "optimal" else None
             for on, name in ((plan.profiles_deapodized, "upsample"), (plan.range_deapodized, "os_range"),
                              (plan.angle_deapodized, "os_angle")))
+        self.interp = Interp(self.kind, tab_q, tab_t, plan.dq, plan.kref)   # the polar grids'
         # the polar grids' deapodized kernels: 1/Ψ at each pulse's tones on every level (tone_weights)
         self.tones = [(rates, off, deapodized_inverse(float(knobs[os]))) for on, rates, off, os in
                       ((plan.range_deapodized, plan.range_rates, plan.range_offset, "os_range"),
@@ -321,10 +323,11 @@ class _Pass:
         """Stage 0 of sub-apertures ``lo .. hi-1`` in blocks of sub-apertures (bounded profile
         memory): their polar sub-images ``(real, imaginary)``."""
         from ._kernels import frame
-        from ._stage0 import stage0
+        from ._stage0 import Stage0Settings, stage0
         from ..backprojection import PAD, ProfileWork, range_profiles
 
         inp, plan, lev, n_len = self.inp, self.plan, self.plan.levels[0], self.n_len
+        settings = Stage0Settings(self.kind, inp.bistatic, n_len // 2, n_len, PAD, plan.dq, plan.kref)
         cur_re = np.empty((hi - lo, lev.n_u, lev.n_q), dtype=_STORE)
         cur_im = np.empty((hi - lo, lev.n_u, lev.n_q), dtype=_STORE)
         per = max(1, _PROFILE_BLOCK // int(lev.count.max()))
@@ -336,9 +339,9 @@ class _Pass:
             pre, pim = range_profiles(self.work.samples(inp.d, slice(p0, p1)), self._block_weights(p0, p1),
                                       inp.total, n_len, nthr, dtype=np.complex64, work=self.work)
             self.clock("profiles")
-            stage0(pre, pim, lev.first[s0:s1] - p0, lev.count[s0:s1], np.ascontiguousarray(self.pulses[:, p0:p1]),
-                   self.series[s0:s1], frame(lev, s0, s1), self.tab_p, self.kind, inp.bistatic, n_len // 2, n_len,
-                   PAD, plan.dq, plan.kref, cur_re[s0 - lo:s1 - lo], cur_im[s0 - lo:s1 - lo])
+            stage0((pre, pim), (lev.first[s0:s1] - p0, lev.count[s0:s1]), np.ascontiguousarray(self.pulses[:, p0:p1]),
+                   self.series[s0:s1], frame(lev, s0, s1), self.tab_p, settings,
+                   (cur_re[s0 - lo:s1 - lo], cur_im[s0 - lo:s1 - lo]))
             del pre, pim
             self.clock("stage0")
             bar.update(p1 - p0)
@@ -348,15 +351,15 @@ class _Pass:
         """Stage 0's sub-images merged level by level up the subtree ``rng`` (:func:`_descend`)."""
         from ._kernels import frame, merge as merge_stage
 
-        levels, plan = self.plan.levels, self.plan
+        levels = self.plan.levels
         for l in range(1, len(levels)):
             child, parent = levels[l - 1], levels[l]
             (c0, c1), (u0, u1) = rng[l - 1], rng[l]
             pf, pc = parent.children
             nxt_re = np.empty((u1 - u0, parent.n_u, parent.n_q), dtype=_STORE)
             nxt_im = np.empty((u1 - u0, parent.n_u, parent.n_q), dtype=_STORE)
-            merge_stage(cur_re, cur_im, frame(child, c0, c1), frame(parent, u0, u1), pf[u0:u1] - c0,
-                        pc[u0:u1], self.kind, self.tab_q, self.tab_t, plan.dq, plan.kref, nxt_re, nxt_im)
+            merge_stage((cur_re, cur_im), frame(child, c0, c1), frame(parent, u0, u1), (pf[u0:u1] - c0, pc[u0:u1]),
+                        self.interp, (nxt_re, nxt_im))
             cur_re, cur_im = nxt_re, nxt_im
             del nxt_re, nxt_im
             self.clock("merge")
@@ -374,8 +377,7 @@ class _Pass:
             if self.band is None or self.band.shape[1] != c1 - c0:
                 self.band = np.empty((grid.ny, c1 - c0), dtype=np.complex128)
             self.band.fill(0.0)
-            final_stage(cur_re, cur_im, fr, grid.x[c0:c1], grid.y, self.kind, self.tab_q, self.tab_t, plan.dq,
-                        plan.kref, self.band)
+            final_stage((cur_re, cur_im), fr, grid.x[c0:c1], grid.y, self.interp, self.band)
             img[:, c0:c1] += self.band
 
 

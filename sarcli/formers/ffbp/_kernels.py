@@ -21,6 +21,8 @@ direction cosine ``u = ((x - c)·e⊥)/|c - x|`` of the ray from ``c`` to ``x`` 
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 
 from ..._native import load
@@ -55,36 +57,46 @@ def table(coef):
     return np.ascontiguousarray(coef, dtype=np.float32)
 
 
-def merge(cre, cim, cframe, pframe, first, count, kind, tab_q, tab_t, dq, kref, out_re, out_im):
+class Interp(NamedTuple):
+    """How the polar grids are read: the interpolator's code (:data:`NTAPS`), the range and
+    angular weight polynomials (:func:`table`; None for the analytic kernels), the range spacing of
+    every grid and the reference wavenumber of the demodulation."""
+
+    kind: int
+    tab_q: object
+    tab_t: object
+    dq: float
+    kref: float
+
+
+def merge(children, cframe, pframe, groups, interp: Interp, out):
     """Parent sub-image s = Σ over children ``first[s] .. +count[s]`` interpolated at its nodes.
 
     Parameters
     ----------
-    cre, cim : ndarray, shape (C, n_u, n_q), float32
-        Children's sub-images.
+    children : (ndarray, ndarray), each shape (C, n_u, n_q), float32
+        Children's sub-images, real and imaginary parts.
     cframe, pframe : ndarray, shape (10, C) and (10, S)
         Children's and parents' :func:`frame`.
-    first, count : array_like of int, shape (S,)
-        Each parent's children (indices into ``cre``).
-    kind : int
-        Interpolator code (:data:`NTAPS`).
-    tab_q, tab_t : ndarray, shape (6, 8)
-        Range and angular weight polynomials (:func:`table`).
-    dq, kref : float
-        Range spacing of every grid; reference wavenumber of the demodulation.
-    out_re, out_im : ndarray, shape (S, n_u', n_q'), float32
-        Parents' sub-images (written).
+    groups : (array_like of int, array_like of int), each shape (S,)
+        ``(first, count)``: each parent's children (indices into ``children``).
+    interp : Interp
+    out : (ndarray, ndarray), each shape (S, n_u', n_q'), float32
+        Parents' sub-images, real and imaginary parts (written).
     """
+    (cre, cim), (first, count), (out_re, out_im) = children, groups, out
     native().merge(cre, cim, cframe, pframe, np.ascontiguousarray(first, np.int64),
-                   np.ascontiguousarray(count, np.int64), table(tab_q), table(tab_t), int(kind), float(dq),
-                   float(kref), out_re, out_im)
+                   np.ascontiguousarray(count, np.int64), table(interp.tab_q), table(interp.tab_t),
+                   int(interp.kind), float(interp.dq), float(interp.kref), out_re, out_im)
 
 
-def final(cre, cim, cframe, x, y, kind, tab_q, tab_t, dq, kref, img):
-    """Add the sub-images ``cre + i cim`` (frames ``cframe``), interpolated at every pixel
+def final(children, cframe, x, y, interp: Interp, img):
+    """Add the sub-images ``children = (re, im)`` (frames ``cframe``), interpolated at every pixel
     ``(x[j], y[i])`` and re-modulated, to ``img`` (complex128 ``[ny, nx]``, C-contiguous)."""
+    cre, cim = children
     native().final_stage(cre, cim, cframe, np.ascontiguousarray(x, np.float64), np.ascontiguousarray(y, np.float64),
-                         table(tab_q), table(tab_t), int(kind), float(dq), float(kref), img)
+                         table(interp.tab_q), table(interp.tab_t), int(interp.kind), float(interp.dq),
+                         float(interp.kref), img)
 
 
 def row_weights(kind, frac, coef=None):

@@ -7,6 +7,8 @@ responses at each pulse's tones, divided out of the data (:func:`tone_weights`).
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 
 from ..._native.layout import FfbpPulse
@@ -37,8 +39,21 @@ SQRT_SERIES = _binomial_half(8)
 SQRT_TAIL = abs(_binomial_half(9)[8])
 
 
-def stage0(pre, pim, first, count, pulses, series, frame, tab, kind, bistatic, half_len, n_len, pad, dq, kref,
-           out_re, out_im):
+class Stage0Settings(NamedTuple):
+    """Stage 0's scalars: the profiles' interpolator code, whether the pulses are bistatic, the
+    profile's half length and length ``L // 2``, ``L``, its padding on each side, the polar grids'
+    range spacing and the demodulation's reference wavenumber."""
+
+    kind: int
+    bistatic: bool
+    half_len: float
+    n_len: float
+    pad: int
+    dq: float
+    kref: float
+
+
+def stage0(profiles, groups, pulses, series, frame, tab, settings: Stage0Settings, out):
     """Backproject the pulses ``first[s] .. first[s]+count[s]-1`` onto sub-aperture s's polar grid.
 
     Profile interpolation as in backprojection; the profiles, weights, gather and sums are float32
@@ -52,10 +67,11 @@ def stage0(pre, pim, first, count, pulses, series, frame, tab, kind, bistatic, h
 
     Parameters
     ----------
-    pre, pim : ndarray, shape (B, L + 2·pad), float32
-        Range profiles of the block's pulses (:func:`sarcli.formers.backprojection.range_profiles`).
-    first, count : array_like of int, shape (S,)
-        Each sub-aperture's pulses, indices into the block.
+    profiles : (ndarray, ndarray), each shape (B, L + 2·pad), float32
+        Range profiles of the block's pulses, real and imaginary parts
+        (:func:`sarcli.formers.backprojection.range_profiles`).
+    groups : (array_like of int, array_like of int), each shape (S,)
+        ``(first, count)``: each sub-aperture's pulses, indices into the block.
     pulses : ndarray, shape (20, B)
         :func:`pulse_table`.
     series : ndarray of bool, shape (S,)
@@ -63,18 +79,13 @@ def stage0(pre, pim, first, count, pulses, series, frame, tab, kind, bistatic, h
         :func:`sarcli.formers.ffbp._kernels.frame` of the sub-apertures.
     tab : ndarray, shape (6, 8)
         The profiles' weight polynomials (kind 3).
-    kind : int
-    bistatic : bool
-    half_len, n_len : float
-        ``L // 2`` and ``L``, the profile length.
-    pad : int
-        Bins of padding on each side of the profiles.
-    dq, kref : float
-    out_re, out_im : ndarray, shape (S, n_u, n_q), float32
-        The sub-images (written).
+    settings : Stage0Settings
+    out : (ndarray, ndarray), each shape (S, n_u, n_q), float32
+        The sub-images, real and imaginary parts (written).
     """
-    opts = native().Stage0Options(kind=int(kind), bistatic=bool(bistatic), half_len=float(half_len),
-                                  n_len=float(n_len), pad=int(pad), dq=float(dq), kref=float(kref))
+    (pre, pim), (first, count), (out_re, out_im), st = profiles, groups, out, settings
+    opts = native().Stage0Options(kind=int(st.kind), bistatic=bool(st.bistatic), half_len=float(st.half_len),
+                                  n_len=float(st.n_len), pad=int(st.pad), dq=float(st.dq), kref=float(st.kref))
     if WEIGHTS_FIRST is not None:
         opts.weights_first = int(bool(WEIGHTS_FIRST))
     native().stage0(pre, pim, np.ascontiguousarray(first, np.int64), np.ascontiguousarray(count, np.int64), pulses,
