@@ -595,3 +595,11 @@ def test_timings_give_each_part_its_processor_seconds():
     assert set(parts) == {"profiles", "tones", "stage0", "merge", "final"}
     assert all(v >= 0 for v in parts.values()) and sum(parts.values()) <= total + 1e-9
     assert ffbp(d, FREQ, a, r0, GRID, base=2, final=8) is not None   # no timings: nothing kept
+
+
+def test_an_unknown_stage_knob_is_one_line_naming_it():
+    from sarcli.errors import SarcliInputError
+
+    a, _ = circle(P=64)
+    with pytest.raises(SarcliInputError, match="'bse'"):
+        plan_stages(a, FREQ, GRID, bse=4)

@@ -81,8 +81,19 @@ class FfbpPlan:
         return len(self.levels)
 
 
-def plan_stages(antenna_position_m, freq_hz, grid: Grid, *, base=None, merge=None, os_range=None,
-                os_angle=None, interp=None, upsample=None, final=None, receive_position_m=None) -> FfbpPlan:
+#: The knobs :func:`plan_stages` and :func:`layout_stages` take (None or absent: the default).
+KNOBS = ("base", "merge", "os_range", "os_angle", "interp", "upsample", "final")
+
+
+def _knobs(knobs: dict) -> dict:
+    """Every knob of :data:`KNOBS`, None where not given; an unknown one is one line naming it."""
+    unknown = sorted(set(knobs) - set(KNOBS))
+    if unknown:
+        raise SarcliInputError(f"ffbp has no knob {unknown[0]!r} (its knobs: {', '.join(KNOBS)})")
+    return {name: knobs.get(name) for name in KNOBS}
+
+
+def plan_stages(antenna_position_m, freq_hz, grid: Grid, *, receive_position_m=None, **knobs) -> FfbpPlan:
     """The FFBP stages for a geometry (no data needed): levels, operation counts, predicted error
     (:func:`layout_stages`, then :meth:`StageLayout.plan`). ``os_range=None`` with ``optimal``
     kernels: :data:`OS_RANGE_DEAPODIZED`
@@ -91,10 +102,12 @@ def plan_stages(antenna_position_m, freq_hz, grid: Grid, *, base=None, merge=Non
     likewise with :data:`OS_ANGLE_DEAPODIZED` and the angular kernel. ``upsample=None``:
     :func:`default_upsample` for ``optimal`` (deapodized profiles), :data:`UPSAMPLE_ANALYTIC` for
     the others.
-    ``receive_position_m``: separate receive positions (``antenna_position_m`` then transmits)."""
-    kw = dict(base=base, merge=merge, interp=interp, final=final, upsample=upsample,
-              receive_position_m=receive_position_m)
-    auto = interp in (None, "optimal")
+    ``receive_position_m``: separate receive positions (``antenna_position_m`` then transmits).
+    ``knobs``: those of :data:`KNOBS` (:func:`ffbp`'s)."""
+    kw = _knobs(knobs)
+    os_range, os_angle = kw.pop("os_range"), kw.pop("os_angle")
+    kw["receive_position_m"] = receive_position_m
+    auto = kw["interp"] in (None, "optimal")
     # (oversampling, tentative): a tentative one is kept only where its kernel's deapodization pays
     r_try = ((OS_RANGE_DEAPODIZED, True), (None, False)) if os_range is None and auto else ((os_range, False),)
     a_try = ((OS_ANGLE_DEAPODIZED, True), (None, False)) if os_angle is None and auto else ((os_angle, False),)
@@ -234,9 +247,8 @@ class StageLayout:
                         error + self._frequency_error(frequency_err), band_scale=self.band_scale, **deapodized)
 
 
-def layout_stages(antenna_position_m, freq_hz, grid: Grid, *, base=None, merge=None, os_range=None,
-                  os_angle=None, interp=None, upsample=None, final=None, receive_position_m=None,
-                  _band=None) -> StageLayout:
+def layout_stages(antenna_position_m, freq_hz, grid: Grid, *, receive_position_m=None, _band=None,
+                  **knobs) -> StageLayout:
     """The stages of :func:`plan_stages` for given knobs (``None``: :data:`DEFAULTS`), without the
     error model (:class:`StageLayout`).
 
@@ -255,18 +267,10 @@ def layout_stages(antenna_position_m, freq_hz, grid: Grid, *, base=None, merge=N
     grid extends beyond the image by the stencil half-widths of every later level, in its own
     samples (range spacing is common; angular spacings shrink by ``merge`` per level).
     """
-    knobs = {**DEFAULTS, **{name: v for name, v in dict(base=base, merge=merge, os_range=os_range, os_angle=os_angle,
-                                               interp=interp, upsample=upsample).items() if v is not None}}
-    if upsample is None:
-        knobs["upsample"] = (default_upsample(float(knobs["os_range"])) if knobs["interp"] == "optimal"
-                             else UPSAMPLE_ANALYTIC)
-    base, merge = int(knobs["base"]), int(knobs["merge"])
-    if base < 1 or merge < 2:
-        raise SarcliInputError(f"ffbp needs base >= 1 and merge >= 2, got base={base}, merge={merge}")
-    if not (knobs["os_range"] >= 1 and knobs["os_angle"] >= 1 and knobs["upsample"] >= 1):
-        raise SarcliInputError("ffbp oversampling factors (os_range, os_angle, upsample) must be >= 1")
-    if knobs["interp"] not in INTERPOLATORS:
-        raise SarcliInputError(f"unknown interpolation {knobs['interp']!r}; choose one of {sorted(INTERPOLATORS)}")
+    given = _knobs(knobs)
+    final = given.pop("final")
+    knobs = _resolved(given)
+    base, merge = knobs["base"], knobs["merge"]
     t = np.asarray(antenna_position_m, dtype=np.float64)
     rcv = t if receive_position_m is None else np.asarray(receive_position_m, dtype=np.float64)
     f = np.asarray(freq_hz, dtype=np.float64)
@@ -282,11 +286,46 @@ def layout_stages(antenna_position_m, freq_hz, grid: Grid, *, base=None, merge=N
     n_pix = grid.nx * grid.ny
     margin = MARGIN_PIXELS * max(grid.dx, grid.dy)
     ap = apertures(t, rcv, grid, margin, base, merge)
-    frames = [ap.frame(0, kmax, knobs["os_angle"], bu)]
-    children = [None]
-    while frames[-1].first.size > 1:   # merge while it costs less than it saves in the final stage
+    frames, children = _merged_levels(ap, kmax, knobs["os_angle"], bu, level_test=(dq, half, n_pix, merge),
+                                      final=final)
+    # every pulse's tones on every level's grid: where they overflow the bands the grids were
+    # sampled for (a receiver far from the transmitter, a wide baseline), sample that much finer
+    n_lev = len(frames)
+    excess = band_excess([ap.tone_reach(l, l == n_lev - 1) for l in range(n_lev)], frames, range_wavenumbers(fmin),
+                         kmax, kref, knobs["os_angle"])
+    if _band is None and max(excess) > BAND_SLACK:
+        return layout_stages(antenna_position_m, freq_hz, grid, receive_position_m=receive_position_m,
+                             _band=tuple(max(e, 1.0) * BAND_SLACK for e in excess), final=final, **knobs)
+    return StageLayout({**knobs, "base": base, "merge": merge}, frames, children, ap, dq, kref, kmax, (bq, bu), f,
+                       t if rcv is t else 0.5 * (t + rcv), grid)
+
+
+def _resolved(given: dict) -> dict:
+    """The stage knobs with :data:`DEFAULTS` where not given (``upsample`` from ``os_range`` and the
+    interpolator), checked: one line naming the first that is out of range."""
+    knobs = {**DEFAULTS, **{name: v for name, v in given.items() if v is not None}}
+    if given.get("upsample") is None:
+        knobs["upsample"] = (default_upsample(float(knobs["os_range"])) if knobs["interp"] == "optimal"
+                             else UPSAMPLE_ANALYTIC)
+    knobs["base"], knobs["merge"] = int(knobs["base"]), int(knobs["merge"])
+    if knobs["base"] < 1 or knobs["merge"] < 2:
+        raise SarcliInputError(f"ffbp needs base >= 1 and merge >= 2, got base={knobs['base']}, merge={knobs['merge']}")
+    if not (knobs["os_range"] >= 1 and knobs["os_angle"] >= 1 and knobs["upsample"] >= 1):
+        raise SarcliInputError("ffbp oversampling factors (os_range, os_angle, upsample) must be >= 1")
+    if knobs["interp"] not in INTERPOLATORS:
+        raise SarcliInputError(f"unknown interpolation {knobs['interp']!r}; choose one of {sorted(INTERPOLATORS)}")
+    return knobs
+
+
+def _merged_levels(ap, kmax, os_angle, bu, *, level_test, final):
+    """Every level's frame and children: merge while it costs less than it saves in the final stage
+    (or, with ``final``, until at most that many sub-images remain). ``level_test``: the range
+    spacing, the stencil half-width, the pixels and the merge factor the test weighs."""
+    dq, half, n_pix, merge = level_test
+    frames, children = [ap.frame(0, kmax, os_angle, bu)], [None]
+    while frames[-1].first.size > 1:
         n_cur = frames[-1].first.size
-        nxt = ap.frame(len(frames), kmax, knobs["os_angle"], bu)
+        nxt = ap.frame(len(frames), kmax, os_angle, bu)
         lv = level_grid(nxt, dq, MERGE_TEST_EXTENSION * half, MERGE_TEST_EXTENSION * half)
         if final is not None:
             if n_cur <= int(final):
@@ -295,19 +334,7 @@ def layout_stages(antenna_position_m, freq_hz, grid: Grid, *, base=None, merge=N
             break
         children.append(ap.children[len(frames)])
         frames.append(nxt)
-    # every pulse's tones on every level's grid: where they overflow the bands the grids were
-    # sampled for (a receiver far from the transmitter, a wide baseline), sample that much finer
-    n_lev = len(frames)
-    excess = band_excess([ap.tone_reach(l, l == n_lev - 1) for l in range(n_lev)], frames, range_wavenumbers(fmin),
-                         kmax, kref, knobs["os_angle"])
-    if _band is None and max(excess) > BAND_SLACK:
-        return layout_stages(antenna_position_m, freq_hz, grid, base=base, merge=merge, os_range=knobs["os_range"],
-                             os_angle=knobs["os_angle"], interp=knobs["interp"], upsample=knobs["upsample"],
-                             final=final,
-                             receive_position_m=receive_position_m,
-                             _band=tuple(max(e, 1.0) * BAND_SLACK for e in excess))
-    return StageLayout({**knobs, "base": base, "merge": merge}, frames, children, ap, dq, kref, kmax, (bq, bu), f,
-                       t if rcv is t else 0.5 * (t + rcv), grid)
+    return frames, children
 
 
 def subtree_groups(plan, limit=SUBTREE_BYTES):
