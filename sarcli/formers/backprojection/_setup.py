@@ -10,7 +10,9 @@ import math
 import warnings
 
 import numpy as np
+import scipy.fft
 
+from ..._native import threads
 from ...core.geometry import C, bistatic_differential_range
 from ...core.grid import Grid
 from ...core.sampling import INTERPOLATORS as ALL_INTERPOLATORS, PROFILE_INTERPOLATORS, equally_spaced, frequency_line
@@ -37,10 +39,6 @@ def profile_length(n_frequencies: int, upsample: float) -> int:
     """Range-profile (IFFT) length ``L``: ``upsample·M`` rounded up to an even fast FFT size."""
     half = int(math.ceil(float(upsample) * int(n_frequencies) / 2.0))
     return 2 * next_fast_len(max(half, 1))
-
-
-#: numpy's FFT writes into a given array from numpy 2.0 on (``out=``).
-_FFT_OUT = np.lib.NumpyVersion(np.__version__) >= "2.0.0"
 
 
 class ProfileWork:
@@ -125,13 +123,20 @@ def profiles(data, weights, total_weight, n_len, dtype, work=None):
         else:
             np.multiply(data[:, src], weights[:, src], out=dst)
             dst *= scale
-    # one call for the block: numpy builds the FFT's plan on every call (megabytes for long
-    # profiles), so calls on a few rows at a time cost more than the transforms
-    sig = np.fft.ifft(spec, axis=1, out=spec) if _FFT_OUT else np.fft.ifft(spec, axis=1)
-    work.padded = not _FFT_OUT
+    # one call for the block: the FFT's plan is built on every call (megabytes for long profiles),
+    # so calls on a few rows at a time cost more than the transforms
+    sig = _ifft_rows(spec)
+    work.padded = False
     out = work.out[:b]
     np.take(sig, work.idx, axis=1, out=out, mode="wrap")   # mode "raise" would buffer the output
     return out
+
+
+def _ifft_rows(spec):
+    """The unnormalised-by-``W`` inverse FFT of every row of ``spec``, in place where the library
+    can, on the calling thread's kernel threads (:func:`sarcli._native.threads`): a block's rows
+    are independent transforms, so they split across threads without loss."""
+    return scipy.fft.ifft(spec, axis=1, overwrite_x=True, workers=threads())
 
 
 def range_profiles(data, weights, total_weight, n_len, nthreads, dtype=np.complex128, work=None):
