@@ -138,8 +138,8 @@ def touch_cost(repeat) -> float:
 
 
 def fft_cost(repeat, thr) -> float:
-    """``c["bp_fft"]``: processor seconds x ``thr`` of the range profiles (numpy's FFT, one thread)
-    per pulse and ``L log2 L``, on long pulses (32 x 4096 samples, profiles of 2x), where the
+    """``c["bp_fft"]``: processor seconds x ``thr`` of the range profiles (their FFTs split over the
+    kernel threads, so processor seconds are the work) per pulse and ``L log2 L``, on long pulses (32 x 4096 samples, profiles of 2x), where the
     transforms of large collections spend their time; best of ``repeat``."""
     from ..backprojection import profile_length, profiles
 
