@@ -240,10 +240,11 @@ def bp_constants(best, d, freq, a, r0, grid, thr):
 
 
 #: Bytes per pixel of :func:`regularize_bytes`' terms: one ADMM solver's images and splits (about
-#: 24 complex128 images alive at once), the warped operator's tables per sub-aperture (kernel
-#: weights, indices, phases, work arrays) and the sub-aperture runs alive at once (the chooser's
-#: measurement holds a count and four times it; a solve the count and the λ path's half).
-_ADMM_PX, _WARPED_RUN_PX, _CHOOSER_RUNS, _SOLVE_RUNS = 24 * _C16, 80, 10, 3
+#: 36 complex128 images' worth alive at once, the allocator's slack included), the warped
+#: operator's tables per sub-aperture (kernel weights, indices, phases, work arrays) and the
+#: sub-aperture runs alive at once (the chooser's measurement holds a count and four times it; a
+#: solve the count and the λ path's half). Fitted to the peaks measured (the docstring's).
+_ADMM_PX, _WARPED_RUN_PX, _CHOOSER_RUNS, _SOLVE_RUNS = 36 * _C16, 125, 10, 3
 
 
 def regularize_bytes(n_pulses, n_freq, grid, operator="auto", itemsize=_C16, *, auto: bool = True) -> float:
@@ -253,9 +254,9 @@ def regularize_bytes(n_pulses, n_freq, grid, operator="auto", itemsize=_C16, *, 
     and a copy of stored samples narrower than complex128, are complex128. ``auto``: λ chosen on
     a path (two solvers side by side and the path's solutions kept) rather than given. The peak is
     the larger of the operator's set-up (the warped operator's sub-aperture chooser) and the solve.
-    Measured (``/usr/bin/time``, less the interpreter's 0.15 GB): GOTCHA 800², warped, 0.90 GB
-    with ``auto`` (estimate 0.79) and 0.67 GB with a fixed λ (0.52); 566² of 256 × 512 samples
-    0.50 GB (0.39).
+    Measured (``/usr/bin/time``'s peak, less the 0.08 GB of the interpreter and the imports):
+    GOTCHA 800², warped, 1.05 GB with ``auto`` (estimate 1.10) and 0.78 GB with a fixed λ (0.80);
+    566² of 256 × 512 samples 0.60 GB (0.56).
     """
     pm = float(n_pulses) * float(n_freq)
     npix = float(grid.nx) * float(grid.ny)
