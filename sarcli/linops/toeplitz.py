@@ -11,6 +11,7 @@ NUFFT adjoint; the grid-centre phase ramp cancels in ``AᴴA``.
 from __future__ import annotations
 
 import threading
+from concurrent.futures import ThreadPoolExecutor
 
 import finufft
 import numpy as np
@@ -67,12 +68,29 @@ class ToeplitzGram(Linop):
         # add a fifth to the transforms' time; a second thread in apply allocates its own
         self._lock = threading.Lock()
         self._work = None
+        self._pool, self._pool_size = None, 0   # threads beside the caller's for the x-pass
 
-    def _buffers(self):
+    def _buffers(self, n: int = 1):
+        """The y-pass's grid and ``n`` row blocks of the x-pass (one per thread)."""
         ny, nx = self.ishape
-        if self._work is None or self._work[1].shape[0] < self._block:
-            self._work = (empty((2 * ny, nx), self.fft_dtype), empty((self._block, 2 * nx), self.fft_dtype))
+        if self._work is None or len(self._work[1]) < n:
+            self._work = (empty((2 * ny, nx), self.fft_dtype),
+                          [empty((self._block, 2 * nx), self.fft_dtype) for _ in range(n)])
         return self._work
+
+    def _x_pass(self, y, zb, rows):
+        """Rows ``rows`` of the y-transformed grid ``y`` in blocks through ``zb``: the transform along
+        x, the product with the kernel and the inverse (one thread's share of :meth:`apply`)."""
+        nx = self.ishape[1]
+        for r in rows:
+            m = min(self._block, y.shape[0] - r)
+            z = zb[:m]
+            z[:, :nx] = y[r:r + m]
+            z[:, nx:] = 0
+            z = scipy.fft.fft(z, axis=1, workers=1, overwrite_x=True)
+            z *= self.kernel_hat[r:r + m]
+            z = scipy.fft.ifft(z, axis=1, workers=1, overwrite_x=True)
+            y[r:r + m] = z[:, :nx]
 
     def _forward(self, x):
         return self.apply(x)
@@ -95,30 +113,36 @@ class ToeplitzGram(Linop):
         stay in cache, the transform along x, the product with the kernel and the inverse along x
         (keeping the ``nx`` columns the crop needs); last the inverse along y of those columns.
         Three quarters of the 1-D transforms of two full 2-D FFTs, and only the row passes (the
-        fast, contiguous ones) run over the full 2N × 2N grid.
+        fast, contiguous ones) run over the full 2N × 2N grid. With several kernel threads the
+        column transforms split their columns among them and the blocks of rows are shared out, a
+        thread each (a block's transforms are too small to split).
         """
         ny, nx = self.ishape
         workers = threads()   # the calling thread's count (sarcli._native.threads)
         mine = self._lock.acquire(blocking=False)
         try:
             if mine:
-                y, zb = self._buffers()
+                y, zbs = self._buffers(workers)
             else:
-                y, zb = np.empty((2 * ny, nx), self.fft_dtype), np.empty((self._block, 2 * nx), self.fft_dtype)
+                y = np.empty((2 * ny, nx), self.fft_dtype)
+                zbs = [np.empty((self._block, 2 * nx), self.fft_dtype) for _ in range(workers)]
             # every transform runs in place (overwrite_x on an aligned complex array of its dtype)
             y[:ny] = x
             y[ny:] = 0
             y = scipy.fft.fft(y, axis=0, workers=workers, overwrite_x=True)  # (2ny, nx)
-            block = self._block
-            for r in range(0, 2 * ny, block):
-                m = min(block, 2 * ny - r)
-                z = zb[:m]
-                z[:, :nx] = y[r:r + m]
-                z[:, nx:] = 0
-                z = scipy.fft.fft(z, axis=1, workers=workers, overwrite_x=True)
-                z *= self.kernel_hat[r:r + m]
-                z = scipy.fft.ifft(z, axis=1, workers=workers, overwrite_x=True)
-                y[r:r + m] = z[:, :nx]
+            starts = range(0, 2 * ny, self._block)
+            if workers == 1 or len(starts) < 2 or not mine:   # the pool serves the lock's holder
+                self._x_pass(y, zbs[0], starts)
+            else:
+                n = min(workers, len(starts))
+                if self._pool_size != n - 1:
+                    if self._pool is not None:
+                        self._pool.shutdown()
+                    self._pool, self._pool_size = ThreadPoolExecutor(n - 1), n - 1
+                later = [self._pool.submit(self._x_pass, y, zbs[k], starts[k::n]) for k in range(1, n)]
+                self._x_pass(y, zbs[0], starts[0::n])
+                for fut in later:
+                    fut.result()
             y = scipy.fft.ifft(y, axis=0, workers=workers, overwrite_x=True)
             if out is None:
                 out = empty(self.ishape)

@@ -54,11 +54,16 @@ class WarpedGram(Linop):
     def _forward(self, x):
         return self._forward_scaled(x, 1.0)
 
-    def _share(self, k: int, n: int) -> np.ndarray:
-        """Thread ``k`` of ``n``: runs k, k + n, ... into its own sum (complex128); returns it."""
+    def _share(self, k: int, n: int, total=None) -> np.ndarray:
+        """Thread ``k`` of ``n``: runs k, k + n, ... summed into ``total`` (complex128; default the
+        thread's own, kept between calls); returns it."""
         while len(self._sums) <= k:
-            self._sums.append((np.empty(self._f32.size, np.complex64), np.empty(self._f32.size, np.complex128)))
-        part, total = self._sums[k]
+            self._sums.append([np.empty(self._f32.size, np.complex64), None])
+        part = self._sums[k][0]
+        if total is None:
+            if self._sums[k][1] is None:
+                self._sums[k][1] = np.empty(self._f32.size, np.complex128)
+            total = self._sums[k][1]
         runs = list(zip(self.op.runs, self._work))[k::n]
         for i, (run, work) in enumerate(runs):
             run.gram(self._f32, part, work)
@@ -78,9 +83,10 @@ class WarpedGram(Linop):
                 np.multiply(np.reshape(x, -1), scale, out=f, casting="same_kind")
             if self._work is None:
                 self._work = [_RunWork(run) for run in self.op.runs]
+            out = np.empty(f.size, np.complex128)   # the caller's; thread 0 sums into it directly
             n = min(threads(), len(self.op.runs))
             if n <= 1:
-                out = self._share(0, 1).copy()
+                self._share(0, 1, out)
             else:
                 if self._pool_size != n - 1:
                     if self._pool is not None:
@@ -89,7 +95,7 @@ class WarpedGram(Linop):
                     self._pool_size = n - 1
                 with using_threads(1):
                     later = [self._pool.submit(self._share, k, n) for k in range(1, n)]
-                    out = self._share(0, n).copy()
+                    self._share(0, n, out)
                 for fut in later:
                     out += fut.result()
         return out.reshape(self.ishape)
