@@ -230,3 +230,22 @@ def test_spherical_operator_draws_no_bar_of_its_own(monkeypatch):
     seen.clear()
     bp.backproject(y, op.freq_hz, op.antenna_position_m, op.range_to_center_m, GRID)
     assert seen == [False]  # a former called on its own keeps its bar
+
+
+def test_toeplitz_gram_gives_the_same_bits_on_one_thread_and_two():
+    """With two kernel threads the x-pass's blocks of rows are shared out (each block's transforms
+    on one thread): the product is the one-thread product, bit for bit, in both precisions."""
+    from sarcli._native import using_threads
+    from sarcli.linops.toeplitz import ToeplitzGram
+
+    rng = np.random.default_rng(1)
+    k1, k2 = rng.uniform(-3, 3, (2, 3000))
+    x = rng.standard_normal((300, 260)) + 1j * rng.standard_normal((300, 260))
+    for eps in (1e-4, 1e-9):
+        gram = ToeplitzGram(k1, k2, (300, 260), eps=eps)
+        with using_threads(1):
+            one = gram.apply(x)
+        with using_threads(2):
+            two = gram.apply(x)
+        assert np.array_equal(one, two)
+        assert np.linalg.norm(one) > 0

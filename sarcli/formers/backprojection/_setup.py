@@ -10,7 +10,6 @@ import math
 import warnings
 
 import numpy as np
-import scipy.fft
 
 from ..._native import threads
 from ...core.geometry import C, bistatic_differential_range
@@ -125,18 +124,34 @@ def profiles(data, weights, total_weight, n_len, dtype, work=None):
             dst *= scale
     # one call for the block: the FFT's plan is built on every call (megabytes for long profiles),
     # so calls on a few rows at a time cost more than the transforms
-    sig = _ifft_rows(spec)
-    work.padded = False
+    sig, in_place = _ifft_rows(spec)
+    work.padded = not in_place
     out = work.out[:b]
     np.take(sig, work.idx, axis=1, out=out, mode="wrap")   # mode "raise" would buffer the output
     return out
 
 
+#: numpy's FFT writes into a given array from numpy 2.0 on (``out=``).
+_FFT_OUT = np.lib.NumpyVersion(np.__version__) >= "2.0.0"
+#: Samples of a block from which its inverse FFTs run on the kernel threads (scipy's FFT, the same
+#: pocketfft as numpy's: the same bits); smaller blocks keep numpy's one thread, and the command
+#: does not pay scipy.fft's import (0.13 s here, more than such a command's transforms).
+THREADED_FFT_SAMPLES = 1 << 21
+
+
 def _ifft_rows(spec):
-    """The unnormalised-by-``W`` inverse FFT of every row of ``spec``, in place where the library
-    can, on the calling thread's kernel threads (:func:`sarcli._native.threads`): a block's rows
-    are independent transforms, so they split across threads without loss."""
-    return scipy.fft.ifft(spec, axis=1, overwrite_x=True, workers=threads())
+    """The inverse FFT of every row of ``spec`` and whether it went into ``spec`` itself: a large
+    block's rows, being independent transforms, split across the calling thread's kernel threads
+    (:func:`sarcli._native.threads`)."""
+    n = threads()
+    if n > 1 and spec.size >= THREADED_FFT_SAMPLES:
+        import scipy.fft
+
+        out = scipy.fft.ifft(spec, axis=1, overwrite_x=True, workers=n)
+        return out, out is spec
+    if _FFT_OUT:
+        return np.fft.ifft(spec, axis=1, out=spec), True
+    return np.fft.ifft(spec, axis=1), False
 
 
 def range_profiles(data, weights, total_weight, n_len, nthreads, dtype=np.complex128, work=None):
