@@ -112,6 +112,7 @@ def auto_lambda(problem, scaled, T, D, u0, params, tick):
     record = {"criterion": criterion,
               "gamma": None if sigma2 is not None else regparam.GCV_GAMMA,
               "noise_power": sigma2 if sigma2 is not None else choice.noise_power * s_b**2,
+              "noise_code": regparam.NOISE_CODES.get(source, "gcv") if sigma2 is not None else "gcv",
               "noise_source": source if sigma2 is not None else
               "GCV residual ||Af-b||^2 / (n - dof) at the chosen lam (no range bin outside the scene)",
               "speckle_fraction": kappa, "speckle_power": choice.speckle * s_b**2,

@@ -65,10 +65,14 @@ from ..core.geometry import C
 from ..core.windows import BLACKMAN_HARRIS_MAINLOBE_BINS, blackman_harris
 from ..errors import SarcliInputError
 
-__all__ = ["LAM_PATH", "SELECT_PATH", "GCV_GAMMA", "STOP_AFTER", "DISCREPANCY_TAU", "DISCREPANCY_KAPPA",
+__all__ = ["NOISE_CODES", "LAM_PATH", "SELECT_PATH", "GCV_GAMMA", "STOP_AFTER", "DISCREPANCY_TAU", "DISCREPANCY_KAPPA",
            "FLOOR_MARGIN", "UNFITTABLE_RATIO", "LamChoice", "PathChoice", "estimate_noise_power",
            "noise_power", "discrepancy_lambda", "select_lambda", "speckle_fraction", "SPECKLE_FRACTION",
            "gcv_score", "sure_score", "mc_dof"]
+
+#: Where σ² came from (``parameters['lam_selection']['noise_code']``): the file's attribute, the
+#: range bins outside the scene, or none (GCV's residual estimate took its place).
+NOISE_CODES = {"file attribute noise_power": "file", "estimated from range bins outside the scene": "range_bins"}
 
 #: Decreasing λ path (normalised units of :mod:`sarcli.regularize.driver`; ℓ1 zeroes the image at λ ≥ 2).
 LAM_PATH = tuple(float(v) for v in np.geomspace(1.0, 1e-3, 13))
