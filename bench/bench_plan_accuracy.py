@@ -45,7 +45,7 @@ from sarcli.core.acquisition import Acquisition  # noqa: E402
 from sarcli.core.grid import Grid  # noqa: E402
 from sarcli.core.types import PhaseHistory  # noqa: E402
 
-SERIAL = ("profiles",)   # parts run on one thread (numpy's FFTs, reading)
+SERIAL = ("profiles",)   # parts run on one thread (reading; the FFTs of blocks under 2M samples)
 
 
 def circle(P, M, N):

@@ -82,7 +82,7 @@ class Regularization:
         self.callback, self.progress, self.notice = callback, progress, notice
         o = self.options
         self.lam = DEFAULT_LAM[o.prior] if o.auto else float(o.lam)
-        self.beta = float(o.beta) if o.beta is not None else DEFAULT_BETA_RATIO * self.lam
+        self.beta = float(o.beta)   # resolved: the given β, or DEFAULT_BETA_RATIO times the (starting) λ
         self.problem = self.forecast = self.u0 = self.path_normal = self.path_counter = None
         self._path_start = 0
         self.params, self.products = {}, {}
