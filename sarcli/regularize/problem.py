@@ -64,7 +64,7 @@ def choose_operator(ph: PhaseHistory, grid: Grid, operator: str, tolerance: floa
     if operator in ("nufft", "toeplitz") and err > DEFOCUS_WARN_RAD:
         warnings.warn(f"far-field operator '{operator}' on spherical data: predicted phase error {err:.3g} rad "
                       f"at the grid corner ({grid.half_diagonal:.3g} m from the centre); use --operator "
-                      f"spherical", DefocusWarning, stacklevel=4)
+                      f"spherical", DefocusWarning, stacklevel=6)   # regularize()'s caller
     if operator in ("spherical", "warped") and not acq.has_positions:
         raise SarcliInputError(f"operator '{operator}' needs antenna positions; this file has none")
     return operator, err, runs
