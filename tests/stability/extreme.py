@@ -452,7 +452,7 @@ def run_bad_inputs(tmp: Path):
     rows = []
     for label, path in bad_inputs(Path(tmp)):
         for cmd in (["info", str(path)], ["form-image", str(path), "-o", str(Path(tmp) / "out.h5"), "--method", "direct"]):
-            res = runner.invoke(cli, cmd)
+            res = runner.invoke(cli, cmd, prog_name="sar")
             lines = [ln for ln in (res.stderr or "").splitlines() if ln.strip()]
             first = lines[0] if lines else (repr(res.exception) if res.exception else "(no message)")
             ok = res.exit_code == 2 and len(lines) == 1

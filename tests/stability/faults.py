@@ -140,7 +140,7 @@ def run(args, **kw) -> Result:
     t0 = time.perf_counter()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        res = CliRunner().invoke(cli, [str(a) for a in args], **kw)
+        res = CliRunner().invoke(cli, [str(a) for a in args], prog_name="sar", **kw)
     lines = [ln for ln in (res.stderr or "").splitlines() if ln.strip() and not ln.startswith("warning")]
     tb = res.exception is not None and not isinstance(res.exception, SystemExit)
     if tb:
