@@ -28,8 +28,9 @@ __all__ = ["PathSolver", "auto_lambda", "PATH_ITERS", "PATH_TOL", "PATH_CG_TOL",
 PATH_ITERS, PATH_TOL, PATH_CG_TOL = 25, 1e-3, 1e-4
 #: Iteration cap of the path's first solve, the only one not warm-started from a neighbouring λ:
 #: after 25 iterations from zero at λ = 0.3 its residual is still far above its limit (SURE 84
-#: against −122 after 100 on a benchmark scene), which drives the criterion away from large λ.
-PATH_FIRST_ITERS = 100
+#: against −122 after 100 on a benchmark scene), which drives the criterion away from large λ;
+#: 50 chose as well as 100 on the λ benchmarks (docs/regularize.md) at a quarter less path.
+PATH_FIRST_ITERS = 50
 #: Largest λ the path of ``lam='auto'`` extends to when its criterion is smallest at the top
 #: (ℓ1: λ ≥ 2 zeroes the image).
 LAM_MAX = {"l1": 1.0, "tv": 10.0, "hotv": 10.0, "ptv": 10.0, "tikhonov": 10.0}
