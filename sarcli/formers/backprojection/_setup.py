@@ -211,9 +211,11 @@ def tiling_for(freq_hz, antenna_position_m, receive_position_m, grid, upsample):
 class Setup:
     """Validated inputs, per-pulse constants (in the working precision) and the FFT layout."""
 
-    def __init__(self, shape, freq_hz, antenna_position_m, range_to_center_m, grid, weights,
-                 upsample, interp, precision, receive_position_m=None):
+    def __init__(self, shape, collection, grid, upsample, interp, precision):
         n_pulses, m = shape
+        freq_hz, weights = collection.frequency_hz, collection.weights
+        antenna_position_m, range_to_center_m = collection.antenna_position_m, collection.range_to_center_m
+        receive_position_m = collection.receive_position_m
         if interp not in INTERPOLATORS:
             raise SarcliInputError(f"unknown interpolation {interp!r}; choose one of {sorted(INTERPOLATORS)}")
         if precision not in _PRECISIONS:
