@@ -69,9 +69,9 @@ def _measure(repeat: int, only: str) -> dict[str, float]:
         "bp-near/f32/cubic": lambda: backproject(dn, Collection(freq, an, rn), grid, f32),
         "rp/f32/cubic": lambda: reproject(img, col, grid, f32),
         "points/f32/cubic": lambda: backproject_points(d, col, xyz, f32),
-        "ffbp/optimal": lambda: ffbp(d, freq, a, r0, grid),
-        "ffbp/cubic": lambda: ffbp(d, freq, a, r0, grid, interp="cubic", os_range=3, os_angle=3, upsample=8),
-        "ffbp/lanczos": lambda: ffbp(d, freq, a, r0, grid, interp="lanczos", os_range=3, os_angle=2),
+        "ffbp/optimal": lambda: ffbp(d, col, grid),
+        "ffbp/cubic": lambda: ffbp(d, col, grid, interp="cubic", os_range=3, os_angle=3, upsample=8),
+        "ffbp/lanczos": lambda: ffbp(d, col, grid, interp="lanczos", os_range=3, os_angle=2),
         "direct": lambda: direct_spherical(d[:, ::8], freq[::8], a, r0, Grid(64, 64, 0.8, 0.8)),
     }
     out = {}

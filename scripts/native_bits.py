@@ -80,8 +80,8 @@ def outputs() -> dict[str, np.ndarray]:
                   dict(interp="lanczos", os_range=3, os_angle=2), dict(interp="optimal", base=2, merge=3),
                   dict(interp="optimal", os_range=1.5, upsample=3.0)):
         name = "ffbp/" + ",".join(f"{k}={v}" for k, v in knobs.items())
-        out[name] = ffbp(d2, FREQ, a2, r02, GRID, **knobs)
-    out["ffbp-bistatic"] = ffbp(db, FREQ, a, r0b, GRID, receive_position_m=rcv)
+        out[name] = ffbp(d2, Collection(FREQ, a2, r02), GRID, **knobs)
+    out["ffbp-bistatic"] = ffbp(db, Collection(FREQ, a, r0b, receive_position_m=rcv), GRID)
     out["direct"] = direct_spherical(d, FREQ, a, r0, GRID)
     cfg = yaml.safe_load(open("configs/three-points.yaml"))
     cfg["frequencies"]["count"] = 64

@@ -225,9 +225,10 @@ def plan_ffbp(ph, grid, options, settings, costs=None) -> Plan:
                          **knobs)
 
     def run(plan, data, w):
+        from ..core.collection import Collection
         from .ffbp import ffbp_image
 
-        img, params = ffbp_image(data, acq.frequency_hz, pos, r0, grid, w, receive_position_m=rcv,
+        img, params = ffbp_image(data, Collection(acq.frequency_hz, pos, r0, w, rcv), grid,
                                  nthreads=settings.nthreads, plan=stages, **knobs)
         return img, {**extra, **params, **_virtual(ph, r0)}
 

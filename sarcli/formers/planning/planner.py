@@ -427,7 +427,7 @@ def calibrate(path=None, *, repeat: int = 3) -> dict:
         runs = []
         for _ in range(repeat + 1):   # the first warms up
             runs.append({})
-            fb.ffbp(d, freq, a, r0, grid, timings=runs[-1], **knobs)
+            fb.ffbp(d, Collection(freq, a, r0), grid, timings=runs[-1], **knobs)
         parts.append(min(runs[1:], key=lambda t: sum(t.values())))
         rows.append(ffbp_counts(plan.ops))
     rows = np.array(rows)
