@@ -17,6 +17,7 @@ from dataclasses import replace
 import numpy as np
 
 from ..core import geometry
+from ..core.collection import Collection
 from ..errors import DefocusWarning, SarcliInputError
 from .planning import cost
 from .former import Former, Plan
@@ -66,8 +67,6 @@ def range_positions(ph, grid):
 def collection(ph, grid, weights=None):
     """:func:`range_positions` with the frequencies and window ``weights`` as a
     :class:`~sarcli.core.collection.Collection` (receive positions only when bistatic)."""
-    from ..core.collection import Collection
-
     pos, rcv, r0 = range_positions(ph, grid)
     return Collection(ph.acquisition.frequency_hz, pos, r0, weights, rcv)
 
@@ -225,7 +224,6 @@ def plan_ffbp(ph, grid, options, settings, costs=None) -> Plan:
                          **knobs)
 
     def run(plan, data, w):
-        from ..core.collection import Collection
         from .ffbp import ffbp_image
 
         img, params = ffbp_image(data, Collection(acq.frequency_hz, pos, r0, w, rcv), grid,
@@ -272,7 +270,6 @@ def plan_subimage(ph, grid, options, settings, costs=None) -> Plan:
     n_tiles = cost.n_tiles(grid, tile)
 
     def run(plan, data, w):
-        from ..core.collection import Collection
         from .subimage import subimage_nufft
 
         return subimage_nufft(data, Collection(acq.frequency_hz, pos, r0, w, rcv), grid, replace(options, tile=tile),

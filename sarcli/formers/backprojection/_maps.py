@@ -30,10 +30,10 @@ The linear maps
 ``backproject`` is the linear map ``B: C^{P×M} → C^{ny×nx}``, ``B d = f`` above, *including*
 the window weights and the factor ``1/W``. ``reproject`` is exactly ``Bᴴ`` (the same FFT size,
 interpolation weights, carrier and skipped pixels, transposed), so
-``⟨B d, f⟩ = ⟨d, Bᴴ f⟩`` to rounding. With ``weights=None`` (so ``W = P M``) the spherical forward
+``⟨B d, f⟩ = ⟨d, Bᴴ f⟩`` to rounding. Without window weights (so ``W = P M``) the spherical forward
 model ``A f = Σ_x f(x) exp(-i 4π α Δr(x) / c)`` and its adjoint are approximated by
-``A ≈ W · reproject`` and ``Aᴴ ≈ W · backproject`` (both with ``weights=None`` and the same
-knobs), so ``AᴴA ≈ W² · backproject ∘ reproject``; with weights, ``reproject`` also carries the
+``A ≈ W · reproject`` and ``Aᴴ ≈ W · backproject`` (both without weights and with the same
+options), so ``AᴴA ≈ W² · backproject ∘ reproject``; with weights, ``reproject`` also carries the
 factor ``w_pj / W``.
 
 The frequencies enter through the least-squares line ``α_pj ≈ α_ref,p + (j - j_c) Δα_p``
@@ -246,7 +246,7 @@ def reproject(image, collection, grid, options=None, *, nthreads=None) -> np.nda
         ``Bᴴ f``: for every pulse, the conjugate-carrier image scattered onto the range profile
         with the transposed interpolation, then the forward FFT, the frequency slots and the
         factor ``w_pj / W``. Thus ``⟨backproject(d), f⟩ = ⟨d, reproject(f)⟩`` and, with
-        ``weights=None``, ``W · reproject`` (``W = P M``) approximates the spherical forward
+        no weights, ``W · reproject`` (``W = P M``) approximates the spherical forward
         model ``d = Σ_x f(x) exp(-i 4π α Δr(x) / c)``.
     """
     f = np.asarray(image)
