@@ -250,3 +250,11 @@ def test_toeplitz_gram_gives_the_same_bits_on_one_thread_and_two():
             two = gram.apply(x)
         assert np.array_equal(one, two)
         assert np.linalg.norm(one) > 0
+
+
+def test_spherical_operator_refuses_window_weights():
+    """A = W · reproject holds for the unweighted model only; a weighted collection is refused."""
+    op = _operators()["spherical"]
+    col = op.collection
+    with pytest.raises(ValueError, match="without weights"):
+        SphericalOperator(col.with_(weights=np.ones(col.n_frequencies)), GRID)

@@ -27,8 +27,9 @@ class SphericalOperator(Linop):
     Parameters
     ----------
     collection : Collection
-        Frequencies (M,) or (P, M), equally spaced per pulse, antenna positions (P, 3) and
-        reference ranges (P,) (:class:`sarcli.core.collection.Collection`, without weights: ``W = P M``).
+        Frequencies (M,) or (P, M), equally spaced per pulse, antenna positions (P, 3), reference
+        ranges (P,) and, optionally, receive positions (:class:`sarcli.core.collection.Collection`;
+        without weights: ``W = P M``).
     grid : Grid
     options : BackprojectionOptions, optional
         The backprojection pair's knobs (:class:`sarcli.formers.options.BackprojectionOptions`;
@@ -40,8 +41,11 @@ class SphericalOperator(Linop):
     def __init__(self, collection, grid: Grid, options=None, nthreads=None):
         a = np.asarray(collection.antenna_position_m, np.float64)
         f = np.asarray(collection.frequency_hz, np.float64)
+        if collection.weights is not None:
+            raise ValueError("the spherical operator is the unweighted model (W = P M): give a collection without weights")
         super().__init__(grid.shape, (a.shape[0], f.shape[-1]), np.complex128)
-        self.collection = Collection(f, a, np.asarray(collection.range_to_center_m, np.float64))
+        self.collection = Collection(f, a, np.asarray(collection.range_to_center_m, np.float64),
+                                     receive_position_m=collection.receive_position_m)
         self.grid = grid
         self.options, self.nthreads = options, nthreads
         self.total_weight = float(self.oshape[0] * self.oshape[1])

@@ -37,7 +37,7 @@ class Backprojector:
 
     def __init__(self, data, collection, grid, options=None, *, nthreads=None, _profiles_of=None):
         d = check_data(data)
-        self._collection, self._knobs = collection, options
+        self._collection, self._options = collection, options
         self._data = d
         self.grid = grid
         self._st = st = Setup(d.shape, collection, grid, *knobs_of(options))
@@ -50,7 +50,7 @@ class Backprojector:
 
     def on(self, grid: Grid) -> "Backprojector":
         """The same data and options on another ``grid``, sharing these profiles."""
-        return Backprojector(self._data, self._collection, grid, self._knobs, nthreads=self._nthreads,
+        return Backprojector(self._data, self._collection, grid, self._options, nthreads=self._nthreads,
                              _profiles_of=self)
 
     def _view(self, prof):
