@@ -38,7 +38,9 @@ import numpy as np
 
 from sarcli import _native
 from sarcli.core import geometry
+from sarcli.core.collection import Collection
 from sarcli.formers.backprojection import backproject
+from sarcli.formers.options import BackprojectionOptions
 from sarcli.core.grid import Grid
 
 #: The C yardstick, from the shared folder beside the repository (``$SARCLI_BP_ANCHOR`` overrides).
@@ -87,11 +89,13 @@ _COMPILE_SNIPPET = """
 import time, numpy as np
 t0 = time.perf_counter()
 from sarcli.formers.backprojection import backproject
+from sarcli.formers.options import BackprojectionOptions
+from sarcli.core.collection import Collection
 from sarcli.core.grid import Grid
 t1 = time.perf_counter()
 a = np.array([[-1e4, 0.0, 5e3], [-1e4, 10.0, 5e3]]); r0 = np.linalg.norm(a, axis=1)
 f = 1e10 + 1e6 * np.arange(8); d = np.ones((2, 8), complex)
-backproject(d, f, a, r0, Grid(8, 8, 0.5, 0.5), precision="{precision}")
+backproject(d, Collection(f, a, r0), Grid(8, 8, 0.5, 0.5), BackprojectionOptions(precision="{precision}"))
 print(t1 - t0, time.perf_counter() - t1)
 """
 
@@ -103,13 +107,13 @@ def compile_seconds(precision: str, tmp: Path) -> float:
     return float(out.split()[1])
 
 
-def time_ours(args, kwargs, threads: int, repeat: int):
+def time_ours(args, options, threads: int, repeat: int):
     """Best wall seconds and best process CPU seconds over ``repeat`` calls."""
     best, best_cpu = np.inf, np.inf
     for _ in range(repeat):
         c = time.process_time()
         t = time.perf_counter()
-        backproject(*args, nthreads=threads, **kwargs)
+        backproject(*args, options, nthreads=threads)
         best = min(best, time.perf_counter() - t)
         best_cpu = min(best_cpu, time.process_time() - c)
     return best, best_cpu
@@ -122,9 +126,10 @@ def main(argv=None):
     opts = ap.parse_args(argv)
     sizes = [tuple(int(v) for v in s.split("x")) for s in opts.sizes.split(",")]
     cores = min(2, _native.threads(), os.cpu_count() or 1)
-    variants = [("float32 linear u=4 (like the anchor)", dict(precision="float32", interp="linear", upsample=4)),
-                ("float32 cubic u=8", dict(precision="float32", interp="cubic", upsample=8)),
-                ("default (float64 cubic)", dict())]
+    variants = [("float32 linear u=4 (like the anchor)",
+                 BackprojectionOptions(precision="float32", interp="linear", upsample=4)),
+                ("float32 cubic u=8", BackprojectionOptions(precision="float32", interp="cubic", upsample=8)),
+                ("default (float64 cubic)", BackprojectionOptions(precision="float64"))]
     rows = []
     load_start = os.getloadavg()[0]
     with tempfile.TemporaryDirectory() as tmp:
@@ -132,21 +137,22 @@ def main(argv=None):
         compile_s = {p: compile_seconds(p, Path(tmp)) for p in ("float32", "float64")}
         for n, pulses in sizes:
             anchor = run_anchor(exe, n, pulses, opts.repeat) if exe else float("nan")
-            args = problem(n, pulses)
-            data, grid = args[0], args[4]
+            data, freq, a, r0, grid = problem(n, pulses)
+            args = (data, Collection(freq, a, r0), grid)
             # backproject returns complex128 whatever the working precision
             budget = 3 * (data.nbytes + n * n * np.dtype(np.complex128).itemsize)
             for name, kw in variants:
-                backproject(*problem(16, 2)[:4], Grid(16, 16, 0.25, 0.25), **kw)  # load the kernels
+                d0, f0, a0, r00, _ = problem(16, 2)
+                backproject(d0, Collection(f0, a0, r00), Grid(16, 16, 0.25, 0.25), kw)  # load the kernels
                 t1, c1 = time_ours(args, kw, 1, opts.repeat)
                 t2, c2 = time_ours(args, kw, cores, opts.repeat) if cores > 1 else (t1, c1)
                 tracemalloc.start()
-                backproject(*args, nthreads=cores, **kw)
+                backproject(*args, kw, nthreads=cores)
                 peak = tracemalloc.get_traced_memory()[1]
                 tracemalloc.stop()
                 rate1 = n * n * pulses / t1
                 rows.append((f"{n}² × {pulses}", name, anchor, rate1, rate1 / anchor,
-                             t1, t2, t1 / t2 / cores, c1 / c2, compile_s[kw.get("precision", "float64")],
+                             t1, t2, t1 / t2 / cores, c1 / c2, compile_s[kw.precision],
                              peak / 2**20, budget / 2**20))
     print(f"machine: {os.cpu_count()} cores; kernel threads {_native.threads()}, SIMD "
           f"{_native.simd_level()}; python {sys.version.split()[0]}; load average "

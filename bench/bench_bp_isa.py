@@ -46,8 +46,10 @@ from sarcli.analysis.accuracy import reference_grid  # noqa: E402
 from sarcli.formers.backprojection import backproject  # noqa: E402
 from sarcli.formers.direct import direct_spherical  # noqa: E402
 from sarcli.formers.formation import image_error  # noqa: E402
+from sarcli.core.collection import Collection  # noqa: E402
+from sarcli.formers.options import BackprojectionOptions  # noqa: E402
 
-LINEAR = dict(precision="float32", interp="linear", upsample=4)
+LINEAR = BackprojectionOptions(precision="float32", interp="linear", upsample=4)
 ISA_NAME = {2: "AVX-512", 1: "AVX2", 0: "baseline"}
 MARCH = {2: "native", 1: "x86-64-v3"}
 FASTSAR_FLAGS = {2: None, 1: "-O3 -march=x86-64-v3"}
@@ -73,16 +75,16 @@ def ranges_table(levels, ranges, n, pulses, rounds, anchors):
     out = {}
     for rng in ranges:
         data, freq, a, r0, grid, _ = problem(rng, n, pulses)
-        args = (data, freq, a, r0, grid)
+        args = (data, Collection(freq, a, r0), grid)
         for level in levels:
             set_isa(level)
             best = [0.0, 0.0, 0.0]
             with using_threads(1):
-                backproject(*args, nthreads=1, **DEFAULT)   # first call of this copy
+                backproject(*args, DEFAULT, nthreads=1)   # first call of this copy
                 for _ in range(rounds):
                     best[0] = max(best[0], peer.anchor_cpu_rate(anchors[level], n, pulses))
                     for k, kw in ((1, DEFAULT), (2, LINEAR)):
-                        t = cpu_seconds(lambda: backproject(*args, nthreads=1, **kw))  # noqa: B023
+                        t = cpu_seconds(lambda: backproject(*args, kw, nthreads=1))  # noqa: B023
                         best[k] = max(best[k], n * n * pulses / t)
             out[level, rng] = tuple(best)
     return out
@@ -99,7 +101,8 @@ def peers_table(levels, cases, rounds, max_cost, tmp):
             set_isa(level)
             fs_best, ours_best, fimg, img, note = np.inf, np.inf, None, None, ""
             with using_threads(1):
-                backproject(data[:2], freq, a[:2], r0[:2], grid.__class__(16, 16, grid.dx, grid.dy))
+                col = Collection(freq, a, r0)
+                backproject(data[:2], col.pulses(slice(0, 2)), grid.__class__(16, 16, grid.dx, grid.dy))
                 for _ in range(rounds):
                     res = peer.run_fastsar(tmp, data, freq, a, r0, grid, repeat=2)
                     if res is not None:
@@ -108,7 +111,7 @@ def peers_table(levels, cases, rounds, max_cost, tmp):
                         note = f"FastSAR {info['version']}, tile {info['tile']}"
                     for _ in range(2):
                         t0 = time.process_time()
-                        img = backproject(data, freq, a, r0, grid, nthreads=1, **DEFAULT)
+                        img = backproject(data, col, grid, DEFAULT, nthreads=1)
                         ours_best = min(ours_best, time.process_time() - t0)
             f_err = float("nan")
             if fimg is not None:

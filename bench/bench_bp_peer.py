@@ -58,6 +58,8 @@ from sarcli.formers.backprojection import DEFAULT_PRECISION, backproject  # noqa
 from sarcli.formers.direct import direct_spherical  # noqa: E402
 from sarcli.formers.formation import image_error  # noqa: E402
 from sarcli.io.gotcha import gotcha_dir, gotcha_files  # noqa: E402
+from sarcli.core.collection import Collection  # noqa: E402
+from sarcli.formers.options import BackprojectionOptions  # noqa: E402
 
 GOTCHA_DIR = gotcha_dir()
 FASTSAR_PY = Path(os.environ.get("SARCLI_FASTSAR_PYTHON", "/work/venv-fastsar/bin/python"))
@@ -190,9 +192,9 @@ def run_case(case, args, tmp, exe):
     t_ref = time.perf_counter() - t0
     pick = np.ix_(rows, cols)
     out = []
-    backproject(data[:2], np.atleast_2d(freq)[:2] if np.ndim(freq) == 2 else freq, a[:2], r0[:2],
-                Grid(16, 16, grid.dx, grid.dy))  # load the kernels
-    default = lambda: backproject(data, freq, a, r0, grid, precision=DEFAULT_PRECISION)  # noqa: E731
+    col = Collection(freq, a, r0)
+    backproject(data[:2], col.pulses(slice(0, 2)), Grid(16, 16, grid.dx, grid.dy))  # load the kernels
+    default = lambda: backproject(data, col, grid, BackprojectionOptions(precision=DEFAULT_PRECISION))  # noqa: E731
     fs_runs, ours_runs = [], []
     img = None
     for _ in range(args.repeat):  # A B A B, two calls each
@@ -212,9 +214,10 @@ def run_case(case, args, tmp, exe):
     else:
         note = f"FastSAR skipped: no {FASTSAR_PY} (create it: python3 -m venv /work/venv-fastsar && " \
                "/work/venv-fastsar/bin/pip install fastsar)"
-    for label, kw in [("sarcli float64 cubic", dict(precision="float64")),
-                      ("sarcli float32 linear upsample 4", dict(precision="float32", interp="linear", upsample=4))]:
-        im, t, c = timed(lambda: backproject(data, freq, a, r0, grid, **kw), args.repeat)
+    for label, kw in [("sarcli float64 cubic", BackprojectionOptions(precision="float64")),
+                      ("sarcli float32 linear upsample 4",
+                       BackprojectionOptions(precision="float32", interp="linear", upsample=4))]:
+        im, t, c = timed(lambda: backproject(data, col, grid, kw), args.repeat)
         out.append((label, t, c, image_error(im[pick], ref)))
     if args.bpbasic and np.ndim(freq) == 1:
         im, t, c = timed(lambda: bp_basic(data, freq, a, r0, grid), 1)
@@ -223,13 +226,14 @@ def run_case(case, args, tmp, exe):
     # 512, CPU seconds (a loaded machine stretches wall time, not CPU time), alternating
     n = min(512, grid.nx)
     small = Grid(n, n, grid.dx, grid.dy, grid.x[grid.nx // 2], grid.y[grid.ny // 2])
-    variants = [("default", {"precision": DEFAULT_PRECISION}), ("float32 linear u=4", dict(precision="float32", interp="linear", upsample=4))]
+    variants = [("default", BackprojectionOptions(precision=DEFAULT_PRECISION)),
+                ("float32 linear u=4", BackprojectionOptions(precision="float32", interp="linear", upsample=4))]
     rates = {label: 0.0 for label, _ in variants}
     anchor = 0.0 if exe else float("nan")
     for _ in range(args.repeat):
         for label, kw in variants:
             c0 = time.process_time()
-            backproject(data, freq, a, r0, small, nthreads=1, **kw)
+            backproject(data, col, small, kw, nthreads=1)
             rates[label] = max(rates[label], n * n * P / (time.process_time() - c0))
         if exe:
             anchor = max(anchor, anchor_cpu_rate(exe, n, P))

@@ -44,14 +44,15 @@ from sarcli.core import geometry  # noqa: E402
 from sarcli.core.grid import Grid  # noqa: E402
 from sarcli.formers.planning import cost  # noqa: E402
 from sarcli.formers.backprojection._setup import Setup  # noqa: E402
-from sarcli.formers.backprojection import (DEFAULT_INTERP, DEFAULT_PRECISION, DEFAULT_UPSAMPLE,  # noqa: E402
-                                           backproject)
+from sarcli.formers.backprojection import backproject  # noqa: E402
+from sarcli.formers.options import BackprojectionOptions  # noqa: E402
+from sarcli.core.collection import Collection  # noqa: E402
 from sarcli.formers.planning.calibration import load_cost_model  # noqa: E402
 from sarcli.formers.direct import direct_spherical  # noqa: E402
 from sarcli.formers.ffbp.model import frequency_error, interp_error  # noqa: E402
 from sarcli.formers.formation import image_error  # noqa: E402
 
-DEFAULT = dict(precision=DEFAULT_PRECISION, interp=DEFAULT_INTERP, upsample=DEFAULT_UPSAMPLE)
+DEFAULT = BackprojectionOptions()
 
 
 def problem(range_m: float, n: int, pulses: int, m: int = 256, seed: int = 1):
@@ -100,12 +101,12 @@ def time_ours(args, repeat: int) -> float:
     from sarcli._native import using_threads
 
     with using_threads(1):
-        return best_cpu(lambda: backproject(*args, nthreads=1, **DEFAULT), repeat)
+        return best_cpu(lambda: backproject(*args, DEFAULT, nthreads=1), repeat)
 
 
 def accuracy(points, freq, a, r0, grid) -> float:
     """Relative error of the default against ``direct`` on a strided sub-grid."""
-    img = backproject(points, freq, a, r0, grid, **DEFAULT)
+    img = backproject(points, Collection(freq, a, r0), grid, DEFAULT)
     sub, rows, cols, _ = reference_grid(SimpleNamespace(data=points), grid, max_cost=3e8)
     ref = direct_spherical(points, freq, a, r0, sub)
     return image_error(img[np.ix_(rows, cols)], ref)
@@ -156,25 +157,25 @@ def main(argv=None):
     load_start = os.getloadavg()[0]
     with tempfile.TemporaryDirectory() as tmp:
         exe = build_anchor(Path(tmp))
-        backproject(*problem(1e4, 16, 2)[:5], **DEFAULT)   # load the kernels
+        d0, f0, a0, r00, g0, _ = problem(1e4, 16, 2)
+        backproject(d0, Collection(f0, a0, r00), g0, DEFAULT)   # load the kernels
         # the planner's constant as its calibration measures it (10 km, 256 pulses onto 256²), but
         # in this run, on one thread and in CPU seconds like the rows below
         costs["bp_fft"], costs["bp"] = cost.bp_constants(lambda fn: best_cpu(fn, 3 * opts.repeat),
                                                          *planner_calibration_problem(), 1)
         for rng_m in ranges:
             data, freq, a, r0, grid, points = problem(rng_m, opts.n, opts.pulses)
-            args = (data, freq, a, r0, grid)
+            args = (data, Collection(freq, a, r0), grid)
             anchor, t = 0.0, np.inf
             for _ in range(opts.repeat):   # A B A B
                 anchor = max(anchor, anchor_cpu_rate(exe, opts.n, opts.pulses) if exe else float("nan"))
                 t = min(t, time_ours(args, 1))
             rate = opts.n * opts.n * opts.pulses / t
-            st = Setup(data.shape, freq, a, r0, grid, None, DEFAULT["upsample"], DEFAULT["interp"],
-                       DEFAULT["precision"], None)
-            pred = cost.bp_seconds(costs, opts.pulses, freq.size, grid.nx * grid.ny, DEFAULT["interp"],
-                                   DEFAULT["upsample"], st.tiling.cost, 1)
+            st = Setup(data.shape, args[1], grid, DEFAULT.upsample, DEFAULT.interp, DEFAULT.precision)
+            pred = cost.bp_seconds(costs, opts.pulses, freq.size, grid.nx * grid.ny, DEFAULT.interp,
+                                   DEFAULT.upsample, st.tiling.cost, 1)
             err = float("nan") if opts.no_accuracy else accuracy(points, freq, a, r0, grid)
-            e_pred = interp_error(DEFAULT["interp"], float(DEFAULT["upsample"])) + \
+            e_pred = interp_error(DEFAULT.interp, float(DEFAULT.upsample)) + \
                 frequency_error(freq, a, grid) + st.tiling.error
             rows.append((rng_m, grid.dx, st.model, st.width, anchor, rate, t, pred, err, e_pred))
     ref = next((r[5] for r in rows if r[0] == 1e4), None)

@@ -29,10 +29,12 @@ CASES = ("bp/f32/cubic", "bp/f32/linear", "bp/f64/cubic", "bp/f32/lanczos", "bp-
 
 def _measure(repeat: int, only: str) -> dict[str, float]:
     from sarcli.core import geometry
+    from sarcli.core.collection import Collection
     from sarcli.core.grid import Grid
     from sarcli.formers.backprojection import backproject, reproject
     from sarcli.formers.direct import direct_spherical
     from sarcli.formers.ffbp import ffbp
+    from sarcli.formers.options import BackprojectionOptions
     from sarcli.formers.points import backproject_points
 
     freq = 9.7e9 + 2e6 * np.arange(256)
@@ -54,20 +56,22 @@ def _measure(repeat: int, only: str) -> dict[str, float]:
     d = data(a, r0)
     an, rn = circle(128, 150.0, 20.0)
     dn = data(an, rn)
-    img = backproject(d, freq, a, r0, grid, precision="float32")
+    col, f32 = Collection(freq, a, r0), BackprojectionOptions(precision="float32", interp="cubic")
+    img = backproject(d, col, grid, f32)
     xyz = np.concatenate([np.stack(np.meshgrid(grid.x[::2], grid.y[::2]), -1),
                           np.zeros(grid.shape)[::2, ::2, None]], -1)
     calls = {
-        "bp/f32/cubic": lambda: backproject(d, freq, a, r0, grid, precision="float32", interp="cubic"),
-        "bp/f32/linear": lambda: backproject(d, freq, a, r0, grid, precision="float32", interp="linear", upsample=4),
-        "bp/f64/cubic": lambda: backproject(d, freq, a, r0, grid, precision="float64", interp="cubic"),
-        "bp/f32/lanczos": lambda: backproject(d, freq, a, r0, grid, precision="float32", interp="lanczos"),
-        "bp-near/f32/cubic": lambda: backproject(dn, freq, an, rn, grid, precision="float32", interp="cubic"),
-        "rp/f32/cubic": lambda: reproject(img, freq, a, r0, grid, precision="float32", interp="cubic"),
-        "points/f32/cubic": lambda: backproject_points(d, freq, a, r0, xyz, precision="float32", interp="cubic"),
-        "ffbp/optimal": lambda: ffbp(d, freq, a, r0, grid),
-        "ffbp/cubic": lambda: ffbp(d, freq, a, r0, grid, interp="cubic", os_range=3, os_angle=3, upsample=8),
-        "ffbp/lanczos": lambda: ffbp(d, freq, a, r0, grid, interp="lanczos", os_range=3, os_angle=2),
+        "bp/f32/cubic": lambda: backproject(d, col, grid, f32),
+        "bp/f32/linear": lambda: backproject(d, col, grid, BackprojectionOptions(precision="float32", interp="linear",
+                                                                                 upsample=4)),
+        "bp/f64/cubic": lambda: backproject(d, col, grid, BackprojectionOptions(precision="float64", interp="cubic")),
+        "bp/f32/lanczos": lambda: backproject(d, col, grid, BackprojectionOptions(precision="float32", interp="lanczos")),
+        "bp-near/f32/cubic": lambda: backproject(dn, Collection(freq, an, rn), grid, f32),
+        "rp/f32/cubic": lambda: reproject(img, col, grid, f32),
+        "points/f32/cubic": lambda: backproject_points(d, col, xyz, f32),
+        "ffbp/optimal": lambda: ffbp(d, col, grid),
+        "ffbp/cubic": lambda: ffbp(d, col, grid, interp="cubic", os_range=3, os_angle=3, upsample=8),
+        "ffbp/lanczos": lambda: ffbp(d, col, grid, interp="lanczos", os_range=3, os_angle=2),
         "direct": lambda: direct_spherical(d[:, ::8], freq[::8], a, r0, Grid(64, 64, 0.8, 0.8)),
     }
     out = {}

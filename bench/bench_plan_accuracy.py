@@ -42,6 +42,7 @@ import numpy as np  # noqa: E402
 
 from sarcli.core import geometry  # noqa: E402
 from sarcli.core.acquisition import Acquisition  # noqa: E402
+from sarcli.core.collection import Collection  # noqa: E402
 from sarcli.core.grid import Grid  # noqa: E402
 from sarcli.core.types import PhaseHistory  # noqa: E402
 
@@ -143,8 +144,8 @@ def main():
         for _ in range(max(1, args.repeat)):
             parts = {}
             t = time.perf_counter()
-            fb.ffbp(ph.data, acq.frequency_hz, acq.antenna_position_m, acq.range_to_center_m, grid, timings=parts,
-                    **{k: knobs[k] for k in ("base", "merge", "os_range", "os_angle", "upsample")})
+            fb.ffbp(ph.data, Collection(acq.frequency_hz, acq.antenna_position_m, acq.range_to_center_m), grid,
+                    timings=parts, **{k: knobs[k] for k in ("base", "merge", "os_range", "os_angle", "upsample")})
             wall = time.perf_counter() - t
             if wall < best_wall:
                 best_wall, best_parts = wall, parts

@@ -20,6 +20,8 @@ from sarcli.core import geometry
 from sarcli.core.grid import Grid
 from sarcli.formers.backprojection import backproject
 from sarcli.formers.points import backproject_points
+from sarcli.core.collection import Collection
+from sarcli.formers.options import BackprojectionOptions
 
 
 def main():
@@ -38,16 +40,16 @@ def main():
     g = Grid(n, n, 0.3, 0.3)
     pts = g.points()
     pts[..., 2] = 5 * np.sin(pts[..., 0] / 7)
-    kw = dict(upsample=16, interp="cubic", precision="float32", nthreads=1)
-    backproject(d, f, a, r0, g, **kw)
-    backproject_points(d, f, a, r0, pts, **kw)
+    col, kw = Collection(f, a, r0), BackprojectionOptions(upsample=16, interp="cubic", precision="float32")
+    backproject(d, col, g, kw, nthreads=1)
+    backproject_points(d, col, pts, kw, nthreads=1)
     ta, tb = [], []
     for _ in range(args.repeat):
         t = time.perf_counter()
-        backproject(d, f, a, r0, g, **kw)
+        backproject(d, col, g, kw, nthreads=1)
         ta.append(time.perf_counter() - t)
         t = time.perf_counter()
-        backproject_points(d, f, a, r0, pts, **kw)
+        backproject_points(d, col, pts, kw, nthreads=1)
         tb.append(time.perf_counter() - t)
     ratio = float(np.median(np.array(tb) / np.array(ta)))
     print(f"tiled plane {np.median(ta):.3f} s, 3-D points {np.median(tb):.3f} s: points / tiled = {ratio:.2f}")

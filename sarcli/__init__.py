@@ -33,6 +33,7 @@ from ._version import __version__
 
 _LAZY = {
     "Acquisition": "core.acquisition",
+    "Collection": "core.collection",
     "Grid": "core.grid",
     "resolve_grid": "core.grid",
     "PhaseHistory": "core.types",

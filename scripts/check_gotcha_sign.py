@@ -22,6 +22,8 @@ import numpy as np
 
 from sarcli.formers.backprojection import backproject
 from sarcli.io.gotcha import default_gotcha_grid, gotcha_dir, gotcha_files, read_gotcha
+from sarcli.core.collection import Collection
+from sarcli.formers.options import BackprojectionOptions
 
 
 def focus(img):
@@ -43,9 +45,9 @@ def main(argv=None):
     for af in (False, True):
         ph = read_gotcha(files, autofocus=af)
         acq = ph.acquisition
-        geo = (acq.frequency_hz, acq.antenna_position_m, acq.range_to_center_m, grid)
+        col = Collection(acq.frequency_hz, acq.antenna_position_m, acq.range_to_center_m)
         for name, d in (("as stored", ph.data), ("conjugated", np.conj(ph.data))):
-            pm, ent = focus(backproject(d, *geo, precision="float32"))
+            pm, ent = focus(backproject(d, col, grid, BackprojectionOptions(precision="float32")))
             print(f"| {af} | {name} | {pm:.1f} | {ent:.3f} |")
 
 

@@ -23,6 +23,8 @@ from sarcli.formers.direct import direct_spherical
 from sarcli.formers.ffbp import ffbp
 from sarcli.formers.points import backproject_points, reproject_points
 from sarcli.linops.warped import WarpedNufftOperator
+from sarcli.core.collection import Collection
+from sarcli.formers.options import BackprojectionOptions
 
 GRID = Grid(48, 40, 0.3, 0.3)
 FREQ = 9.7e9 + 4e6 * np.arange(96)
@@ -57,19 +59,20 @@ def outputs() -> dict[str, np.ndarray]:
     g = np.random.default_rng(5).normal(size=GRID.shape) + 0j
     for interp in ("linear", "cubic", "lanczos"):
         for prec in ("float32", "float64"):
-            k = dict(interp=interp, precision=prec, upsample=8)
-            out[f"bp/{interp}/{prec}"] = backproject(d, FREQ, a, r0, GRID, **k)
-            out[f"bp-bistatic/{interp}/{prec}"] = backproject(db, FREQ, a, r0b, GRID, receive_position_m=rcv, **k)
-            out[f"bp-near/{interp}/{prec}"] = backproject(dn, FREQ, near, rn, GRID, **k)
-            out[f"rp/{interp}/{prec}"] = reproject(out[f"bp/{interp}/{prec}"], FREQ, a, r0, GRID, **k)
-            out[f"rp-near/{interp}/{prec}"] = reproject(out[f"bp-near/{interp}/{prec}"], FREQ, near, rn, GRID, **k)
-            out[f"contract/{interp}/{prec}"] = pulse_contractions(d, g, FREQ, a, r0, GRID, **k)
+            k = BackprojectionOptions(interp=interp, precision=prec, upsample=8)
+            mono, bi, close = Collection(FREQ, a, r0), Collection(FREQ, a, r0b, receive_position_m=rcv), \
+                Collection(FREQ, near, rn)
+            out[f"bp/{interp}/{prec}"] = backproject(d, mono, GRID, k)
+            out[f"bp-bistatic/{interp}/{prec}"] = backproject(db, bi, GRID, k)
+            out[f"bp-near/{interp}/{prec}"] = backproject(dn, close, GRID, k)
+            out[f"rp/{interp}/{prec}"] = reproject(out[f"bp/{interp}/{prec}"], mono, GRID, k)
+            out[f"rp-near/{interp}/{prec}"] = reproject(out[f"bp-near/{interp}/{prec}"], close, GRID, k)
+            out[f"contract/{interp}/{prec}"] = pulse_contractions(d, g, mono, GRID, k)
             pts = np.stack(np.meshgrid(GRID.x, GRID.y), -1)
             pts = np.concatenate([pts, 0.3 * np.sin(pts[..., :1])], -1)
-            out[f"points/{interp}/{prec}"] = backproject_points(d, FREQ, a, r0, pts, **k)
-            out[f"points-bistatic/{interp}/{prec}"] = backproject_points(db, FREQ, a, r0b, pts,
-                                                                         receive_position_m=rcv, **k)
-            out[f"rpoints/{interp}/{prec}"] = reproject_points(out[f"points/{interp}/{prec}"], FREQ, a, r0, pts, **k)
+            out[f"points/{interp}/{prec}"] = backproject_points(d, mono, pts, k)
+            out[f"points-bistatic/{interp}/{prec}"] = backproject_points(db, bi, pts, k)
+            out[f"rpoints/{interp}/{prec}"] = reproject_points(out[f"points/{interp}/{prec}"], mono, pts, k)
     a2, r02 = _circle(192)
     d2 = _point_data(a2, r02)
     for knobs in (dict(), dict(interp="cubic", os_range=3, os_angle=3, upsample=8),
@@ -77,8 +80,8 @@ def outputs() -> dict[str, np.ndarray]:
                   dict(interp="lanczos", os_range=3, os_angle=2), dict(interp="optimal", base=2, merge=3),
                   dict(interp="optimal", os_range=1.5, upsample=3.0)):
         name = "ffbp/" + ",".join(f"{k}={v}" for k, v in knobs.items())
-        out[name] = ffbp(d2, FREQ, a2, r02, GRID, **knobs)
-    out["ffbp-bistatic"] = ffbp(db, FREQ, a, r0b, GRID, receive_position_m=rcv)
+        out[name] = ffbp(d2, Collection(FREQ, a2, r02), GRID, **knobs)
+    out["ffbp-bistatic"] = ffbp(db, Collection(FREQ, a, r0b, receive_position_m=rcv), GRID)
     out["direct"] = direct_spherical(d, FREQ, a, r0, GRID)
     cfg = yaml.safe_load(open("configs/three-points.yaml"))
     cfg["frequencies"]["count"] = 64

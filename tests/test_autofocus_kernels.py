@@ -7,6 +7,8 @@ import pytest
 
 from sarcli.autofocus._imager import BlockImager, entropy_of
 from sarcli.autofocus._lbfgs import lbfgs
+from sarcli.core.collection import Collection
+from sarcli.formers.options import BackprojectionOptions
 
 
 def _stack_imager(order, nb=7, pixels=(3600, 33), seed=0):
@@ -104,20 +106,21 @@ def _circle_case(P, M, seed):
     return rng, d, freq, a, r0
 
 
-@pytest.mark.parametrize("kw", [dict(upsample=4, interp="linear", precision="float32"),
-                                dict(upsample=8, interp="cubic", precision="float64")])
-def test_pulse_contractions_are_the_reprojection_formula(kw):
+@pytest.mark.parametrize("opts", [BackprojectionOptions(upsample=4, interp="linear", precision="float32"),
+                                  BackprojectionOptions(upsample=8, interp="cubic", precision="float64")])
+def test_pulse_contractions_are_the_reprojection_formula(opts):
     from sarcli.core.grid import Grid
     from sarcli.formers.backprojection import backproject, pulse_contractions, reproject
 
     rng, d, freq, a, r0 = _circle_case(37, 48, 3)
     grid = Grid(45, 38, 0.25, 0.25)
-    g = rng.normal(size=grid.shape) * np.conj(backproject(d, freq, a, r0, grid, **kw))
-    ref = np.sum(np.conj(reproject(np.conj(g), freq, a, r0, grid, **kw)) * d, axis=1)
-    tol = 1e-5 if kw["precision"] == "float32" else 1e-12
-    v1 = pulse_contractions(d, g, freq, a, r0, grid, **kw, nthreads=1)
+    col = Collection(freq, a, r0)
+    g = rng.normal(size=grid.shape) * np.conj(backproject(d, col, grid, opts))
+    ref = np.sum(np.conj(reproject(np.conj(g), col, grid, opts)) * d, axis=1)
+    tol = 1e-5 if opts.precision == "float32" else 1e-12
+    v1 = pulse_contractions(d, g, col, grid, opts, nthreads=1)
     assert np.max(np.abs(v1 - ref)) < tol * np.max(np.abs(ref))
-    assert np.array_equal(v1, pulse_contractions(d, g, freq, a, r0, grid, **kw, nthreads=2))
+    assert np.array_equal(v1, pulse_contractions(d, g, col, grid, opts, nthreads=2))
 
 
 def test_group_images_add_up_to_the_backprojection():
@@ -129,12 +132,12 @@ def test_group_images_add_up_to_the_backprojection():
     _, d, freq, a, r0 = _circle_case(23, 32, 4)
     grid = Grid(30, 26, 0.25, 0.25)
     bounds = [0, 5, 6, 15, 23]
-    bp = Backprojector(d, freq, a, r0, grid)
+    bp = Backprojector(d, Collection(freq, a, r0), grid)
     imgs = [re + 1j * im for _, re, im in bp.group_images(bounds)]
     assert len(imgs) == 4
-    one = backproject(d[6:15], freq, a[6:15], r0[6:15], grid) * (9 / 23)
+    one = backproject(d[6:15], Collection(freq, a[6:15], r0[6:15]), grid) * (9 / 23)
     assert np.max(np.abs(imgs[2] - one)) < 1e-12 * np.max(np.abs(one))
-    full = backproject(d, freq, a, r0, grid)
+    full = backproject(d, Collection(freq, a, r0), grid)
     assert np.max(np.abs(sum(imgs) - full)) < 1e-12 * np.max(np.abs(full))
     with pytest.raises(SarcliInputError):
         next(bp.group_images([0, 5, 5, 23]))
@@ -194,9 +197,9 @@ def test_level_search_ends_when_an_iteration_gains_little():
     assert value(x) - value(np.linalg.solve(H, b)) < 1e-4
 
 
-@pytest.mark.parametrize("kw", [dict(upsample=4, interp="linear", precision="float32"),
-                                dict(upsample=8, interp="cubic", precision="float64")])
-def test_prepared_backprojector_is_backproject_and_pulse_contractions(kw):
+@pytest.mark.parametrize("opts", [BackprojectionOptions(upsample=4, interp="linear", precision="float32"),
+                                  BackprojectionOptions(upsample=8, interp="cubic", precision="float64")])
+def test_prepared_backprojector_is_backproject_and_pulse_contractions(opts):
     from sarcli.core.grid import Grid
     from sarcli.errors import SarcliInputError
     from sarcli.formers.backprojection._prepared import Backprojector
@@ -206,22 +209,23 @@ def test_prepared_backprojector_is_backproject_and_pulse_contractions(kw):
     w = np.hanning(42)[1:-1]
     grid, other = Grid(45, 38, 0.25, 0.25), Grid(20, 30, 0.5, 0.25, 1.0, -2.0)
     phi = rng.uniform(-np.pi, np.pi, 150)
-    tol = 2e-6 if kw["precision"] == "float32" else 1e-12
-    bp = Backprojector(d, freq, a, r0, grid, w, **kw)
+    tol = 2e-6 if opts.precision == "float32" else 1e-12
+    col = Collection(freq, a, r0, w)
+    bp = Backprojector(d, col, grid, opts)
     for g, b in ((grid, bp), (other, bp.on(other))):
         assert b.grid == g
-        ref = backproject(d * np.exp(-1j * phi)[:, None], freq, a, r0, g, w, **kw)
+        ref = backproject(d * np.exp(-1j * phi)[:, None], col, g, opts)
         assert np.max(np.abs(b.image(phi) - ref)) < tol * np.max(np.abs(ref))
-        ref0 = backproject(d, freq, a, r0, g, w, **kw)
+        ref0 = backproject(d, col, g, opts)
         assert np.max(np.abs(b.image() - ref0)) < tol * np.max(np.abs(ref0))
         h = rng.normal(size=g.shape) * np.conj(ref)
-        v = pulse_contractions(d, h, freq, a, r0, g, w, **kw)
+        v = pulse_contractions(d, h, col, g, opts)
         assert np.max(np.abs(b.contract(h) - v)) < tol * np.max(np.abs(v))
     assert bp.on(other).profiles is bp.profiles
     bounds = [0, 7, 8, 100, 150]
     groups = [(b, re.copy(), im.copy()) for b, re, im in bp.group_images(bounds)]
     for (b, re, im), lo, hi in zip(groups, bounds[:-1], bounds[1:]):   # each its share of the whole
-        ref = backproject(d[lo:hi], freq, a[lo:hi], r0[lo:hi], grid, w, **kw) * ((hi - lo) / 150)
+        ref = backproject(d[lo:hi], col.pulses(slice(lo, hi)), grid, opts) * ((hi - lo) / 150)
         assert np.max(np.abs(re + 1j * im - ref)) < tol * np.max(np.abs(ref))
     assert [b for b, _, _ in groups] == [0, 1, 2, 3]
     assert len(groups) == 4

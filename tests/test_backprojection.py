@@ -14,7 +14,10 @@ from sarcli._native.layout import BpGeo
 from sarcli.core import geometry
 from sarcli.errors import AliasingWarning, SarcliInputError
 from sarcli.formers.backprojection._kernels import kernels, next_fast_len, tile_width
-from sarcli.formers.backprojection import DEFAULT_INTERP, DEFAULT_UPSAMPLE, backproject, profile_length, reproject
+from sarcli.formers.backprojection import (DEFAULT_INTERP, DEFAULT_UPSAMPLE, Knobs, backproject, profile_length,
+                                           reproject)
+from sarcli.formers.options import BackprojectionOptions
+from sarcli.core.collection import Collection
 from sarcli.core.grid import Grid
 
 GRID = Grid.square(10.0, 80)  # 20 m x 20 m, 0.25 m pixels
@@ -61,16 +64,22 @@ def scene():
 
 def test_default_settings_match_exact_matched_filter(scene):
     data, freq, a, r0, ref = scene
-    err = rel_err(backproject(data, freq, a, r0, GRID), ref)
+    err = rel_err(backproject(data, Collection(freq, a, r0), GRID), ref)
     assert (DEFAULT_INTERP, DEFAULT_UPSAMPLE) == ("cubic", 16)
     assert err < 1e-3  # the contract is 1e-2
 
 
 def test_error_falls_with_upsampling_and_higher_order_kernel(scene):
     data, freq, a, r0, ref = scene
-    lin = [rel_err(backproject(data, freq, a, r0, GRID, upsample=u, interp="linear"), ref) for u in (2, 4, 8, 16)]
-    cub = [rel_err(backproject(data, freq, a, r0, GRID, upsample=u, interp="cubic"), ref) for u in (2, 4, 8, 16)]
-    lan = rel_err(backproject(data, freq, a, r0, GRID, upsample=4, interp="lanczos"), ref)
+    col = Collection(freq, a, r0)
+
+    def err(upsample, interp):
+        opts = BackprojectionOptions(upsample=upsample, interp=interp, precision="float64")
+        return rel_err(backproject(data, col, GRID, opts), ref)
+
+    lin = [err(u, "linear") for u in (2, 4, 8, 16)]
+    cub = [err(u, "cubic") for u in (2, 4, 8, 16)]
+    lan = err(4, "lanczos")
     # linear interpolation error is O(1/u²): each doubling divides it by about 4
     assert all(e1 / e2 > 3.5 for e1, e2 in zip(lin, lin[1:])), lin
     assert all(e1 / e2 > 7.0 for e1, e2 in zip(cub, cub[1:])), cub  # cubic: at least O(1/u³)
@@ -84,7 +93,8 @@ def test_unit_point_on_pixel_centre_peaks_at_one(interp, upsample):
     for row, col in [(35, 43), (20, 61), (70, 9)]:
         x0, y0 = GRID.x[col], GRID.y[row]
         data, freq, a, r0 = collection([[x0, y0, 0.0]], [1.0])
-        img = backproject(data, freq, a, r0, GRID, interp=interp, upsample=upsample)
+        opts = BackprojectionOptions(interp=interp, upsample=upsample, precision="float64")
+        img = backproject(data, Collection(freq, a, r0), GRID, opts)
         assert np.unravel_index(np.argmax(np.abs(img)), img.shape) == (row, col)
         assert abs(img[row, col] - 1.0) < 1e-3  # magnitude and phase
 
@@ -98,7 +108,7 @@ def test_weights_and_per_pulse_frequencies_match_reference():
     data, _, a, r0 = collection(pts, [1.0, 0.5j], P=P, M=M, freq=freq)
     w = np.outer(np.hanning(P + 2)[1:-1], np.hamming(M))
     ref = exact_mf(data, freq, a, r0, GRID, w)
-    img = backproject(data, freq, a, r0, GRID, w)
+    img = backproject(data, Collection(freq, a, r0, w), GRID)
     assert rel_err(img, ref) < 1e-3
 
 
@@ -106,8 +116,8 @@ def test_float32_precision_at_100_km_keeps_phase():
     """r0 = 100 km: the float32 path (float64 tile geometry, float32 inside) keeps float64's phase."""
     pts = [[7.25, -6.5, 0.0], [-9.0, 9.5, 0.0], [0.0, 0.0, 0.0]]
     data, freq, a, r0 = collection(pts, [1.0, 1.0, 1.0], r0=100e3, P=48, M=64)
-    f64 = backproject(data, freq, a, r0, GRID)
-    f32 = backproject(data, freq, a, r0, GRID, precision="float32")
+    f64 = backproject(data, Collection(freq, a, r0), GRID)
+    f32 = backproject(data, Collection(freq, a, r0), GRID, BackprojectionOptions(precision="float32"))
     ref = exact_mf(data, freq, a, r0, GRID)
     strong = np.abs(ref) > 0.1
     phase_err = np.max(np.abs(np.angle(f32[strong] / f64[strong])))
@@ -128,12 +138,12 @@ def test_reproject_is_exact_adjoint(interp, precision, tol):
     d = rng.normal(size=(P, M)) + 1j * rng.normal(size=(P, M))
     f = rng.normal(size=grid.shape) + 1j * rng.normal(size=grid.shape)
     w = rng.uniform(0.1, 1.0, size=(P, M))
-    kw = dict(upsample=3, interp=interp, precision=precision)
+    col, opts = Collection(freq, a, r0, w), BackprojectionOptions(upsample=3, interp=interp, precision=precision)
     # the grid reaches past the unambiguous window (±7.7 m): skipped pixels are transposed too
     with pytest.warns(AliasingWarning):
-        lhs = np.vdot(f, backproject(d, freq, a, r0, grid, w, **kw))
+        lhs = np.vdot(f, backproject(d, col, grid, opts))
     with pytest.warns(AliasingWarning):
-        rhs = np.vdot(reproject(f, freq, a, r0, grid, w, **kw), d)
+        rhs = np.vdot(reproject(f, col, grid, opts), d)
     # measured: float64 2e-16 to 4e-16 (the same float32 weights, float64 profiles and sums);
     # float32 1e-7 to 2e-7 (float32 profiles and sums)
     assert abs(lhs - rhs) / abs(lhs) < tol
@@ -149,7 +159,7 @@ def test_reproject_scaled_by_w_approximates_forward_model():
     data, freq, a, r0 = collection([[x0, y0, 0.0]], [1.0], P=P, M=M)
     delta = np.zeros(GRID.shape, complex)
     delta[row, col] = 1.0
-    model = P * M * reproject(delta, freq, a, r0, GRID)
+    model = P * M * reproject(delta, Collection(freq, a, r0), GRID)
     assert rel_err(model, data) < 2e-3
 
 
@@ -160,14 +170,14 @@ def test_grid_outside_unambiguous_window_gives_zeros(scene):
     assert window < 100
     for prec in ("float64", "float32"):
         with pytest.warns(AliasingWarning, match="unambiguous range window"):
-            img = backproject(data, freq, a, r0, far, precision=prec)
+            img = backproject(data, Collection(freq, a, r0), far, BackprojectionOptions(precision=prec))
         assert np.count_nonzero(img) == 0
     with pytest.warns(AliasingWarning):
-        assert np.count_nonzero(reproject(np.ones(far.shape), freq, a, r0, far)) == 0
+        assert np.count_nonzero(reproject(np.ones(far.shape), Collection(freq, a, r0), far)) == 0
     # a grid straddling the window edge: inside pixels match the reference, outside are zero
     edge = Grid(8, 8, 1.0, 1.0, -window / np.cos(np.radians(30.0)), 0.0)
     with pytest.warns(AliasingWarning):
-        img = backproject(data, freq, a, r0, edge)
+        img = backproject(data, Collection(freq, a, r0), edge)
     dr = geometry.differential_range(a, r0, edge.points())
     assert np.all(img[np.all(np.abs(dr) >= window * 1.001, axis=0)] == 0)
     assert np.count_nonzero(img[np.all(np.abs(dr) < window * 0.999, axis=0)]) > 0
@@ -175,14 +185,14 @@ def test_grid_outside_unambiguous_window_gives_zeros(scene):
 
 def test_decreasing_frequencies_give_the_same_image(scene):
     data, freq, a, r0, ref = scene
-    img = backproject(data[:, ::-1], freq[::-1], a, r0, GRID)
+    img = backproject(data[:, ::-1], Collection(freq[::-1], a, r0), GRID)
     assert rel_err(img, ref) < 1e-3
 
 
 def test_thread_count_does_not_change_result(scene):
     data, freq, a, r0, _ = scene
-    one = backproject(data, freq, a, r0, GRID, nthreads=1)
-    two = backproject(data, freq, a, r0, GRID, nthreads=2)
+    one = backproject(data, Collection(freq, a, r0), GRID, nthreads=1)
+    two = backproject(data, Collection(freq, a, r0), GRID, nthreads=2)
     assert np.max(np.abs(one - two)) < 1e-12
 
 
@@ -190,9 +200,11 @@ def test_unequal_frequency_spacing_is_refused():
     freq = np.sort(np.random.default_rng(0).uniform(9.8e9, 10.2e9, 32))
     data, _, a, r0 = collection([[0.0, 0.0, 0.0]], [1.0], P=4, M=32, freq=freq)
     with pytest.raises(SarcliInputError, match="direct"):
-        backproject(data, freq, a, r0, GRID)
-    with pytest.raises(SarcliInputError, match="interpolation"):
-        backproject(data, np.linspace(9e9, 1e10, 32), a, r0, GRID, interp="nearest")
+        backproject(data, Collection(freq, a, r0), GRID)
+    with pytest.raises(SarcliInputError, match="interp must be one of linear, cubic, lanczos"):
+        BackprojectionOptions(interp="nearest")
+    with pytest.raises(SarcliInputError, match="interpolation"):   # the maps' own check
+        backproject(data, Collection(np.linspace(9e9, 1e10, 32), a, r0), GRID, Knobs(16, "nearest", "float64"))
 
 
 def test_profile_length_is_even_fast_and_large_enough():
@@ -240,12 +252,14 @@ def test_next_fast_len_matches_scipy():
 def test_every_instruction_set_gives_the_same_image(scene, monkeypatch, level):
     """The AVX2 and baseline copies of the kernels against the best one here."""
     data, freq, a, r0, _ = scene
-    kws = [dict(interp=i, precision=p) for i in ("linear", "cubic", "lanczos") for p in ("float64", "float32")]
-    best = [backproject(data, freq, a, r0, GRID, **kw) for kw in kws]
+    col = Collection(freq, a, r0)
+    kws = [BackprojectionOptions(interp=i, precision=p) for i in ("linear", "cubic", "lanczos")
+           for p in ("float64", "float32")]
+    best = [backproject(data, col, GRID, kw) for kw in kws]
     monkeypatch.setenv("SARCLI_BP_ISA", level)
     for kw, ref in zip(kws, best):
         # measured: AVX2 = AVX-512 bit for bit; baseline (no fused multiply-adds) 4e-7
-        assert rel_err(backproject(data, freq, a, r0, GRID, **kw), ref) < 4e-6, kw
+        assert rel_err(backproject(data, col, GRID, kw), ref) < 4e-6, kw
 
 
 def test_orbit_range_keeps_phase():
@@ -256,7 +270,7 @@ def test_orbit_range_keeps_phase():
                                    aperture_deg=0.2)
     ref = exact_mf(data, freq, a, r0, grid)
     for prec in ("float64", "float32"):
-        img = backproject(data, freq, a, r0, grid, precision=prec)
+        img = backproject(data, Collection(freq, a, r0), grid, BackprojectionOptions(precision=prec))
         strong = np.abs(ref) > 0.1
         # measured 2.4e-5 rad (2.5e-5 on the baseline kernels), 1.9e-5 on every instruction set
         assert np.max(np.abs(np.angle(img[strong] / ref[strong]))) < 4e-5
@@ -271,7 +285,7 @@ def test_tiles_narrow_near_the_antenna():
     pts = [[3.0, -2.0, 0.0]]
     data, freq, a, r0 = collection(pts, [1.0], r0=60.0, el_deg=45.0, P=32, M=64, aperture_deg=20.0)
     ref = exact_mf(data, freq, a, r0, GRID)
-    img = backproject(data, freq, a, r0, GRID, upsample=32)
+    img = backproject(data, Collection(freq, a, r0), GRID, BackprojectionOptions(upsample=32, precision="float64"))
     near = np.abs(ref) > 0.05 * np.abs(ref).max()
     assert rel_err(img[near], ref[near]) < 4e-6   # measured 1.9e-6
 
@@ -333,12 +347,12 @@ def test_range_model_error_within_its_bound(monkeypatch, model, r0):
     for tone in (0, 1):   # tone 1: its interpolation error stays below the floor (tone 3: 6e-6)
         data, freq, a, r0s, grid = _tone_collection(r0, min(0.25, r0 / 300), tone=tone)
         ref = exact_mf(data, freq, a, r0s, grid)
-        st = Setup(data.shape, freq, a, r0s, grid, None, DEFAULT_UPSAMPLE, "cubic", "float32")
+        st = Setup(data.shape, Collection(freq, a, r0s), grid, DEFAULT_UPSAMPLE, "cubic", "float32")
         scale = max(np.max(np.abs(st.geo[BpGeo.KC])), np.max(np.abs(st.geo[BpGeo.INV_BIN])))
         r_min = bk.min_range(a, grid)
         for width in (64, 16, 4):
             _forced_tiling(monkeypatch, model, width)
-            img = backproject(data, freq, a, r0s, grid, precision="float32")
+            img = backproject(data, Collection(freq, a, r0s), grid, BackprojectionOptions(precision="float32"))
             err = np.max(np.abs(img - ref)) * data.shape[1]
             predicted = bound(0.5 * (width - 1) * grid.dx, r_min) * scale
             assert err <= predicted + floor, (tone, width, err, predicted)
@@ -385,14 +399,14 @@ def test_default_error_at_every_range_within_prediction(monkeypatch, r0):
                                    bw=geometry.C / (4 * 1.1 * grid.half_diagonal * np.cos(np.radians(30))) * 63,
                                    aperture_deg=3.0 if r0 > 1e3 else 20.0)
     ref = exact_mf(data, freq, a, rr, grid)
-    img = backproject(data, freq, a, rr, grid, precision=DEFAULT_PRECISION)
+    img = backproject(data, Collection(freq, a, rr), grid, BackprojectionOptions(precision=DEFAULT_PRECISION))
     t = tiling_for(freq, a, None, grid, DEFAULT_UPSAMPLE)
     predicted = interp_error(DEFAULT_INTERP, float(DEFAULT_UPSAMPLE)) + frequency_error(freq, a, grid) + t.error
     # measured 2.9e-5 (10 km, 1,000 km) to 4.0e-5 (200 m) against 3.4e-5 predicted: the interpolation's
     # RMS model, the same with one-pixel tiles
     assert rel_err(img, ref) <= SAFETY * predicted, (t, rel_err(img, ref), predicted)
     _forced_tiling(monkeypatch, bk.QUADRATIC, 1)
-    pixelwise = backproject(data, freq, a, rr, grid, precision=DEFAULT_PRECISION)
+    pixelwise = backproject(data, Collection(freq, a, rr), grid, BackprojectionOptions(precision=DEFAULT_PRECISION))
     assert rel_err(img, pixelwise) <= t.error + 3e-6     # measured 6e-7 to 1.2e-6 (float32 roundings)
 
 
@@ -409,13 +423,14 @@ def test_exact_model_every_instruction_set_and_adjoint(monkeypatch, level):
     rcv = a + np.array([0.0, 1.5, 0.2])
     d = rng.normal(size=data.shape) + 1j * rng.normal(size=data.shape)
     f = rng.normal(size=grid.shape) + 1j * rng.normal(size=grid.shape)
+    opts = BackprojectionOptions(upsample=4, interp="cubic", precision="float64")
     for q in (None, rcv):
-        kw = dict(upsample=4, interp="cubic", precision="float64", receive_position_m=q)
-        best = backproject(d, freq, a, r0, grid, **kw)
+        col = Collection(freq, a, r0, receive_position_m=q)
+        best = backproject(d, col, grid, opts)
         monkeypatch.setenv("SARCLI_BP_ISA", level)
-        img = backproject(d, freq, a, r0, grid, **kw)
+        img = backproject(d, col, grid, opts)
         assert rel_err(img, best) < 4e-6    # measured: AVX2 bit for bit; baseline ~1e-7
         lhs = np.vdot(f, img)
-        rhs = np.vdot(reproject(f, freq, a, r0, grid, **kw), d)
+        rhs = np.vdot(reproject(f, col, grid, opts), d)
         assert abs(lhs - rhs) / abs(lhs) < 1e-14
         monkeypatch.delenv("SARCLI_BP_ISA")

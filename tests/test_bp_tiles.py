@@ -26,6 +26,8 @@ from sarcli.formers.backprojection._kernels import (EXACT, GEO_ROWS, MODEL_TOLER
 from sarcli.formers.backprojection._setup import PAD
 from sarcli.formers.backprojection import backproject, reproject
 from sarcli.formers.direct import direct_spherical
+from sarcli.core.collection import Collection
+from sarcli.formers.options import BackprojectionOptions
 
 GRID = Grid.square(10.0, 80)  # 20 m x 20 m, 0.25 m pixels
 KC = 4 * np.pi * 10e9 / geometry.C  # carrier wavenumber at 10 GHz (rad/m)
@@ -178,7 +180,8 @@ def test_wide_baseline_bistatic_matches_direct(isa, r_t, r_r, precision):
     t, q, r0 = pair(r_t, r_r, 25.0, az_deg=np.linspace(-1.5, 1.5, 64), el_t=30.0, el_r=20.0)
     data, freq = _collection(t, q, r0, pts, amps)
     ref = direct_spherical(data, freq, t, r0, GRID, receive_position_m=q)
-    img = backproject(data, freq, t, r0, GRID, receive_position_m=q, precision=precision)
+    img = backproject(data, Collection(freq, t, r0, receive_position_m=q), GRID,
+                      BackprojectionOptions(precision=precision))
     assert rel_err(img, ref) < 6e-5
 
 
@@ -199,12 +202,12 @@ def test_adjoint_and_forward_at_tile_widths_that_fill_every_lane(isa, monkeypatc
                     az_deg=np.linspace(-1.5, 1.5, 24), el_t=30.0, el_r=25.0)
     pts = np.array([[grid.x[c], grid.y[r], 0.0] for r, c in ((1, 3), (2, 14), (3, 15), (4, 30), (5, 44))])
     data, freq = _collection(t, q, r0, pts, np.ones(len(pts)), M=48)
-    kw = dict(receive_position_m=q, precision=precision)
-    img = backproject(data, freq, t, r0, grid, **kw)
+    col, opts = Collection(freq, t, r0, receive_position_m=q), BackprojectionOptions(precision=precision)
+    img = backproject(data, col, grid, opts)
     ref = direct_spherical(data, freq, t, r0, grid, receive_position_m=q)
     assert rel_err(img, ref) < 6e-5   # measured 3.1e-5 to 3.7e-5 (cubic interpolation)
     d = rng.normal(size=data.shape) + 1j * rng.normal(size=data.shape)
     f = rng.normal(size=grid.shape) + 1j * rng.normal(size=grid.shape)
-    lhs = np.vdot(f, backproject(d, freq, t, r0, grid, **kw))
-    rhs = np.vdot(reproject(f, freq, t, r0, grid, **kw), d)
+    lhs = np.vdot(f, backproject(d, col, grid, opts))
+    rhs = np.vdot(reproject(f, col, grid, opts), d)
     assert abs(lhs - rhs) / abs(lhs) < tol   # measured float64 <= 2.1e-15, float32 <= 3.7e-7

@@ -22,6 +22,7 @@ from sarcli.formers.ffbp import ffbp, plan_stages
 from sarcli.formers.ffbp.model import (_poly_weights, deapodized_error, deapodized_kernel, deapodized_response,
                                        interp_error, optimal_kernel, optimal_weights)
 from sarcli.formers.formation import form_image, image_error
+from sarcli.core.collection import Collection
 
 GRID = Grid(48, 48, 0.3, 0.3)
 FREQ = 9.7e9 + 4e6 * np.arange(96)
@@ -52,7 +53,7 @@ def climbing_line(P=96):
 
 def check(data, a, r0, *, rcv=None, tol=1e-2, **knobs):
     ref = direct_spherical(data, FREQ, a, r0, GRID, receive_position_m=rcv)
-    img, plan = ffbp(data, FREQ, a, r0, GRID, return_plan=True, receive_position_m=rcv, **knobs)
+    img, plan = ffbp(data, Collection(FREQ, a, r0, receive_position_m=rcv), GRID, return_plan=True, **knobs)
     err = image_error(img, ref)
     assert err <= tol, (err, plan.predicted_error)
     assert plan.predicted_error / 3 <= err <= 3 * plan.predicted_error, (err, plan.predicted_error)
@@ -218,7 +219,7 @@ def test_polar_kernels_deapodized_only_where_the_mismatch_allows():
     assert plan.range_deapodized and plan.knobs["os_range"] == 1.5
     assert plan.angle_deapodized and plan.knobs["os_angle"] == 1.5
     data = point_data(a, r0)
-    img, plan = ffbp(data, FREQ, a, r0, GRID, return_plan=True)
+    img, plan = ffbp(data, Collection(FREQ, a, r0), GRID, return_plan=True)
     err = image_error(img, direct_spherical(data, FREQ, a, r0, GRID))
     assert err <= min(plan.predicted_error, 1e-3), (err, plan.predicted_error)
     a, r0 = climbing_line()
@@ -329,7 +330,7 @@ def test_ffbp_refuses_nadir_inside_the_grid():
     a = np.column_stack([np.linspace(-5, 5, 16), np.zeros(16), np.full(16, 1000.0)])
     r0 = np.linalg.norm(a, axis=1)
     with pytest.raises(SarcliInputError, match="nadir"):
-        ffbp(point_data(a, r0), FREQ, a, r0, GRID)
+        ffbp(point_data(a, r0), Collection(FREQ, a, r0), GRID)
 
 
 @pytest.mark.parametrize("n, size, merge", [(469, 8, 4), (2048, 8, 4), (800, 8, 4), (40, 8, 4), (1000, 8, 3),
@@ -390,13 +391,13 @@ def test_stage0_range_series_matches_exact_ranges(monkeypatch, bistatic):
     if bistatic:
         r0 = 0.5 * (np.linalg.norm(a, axis=1) + np.linalg.norm(rcv, axis=1))
     data = point_data(a, r0, rcv=rcv)
-    fast = ffbp(data, FREQ, a, r0, GRID, receive_position_m=rcv)
+    fast = ffbp(data, Collection(FREQ, a, r0, receive_position_m=rcv), GRID)
     plan = plan_stages(a if rcv is None else 0.5 * (a + rcv), FREQ, GRID)
     _, series = mod.series_inputs(a, a if rcv is None else rcv, r0, plan.levels[0], plan.dq,
                                    4 * np.pi * FREQ.max() / geometry.C)
     assert series.all()            # 3 km range, short sub-apertures: the series holds everywhere
     monkeypatch.setattr(mod, "SERIES_PHASE", -1.0)   # no tail is small enough: exact everywhere
-    exact = ffbp(data, FREQ, a, r0, GRID, receive_position_m=rcv)
+    exact = ffbp(data, Collection(FREQ, a, r0, receive_position_m=rcv), GRID)
     assert image_error(fast, exact) < 1e-7   # measured 1.4e-8 (monostatic), 2.7e-8 (bistatic)
 
 
@@ -423,7 +424,7 @@ def test_ffbp_keeps_targets_at_the_image_edge():
     dr = geometry.differential_range(a, r0, pts)
     data = np.exp(-1j * 4 * np.pi / geometry.C * FREQ[None, :, None] * dr[:, None, :]).sum(-1)
     ref = direct_spherical(data, FREQ, a, r0, GRID)
-    img, plan = ffbp(data, FREQ, a, r0, GRID, base=4, merge=2, final=2, return_plan=True)
+    img, plan = ffbp(data, Collection(FREQ, a, r0), GRID, base=4, merge=2, final=2, return_plan=True)
     assert plan.n_stages >= 4
     border = np.zeros(GRID.shape, bool)
     border[:3] = border[-3:] = True
@@ -438,11 +439,11 @@ def test_ffbp_depth_first_groups_give_the_same_image(monkeypatch):
 
     a, r0 = circle(P=384, aperture_deg=8.0)
     data = point_data(a, r0)
-    whole, plan = ffbp(data, FREQ, a, r0, GRID, base=4, final=8, return_plan=True)
+    whole, plan = ffbp(data, Collection(FREQ, a, r0), GRID, base=4, final=8, return_plan=True)
     assert mod._subtree_groups(plan) == [(0, plan.levels[-1].n)]
     monkeypatch.setattr(mod, "SUBTREE_BYTES", 1)   # one last-level sub-image (and its subtree) at a time
     assert len(mod._subtree_groups(plan)) == plan.levels[-1].n >= 3
-    parts = ffbp(data, FREQ, a, r0, GRID, base=4, final=8)
+    parts = ffbp(data, Collection(FREQ, a, r0), GRID, base=4, final=8)
     assert image_error(parts, whole) < 1e-12
 
 
@@ -529,7 +530,7 @@ def test_stage0_weights_in_a_pass_or_in_the_blocks_give_the_same_image(monkeypat
         imgs = []
         for first in (True, False):
             monkeypatch.setattr(s0, "WEIGHTS_FIRST", first)
-            imgs.append(ffbp(data, FREQ, a, r0, GRID, **knobs))
+            imgs.append(ffbp(data, Collection(FREQ, a, r0), GRID, **knobs))
         assert np.abs(imgs[0]).max() > 0.5
         assert np.array_equal(imgs[0], imgs[1])
 
@@ -546,7 +547,7 @@ def test_weight_polynomials_of_an_asymmetric_kernel_give_the_same_image(monkeypa
     monkeypatch.setattr(s0, "WEIGHTS_FIRST", first)
     a, r0 = circle(P=128)
     data = point_data(a, r0)
-    sym = ffbp(data, FREQ, a, r0, GRID)
+    sym = ffbp(data, Collection(FREQ, a, r0), GRID)
 
     def skewed(make):
         def table(beta):
@@ -557,7 +558,7 @@ def test_weight_polynomials_of_an_asymmetric_kernel_give_the_same_image(monkeypa
 
     monkeypatch.setattr(mod, "deapodized_kernel", skewed(mod.deapodized_kernel))
     monkeypatch.setattr(mod, "optimal_kernel", skewed(mod.optimal_kernel))
-    asym = ffbp(data, FREQ, a, r0, GRID)
+    asym = ffbp(data, Collection(FREQ, a, r0), GRID)
     assert 0 < image_error(asym, sym) < 1e-4   # measured 2.3e-5
 
 
@@ -573,9 +574,9 @@ def test_final_stage_by_bands_of_columns_gives_the_same_image(monkeypatch):
     monkeypatch.setattr(fb, "SUBTREE_BYTES", per)   # one last-level sub-image a group
     assert len(fb.subtree_groups(plan, fb.SUBTREE_BYTES)) >= 2
     monkeypatch.setattr(fb, "FINAL_COLUMNS", 10 ** 6)
-    whole = ffbp(d, FREQ, a, r0, GRID, base=2, final=8)
+    whole = ffbp(d, Collection(FREQ, a, r0), GRID, base=2, final=8)
     monkeypatch.setattr(fb, "FINAL_COLUMNS", 7)
-    banded = ffbp(d, FREQ, a, r0, GRID, base=2, final=8)
+    banded = ffbp(d, Collection(FREQ, a, r0), GRID, base=2, final=8)
     assert np.array_equal(banded, whole)
     assert image_error(banded, direct_spherical(d, FREQ, a, r0, GRID)) <= 5e-3
 
@@ -589,12 +590,12 @@ def test_timings_give_each_part_its_processor_seconds():
     d = point_data(a, r0)
     parts = {}
     t = time.process_time()
-    _, plan = ffbp(d, FREQ, a, r0, GRID, base=2, final=8, timings=parts, return_plan=True)
+    _, plan = ffbp(d, Collection(FREQ, a, r0), GRID, base=2, final=8, timings=parts, return_plan=True)
     total = time.process_time() - t
     assert plan.n_stages >= 2 and plan.range_deapodized   # merges and tone weights both run
     assert set(parts) == {"profiles", "tones", "stage0", "merge", "final"}
     assert all(v >= 0 for v in parts.values()) and sum(parts.values()) <= total + 1e-9
-    assert ffbp(d, FREQ, a, r0, GRID, base=2, final=8) is not None   # no timings: nothing kept
+    assert ffbp(d, Collection(FREQ, a, r0), GRID, base=2, final=8) is not None   # no timings: nothing kept
 
 
 def test_an_unknown_stage_knob_is_one_line_naming_it():

@@ -17,6 +17,7 @@ from sarcli.formers.direct import direct_farfield
 from sarcli.formers.nufft import nufft_farfield
 from sarcli.core.types import KGrid
 from sarcli.io.hdf5 import read_kgrid, write_kgrid
+from sarcli.formers.options import PfaOptions
 from sarcli.formers.pfa import pfa_image, regrid_polar
 from sarcli.core.grid import Grid
 from sarcli.core.windows import window_weights
@@ -50,9 +51,9 @@ def _rel(a, ref):
     return float(np.linalg.norm(a - ref) / np.linalg.norm(ref))
 
 
-def _pfa(data, grid, weights=None, **knobs):
+def _pfa(data, grid, weights=None, density="none", **knobs):
     kg = regrid_polar(data, KX, KY, weights, pixel_m=(grid.dx, grid.dy), shape=grid.shape,
-                      center_m=(grid.cx, grid.cy), **knobs)
+                      center_m=(grid.cx, grid.cy), options=PfaOptions(**knobs), density=density)
     return pfa_image(kg, grid)
 
 
@@ -199,7 +200,7 @@ def test_pfa_errors(monkeypatch, three_points):
     with pytest.raises(SarcliInputError, match="field of view"):
         pfa_image(kg, Grid(64, 64, 0.25, 0.25, 40.0, 0.0))
     with pytest.raises(SarcliInputError, match="kaiser, linear"):
-        regrid_polar(data, KX, KY, pixel_m=0.25, shape=(8, 8), kernel="cubic")
+        regrid_polar(data, KX, KY, pixel_m=0.25, shape=(8, 8), options=PfaOptions(kernel="cubic"))
     monkeypatch.setattr(pfa, "MAX_KGRID_CELLS", 100)
     with pytest.raises(SarcliInputError, match="NUFFT"):
         regrid_polar(data, KX, KY, pixel_m=0.25, shape=(8, 8))

@@ -17,6 +17,8 @@ from sarcli.core.geometry import angles_from_positions
 from sarcli.io.gotcha import read_gotcha
 from sarcli.core.grid import Grid
 from sarcli.io.hdf5 import read_phase_history
+from sarcli.core.collection import Collection
+from sarcli.formers.options import BackprojectionOptions
 
 from .conftest import GOTCHA_FILES  # noqa: E402
 
@@ -126,12 +128,14 @@ def test_real_backprojection_matches_exact_matched_filter():
     acq = ph.acquisition
     window = Grid.from_extent(20.0, 0.5, center=(-15.5, 21.5))  # 40 x 40 keeps the reference fast
     args = (ph.data, acq.frequency_hz, acq.antenna_position_m, acq.range_to_center_m, window)
+    col = Collection(acq.frequency_hz, acq.antenna_position_m, acq.range_to_center_m)
     ref = direct_spherical(*args)
-    img = backproject(*args)
+    img = backproject(ph.data, col, window)
     err = np.linalg.norm(img - ref) / np.linalg.norm(ref)
     assert err < 3e-4  # measured 3.6e-5 (cubic, upsample 16)
     assert np.abs(ref).max() / np.abs(ref).mean() > 30  # a focused bright scatterer (measured 114)
-    err32 = np.linalg.norm(backproject(*args, precision="float32") - ref) / np.linalg.norm(ref)
+    err32 = np.linalg.norm(backproject(ph.data, col, window, BackprojectionOptions(precision="float32")) - ref) \
+        / np.linalg.norm(ref)
     assert err32 < 3e-4  # measured 3.6e-5
 
 
@@ -143,8 +147,8 @@ def test_real_phase_sign_focuses_only_as_stored():
     ph = read_gotcha(REAL, autofocus=True)
     acq = ph.acquisition
     grid = Grid.from_extent(100.0, 0.5)
-    geo = (acq.frequency_hz, acq.antenna_position_m, acq.range_to_center_m, grid)
-    kw = dict(precision="float32", interp="linear", upsample=4)
+    col = Collection(acq.frequency_hz, acq.antenna_position_m, acq.range_to_center_m)
+    opts = BackprojectionOptions(precision="float32", interp="linear", upsample=4)
     ratio = [np.abs(f).max() / np.abs(f).mean()
-             for f in (backproject(ph.data, *geo, **kw), backproject(np.conj(ph.data), *geo, **kw))]
+             for f in (backproject(ph.data, col, grid, opts), backproject(np.conj(ph.data), col, grid, opts))]
     assert ratio[0] > 5 * ratio[1], ratio

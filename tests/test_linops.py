@@ -11,6 +11,7 @@ from sarcli.core.grid import Grid
 from sarcli.linops import (Diagonal, FiniteDifference, Identity, MatrixLinop, NufftOperator,
                            SphericalOperator, SubsampledDFT, gram_eigmax, phase_operator,
                            power_norm, sparsifying_operator)
+from sarcli.core.collection import Collection
 
 RNG = np.random.default_rng(20261122)
 
@@ -37,7 +38,7 @@ def _operators():
         "nufft": nufft,
         "toeplitz_gram": nufft.toeplitz_gram(),
         "nufft_gram": nufft.gram(),
-        "spherical": SphericalOperator(freq, a, np.linalg.norm(a, axis=1), GRID),
+        "spherical": SphericalOperator(Collection(freq, a, np.linalg.norm(a, axis=1)), GRID),
         "fd1": FiniteDifference(GRID.shape, 1),
         "fd2": FiniteDifference(GRID.shape, 2),
         "fd3": FiniteDifference(GRID.shape, 3),
@@ -228,7 +229,7 @@ def test_spherical_operator_draws_no_bar_of_its_own(monkeypatch):
     assert seen and all(seen)
     assert not is_quiet()  # restored afterwards
     seen.clear()
-    bp.backproject(y, op.freq_hz, op.antenna_position_m, op.range_to_center_m, GRID)
+    bp.backproject(y, op.collection, GRID)
     assert seen == [False]  # a former called on its own keeps its bar
 
 
@@ -249,3 +250,11 @@ def test_toeplitz_gram_gives_the_same_bits_on_one_thread_and_two():
             two = gram.apply(x)
         assert np.array_equal(one, two)
         assert np.linalg.norm(one) > 0
+
+
+def test_spherical_operator_refuses_window_weights():
+    """A = W · reproject holds for the unweighted model only; a weighted collection is refused."""
+    op = _operators()["spherical"]
+    col = op.collection
+    with pytest.raises(ValueError, match="without weights"):
+        SphericalOperator(col.with_(weights=np.ones(col.n_frequencies)), GRID)

@@ -9,6 +9,8 @@ from sarcli.core.grid import Grid
 from sarcli.formers.backprojection import backproject
 from sarcli.formers.direct import direct_points
 from sarcli.formers.points import backproject_points, reproject_points
+from sarcli.core.collection import Collection
+from sarcli.formers.options import BackprojectionOptions
 
 
 def _collection(P=40, M=48, bistatic=False):
@@ -37,7 +39,8 @@ def test_points_backprojection_meets_the_exact_matched_filter_on_terrain(bistati
                                 range_to_center_m=r0, receive_position_m=b)
     d = np.exp(-1j * psi).sum(axis=-1)
     ref = direct_points(d, f, a, r0, pts, receive_position_m=b)
-    img = backproject_points(d, f, a, r0, pts, receive_position_m=b, upsample=16, interp="cubic")
+    img = backproject_points(d, Collection(f, a, r0, receive_position_m=b), pts,
+                             BackprojectionOptions(upsample=16, interp="cubic", precision="float64"))
     err = np.linalg.norm(img - ref) / np.linalg.norm(ref)
     assert err < 1e-3, err
     # each target peaks at 1 at its own pixel
@@ -51,8 +54,9 @@ def test_points_on_the_plane_equal_the_tiled_kernel():
     grid = Grid(32, 20, 0.5, 0.5, 2.0, -1.0)
     rng = np.random.default_rng(1)
     d = rng.standard_normal((a.shape[0], f.size)) + 1j * rng.standard_normal((a.shape[0], f.size))
-    tiled = backproject(d, f, a, r0, grid, upsample=8, interp="lanczos")
-    pts = backproject_points(d, f, a, r0, grid.points(), upsample=8, interp="lanczos")
+    col, opts = Collection(f, a, r0), BackprojectionOptions(upsample=8, interp="lanczos", precision="float64")
+    tiled = backproject(d, col, grid, opts)
+    pts = backproject_points(d, col, grid.points(), opts)
     assert np.linalg.norm(pts - tiled) / np.linalg.norm(tiled) < 1e-5
 
 
@@ -64,9 +68,10 @@ def test_reproject_points_is_the_exact_adjoint(interp, precision):
     d = rng.standard_normal((12, 20)) + 1j * rng.standard_normal((12, 20))
     g = rng.standard_normal(pts.shape[:-1]) + 1j * rng.standard_normal(pts.shape[:-1])
     w = rng.uniform(0.5, 1.0, (12, 20))
-    kw = dict(upsample=4, interp=interp, precision=precision, receive_position_m=b)
-    lhs = np.vdot(g, backproject_points(d, f, a, r0, pts, w, **kw))
-    rhs = np.vdot(reproject_points(g, f, a, r0, pts, w, **kw), d)
+    col = Collection(f, a, r0, w, receive_position_m=b)
+    opts = BackprojectionOptions(upsample=4, interp=interp, precision=precision)
+    lhs = np.vdot(g, backproject_points(d, col, pts, opts))
+    rhs = np.vdot(reproject_points(g, col, pts, opts), d)
     tol = 1e-12 if precision == "float64" else 1e-5
     assert abs(lhs - rhs) <= tol * abs(lhs)
 
@@ -76,4 +81,4 @@ def test_bad_points_are_one_line():
 
     f, a, _, r0 = _collection(P=4, M=8)
     with pytest.raises(SarcliInputError, match="pixel positions"):
-        backproject_points(np.ones((4, 8)), f, a, r0, np.zeros((5, 2)))
+        backproject_points(np.ones((4, 8)), Collection(f, a, r0), np.zeros((5, 2)))

@@ -18,7 +18,7 @@ from sarcli.errors import AliasingWarning, ConvergenceWarning, SarcliWarning
 from sarcli.io.hdf5 import read_image, write_phase_history
 from sarcli.regularize import PRIORS, matched_filter, regularize
 from sarcli.regularize.driver import PATH_FIRST_ITERS, PATH_ITERS
-from sarcli.regularize.regparam import (FLAT_REL, GCV_GAMMA, LAM_MIN, LAM_PATH, SPECKLE_FRACTION, STOP_AFTER,
+from sarcli.regularize.regparam import (FLAT_REL, GCV_GAMMA, LAM_MIN, LAM_PATH, SPECKLE_FRACTION, STOP_AFTER, Noise,
                                         discrepancy_lambda, estimate_noise_power, gcv_score, mc_dof, noise_power,
                                         select_lambda, speckle_fraction, sure_score)
 
@@ -141,7 +141,7 @@ def test_select_lambda_against_the_exact_minimiser(criterion):
         return None, r2, dof
 
     lams = np.geomspace(1.0, 1e-6, 121)
-    choice = select_lambda(solve, n, lams=lams, sigma2=sig)
+    choice = select_lambda(solve, n, lams=lams, noise=Noise(sig))
     assert choice.status == "interior"
     assert choice.lam == pytest.approx(best, rel=0.02)
     assert 1e-6 < best < 1.0
@@ -184,22 +184,22 @@ def test_select_lambda_extends_downwards_while_the_criterion_falls():
         starts.append(start)
         return lam, lam, 0.0
 
-    choice = select_lambda(solve, 100, lams=[1.0, 0.1, 0.01], sigma2=0.0, lam_min=1e-5)
+    choice = select_lambda(solve, 100, lams=[1.0, 0.1, 0.01], noise=Noise(0.0), lam_min=1e-5)
     assert choice.lams == pytest.approx([1.0, 0.1, 0.01, 1e-3, 1e-4, 1e-5])
     assert choice.status == "at the smallest λ" and choice.at_limit and choice.lam == pytest.approx(1e-5)
     assert all(s is None for s in starts)
     # a minimum below the path's end: found by the extension, interior, not at a limit
     inner = select_lambda(lambda lam, start: (lam, (np.log10(lam) + 3.3) ** 2, 0.0), 100,
-                          lams=[1.0, 0.1, 0.01], sigma2=0.0, lam_min=1e-5)
+                          lams=[1.0, 0.1, 0.01], noise=Noise(0.0), lam_min=1e-5)
     assert inner.status == "interior" and not inner.at_limit
     assert inner.lams == pytest.approx([1.0, 0.1, 0.01, 1e-3, 1e-4])
     assert inner.lam == pytest.approx(10 ** -3.3, rel=1e-6)       # the parabola is exact here
     # a criterion gone flat stops the extension above the floor (at a limit all the same)
     flat = select_lambda(lambda lam, start: (lam, 1.0 + FLAT_REL * 1e-3 * lam, 0.0), 100,
-                         lams=[1.0, 0.1, 0.01], sigma2=0.0, lam_min=1e-5)
+                         lams=[1.0, 0.1, 0.01], noise=Noise(0.0), lam_min=1e-5)
     assert flat.at_limit and flat.status == "at the smallest λ" and len(flat.lams) == 4
     # no floor: the path's own end is the limit, as before
-    plain = select_lambda(solve, 100, lams=[1.0, 0.1, 0.01], sigma2=0.0)
+    plain = select_lambda(solve, 100, lams=[1.0, 0.1, 0.01], noise=Noise(0.0))
     assert plain.lams == [1.0, 0.1, 0.01] and plain.at_limit
 
 
@@ -213,12 +213,12 @@ def test_speckle_is_counted_as_noise_in_sure_and_after_gcv():
     best = float(np.exp(grid[int(np.argmin([sure_score(*exact(np.exp(v)), n, eff) for v in grid]))]))
     solve = lambda lam, start: (None, *exact(lam))  # noqa: E731
     lams = np.geomspace(1.0, 1e-6, 121)
-    sure = select_lambda(solve, n, lams=lams, sigma2=sigma2, speckle_fraction=kappa, data_power=power)
+    sure = select_lambda(solve, n, lams=lams, noise=Noise(sigma2, kappa, power))
     assert sure.lam == pytest.approx(best, rel=0.02) and sure.speckle == pytest.approx(kappa * (power - sigma2))
-    plain = select_lambda(solve, n, lams=lams, sigma2=sigma2)
+    plain = select_lambda(solve, n, lams=lams, noise=Noise(sigma2))
     assert plain.lam < 0.5 * sure.lam                               # speckle asks for more smoothing
     # no σ²: GCV walks the path, its minimum gives Wahba's σ̂², then SURE with σ̂² + speckle chooses
-    gcv = select_lambda(solve, n, lams=lams, speckle_fraction=kappa, data_power=power)
+    gcv = select_lambda(solve, n, lams=lams, noise=Noise(None, kappa, power))
     gcv_only = select_lambda(solve, n, lams=lams)
     i = gcv_only.index
     s2 = gcv_only.residuals[i] / (n - gcv_only.dofs[i])

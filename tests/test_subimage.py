@@ -13,6 +13,8 @@ from sarcli.errors import SarcliInputError
 from sarcli.formers.direct import direct_spherical
 from sarcli.formers.formation import form_image, image_error
 from sarcli.formers.subimage import choose_tile, predict_tile_error, subimage_nufft
+from sarcli.core.collection import Collection
+from sarcli.formers.options import SubimageOptions
 
 GRID = Grid(64, 64, 0.5, 0.5)            # 32 m: the far-field model is off by > 1 rad at its corner
 FREQ = 9.6e9 + 4e6 * np.arange(128)
@@ -35,7 +37,8 @@ def scene():
 @pytest.mark.parametrize("tol", [1e-2, 2e-3])
 def test_subimage_meets_tolerance_and_model(scene, tol):
     data, a, r0, ref = scene
-    img, info = subimage_nufft(data, FREQ, a, r0, GRID, tolerance=tol, return_info=True)
+    img, info = subimage_nufft(data, Collection(FREQ, a, r0), GRID, SubimageOptions(tolerance=tol),
+                               return_info=True)
     err = image_error(img, ref)
     assert err <= tol
     assert info["predicted_error"] / 3 <= err <= 3 * info["predicted_error"], (err, info)
@@ -45,7 +48,8 @@ def test_subimage_meets_tolerance_and_model(scene, tol):
 @pytest.mark.parametrize("tile", [64, 32, 16])
 def test_tile_error_model_within_3x(scene, tile):
     data, a, r0, ref = scene
-    err = image_error(subimage_nufft(data, FREQ, a, r0, GRID, tile=tile, eps=1e-9), ref)
+    img = subimage_nufft(data, Collection(FREQ, a, r0), GRID, SubimageOptions(tile=tile, eps=1e-9))
+    err = image_error(img, ref)
     pred = predict_tile_error(a, None, r0, FREQ, GRID, tile, eps=1e-9)
     assert pred / 3 <= err <= 3 * pred, (tile, err, pred)
 
@@ -61,7 +65,7 @@ def test_smaller_tiles_predicted_more_accurate(scene):
 def test_subimage_refuses_unreachable_tolerance(scene):
     data, a, r0, _ = scene
     with pytest.raises(SarcliInputError, match="tolerance"):
-        subimage_nufft(data, FREQ, a, r0, GRID, tolerance=1e-7)
+        subimage_nufft(data, Collection(FREQ, a, r0), GRID, SubimageOptions(tolerance=1e-7))
 
 
 def test_form_image_subimage(scene):

@@ -244,13 +244,11 @@ def pulse_images(ph: PhaseHistory, grid: Grid) -> np.ndarray:
     if acq.model == "spherical" and ph.data.shape[1] >= 2:
         from ..formers import backprojection as bp
 
-        t, q, r0 = acq.range_geometry()
-        rcv = q if acq.is_bistatic else None
-        f = acq.frequencies_2d
+        col = acq.collection().with_(frequency_hz=acq.frequencies_2d)
         with warnings.catch_warnings():  # a guard band may reach the unambiguous window: harmless
             warnings.simplefilter("ignore", SarcliWarning)
             for p in range(P):
-                out[p] = _one_pulse(bp, d, f, t, r0, rcv, grid, p)
+                out[p] = bp.backproject(d[p:p + 1], col.pulses(slice(p, p + 1)), grid).ravel()
         return out
     pts = grid.points().reshape(-1, 3)
     for s in range(0, P, 8):
@@ -258,11 +256,6 @@ def pulse_images(ph: PhaseHistory, grid: Grid) -> np.ndarray:
         psi = _phases(sub.acquisition, pts)  # [p, j, s]
         out[s:s + 8] = np.einsum("pj,pjs->ps", d[s:s + 8], np.exp(1j * psi)) / d.shape[1]
     return out
-
-
-def _one_pulse(bp, d, f, t, r0, rcv, grid, p):
-    return bp.backproject(d[p:p + 1], f[p:p + 1], t[p:p + 1], r0[p:p + 1], grid,
-                          receive_position_m=None if rcv is None else rcv[p:p + 1]).ravel()
 
 
 def correlation(a, b) -> float:

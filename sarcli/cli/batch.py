@@ -26,9 +26,10 @@ def command(ctx, plan_path, outdir, scheduler, n_workers, force):
     Exit code 0 when every job succeeded, 1 when some failed (each is listed with its input and
     reason), 2 for a bad plan.
     """
+    import importlib
     import logging
 
-    import distributed  # noqa: F401 - configures its loggers on import; quieten them after
+    importlib.import_module("distributed")  # configures its loggers on import; quieten them after
 
     from ..batch.run import load_plan, run_plan
 

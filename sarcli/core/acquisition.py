@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 
 from . import geometry
+from .collection import Collection
 from .grid import Grid
 
 __all__ = ["Acquisition", "MODELS"]
@@ -134,6 +135,13 @@ class Acquisition:
         if self.is_bistatic:
             return self.transmit_position_m, self.receive_position_m, self.range_to_center_m
         return self.antenna_position_m, self.antenna_position_m, self.range_to_center_m
+
+    def collection(self, weights=None) -> Collection:
+        """The :class:`~sarcli.core.collection.Collection` of the range model with window ``weights``:
+        frequencies, transmit (or antenna) positions, reference ranges and, when bistatic, the
+        receive positions (:meth:`range_geometry`)."""
+        t, q, r0 = self.range_geometry()
+        return Collection(self.frequency_hz, t, r0, weights, q if self.is_bistatic else None)
 
     @property
     def frequencies_2d(self) -> np.ndarray:

@@ -12,16 +12,19 @@ from __future__ import annotations
 
 import math
 import warnings
+from dataclasses import replace
+
 import numpy as np
 
 from ..core import geometry
+from ..core.collection import Collection
 from ..errors import DefocusWarning, SarcliInputError
 from .planning import cost
 from .former import Former, Plan
 from .options import (BackprojectionOptions, DirectOptions, FfbpOptions, NufftOptions, PfaOptions,
                       SubimageOptions)
 
-__all__ = ["FORMERS", "VIRTUAL_RANGE_PER_M", "SPHERICAL_ADVICE", "range_positions", "warn_defocus",
+__all__ = ["FORMERS", "VIRTUAL_RANGE_PER_M", "SPHERICAL_ADVICE", "range_positions", "collection", "warn_defocus",
            "backprojection_error"]
 
 #: Virtual stand-off range per metre of grid half-diagonal used to backproject far-field data.
@@ -59,6 +62,13 @@ def range_positions(ph, grid):
     r_v = VIRTUAL_RANGE_PER_M * max(grid.half_diagonal, 1e-3)
     pos = geometry.antenna_positions_circle(acq.azimuth_rad, acq.elevation_rad, r_v)
     return pos, None, np.full(acq.n_pulses, r_v)
+
+
+def collection(ph, grid, weights=None):
+    """:func:`range_positions` with the frequencies and window ``weights`` as a
+    :class:`~sarcli.core.collection.Collection` (receive positions only when bistatic)."""
+    pos, rcv, r0 = range_positions(ph, grid)
+    return Collection(ph.acquisition.frequency_hz, pos, r0, weights, rcv)
 
 
 def _virtual(ph, r0) -> dict:
@@ -136,7 +146,7 @@ def plan_pfa(ph, grid, options, settings, costs=None) -> Plan:
         warn_defocus(ph, grid, "pfa")
         kx, ky = ph.acquisition.kspace()
         kg = regrid_polar(data, kx, ky, w, pixel_m=(grid.dx, grid.dy), shape=grid.shape, center_m=(grid.cx, grid.cy),
-                          kernel=options.kernel, oversample=options.oversample, width=options.width)
+                          options=options)
         return pfa_image(kg, grid), options.knobs()
 
     return _plan(ph, grid, options, settings, knobs=options.knobs(), run=run,
@@ -163,10 +173,9 @@ def plan_backprojection(ph, grid, options, settings, costs=None) -> Plan:
     def run(plan, data, w):
         from .backprojection import backproject
 
-        pos, rcv, r0 = range_positions(ph, grid)
-        img = backproject(data, ph.acquisition.frequency_hz, pos, r0, grid, w, upsample=up, interp=it,
-                          precision=options.precision, nthreads=settings.nthreads, receive_position_m=rcv)
-        return img, {**options.knobs(), **_virtual(ph, r0)}
+        col = collection(ph, grid, w)
+        img = backproject(data, col, grid, options, nthreads=settings.nthreads)
+        return img, {**options.knobs(), **_virtual(ph, col.range_to_center_m)}
 
     def estimate():
         from .backprojection import tiling_for
@@ -180,11 +189,9 @@ def plan_backprojection(ph, grid, options, settings, costs=None) -> Plan:
     def prepare(data=None):
         from .backprojection import Backprojector
 
-        pos, rcv, r0 = range_positions(ph, grid)
+        col = collection(ph, grid, settings.weights(ph.data.shape)).with_(frequency_hz=ph.acquisition.frequencies_2d)
         d = ph.data if data is None else data
-        return Backprojector(d, ph.acquisition.frequencies_2d, pos, r0, grid, settings.weights(ph.data.shape),
-                             upsample=up, interp=it, precision=options.precision, nthreads=settings.nthreads,
-                             receive_position_m=rcv)
+        return Backprojector(d, col, grid, options, nthreads=settings.nthreads)
 
     plan = _plan(ph, grid, options, settings, knobs=options.knobs(), run=run, estimate=estimate,
                  memory=lambda: cost.form_image_bytes("backprojection", smp, grid, upsample=up,
@@ -219,7 +226,7 @@ def plan_ffbp(ph, grid, options, settings, costs=None) -> Plan:
     def run(plan, data, w):
         from .ffbp import ffbp_image
 
-        img, params = ffbp_image(data, acq.frequency_hz, pos, r0, grid, w, receive_position_m=rcv,
+        img, params = ffbp_image(data, Collection(acq.frequency_hz, pos, r0, w, rcv), grid,
                                  nthreads=settings.nthreads, plan=stages, **knobs)
         return img, {**extra, **params, **_virtual(ph, r0)}
 
@@ -265,8 +272,8 @@ def plan_subimage(ph, grid, options, settings, costs=None) -> Plan:
     def run(plan, data, w):
         from .subimage import subimage_nufft
 
-        return subimage_nufft(data, acq.frequency_hz, pos, r0, grid, w, tile=tile, tolerance=options.tolerance,
-                              eps=options.eps, nthreads=settings.nthreads, receive_position_m=rcv, return_info=True)
+        return subimage_nufft(data, Collection(acq.frequency_hz, pos, r0, w, rcv), grid, replace(options, tile=tile),
+                              nthreads=settings.nthreads, return_info=True)
 
     def estimate():
         c, thr = _constants(settings, costs)

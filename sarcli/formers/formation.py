@@ -66,14 +66,15 @@ def regrid(ph: PhaseHistory, *, grid: Grid | None = None, window="none", taylor_
     Returns a :class:`sarcli.formers.pfa.KGrid` designed for ``grid`` (default: the
     acquisition's); :func:`form_image` with ``method='pfa'`` accepts it in place of the phase history.
     """
+    from .options import PfaOptions
     from .pfa import regrid_polar
 
     grid = grid or ph.acquisition.grid
     warn_defocus(ph, grid, "pfa")
     w = Settings(window, taylor_nbar, taylor_sll_db).weights(ph.data.shape)
     kx, ky = ph.acquisition.kspace()
-    kg = regrid_polar(ph.data, kx, ky, w, pixel_m=(grid.dx, grid.dy), shape=grid.shape,
-                      center_m=(grid.cx, grid.cy), kernel=kernel, oversample=oversample, width=width)
+    kg = regrid_polar(ph.data, kx, ky, w, pixel_m=(grid.dx, grid.dy), shape=grid.shape, center_m=(grid.cx, grid.cy),
+                      options=PfaOptions(kernel=kernel, oversample=oversample, width=width))
     kg.parameters.update({"window": window, "taylor_nbar": taylor_nbar, "taylor_sll_db": taylor_sll_db,
                           "design_grid": grid.as_dict()})
     return kg
@@ -257,10 +258,9 @@ def _form_map_image(ph, options, grid, settings, dem, dem_datum=None, crs=None) 
     if method == "auto":   # the one fast former that forms at heights
         method, options = "backprojection", BackprojectionOptions()
         params["auto"] = {"choice": method, "reason": "the fast former that forms at per-pixel heights"}
-    knobs = options.knobs() if method == "backprojection" else {}
     t0 = time.perf_counter()
     img, mg, info = form_map(ph, method, grid, dem, crs=epsg, weights=settings.weights(ph.data.shape),
-                             nthreads=settings.nthreads, **knobs)
+                             options=options if method == "backprojection" else None, nthreads=settings.nthreads)
     params["map"] = info
     attrs = {k: v for k, v in ph.attrs.items() if str(k).startswith("scene_center")}
     attrs["source_name"] = ph.acquisition.name

@@ -42,6 +42,7 @@ from ..core.types import KGrid
 from ..errors import SarcliInputError, SarcliWarning
 from .._util.progress import progress
 from ._samples import check_kspace, weighted_samples
+from .options import PfaOptions
 
 __all__ = ["regrid_polar", "pfa_image", "check_aperture", "PFA_KERNELS", "MAX_KGRID_CELLS"]
 
@@ -116,8 +117,8 @@ def _area_density(kx, ky):
     return area / area.mean()
 
 
-def regrid_polar(data, kx, ky, weights=None, *, pixel_m, shape, center_m=(0.0, 0.0),
-                 kernel="kaiser", oversample=2.0, width=6, density="none") -> KGrid:
+def regrid_polar(data, kx, ky, weights=None, *, pixel_m, shape, center_m=(0.0, 0.0), options=None,
+                 density="none") -> KGrid:
     """Grid polar k-space samples onto a Cartesian k-grid covering only their support.
 
     Parameters
@@ -134,12 +135,11 @@ def regrid_polar(data, kx, ky, weights=None, *, pixel_m, shape, center_m=(0.0, 0
         Image shape (ny, nx) it is designed for; the FFT covers ``oversample`` times its extent.
     center_m : (float, float)
         Design centre of the image; the data are phase-referred to it.
-    kernel : {'kaiser', 'linear'}
-        Gridding kernel (see the module notes).
-    oversample : float
-        Field-of-view oversampling σ of the FFT (>= 1.25); larger σ, smaller error.
-    width : int
-        Kaiser–Bessel width in grid cells (2..16); ignored by ``'linear'`` (width 2).
+    options : PfaOptions, optional
+        The knobs (:class:`sarcli.formers.options.PfaOptions`, default its defaults): ``kernel``,
+        the gridding kernel ('kaiser' or 'linear', see the module notes); ``oversample``, the
+        field-of-view oversampling σ of the FFT (>= 1.25; larger σ, smaller error); ``width``, the
+        Kaiser–Bessel width in grid cells (2..16; ignored by 'linear', width 2).
     density : {'none', 'area'}
         Density compensation; ``'none'`` reproduces the matched filter (eq. ``mf``).
 
@@ -147,6 +147,8 @@ def regrid_polar(data, kx, ky, weights=None, *, pixel_m, shape, center_m=(0.0, 0
     -------
     KGrid
     """
+    opts = PfaOptions() if options is None else options
+    kernel, oversample, width = opts.kernel, opts.oversample, opts.width
     if kernel not in PFA_KERNELS:
         raise SarcliInputError(f"unknown PFA kernel {kernel!r}; choose one of {', '.join(PFA_KERNELS)}")
     if density not in ("none", "area"):

@@ -29,8 +29,9 @@ from ..core.geometry import bistatic_differential_range
 from ..core.grid import Grid
 from ..errors import AliasingWarning, SarcliInputError
 from .backprojection import kernels
-from .backprojection import PAD, Setup, check_data, profiles
+from .backprojection import PAD, Setup, check_data, knobs_of, profiles
 from .direct import direct_points
+from .options import BackprojectionOptions
 
 __all__ = ["backproject_points", "reproject_points", "form_map", "HEIGHT_METHODS"]
 
@@ -47,8 +48,7 @@ def _checked_points(points_m):
     return pts
 
 
-def _setup(shape, freq_hz, antenna_position_m, range_to_center_m, pts, weights, upsample, interp, precision,
-           receive_position_m):
+def _setup(shape, collection, pts, options):
     """:class:`sarcli.formers.backprojection.Setup` (checks, profile layout, per-pulse constants) on the points'
     horizontal bounding box, and the kernel's geometry rows for 3-D points."""
     flat = pts.reshape(-1, 3)
@@ -59,10 +59,10 @@ def _setup(shape, freq_hz, antenna_position_m, range_to_center_m, pts, weights, 
 
     with warnings.catch_warnings():   # the window is checked below on the 3-D points themselves
         warnings.simplefilter("ignore", AliasingWarning)
-        st = Setup(shape, freq_hz, antenna_position_m, range_to_center_m, box, weights, upsample, interp,
-                   precision, receive_position_m)
-    a = np.asarray(antenna_position_m, dtype=np.float64)
-    b = a if receive_position_m is None else np.asarray(receive_position_m, dtype=np.float64)
+        st = Setup(shape, collection, box, *knobs_of(options))
+    a = np.asarray(collection.antenna_position_m, dtype=np.float64)
+    rcv = collection.receive_position_m
+    b = a if rcv is None else np.asarray(rcv, dtype=np.float64)
     geo = np.empty((len(BpPointGeo), st.n_pulses))
     geo[BpPointGeo.AX:BpPointGeo.AZ + 1], geo[BpPointGeo.BX:BpPointGeo.BZ + 1] = a.T, b.T
     geo[BpPointGeo.NA], geo[BpPointGeo.NB] = np.linalg.norm(a, axis=1), np.linalg.norm(b, axis=1)
@@ -70,7 +70,7 @@ def _setup(shape, freq_hz, antenna_position_m, range_to_center_m, pts, weights, 
                                                                          st.geo[BpGeo.KC])
     # the window checked at every point for up to 17 pulses spread over the aperture (ends included)
     sel = np.unique(np.r_[np.arange(0, st.n_pulses, max(1, st.n_pulses // 16)), st.n_pulses - 1])
-    r0 = np.asarray(range_to_center_m, dtype=np.float64)
+    r0 = np.asarray(collection.range_to_center_m, dtype=np.float64)
     half = np.abs(1.0 / st.geo[BpGeo.INV_BIN][sel]) * st.n_len / 2.0
     excess = max(float(np.max(np.abs(bistatic_differential_range(a[sel], b[sel], r0[sel], flat[k:k + _CHECK_POINTS]))
                                 / half[:, None])) for k in range(0, flat.shape[0], _CHECK_POINTS))
@@ -81,19 +81,17 @@ def _setup(shape, freq_hz, antenna_position_m, range_to_center_m, pts, weights, 
     return st, np.ascontiguousarray(geo)
 
 
-def backproject_points(data, freq_hz, antenna_position_m, range_to_center_m, points_m, weights=None, *,
-                       upsample=16, interp="cubic", precision="float64", nthreads=None,
-                       receive_position_m=None) -> np.ndarray:
+def backproject_points(data, collection, points_m, options=None, *, nthreads=None) -> np.ndarray:
     """Spherical matched-filter image at 3-D pixel positions by backprojection (paper eq. ``mf``).
 
     Parameters
     ----------
-    data, freq_hz, antenna_position_m, range_to_center_m, weights :
+    data, collection :
         As for :func:`sarcli.formers.backprojection.backproject`.
     points_m : array_like, shape (..., 3)
         Pixel positions in the local frame (m).
-    upsample, interp, precision, nthreads, receive_position_m :
-        As for :func:`sarcli.formers.backprojection.backproject`.
+    options, nthreads :
+        As for :func:`sarcli.formers.backprojection.backproject` (None: upsample 16, cubic, float64).
 
     Returns
     -------
@@ -102,8 +100,7 @@ def backproject_points(data, freq_hz, antenna_position_m, range_to_center_m, poi
     """
     d = check_data(data)
     pts = _checked_points(points_m)
-    st, geo = _setup(d.shape, freq_hz, antenna_position_m, range_to_center_m, pts, weights, upsample, interp,
-                     precision, receive_position_m)
+    st, geo = _setup(d.shape, collection, pts, options)
     flat = np.ascontiguousarray(pts.reshape(-1, 3))
     cdt = np.complex64 if st.dtype == np.float32 else np.complex128
     out_re = np.zeros(flat.shape[0])
@@ -117,9 +114,7 @@ def backproject_points(data, freq_hz, antenna_position_m, range_to_center_m, poi
     return (out_re + 1j * out_im).reshape(pts.shape[:-1])
 
 
-def reproject_points(image, freq_hz, antenna_position_m, range_to_center_m, points_m, weights=None, *,
-                     upsample=16, interp="cubic", precision="float64", nthreads=None,
-                     receive_position_m=None) -> np.ndarray:
+def reproject_points(image, collection, points_m, options=None, *, nthreads=None) -> np.ndarray:
     """Exact adjoint of :func:`backproject_points`: an image at the points -> phase history (P, M).
 
     Arguments as for :func:`backproject_points`, with ``image`` of shape ``points_m.shape[:-1]``;
@@ -129,10 +124,9 @@ def reproject_points(image, freq_hz, antenna_position_m, range_to_center_m, poin
     f = np.asarray(image)
     if f.shape != pts.shape[:-1]:
         raise SarcliInputError(f"image shape {f.shape} does not match the points {pts.shape[:-1]}")
-    a = np.asarray(antenna_position_m)
-    fr = np.asarray(freq_hz)
-    st, geo = _setup((a.shape[0], fr.shape[-1]), freq_hz, antenna_position_m, range_to_center_m, pts, weights,
-                     upsample, interp, precision, receive_position_m)
+    a = np.asarray(collection.antenna_position_m)
+    fr = np.asarray(collection.frequency_hz)
+    st, geo = _setup((a.shape[0], fr.shape[-1]), collection, pts, options)
     flat = np.ascontiguousarray(pts.reshape(-1, 3))
     fre = np.ascontiguousarray(f.real.ravel(), dtype=st.dtype)
     fim = np.ascontiguousarray(f.imag.ravel() if np.iscomplexobj(f) else np.zeros(f.size), dtype=st.dtype)
@@ -149,11 +143,12 @@ def reproject_points(image, freq_hz, antenna_position_m, range_to_center_m, poin
     return out
 
 
-def form_map(ph, method, grid: Grid, dem, *, crs=None, weights=None, upsample=None, interp=None,
-             precision=None, nthreads=None):
+def form_map(ph, method, grid: Grid, dem, *, crs=None, weights=None, options=None, nthreads=None):
     """A map image on terrain: the map grid covering ``grid`` (:func:`sarcli.io.dem.map_grid`, in
     EPSG ``crs``, default the scene centre's UTM zone), each pixel at its DEM height
-    (:func:`sarcli.io.dem.map_points`), formed there by ``method`` ('backprojection' or 'direct').
+    (:func:`sarcli.io.dem.map_points`), formed there by ``method`` ('backprojection' or 'direct';
+    backprojection with ``options``, a :class:`~sarcli.formers.options.BackprojectionOptions`, default
+    that of ``form_image``: 16, cubic, float32) and window ``weights``.
 
     Returns
     -------
@@ -164,7 +159,6 @@ def form_map(ph, method, grid: Grid, dem, *, crs=None, weights=None, upsample=No
     """
     from ..io.dem import map_grid, map_points
     from ..io.georef import reference_point
-    from . import backprojection as bp
 
     if method not in HEIGHT_METHODS:
         raise SarcliInputError(f"method {method!r} forms the plane z = 0 only and cannot form at DEM heights; "
@@ -176,18 +170,15 @@ def form_map(ph, method, grid: Grid, dem, *, crs=None, weights=None, upsample=No
     ref = reference_point(ph.attrs)
     mg = map_grid(ref, grid.x, grid.y, min(grid.dx, grid.dy), crs)
     pts, hae = map_points(mg, dem, ref)
-    t, q, r0 = acq.range_geometry()
-    rcv = q if acq.is_bistatic else None
+    col = acq.collection(weights)
     info = {"crs": f"EPSG:{mg.epsg}", "dem": str(dem.path), "dem_datum": dem.datum, "dem_geoid": dem.geoid,
             "dem_epsg": dem.epsg, "height_min_m": float(np.min(hae)), "height_max_m": float(np.max(hae)),
             "pixel_m": float(mg.easting[1] - mg.easting[0]) if mg.easting.size > 1 else float(grid.dx)}
     if method == "direct":
-        img = direct_points(ph.data, acq.frequency_hz, t, r0, pts, weights, receive_position_m=rcv)
+        img = direct_points(ph.data, col.frequency_hz, col.antenna_position_m, col.range_to_center_m, pts, weights,
+                            receive_position_m=col.receive_position_m)
     else:
-        up = bp.DEFAULT_UPSAMPLE if upsample is None else upsample
-        it = bp.DEFAULT_INTERP if interp is None else interp
-        pr = bp.DEFAULT_PRECISION if precision is None else precision
-        img = backproject_points(ph.data, acq.frequency_hz, t, r0, pts, weights, upsample=up, interp=it,
-                                 precision=pr, nthreads=nthreads, receive_position_m=rcv)
-        info.update({"upsample": up, "interp": it, "precision": pr})
+        opts = BackprojectionOptions() if options is None else options
+        img = backproject_points(ph.data, col, pts, opts, nthreads=nthreads)
+        info.update({"upsample": opts.upsample, "interp": opts.interp, "precision": opts.precision})
     return img, mg, info

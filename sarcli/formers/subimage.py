@@ -32,6 +32,7 @@ import numpy as np
 from ..core import geometry, sampling
 from ..core.grid import Grid
 from ..errors import SarcliInputError
+from .options import SubimageOptions
 
 __all__ = ["subimage_nufft", "predict_tile_error", "choose_tile", "TILE_SIZES"]
 
@@ -176,28 +177,23 @@ def choose_tile(t, q, r0, freq, grid: Grid, tolerance: float, *, eps=None, min_t
     return sizes[hi], err(hi)
 
 
-def subimage_nufft(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weights=None, *,
-                   tile=None, tolerance=1e-2, eps=None, nthreads=None, receive_position_m=None,
-                   return_info=False):
+def subimage_nufft(data, collection, grid: Grid, options=None, *, nthreads=None, return_info=False):
     """Spherical matched filter by one NUFFT per motion-compensated tile (module docstring).
 
     Parameters
     ----------
     data : array_like, shape (P, M)
-    freq_hz : array_like, shape (M,) or (P, M)
-    antenna_position_m : array_like, shape (P, 3)
-        Antenna positions (transmit positions with ``receive_position_m``).
-    range_to_center_m : array_like, shape (P,)
+    collection : Collection
+        Frequencies (M,) or (P, M), antenna positions (P, 3; transmit positions with receive
+        positions), reference ranges (P,), window weights and receive positions
+        (:class:`sarcli.core.collection.Collection`).
     grid : Grid
-    weights : array_like, optional
-    tile : int, optional
-        Tile side in pixels; default the largest predicted to meet ``tolerance``.
-    tolerance : float
-        Target relative error when ``tile`` is not given.
-    eps : float, optional
-        NUFFT accuracy (default ``tolerance / 10``).
+    options : SubimageOptions, optional
+        The knobs (:class:`sarcli.formers.options.SubimageOptions`, default its defaults): ``tile``,
+        the tile side in pixels (None: the largest predicted to meet ``tolerance``);
+        ``tolerance``, the target relative error when no tile is given; ``eps``, the NUFFT
+        accuracy (None: ``tolerance / 10``).
     nthreads : int, optional
-    receive_position_m : array_like, shape (P, 3), optional
     return_info : bool
         Also return ``{'tile', 'eps', 'predicted_error', 'n_tiles'}``.
 
@@ -209,14 +205,17 @@ def subimage_nufft(data, freq_hz, antenna_position_m, range_to_center_m, grid: G
 
     from .direct import weighted_samples
 
+    opts = SubimageOptions() if options is None else options
+    tile, tolerance, eps = opts.tile, opts.tolerance, opts.eps
+    weights, rcv = collection.weights, collection.receive_position_m
     wd, total = weighted_samples(data, None if weights is None else np.broadcast_to(weights, np.shape(data)))
     P, M = wd.shape
-    t = np.asarray(antenna_position_m, float)
-    q = None if receive_position_m is None else np.asarray(receive_position_m, float)
-    r0 = np.asarray(range_to_center_m, float)
+    t = np.asarray(collection.antenna_position_m, float)
+    q = None if rcv is None else np.asarray(rcv, float)
+    r0 = np.asarray(collection.range_to_center_m, float)
     if t.shape != (P, 3) or r0.shape != (P,):
         raise SarcliInputError(f"antenna positions {t.shape} / ranges {r0.shape} do not match {P} pulses")
-    f = np.broadcast_to(np.asarray(freq_hz, float), (P, M))
+    f = np.broadcast_to(np.asarray(collection.frequency_hz, float), (P, M))
     k = sampling.range_wavenumbers(f)
     if tile is None:
         tile, pred = choose_tile(t, q, r0, f, grid, tolerance, eps=eps)

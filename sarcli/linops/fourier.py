@@ -20,6 +20,7 @@ import finufft
 from ..core import geometry
 from ..core.grid import Grid
 from .base import Linop
+from .toeplitz import ToeplitzGram
 
 __all__ = ["NufftOperator", "SubsampledDFT", "wrapped_pixel_frequencies"]
 
@@ -87,8 +88,6 @@ class NufftOperator(Linop):
 
         ``fft_dtype``: see :class:`~sarcli.linops.toeplitz.ToeplitzGram` (default by ``eps``).
         """
-        from .toeplitz import ToeplitzGram
-
         return ToeplitzGram(self.k1, self.k2, self.ishape, eps=self.eps, fft_dtype=fft_dtype)
 
 

@@ -14,6 +14,7 @@ from __future__ import annotations
 import numpy as np
 
 from .._util.progress import no_bars
+from ..core.collection import Collection
 from ..core.grid import Grid
 from .base import Linop
 
@@ -25,31 +26,37 @@ class SphericalOperator(Linop):
 
     Parameters
     ----------
-    freq_hz : ndarray, shape (M,) or (P, M)
-        Frequencies (equally spaced per pulse).
-    antenna_position_m : ndarray, shape (P, 3)
-    range_to_center_m : ndarray, shape (P,)
+    collection : Collection
+        Frequencies (M,) or (P, M), equally spaced per pulse, antenna positions (P, 3), reference
+        ranges (P,) and, optionally, receive positions (:class:`sarcli.core.collection.Collection`;
+        without weights: ``W = P M``).
     grid : Grid
-    upsample, interp, precision, nthreads
-        Passed to the backprojection kernels (defaults: theirs).
+    options : BackprojectionOptions, optional
+        The backprojection pair's knobs (:class:`sarcli.formers.options.BackprojectionOptions`;
+        None: those of :func:`~sarcli.formers.backprojection.backproject`).
+    nthreads : int, optional
+        Threads of the kernels.
     """
 
-    def __init__(self, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, **kwargs):
-        a = np.asarray(antenna_position_m, np.float64)
-        f = np.asarray(freq_hz, np.float64)
+    def __init__(self, collection, grid: Grid, options=None, nthreads=None):
+        a = np.asarray(collection.antenna_position_m, np.float64)
+        f = np.asarray(collection.frequency_hz, np.float64)
+        if collection.weights is not None:
+            raise ValueError("the spherical operator is the unweighted model (W = P M): give a collection without weights")
         super().__init__(grid.shape, (a.shape[0], f.shape[-1]), np.complex128)
-        self.freq_hz, self.antenna_position_m = f, a
-        self.range_to_center_m = np.asarray(range_to_center_m, np.float64)
+        self.collection = Collection(f, a, np.asarray(collection.range_to_center_m, np.float64),
+                                     receive_position_m=collection.receive_position_m)
         self.grid = grid
-        self.kwargs = kwargs
+        self.options, self.nthreads = options, nthreads
         self.total_weight = float(self.oshape[0] * self.oshape[1])
 
     @classmethod
-    def from_acquisition(cls, acq, grid: Grid | None = None, **kwargs) -> "SphericalOperator":
+    def from_acquisition(cls, acq, grid: Grid | None = None, options=None, nthreads=None) -> "SphericalOperator":
+        """The operator of an acquisition's frequencies, antenna positions and reference ranges."""
         if not acq.has_positions:
             raise ValueError("the spherical operator needs antenna positions")
-        return cls(acq.frequency_hz, acq.antenna_position_m, acq.range_to_center_m,
-                   acq.grid if grid is None else grid, **kwargs)
+        return cls(Collection(acq.frequency_hz, acq.antenna_position_m, acq.range_to_center_m),
+                   acq.grid if grid is None else grid, options, nthreads)
 
     # the kernels draw no bar of their own here: an operator is applied inside an iteration that has one
 
@@ -57,12 +64,10 @@ class SphericalOperator(Linop):
         from ..formers.backprojection import reproject
 
         with no_bars():
-            return self.total_weight * reproject(x, self.freq_hz, self.antenna_position_m,
-                                                 self.range_to_center_m, self.grid, **self.kwargs)
+            return self.total_weight * reproject(x, self.collection, self.grid, self.options, nthreads=self.nthreads)
 
     def _adjoint(self, y):
         from ..formers.backprojection import backproject
 
         with no_bars():
-            return self.total_weight * backproject(y, self.freq_hz, self.antenna_position_m,
-                                                   self.range_to_center_m, self.grid, **self.kwargs)
+            return self.total_weight * backproject(y, self.collection, self.grid, self.options, nthreads=self.nthreads)

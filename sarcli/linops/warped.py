@@ -424,7 +424,7 @@ class WarpedNufftOperator(Linop):
             out += run.adjoint(y[b].ravel())
         return out.reshape(self.ishape)
 
-    def gram(self) -> "WarpedGram":
+    def gram(self):
         """``AᴴA`` by FFTs on each sub-aperture's grid (:class:`~sarcli.linops.warped_gram.WarpedGram`)."""
         from .warped_gram import WarpedGram
 

@@ -39,7 +39,7 @@ class WarpedGram(Linop):
     the run's kernels take the threads. A run's transforms gain little from a second thread, its
     neighbour's gain it all."""
 
-    def __init__(self, op: "WarpedNufftOperator"):
+    def __init__(self, op):
         super().__init__(op.ishape, op.ishape, np.complex128)
         self.op = op
         for run in op.runs:

@@ -17,7 +17,7 @@ from ..core.grid import Grid, resolve_grid
 from ..core.types import Image, PhaseHistory
 from ..errors import SarcliInputError
 from ..formers.planning.cost import regularize_bytes
-from ..solvers import ADMM, tikhonov
+from ..solvers import ADMM, Reestimate, tikhonov
 from ..linops import sparsifying_operator
 from .forecast import Forecast, solver_overhead
 from .lampath import PATH_FIRST_ITERS, PATH_ITERS, auto_lambda
@@ -169,10 +169,10 @@ class Regularization:
         else:
             reest = None
             if o.prior == "ptv" and o.reestimate_every > 0:
-                reest = lambda f: sparsifying_operator("ptv", self.grid.shape, order=o.order, f0=f)  # noqa: E731
+                reest = Reestimate(o.reestimate_every,
+                                   lambda f: sparsifying_operator("ptv", self.grid.shape, order=o.order, f0=f))
             solver = ADMM(pb.scaled, self.T, self.lam, self.beta, x0=self.u0, isotropic=o.isotropic, tol=o.tol,
-                          max_iter=o.iters, inner_iters=o.inner_iters, reestimate=reest,
-                          reestimate_every=o.reestimate_every)
+                          max_iter=o.iters, inner_iters=o.inner_iters, reestimate=reest)
             u = solver.run(lambda state: report(state.iteration, state.history["objective"][-1]))
             hist = solver.history_arrays()
         self.products["final"] = pb.counter.count - before

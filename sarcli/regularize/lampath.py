@@ -106,8 +106,8 @@ def auto_lambda(problem, scaled, T, D, u0, params, tick):
     path = PathSolver(problem, scaled, T, D, u0, tick)
     s2_scaled = None if sigma2 is None else sigma2 / s_b**2
     kappa = regparam.speckle_fraction(grid.nx * grid.ny, n)
-    choice = regparam.select_lambda(path, n, sigma2=s2_scaled, speckle_fraction=kappa,
-                                    data_power=scaled.bnorm2 / n, lam_max=LAM_MAX[prior], lam_min=LAM_MIN)
+    choice = regparam.select_lambda(path, n, noise=regparam.Noise(s2_scaled, kappa, scaled.bnorm2 / n),
+                                    lam_max=LAM_MAX[prior], lam_min=LAM_MIN)
     criterion = "sure" if sigma2 is not None else "gcv"
     end = {"at the smallest λ": "smallest", "at the largest λ": "largest"}.get(choice.status)
     record = {"criterion": criterion,

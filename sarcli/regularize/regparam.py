@@ -66,7 +66,7 @@ from ..core.windows import BLACKMAN_HARRIS_MAINLOBE_BINS, blackman_harris
 from ..errors import SarcliInputError
 
 __all__ = ["NOISE_CODES", "LAM_PATH", "SELECT_PATH", "GCV_GAMMA", "STOP_AFTER", "DISCREPANCY_TAU", "DISCREPANCY_KAPPA",
-           "FLOOR_MARGIN", "UNFITTABLE_RATIO", "LamChoice", "PathChoice", "estimate_noise_power",
+           "FLOOR_MARGIN", "UNFITTABLE_RATIO", "LamChoice", "PathChoice", "Noise", "estimate_noise_power",
            "noise_power", "discrepancy_lambda", "select_lambda", "speckle_fraction", "SPECKLE_FRACTION",
            "gcv_score", "sure_score", "mc_dof"]
 
@@ -348,10 +348,25 @@ class PathChoice:
     speckle: float = 0.0
 
 
-def select_lambda(solve: Callable, n_data: int, *, lams=SELECT_PATH, sigma2: float | None = None,
-                  speckle_fraction: float = 0.0, data_power: float = 0.0, gamma: float = GCV_GAMMA, stop_after: int = STOP_AFTER,
-                  lam_max: float | None = None, lam_min: float | None = None, callback=None) -> PathChoice:
-    """λ minimising GCV (``sigma2`` None) or SURE (``sigma2`` given) on a decreasing path.
+@dataclass(frozen=True)
+class Noise:
+    """What the criterion counts as noise: the power σ² per sample (None: unknown, GCV walks the
+    path) and the speckle ``κ (‖b‖²/n − σ²)``, κ = ``speckle_fraction`` (:func:`speckle_fraction`),
+    ``data_power`` = ``‖b‖²/n``."""
+
+    sigma2: float | None = None
+    speckle_fraction: float = 0.0
+    data_power: float = 0.0
+
+    def speckle(self, sigma2: float) -> float:
+        """The speckle power ``κ max(‖b‖²/n − σ², 0)`` counted as noise beside ``sigma2``."""
+        return float(self.speckle_fraction) * max(float(self.data_power) - sigma2, 0.0)
+
+
+def select_lambda(solve: Callable, n_data: int, *, noise: Noise = Noise(), lams=SELECT_PATH, gamma: float = GCV_GAMMA,
+                  stop_after: int = STOP_AFTER, lam_max: float | None = None, lam_min: float | None = None,
+                  callback=None) -> PathChoice:
+    """λ minimising GCV (``noise.sigma2`` None) or SURE (``noise.sigma2`` given) on a decreasing path.
 
     Parameters
     ----------
@@ -364,13 +379,12 @@ def select_lambda(solve: Callable, n_data: int, *, lams=SELECT_PATH, sigma2: flo
         Number of (complex) data samples n.
     lams : sequence of float
         Decreasing λ values.
-    sigma2 : float, optional
-        Noise power in the units of ``residual2`` per sample: SURE; None: modified GCV
-        (:func:`gcv_score`).
-    speckle_fraction, data_power : float
-        κ and ``‖b‖² / n``: the speckle the image should average away, ``κ (‖b‖²/n − σ²)`` per
-        sample (:data:`SPECKLE_FRACTION`), counts as noise: SURE with ``σ² + κ (‖b‖²/n − σ²)``.
-        With ``sigma2`` None the path is walked by GCV, whose minimum gives Wahba's
+    noise : Noise
+        ``sigma2``: the noise power in the units of ``residual2`` per sample: SURE; None: modified
+        GCV (:func:`gcv_score`). ``speckle_fraction``, ``data_power``: κ and ``‖b‖² / n``; the
+        speckle the image should average away, ``κ (‖b‖²/n − σ²)`` per sample
+        (:data:`SPECKLE_FRACTION`), counts as noise: SURE with ``σ² + κ (‖b‖²/n − σ²)``. With
+        ``sigma2`` None the path is walked by GCV, whose minimum gives Wahba's
         ``σ̂² = ‖A f − b‖² / (n − dof)``; λ* then minimises that SURE with σ̂² on the same path.
     stop_after : int
         Stop once the score has risen this many consecutive times after its running minimum.
@@ -394,9 +408,9 @@ def select_lambda(solve: Callable, n_data: int, *, lams=SELECT_PATH, sigma2: flo
         raise ValueError("select_lambda needs a λ path and data")
     out = PathChoice(lam=lams[0])
     sols, calls = [], []  # solutions, and the call number of each path point (both in the order of out.lams)
-    kappa = float(speckle_fraction)
+    sigma2 = noise.sigma2
     if sigma2 is not None:
-        out.speckle = kappa * max(float(data_power) - sigma2, 0.0)
+        out.speckle = noise.speckle(sigma2)
     walk = (lambda r2, dof: gcv_score(r2, dof, n_data, gamma)) if sigma2 is None else \
         (lambda r2, dof: sure_score(r2, dof, n_data, sigma2 + out.speckle))
     crit = [walk]  # the criterion λ* minimises (it changes once, from GCV to SURE, when speckle > 0)
@@ -421,21 +435,21 @@ def select_lambda(solve: Callable, n_data: int, *, lams=SELECT_PATH, sigma2: flo
             break
     ratio = lams[0] / lams[1] if len(lams) > 1 else 10.0 ** 0.5
     flat = _extend_down(point, out, ratio, lam_min)
-    if sigma2 is None and kappa > 0:
-        _gcv_to_sure(out, crit, n_data, kappa, data_power)
+    if sigma2 is None and float(noise.speckle_fraction) > 0:
+        _gcv_to_sure(out, crit, n_data, noise)
     while lam_max is not None and int(np.argmin(out.scores)) == 0 and out.lams[0] * ratio <= lam_max * (1 + 1e-9):
         point(out.lams[0] * ratio, calls[0], 0)
     return _vertex(out, sols, n_data, ratio, flat, lam_min, lam_max)
 
 
-def _gcv_to_sure(out: PathChoice, crit: list, n_data: int, kappa: float, data_power: float) -> None:
+def _gcv_to_sure(out: PathChoice, crit: list, n_data: int, noise: Noise) -> None:
     """At GCV's minimum, Wahba's ``σ̂² = ‖A f − b‖² / (n − dof)``; the criterion (``crit[0]``) and
     the path's scores become SURE with σ̂² plus the speckle power."""
     i = int(np.argmin(out.scores))
     room = n_data - out.dofs[i]
     s2 = float(out.residuals[i] / room) if room > 0 else float("nan")
     if np.isfinite(s2):
-        out.noise_power, out.speckle = s2, kappa * max(float(data_power) - s2, 0.0)
+        out.noise_power, out.speckle = s2, noise.speckle(s2)
         crit[0] = lambda r2, dof: sure_score(r2, dof, n_data, s2 + out.speckle)  # noqa: E731
         out.scores = [crit[0](r, d) for r, d in zip(out.residuals, out.dofs)]
 

@@ -25,7 +25,7 @@ from __future__ import annotations
 import sys
 import time
 import warnings
-from typing import Callable
+from typing import Callable, NamedTuple
 
 import numpy as np
 
@@ -36,12 +36,20 @@ from ..linops.base import Linop
 from ..linops.toeplitz import NormalEquations
 from .shrink import shrink
 
-__all__ = ["ADMM", "HISTORY_KEYS"]
+__all__ = ["ADMM", "Reestimate", "HISTORY_KEYS"]
 
 HISTORY_KEYS = ("objective", "data_residual", "reg_norm", "relative_change", "step_size",
                 "elapsed_s")
 
 _ARMIJO = 1e-4
+
+
+class Reestimate(NamedTuple):
+    """A sparsifying transform re-estimated from the iterate: ``transform(f) -> T`` every
+    ``every`` iterations (phase-corrected TV: Θ from the current iterate; ``every`` 0: never)."""
+
+    every: int
+    transform: Callable[[np.ndarray], Linop]
 
 
 class ADMM:
@@ -69,17 +77,14 @@ class ADMM:
     inner_iters : int
         Gradient steps of the f-step per iteration (Appendix A: "a few"; 1 is enough with BB steps
         and keeps an iteration at one ``AᴴA`` application).
-    reestimate : callable, optional
-        ``reestimate(f) -> T`` called every ``reestimate_every`` iterations (phase-corrected TV:
-        Θ from the current iterate).
-    reestimate_every : int
-        0 disables re-estimation.
+    reestimate : Reestimate, optional
+        ``reestimate.transform(f) -> T`` called every ``reestimate.every`` iterations
+        (phase-corrected TV: Θ from the current iterate); None or ``every`` 0: never.
     """
 
     def __init__(self, normal: NormalEquations, T: Linop, lam: float, beta: float, *, x0=None,
                  isotropic: bool = True, tol: float = 1e-4, max_iter: int = 200,
-                 inner_iters: int = 1, reestimate: Callable[[np.ndarray], Linop] | None = None,
-                 reestimate_every: int = 0):
+                 inner_iters: int = 1, reestimate: Reestimate | None = None):
         if not lam >= 0 or not np.isfinite(lam):
             raise ValueError(f"lam must be finite and >= 0, got {lam}")
         if not beta > 0 or not np.isfinite(beta):
@@ -87,7 +92,8 @@ class ADMM:
         self.normal = normal
         self.lam, self.beta = float(lam), float(beta)
         self.tol, self.max_iter, self.inner_iters = float(tol), int(max_iter), max(1, int(inner_iters))
-        self.reestimate, self.reestimate_every = reestimate, int(reestimate_every)
+        self.reestimate = None if reestimate is None or int(reestimate.every) <= 0 else \
+            Reestimate(int(reestimate.every), reestimate.transform)
         self._t0 = time.perf_counter()
         shape = normal.gram.ishape
         self.f = np.zeros(shape, np.complex128) if x0 is None else np.array(x0, np.complex128)
@@ -234,9 +240,8 @@ class ADMM:
         self._bb, self._bb_of = ((nd2, c1), (self.f, f_old, self.Gf, Gf_old)) if pair else (None, None)
         nf, nd = np.sqrt(nf2), np.sqrt(nd2)
         self.relative_change = float(nd / nf) if nf > 0 else (0.0 if nd == 0 else np.inf)
-        if self.reestimate is not None and self.reestimate_every > 0 \
-                and self.iteration % self.reestimate_every == 0:
-            self._set_T(self.reestimate(self.f), self.isotropic)
+        if self.reestimate is not None and self.iteration % self.reestimate.every == 0:
+            self._set_T(self.reestimate.transform(self.f), self.isotropic)
             self._prev = None
             self.g = shrink(self.Tf - self.sigma / self.beta, self.lam / self.beta,
                             group_axis=self.group_axis)

@@ -822,27 +822,20 @@ using PulseFn = void (*)(const Args&, const PT*, const PT*, long, PT*);
   (level == 2 ? (kind == 0 ? NAME##_##P##0_v4 : kind == 1 ? NAME##_##P##1_v4 : NAME##_##P##2_v4) \
    : level == 1 ? (kind == 0 ? NAME##_##P##0_v3 : kind == 1 ? NAME##_##P##1_v3 : NAME##_##P##2_v3) \
                 : (kind == 0 ? NAME##_##P##0_v1 : kind == 1 ? NAME##_##P##1_v1 : NAME##_##P##2_v1))
-template <typename PT>
-RowFn<PT> row_fn(int kind);
-template <>
-RowFn<float> row_fn<float>(int kind) { const int level = isa_level(); return SARCLI_PICK(bp_row, f); }
-template <>
-RowFn<double> row_fn<double>(int kind) { const int level = isa_level(); return SARCLI_PICK(bp_row, d); }
-template <typename PT>
-PulseFn<PT> pulse_fn(int kind);
-template <>
-PulseFn<float> pulse_fn<float>(int kind) { const int level = isa_level(); return SARCLI_PICK(rp_pulse, f); }
-template <>
-PulseFn<double> pulse_fn<double>(int kind) { const int level = isa_level(); return SARCLI_PICK(rp_pulse, d); }
+// The picker FN<PT>(kind) of function-pointer type TYPE<PT>: the worker NAME for float and double.
+#define SARCLI_PICKER(TYPE, FN, NAME)                                                               \
+  template <typename PT>                                                                            \
+  TYPE<PT> FN(int kind);                                                                            \
+  template <>                                                                                       \
+  TYPE<float> FN<float>(int kind) { const int level = isa_level(); return SARCLI_PICK(NAME, f); }   \
+  template <>                                                                                       \
+  TYPE<double> FN<double>(int kind) { const int level = isa_level(); return SARCLI_PICK(NAME, d); }
 template <typename PT>
 using ContractFn = void (*)(const Args&, const PT*, const PT*, const PT*, long, long, long, Anchors&,
                             double*);
-template <typename PT>
-ContractFn<PT> contract_fn(int kind);
-template <>
-ContractFn<float> contract_fn<float>(int kind) { const int level = isa_level(); return SARCLI_PICK(bp_contract_row, f); }
-template <>
-ContractFn<double> contract_fn<double>(int kind) { const int level = isa_level(); return SARCLI_PICK(bp_contract_row, d); }
+SARCLI_PICKER(RowFn, row_fn, bp_row)
+SARCLI_PICKER(PulseFn, pulse_fn, rp_pulse)
+SARCLI_PICKER(ContractFn, contract_fn, bp_contract_row)
 
 Args make_args(in<double, 1> x, in<double, 1> y, in<double, 2> geo, long lp, long n_len, long pad,
                long width, bool bist, bool exact) {
@@ -1079,18 +1072,9 @@ template <typename PT>
 using PointFn = void (*)(const PointArgs&, const PT*, long, double*, double*);
 template <typename PT>
 using PointAdjFn = void (*)(const PointArgs&, const PT*, const PT*, long, PT*);
-template <typename PT>
-PointFn<PT> point_fn(int kind);
-template <>
-PointFn<float> point_fn<float>(int kind) { const int level = isa_level(); return SARCLI_PICK(bp_points, f); }
-template <>
-PointFn<double> point_fn<double>(int kind) { const int level = isa_level(); return SARCLI_PICK(bp_points, d); }
-template <typename PT>
-PointAdjFn<PT> point_adj_fn(int kind);
-template <>
-PointAdjFn<float> point_adj_fn<float>(int kind) { const int level = isa_level(); return SARCLI_PICK(rp_points, f); }
-template <>
-PointAdjFn<double> point_adj_fn<double>(int kind) { const int level = isa_level(); return SARCLI_PICK(rp_points, d); }
+SARCLI_PICKER(PointFn, point_fn, bp_points)
+SARCLI_PICKER(PointAdjFn, point_adj_fn, rp_points)
+#undef SARCLI_PICKER
 #undef SARCLI_PICK
 
 PointArgs point_args(in<double, 2> pts, in<double, 2> geo, long lp, long n_len, long pad, bool bist, int kind,

@@ -30,10 +30,10 @@ The linear maps
 ``backproject`` is the linear map ``B: C^{P×M} → C^{ny×nx}``, ``B d = f`` above, *including*
 the window weights and the factor ``1/W``. ``reproject`` is exactly ``Bᴴ`` (the same FFT size,
 interpolation weights, carrier and skipped pixels, transposed), so
-``⟨B d, f⟩ = ⟨d, Bᴴ f⟩`` to rounding. With ``weights=None`` (so ``W = P M``) the spherical forward
+``⟨B d, f⟩ = ⟨d, Bᴴ f⟩`` to rounding. Without window weights (so ``W = P M``) the spherical forward
 model ``A f = Σ_x f(x) exp(-i 4π α Δr(x) / c)`` and its adjoint are approximated by
-``A ≈ W · reproject`` and ``Aᴴ ≈ W · backproject`` (both with ``weights=None`` and the same
-knobs), so ``AᴴA ≈ W² · backproject ∘ reproject``; with weights, ``reproject`` also carries the
+``A ≈ W · reproject`` and ``Aᴴ ≈ W · backproject`` (both without weights and with the same
+options), so ``AᴴA ≈ W² · backproject ∘ reproject``; with weights, ``reproject`` also carries the
 factor ``w_pj / W``.
 
 The frequencies enter through the least-squares line ``α_pj ≈ α_ref,p + (j - j_c) Δα_p``
@@ -58,6 +58,8 @@ of 1). Linear interpolation needs ``upsample=8`` for 1e-2 (6e-3) and 32 for peak
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 
 from ..._native import using_threads
@@ -67,7 +69,7 @@ from ._kernels import kernels
 from ._setup import INTERPOLATORS, PAD, ProfileWork, Setup, check_data, profile_length, profiles
 
 __all__ = ["backproject", "reproject", "pulse_contractions", "profile_length", "INTERPOLATORS", "DEFAULT_UPSAMPLE", "DEFAULT_PRECISION",
-           "DEFAULT_INTERP"]
+           "DEFAULT_INTERP", "MAP_PRECISION", "Knobs", "MAP_KNOBS", "FORM_KNOBS", "knobs_of"]
 
 #: Default profile oversampling and interpolation: relative error 3.5e-5 vs the exact matched
 #: filter and unit-point peaks 1 ± 1e-4 (measured: see tests/test_backprojection.py).
@@ -79,44 +81,65 @@ DEFAULT_INTERP = "cubic"
 #: run faster (docs/performance.md). :func:`backproject` and :func:`reproject` themselves, the linear map and
 #: its exact adjoint, default to float64.
 DEFAULT_PRECISION = "float32"
+#: Precision of the linear maps themselves (:func:`backproject`, :func:`reproject`,
+#: :func:`pulse_contractions` and the prepared :class:`~sarcli.formers.backprojection.Backprojector`)
+#: when no options are given: float64, so that :func:`reproject` is the adjoint to float64 rounding.
+MAP_PRECISION = "float64"
 
+
+class Knobs(NamedTuple):
+    """The knobs the maps read of their ``options``, as
+    :class:`~sarcli.formers.options.BackprojectionOptions` carries them: for the modules that the
+    options themselves import (the cost model), which cannot import the options back."""
+
+    upsample: float
+    interp: str
+    precision: str
+
+
+#: The maps' knobs when no options are given (float64: the adjoint pair).
+MAP_KNOBS = Knobs(DEFAULT_UPSAMPLE, DEFAULT_INTERP, MAP_PRECISION)
+#: The knobs of an image formed by backprojection (those of ``BackprojectionOptions()``).
+FORM_KNOBS = Knobs(DEFAULT_UPSAMPLE, DEFAULT_INTERP, DEFAULT_PRECISION)
+
+
+def knobs_of(options) -> Knobs:
+    """``(upsample, interp, precision)`` of a :class:`~sarcli.formers.options.BackprojectionOptions`
+    (or a :class:`Knobs`); None: :data:`MAP_KNOBS` (16, 'cubic', 'float64')."""
+    if options is None:
+        return MAP_KNOBS
+    return Knobs(options.upsample, options.interp, options.precision)
 
 
 
 # ---------------------------------------------------------------------------------------------
 # public functions
 # ---------------------------------------------------------------------------------------------
-def backproject(data, freq_hz, antenna_position_m, range_to_center_m, grid, weights=None, *,
-                upsample=DEFAULT_UPSAMPLE, interp=DEFAULT_INTERP, precision="float64",
-                nthreads=None, receive_position_m=None) -> np.ndarray:
+def backproject(data, collection, grid, options=None, *, nthreads=None) -> np.ndarray:
     """Spherical matched-filter image by fast backprojection (paper eq. ``mf``, spherical ``e_pj``).
 
     Parameters
     ----------
     data : array_like, shape (P, M), complex
         Phase history ``d[p, j]`` (spherical model, docs/conventions.md).
-    freq_hz : array_like, shape (M,) or (P, M)
-        Frequencies, equally spaced within each pulse (else use method ``direct``).
-    antenna_position_m : array_like, shape (P, 3)
-        Antenna phase centres ``a_p`` (any flight path).
-    range_to_center_m : array_like, shape (P,)
-        Reference ranges ``r0_p``.
+    collection : Collection
+        The collection (:class:`sarcli.core.collection.Collection`): frequencies (shape (M,) or
+        (P, M), equally spaced within each pulse, else use method ``direct``), antenna phase centres
+        ``a_p`` (P, 3; any flight path), reference ranges ``r0_p`` (P,), window weights ``w_pj``
+        (default 1) and, optionally, separate receive positions ``q_p`` (P, 3): then the antenna
+        positions are the transmit positions ``t_p`` and ``Δr = (|t_p - x| + |q_p - x|)/2 - r0_p``
+        (moving platform or bistatic).
     grid : Grid
         Image grid in the plane z = 0.
-    weights : array_like, shape (M,) or (P, M), optional
-        Window weights ``w_pj`` (default 1).
-    upsample : float, default 16
-        Profile oversampling: the IFFT length is ``upsample·M`` rounded up to a fast size.
-    interp : {'linear', 'cubic', 'lanczos'}, default 'cubic'
-        Range-profile interpolation: linear, Keys cubic (a = -1/2) or normalised Lanczos-3.
-    precision : {'float64', 'float32'}
-        Precision of the range profiles and the accumulation (geometry is float64 per tile,
-        interpolation weights and carrier float32 in both; module docstring).
+    options : BackprojectionOptions, optional
+        The knobs (:class:`sarcli.formers.options.BackprojectionOptions`): ``upsample``, the
+        profile oversampling (the IFFT length is ``upsample·M`` rounded up to a fast size);
+        ``interp``, the range-profile interpolation ('linear', Keys 'cubic' (a = -1/2) or
+        normalised 'lanczos'-3); ``precision``, of the range profiles and the accumulation
+        ('float64' or 'float32'; geometry is float64 per tile, interpolation weights and carrier
+        float32 in both; module docstring). None: 16, 'cubic' and :data:`MAP_PRECISION` (float64).
     nthreads : int, optional
         Threads of the kernel (default: ``sarcli._native.threads()``).
-    receive_position_m : array_like, shape (P, 3), optional
-        Separate receive positions q_p; then ``antenna_position_m`` holds the transmit positions
-        t_p and ``Δr = (|t_p - x| + |q_p - x|)/2 - r0_p`` (moving platform or bistatic).
 
     Returns
     -------
@@ -137,6 +160,7 @@ def backproject(data, freq_hz, antenna_position_m, range_to_center_m, grid, weig
     --------
     >>> import numpy as np
     >>> from sarcli.core import geometry
+    >>> from sarcli.core.collection import Collection
     >>> from sarcli.core.grid import Grid
     >>> freq = 9.8e9 + 5e6 * np.arange(64)
     >>> az = np.radians(np.linspace(-1.5, 1.5, 32))
@@ -144,14 +168,13 @@ def backproject(data, freq_hz, antenna_position_m, range_to_center_m, grid, weig
     >>> r0 = np.linalg.norm(a, axis=1)
     >>> psi = geometry.signal_phase(freq, az, np.radians(30), [[1.0, 2.0, 0.0]], model="spherical",
     ...                             antenna_position_m=a, range_to_center_m=r0)
-    >>> img = backproject(np.exp(-1j * psi[..., 0]), freq, a, r0, Grid(40, 40, 0.25, 0.25))
+    >>> img = backproject(np.exp(-1j * psi[..., 0]), Collection(freq, a, r0), Grid(40, 40, 0.25, 0.25))
     >>> row, col = np.unravel_index(np.argmax(abs(img)), img.shape)
     >>> int(row), int(col), float(round(abs(img[row, col]), 3))   # x = 1 m, y = 2 m
     (28, 24, 1.0)
     """
     d = check_data(data)
-    st = Setup(d.shape, freq_hz, antenna_position_m, range_to_center_m, grid, weights,
-                upsample, interp, precision, receive_position_m)
+    st = Setup(d.shape, collection, grid, *knobs_of(options))
     cdt = np.complex64 if st.dtype == np.float32 else np.complex128
     out_re = np.zeros(st.shape)
     out_im = np.zeros(st.shape)
@@ -173,9 +196,7 @@ def backproject(data, freq_hz, antenna_position_m, range_to_center_m, grid, weig
     return img
 
 
-def pulse_contractions(data, g, freq_hz, antenna_position_m, range_to_center_m, grid, weights=None, *,
-                       upsample=DEFAULT_UPSAMPLE, interp=DEFAULT_INTERP, precision="float64",
-                       nthreads=None, receive_position_m=None) -> np.ndarray:
+def pulse_contractions(data, g, collection, grid, options=None, *, nthreads=None) -> np.ndarray:
     """``v_p = Σ_s g_s (B_p d_p)_s``: each pulse's backprojection (:func:`backproject` of that pulse
     alone, same normalisation) contracted with an image-shaped ``g``, shape (P,), complex128.
 
@@ -188,8 +209,7 @@ def pulse_contractions(data, g, freq_hz, antenna_position_m, range_to_center_m, 
     gg = np.asarray(g)
     if gg.shape != grid.shape:
         raise SarcliInputError(f"g shape {gg.shape} does not match the grid {grid.shape}")
-    st = Setup(d.shape, freq_hz, antenna_position_m, range_to_center_m, grid, weights,
-                upsample, interp, precision, receive_position_m)
+    st = Setup(d.shape, collection, grid, *knobs_of(options))
     cdt = np.complex64 if st.dtype == np.float32 else np.complex128
     gre = np.ascontiguousarray(gg.real, dtype=st.dtype)
     gim = np.ascontiguousarray(gg.imag, dtype=st.dtype) if np.iscomplexobj(gg) else np.zeros_like(gre)
@@ -207,20 +227,18 @@ def pulse_contractions(data, g, freq_hz, antenna_position_m, range_to_center_m, 
     return out
 
 
-def reproject(image, freq_hz, antenna_position_m, range_to_center_m, grid, weights=None, *,
-              upsample=DEFAULT_UPSAMPLE, interp=DEFAULT_INTERP, precision="float64",
-              nthreads=None, receive_position_m=None) -> np.ndarray:
+def reproject(image, collection, grid, options=None, *, nthreads=None) -> np.ndarray:
     """Exact adjoint of :func:`backproject`: image → phase history, shape (P, M).
 
     Parameters
     ----------
     image : array_like, shape (ny, nx), complex
         Image on ``grid``.
-    freq_hz, antenna_position_m, range_to_center_m, grid, weights
+    collection, grid
         As for :func:`backproject` (the number of pulses P is taken from the antenna positions,
         M from the frequencies).
-    upsample, interp, precision, nthreads, receive_position_m
-        As for :func:`backproject`; use the same values to get its exact adjoint.
+    options, nthreads
+        As for :func:`backproject`; use the same options to get its exact adjoint.
 
     Returns
     -------
@@ -228,18 +246,17 @@ def reproject(image, freq_hz, antenna_position_m, range_to_center_m, grid, weigh
         ``Bᴴ f``: for every pulse, the conjugate-carrier image scattered onto the range profile
         with the transposed interpolation, then the forward FFT, the frequency slots and the
         factor ``w_pj / W``. Thus ``⟨backproject(d), f⟩ = ⟨d, reproject(f)⟩`` and, with
-        ``weights=None``, ``W · reproject`` (``W = P M``) approximates the spherical forward
+        no weights, ``W · reproject`` (``W = P M``) approximates the spherical forward
         model ``d = Σ_x f(x) exp(-i 4π α Δr(x) / c)``.
     """
     f = np.asarray(image)
     if f.shape != grid.shape:
         raise SarcliInputError(f"image shape {f.shape} does not match the grid {grid.shape}")
-    a = np.asarray(antenna_position_m)
-    fr = np.asarray(freq_hz)
+    a = np.asarray(collection.antenna_position_m)
+    fr = np.asarray(collection.frequency_hz)
     if a.ndim != 2:
         raise SarcliInputError(f"antenna positions must be (P, 3), got {a.shape}")
-    st = Setup((a.shape[0], fr.shape[-1]), freq_hz, antenna_position_m, range_to_center_m, grid,
-                weights, upsample, interp, precision, receive_position_m)
+    st = Setup((a.shape[0], fr.shape[-1]), collection, grid, *knobs_of(options))
     fre = np.ascontiguousarray(f.real, dtype=st.dtype)
     fim = np.ascontiguousarray(f.imag, dtype=st.dtype) if np.iscomplexobj(f) else np.zeros_like(fre)
     n_padded = st.n_len + 2 * PAD

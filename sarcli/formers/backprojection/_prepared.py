@@ -15,7 +15,7 @@ from ...core.grid import Grid
 from ...errors import SarcliInputError
 from ._kernels import kernels
 from ._setup import Setup, check_data, profiles
-from ._maps import DEFAULT_INTERP, DEFAULT_UPSAMPLE
+from ._maps import knobs_of
 
 __all__ = ["Backprojector"]
 
@@ -30,20 +30,17 @@ class Backprojector:
     ``e^{-iφ_p} · profile_p`` (the profile is linear in its pulse), so :meth:`image` with a
     ``phase`` multiplies the held profiles; :meth:`contract` uses them as they are. The numbers
     are those of ``backproject`` and ``pulse_contractions`` of the phase-multiplied data to the
-    working precision's rounding. Arguments as for ``backproject``.
+    working precision's rounding. Arguments as for ``backproject`` (``collection``, ``grid``,
+    ``options``: a :class:`~sarcli.formers.options.BackprojectionOptions` or None for the maps'
+    defaults, ``nthreads``).
     """
 
-    def __init__(self, data, freq_hz, antenna_position_m, range_to_center_m, grid, weights=None, *,
-                 upsample=DEFAULT_UPSAMPLE, interp=DEFAULT_INTERP, precision="float64", nthreads=None,
-                 receive_position_m=None, _profiles_of=None):
+    def __init__(self, data, collection, grid, options=None, *, nthreads=None, _profiles_of=None):
         d = check_data(data)
-        self._setup_args = (freq_hz, antenna_position_m, range_to_center_m)
-        self._options = dict(weights=weights, upsample=upsample, interp=interp, precision=precision,
-                             nthreads=nthreads, receive_position_m=receive_position_m)
+        self._collection, self._options = collection, options
         self._data = d
         self.grid = grid
-        self._st = st = Setup(d.shape, freq_hz, antenna_position_m, range_to_center_m, grid, weights,
-                               upsample, interp, precision, receive_position_m)
+        self._st = st = Setup(d.shape, collection, grid, *knobs_of(options))
         self._nthreads = nthreads
         self._cdt = np.complex64 if st.dtype == np.float32 else np.complex128
         if _profiles_of is not None:
@@ -53,7 +50,8 @@ class Backprojector:
 
     def on(self, grid: Grid) -> "Backprojector":
         """The same data and options on another ``grid``, sharing these profiles."""
-        return Backprojector(self._data, *self._setup_args, grid, _profiles_of=self, **self._options)
+        return Backprojector(self._data, self._collection, grid, self._options, nthreads=self._nthreads,
+                             _profiles_of=self)
 
     def _view(self, prof):
         return prof.view(self._st.dtype).reshape(prof.shape + (2,))

@@ -211,9 +211,9 @@ def tiling_for(freq_hz, antenna_position_m, receive_position_m, grid, upsample):
 class Setup:
     """Validated inputs, per-pulse constants (in the working precision) and the FFT layout."""
 
-    def __init__(self, shape, freq_hz, antenna_position_m, range_to_center_m, grid, weights,
-                 upsample, interp, precision, receive_position_m=None):
+    def __init__(self, shape, collection, grid, upsample, interp, precision):
         n_pulses, m = shape
+        freq_hz, weights, rcv = collection.frequency_hz, collection.weights, collection.receive_position_m
         if interp not in INTERPOLATORS:
             raise SarcliInputError(f"unknown interpolation {interp!r}; choose one of {sorted(INTERPOLATORS)}")
         if precision not in _PRECISIONS:
@@ -231,12 +231,12 @@ class Setup:
         if f.shape not in ((1, m), (n_pulses, m)):
             raise SarcliInputError(f"frequencies have shape {np.shape(freq_hz)}, expected ({m},) "
                                    f"or ({n_pulses}, {m}) to match the data")
-        a = np.asarray(antenna_position_m, dtype=np.float64)
-        r0 = np.asarray(range_to_center_m, dtype=np.float64)
+        a = np.asarray(collection.antenna_position_m, dtype=np.float64)
+        r0 = np.asarray(collection.range_to_center_m, dtype=np.float64)
         if a.shape != (n_pulses, 3) or r0.shape != (n_pulses,):
             raise SarcliInputError(f"antenna positions {a.shape} / ranges {r0.shape} do not match "
                                    f"{n_pulses} pulses (expected ({n_pulses}, 3) and ({n_pulses},))")
-        b = a if receive_position_m is None else np.asarray(receive_position_m, dtype=np.float64)
+        b = a if rcv is None else np.asarray(rcv, dtype=np.float64)
         if b.shape != a.shape:
             raise SarcliInputError(f"receive positions {b.shape} do not match the transmit positions {a.shape}")
         self.bistatic = not np.array_equal(a, b)

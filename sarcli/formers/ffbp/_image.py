@@ -155,24 +155,20 @@ def _descend(levels, a, b):
 # ---------------------------------------------------------------------------------------------
 # public function
 # ---------------------------------------------------------------------------------------------
-def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weights=None, *, nthreads=None,
-         receive_position_m=None, return_plan=False, plan=None, timings=None, **knobs):
+def ffbp(data, collection, grid: Grid, *, nthreads=None, return_plan=False, plan=None, timings=None, **knobs):
     """Spherical matched-filter image by fast factorised backprojection (module docstring).
 
     Parameters
     ----------
     data : array_like, shape (P, M), complex
         Phase history (spherical model); pulses in flight order (neighbours are merged).
-    freq_hz : array_like, shape (M,) or (P, M)
-        Frequencies, equally spaced within each pulse.
-    antenna_position_m : array_like, shape (P, 3)
-        Antenna phase centres (transmit positions when ``receive_position_m`` is given).
-    range_to_center_m : array_like, shape (P,)
+    collection : Collection
+        The collection (:class:`sarcli.core.collection.Collection`): frequencies (M,) or (P, M),
+        equally spaced within each pulse; antenna phase centres (P, 3; transmit positions when
+        receive positions are given); reference ranges (P,); window weights (M,) or (P, M); and
+        optionally separate receive positions ``r`` (range ``(|t − x| + |r − x|)/2 − r0``).
     grid : Grid
-    weights : array_like, shape (M,) or (P, M), optional
     nthreads : int, optional
-    receive_position_m : array_like, shape (P, 3), optional
-        Separate receive positions ``r`` (range ``(|t − x| + |r − x|)/2 − r0``).
     return_plan : bool
         Also return the :class:`FfbpPlan` (stages, predicted error).
     plan : FfbpPlan, optional
@@ -208,7 +204,7 @@ def ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid: Grid, weigh
     """
     from ..._native import using_threads
 
-    inp = _Inputs(data, freq_hz, antenna_position_m, range_to_center_m, weights, receive_position_m)
+    inp = _Inputs(data, collection)
     if plan is None:
         plan = plan_stages(inp.t, inp.f, grid, receive_position_m=inp.rcv if inp.bistatic else None, **knobs)
     run = _Pass(inp, plan, _Clock(timings))
@@ -234,15 +230,16 @@ class _Inputs:
     by blocks), positions, frequencies (one row when every pulse has the same: the checks cost
     O(M), not O(P M)), their line per pulse and the window."""
 
-    def __init__(self, data, freq_hz, antenna_position_m, range_to_center_m, weights, receive_position_m):
+    def __init__(self, data, collection):
         from ..backprojection import check_data
 
+        freq_hz, weights, receive_position_m = collection.frequency_hz, collection.weights, collection.receive_position_m
         self.d = d = check_data(data)
         self.P, self.M = P, M = d.shape
         if M < 2:
             raise SarcliInputError("ffbp needs at least two frequencies per pulse; use method 'direct'")
-        self.t = t = np.asarray(antenna_position_m, dtype=np.float64)
-        self.r0 = r0 = np.asarray(range_to_center_m, dtype=np.float64)
+        self.t = t = np.asarray(collection.antenna_position_m, dtype=np.float64)
+        self.r0 = r0 = np.asarray(collection.range_to_center_m, dtype=np.float64)
         self.rcv = rcv = t if receive_position_m is None else np.asarray(receive_position_m, dtype=np.float64)
         if t.shape != (P, 3) or rcv.shape != (P, 3) or r0.shape != (P,):
             raise SarcliInputError(f"antenna positions {t.shape} / ranges {r0.shape} do not match {P} pulses")
@@ -397,13 +394,12 @@ class _Clock:
             self.last = t
 
 
-def ffbp_image(data, freq_hz, antenna_position_m, range_to_center_m, grid, weights=None, **knobs):
+def ffbp_image(data, collection, grid, **knobs):
     """:func:`ffbp` for :func:`sarcli.formers.formation.form_image`: the image and the settings
     to record (every knob, the stages and the predicted error). ``None`` knobs take :data:`DEFAULTS`;
     ``plan``: the stages made before (:func:`ffbp`)."""
     knobs = {name: v for name, v in knobs.items() if v is not None}
-    img, plan = ffbp(data, freq_hz, antenna_position_m, range_to_center_m, grid, weights, return_plan=True,
-                     **knobs)
+    img, plan = ffbp(data, collection, grid, return_plan=True, **knobs)
     params = {name: plan.knobs[name] for name in ("base", "merge", "os_range", "os_angle", "interp", "upsample")}
     params["ffbp_stages"] = [[int(lv.n), int(lv.n_u), int(lv.n_q)] for lv in plan.levels]
     params["predicted_error"] = plan.predicted_error

@@ -128,16 +128,29 @@ def plan_stages(antenna_position_m, freq_hz, grid: Grid, *, receive_position_m=N
     return plan
 
 
+@dataclass(eq=False)
 class StageLayout:
     """The stages of a plan short of its error model (:func:`layout_stages`): the sub-apertures of
     every level and their polar frames, then, when first asked for, the polar grids (``levels``)
     and the operation counts (``ops``). :meth:`error_floor` bounds the plan's predicted error from
-    below at little cost; :meth:`plan` completes the plan."""
+    below at little cost; :meth:`plan` completes the plan.
 
-    def __init__(self, knobs, frames, children, apertures, dq, kref, kmax, band_scale, freq_hz, pos, grid):
-        self.knobs, self.frames, self.children, self.apertures = knobs, frames, children, apertures
-        self.dq, self.kref, self.kmax, self.band_scale = dq, kref, kmax, band_scale
-        self.freq_hz, self.pos, self.grid = freq_hz, pos, grid
+    Its fields: the resolved ``knobs``; each level's polar ``frames`` and ``children``; the
+    ``apertures``; the polar grids' range spacing ``dq``, reference and largest wavenumbers
+    ``kref``, ``kmax`` and their ``band_scale``; and the collection as the error model sees it
+    (``freq_hz``, the mean positions ``pos``, the ``grid``)."""
+
+    knobs: dict
+    frames: list
+    children: list
+    apertures: object
+    dq: float
+    kref: float
+    kmax: float
+    band_scale: tuple
+    freq_hz: np.ndarray
+    pos: np.ndarray
+    grid: Grid
 
     @functools.cached_property
     def levels(self) -> list:

@@ -229,13 +229,14 @@ def bp_constants(best, d, freq, a, r0, grid, thr):
     seconds x threads like every constant: the range profiles' FFTs (numpy's, one thread, so that
     ``thr`` threads are charged their time) per ``L log2 L`` and pulse, and the rest of
     backprojection's default per :func:`bp_units`."""
+    from ...core.collection import Collection
     from ..backprojection import profiles
-    from ..backprojection import DEFAULT_PRECISION, DEFAULT_UPSAMPLE, backproject, profile_length
+    from ..backprojection import DEFAULT_UPSAMPLE, FORM_KNOBS, backproject, profile_length
 
     P, M = d.shape
     L = profile_length(M, DEFAULT_UPSAMPLE)
     fft = best(lambda: profiles(d, None, float(P * M), L, np.complex64)) * thr / (P * L * math.log2(L))
-    total = best(lambda: backproject(d, freq, a, r0, grid, precision=DEFAULT_PRECISION)) * thr
+    total = best(lambda: backproject(d, Collection(freq, a, r0), grid, FORM_KNOBS)) * thr
     return fft, max(total - fft * P * L * math.log2(L), 0.0) / bp_units(d, freq, a, grid)
 
 

@@ -32,7 +32,7 @@ import numpy as np
 
 from ...core.grid import Grid
 from ...errors import SarcliInputError
-from ..options import OPTIONS
+from ..options import OPTIONS, SubimageOptions
 from .calibration import (DEFAULT_COSTS, best_of, command_costs, fft_cost, load_cost_model, save_cost_model,
                           touch_cost)
 from .cost import (FFBP_PARTS, FFBP_TERMS, Samples, bp_constants, bp_seconds, direct_seconds, ffbp_counts, ffbp_seconds,
@@ -399,6 +399,7 @@ def calibrate(path=None, *, repeat: int = 3) -> dict:
     from .. import ffbp as fb
     from ..direct import direct_spherical
     from ..nufft import nufft_farfield
+    from ...core.collection import Collection
     from ..subimage import subimage_nufft
 
     def best(fn):
@@ -426,7 +427,7 @@ def calibrate(path=None, *, repeat: int = 3) -> dict:
         runs = []
         for _ in range(repeat + 1):   # the first warms up
             runs.append({})
-            fb.ffbp(d, freq, a, r0, grid, timings=runs[-1], **knobs)
+            fb.ffbp(d, Collection(freq, a, r0), grid, timings=runs[-1], **knobs)
         parts.append(min(runs[1:], key=lambda t: sum(t.values())))
         rows.append(ffbp_counts(plan.ops))
     rows = np.array(rows)
@@ -445,7 +446,7 @@ def calibrate(path=None, *, repeat: int = 3) -> dict:
     c["nufft_fft"] = DEFAULT_COSTS["nufft_fft"]
     c["nufft_spread"] = max(1e-11, (t - c["nufft_fft"] * n_fft * math.log2(n_fft)) / (P * M * w * w))
     tile = 16
-    t = best(lambda: subimage_nufft(d, freq, a, r0, grid, tile=tile, eps=1e-3)) * thr
+    t = best(lambda: subimage_nufft(d, Collection(freq, a, r0), grid, SubimageOptions(tile=tile, eps=1e-3))) * thr
     c["subimage_point"] = t / ((N // tile) ** 2 * P * M * nufft_width(1e-3) ** 2)
     c.update(command_costs(repeat))
     from ...core.acquisition import Acquisition
