@@ -52,11 +52,11 @@ class SphericalOperator(Linop):
 
     @classmethod
     def from_acquisition(cls, acq, grid: Grid | None = None, options=None, nthreads=None) -> "SphericalOperator":
-        """The operator of an acquisition's frequencies, antenna positions and reference ranges."""
+        """The operator of an acquisition's range model (:meth:`~sarcli.core.acquisition.Acquisition.collection`):
+        its frequencies, reference ranges and antenna positions, transmit and receive apart when bistatic."""
         if not acq.has_positions:
             raise ValueError("the spherical operator needs antenna positions")
-        return cls(Collection(acq.frequency_hz, acq.antenna_position_m, acq.range_to_center_m),
-                   acq.grid if grid is None else grid, options, nthreads)
+        return cls(acq.collection(), acq.grid if grid is None else grid, options, nthreads)
 
     # the kernels draw no bar of their own here: an operator is applied inside an iteration that has one
 
