@@ -246,7 +246,7 @@ def plan_subimage(ph, grid, options, settings, costs=None) -> Plan:
     smp, npix = _context(ph, grid)
     acq = ph.acquisition
     if ph.model != "spherical":   # one tile is exact
-        eps = 1e-9 if options.eps is None else options.eps
+        eps = cost.NUFFT_EPS if options.eps is None else options.eps
         nufft = plan_nufft(ph, grid, NufftOptions(eps=eps), settings, costs)
 
         def run_one(plan, data, w):

@@ -35,7 +35,7 @@ from .._util.resources import check_memory
 from ..core.grid import Grid, resolve_grid
 from ..core.types import Image, PhaseHistory
 from ..errors import SarcliInputError, SarcliWarning
-from .planning.cost import DIRECT_WARN_S
+from .planning.cost import DIRECT_WARN_S, NUFFT_EPS
 from .families import FORMERS, SPHERICAL_ADVICE, VIRTUAL_RANGE_PER_M, range_positions, warn_defocus
 from .former import Plan, Settings
 from .options import DEFAULT_TOLERANCE, OPTIONS
@@ -149,7 +149,7 @@ def check_plan(plan: Plan) -> None:
     if plan.method == "direct" and plan.seconds > DIRECT_WARN_S:
         model = plan.ph.model
         if model == "farfield":
-            faster = "method nufft (default eps 1e-9: relative error ~1e-9 against direct)"
+            faster = f"method nufft (default eps {NUFFT_EPS:g}: relative error ~{NUFFT_EPS:g} against direct)"
         else:
             faster = "method backprojection (default knobs: relative error ~3e-4 against direct)"
         warnings.warn(f"direct on {grid.nx} x {grid.ny} pixels from {p} x {m} samples ({model}): "

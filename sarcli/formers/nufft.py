@@ -19,6 +19,7 @@ import numpy as np
 from ..core import geometry
 from ..errors import SarcliInputError
 from ._samples import check_kspace, weighted_samples
+from .planning.cost import NUFFT_EPS
 
 __all__ = ["nufft_farfield", "nufft_options", "FFTW_FLAGS"]
 
@@ -60,7 +61,7 @@ def _prepare(c, kx, ky, dx, dy, cx, cy):
     return out, geometry.wrap_phase(kx * dx), geometry.wrap_phase(ky * dy)
 
 
-def nufft_farfield(data, kx, ky, grid, weights=None, *, eps=1e-9, nthreads=None,
+def nufft_farfield(data, kx, ky, grid, weights=None, *, eps=NUFFT_EPS, nthreads=None,
                    fftw="estimate") -> np.ndarray:
     """Far-field matched filter by one type-1 NUFFT; equals :func:`direct_farfield` to ~``eps``.
 

@@ -36,7 +36,7 @@ class NufftOptions(Options):
     """The far-field matched filter as one type-1 NUFFT (FINUFFT)."""
 
     method = "nufft"
-    eps: float = knob(1e-9, "NUFFT accuracy (relative error ~eps against direct)", range=cost.EPS_RANGE)
+    eps: float = knob(cost.NUFFT_EPS, "NUFFT accuracy (relative error ~eps against direct)", range=cost.EPS_RANGE)
 
 
 @dataclass(frozen=True)

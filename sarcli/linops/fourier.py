@@ -19,6 +19,7 @@ import finufft
 
 from ..core import geometry
 from ..core.grid import Grid
+from ..formers.planning.cost import NUFFT_EPS
 from .base import Linop
 from .toeplitz import ToeplitzGram
 
@@ -47,7 +48,7 @@ class NufftOperator(Linop):
         FINUFFT threads (default: FINUFFT's own choice).
     """
 
-    def __init__(self, kx, ky, grid: Grid, *, eps: float = 1e-9, nthreads: int | None = None):
+    def __init__(self, kx, ky, grid: Grid, *, eps: float = NUFFT_EPS, nthreads: int | None = None):
         kx = np.asarray(kx, np.float64)
         ky = np.asarray(ky, np.float64)
         super().__init__(grid.shape, kx.shape, np.complex128)

@@ -18,6 +18,7 @@ import numpy as np
 import scipy.fft
 
 from .._native import threads
+from ..formers.planning.cost import NUFFT_EPS
 from ._reduce import empty, norm2, rdot
 from .base import Linop
 
@@ -45,7 +46,7 @@ class ToeplitzGram(Linop):
         ``eps ≥ 1e-6``, else complex128. Outputs are complex128 either way.
     """
 
-    def __init__(self, k1, k2, shape, *, weights=None, eps: float = 1e-9, fft_dtype=None):
+    def __init__(self, k1, k2, shape, *, weights=None, eps: float = NUFFT_EPS, fft_dtype=None):
         super().__init__(shape, shape, np.complex128)
         if fft_dtype is None:
             fft_dtype = np.complex64 if eps >= 1e-6 else np.complex128

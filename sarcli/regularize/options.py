@@ -14,6 +14,7 @@ import numpy as np
 
 from ..core import geometry
 from ..errors import SarcliInputError
+from ..formers.planning.cost import NUFFT_EPS
 
 __all__ = ["RegularizeOptions", "PRIORS", "OPERATORS", "DEFAULT_LAM", "DEFAULT_BETA_RATIO",
            "DEFAULT_OPERATOR_TOLERANCE", "MIN_PULSES_PER_RUN", "DEFOCUS_WARN_RAD"]
@@ -92,7 +93,7 @@ class RegularizeOptions:
     inner_iters: int = field(default=1, metadata=_help("Gradient steps per ADMM iteration."))
     reestimate_every: int = field(default=0, metadata=_help(
         "ptv: re-estimate the phases Θ from the iterate every N iterations (0: never)."))
-    eps: float = field(default=1e-9, metadata=_help("NUFFT tolerance of the far-field operators."))
+    eps: float = field(default=NUFFT_EPS, metadata=_help("NUFFT tolerance of the far-field operators."))
 
     @classmethod
     def from_knobs(cls, options: "RegularizeOptions | None" = None, **knobs) -> "RegularizeOptions":

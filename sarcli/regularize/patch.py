@@ -33,7 +33,7 @@ def _forward(ph: PhaseHistory, grid: Grid):
     acq = ph.acquisition
     if ph.model == "spherical" and acq.has_positions:
         return SphericalOperator.from_acquisition(acq, grid)
-    return NufftOperator.from_acquisition(acq, grid, eps=1e-9)
+    return NufftOperator.from_acquisition(acq, grid)
 
 
 def without_outside(ph: PhaseHistory, scene: Image, patch: Grid, *, guard_m: float | None = None) -> PhaseHistory:

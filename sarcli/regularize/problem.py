@@ -33,6 +33,7 @@ import numpy as np
 from ..core.grid import Grid
 from ..core.types import PhaseHistory
 from ..errors import DefocusWarning, SarcliInputError
+from ..formers.planning.cost import NUFFT_EPS
 from ..linops import NufftOperator, SphericalOperator, gram_eigmax, norm2, normal_equations, sparsifying_operator
 from ..linops.finite_diff import FiniteDifference
 from ..linops.toeplitz import NormalEquations
@@ -91,7 +92,7 @@ def scale_problem(normal, *, power_iters: int = 30, callback=None):
 
 
 def matched_filter(ph: PhaseHistory, grid: Grid | None = None, *, operator: str = "nufft",
-                   eps: float = 1e-9) -> np.ndarray:
+                   eps: float = NUFFT_EPS) -> np.ndarray:
     """``Aᴴb / (P M)``: the matched filter (eq. ``mf``) of the operator pair used here."""
     grid = ph.acquisition.grid if grid is None else grid
     op = SphericalOperator.from_acquisition(ph.acquisition, grid) if operator in ("spherical", "warped") \

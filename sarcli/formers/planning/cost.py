@@ -24,7 +24,7 @@ from ..._util.resources import check_memory
 from ...core import sampling
 from ...errors import SarcliInputError, SarcliWarning
 
-__all__ = ["UPSAMPLE_RANGE", "OVERSAMPLE_RANGE", "WIDTH_RANGE", "EPS_RANGE", "check_knobs", "Samples", "threads",
+__all__ = ["UPSAMPLE_RANGE", "OVERSAMPLE_RANGE", "WIDTH_RANGE", "EPS_RANGE", "NUFFT_EPS", "check_knobs", "Samples", "threads",
            "form_image_bytes", "kgrid_bytes", "direct_seconds", "nufft_width", "nufft_seconds", "n_tiles",
            "subimage_seconds", "bp_seconds", "bp_units", "bp_constants", "FFBP_TERMS", "FFBP_PARTS", "ffbp_counts", "ffbp_seconds",
            "regularize_bytes", "check_regularize", "DIRECT_WARN_S"]
@@ -37,6 +37,9 @@ OVERSAMPLE_RANGE = (1.25, 16.0)
 WIDTH_RANGE = (2, 16)
 #: NUFFT requested accuracy (FINUFFT's reachable range in float64)
 EPS_RANGE = (1e-15, 1e-1)
+#: The default NUFFT accuracy of every far-field operator and former (relative error ~eps against
+#: the exact sum): the nufft former, its operator pair, the Toeplitz Gram and the regulariser.
+NUFFT_EPS = 1e-9
 #: estimated ``direct`` run time (s) beyond which a faster method is suggested first
 DIRECT_WARN_S = 30.0
 _C16 = 16
