@@ -399,3 +399,16 @@ def test_cli_lam_auto_is_the_default_and_recorded(tmp_path, disk):
         res = CliRunner().invoke(cli, ["regularize", str(src), "-o", str(tmp_path / "x.h5"), "--lam", bad])
         assert res.exit_code == 2 and "--lam" in res.output and "Traceback" not in res.output
         assert not (tmp_path / "x.h5").exists()
+
+
+def test_forecast_product_time_is_the_median_after_the_first(monkeypatch):
+    """The forecast's product time is the median of the scaling's products after the first (which
+    carries the set-up): one product slowed by another process does not move it."""
+    import sarcli.regularize.forecast as F
+
+    clock = iter([0.0, 5.0, 15.0, 16.0, 17.0, 18.0, 19.0])   # products: 5 (set-up), 10 (slowed), 1, 1, 1, 1
+    monkeypatch.setattr(F.time, "perf_counter", lambda: next(clock))
+    f = F.Forecast("tv", "toeplitz", 6, 100, False, None, lambda k: None)
+    for i in range(1, 7):
+        f.on_power(i)
+    assert f.gram_s == 1.0

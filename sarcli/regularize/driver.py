@@ -224,7 +224,7 @@ def regularize(ph: PhaseHistory, options: RegularizeOptions | None = None, *, gr
         ``total``) advanced once per power iteration of the scaling, per iteration of the λ path
         (both of its solvers) and of the final solve.
     notice : callable, optional
-        ``notice(line)`` once, after the scaling (its second AᴴA product timed) and before the
+        ``notice(line)`` once, after the scaling (its products timed) and before the
         λ path, when the run is predicted to last longer than
         :data:`~sarcli.regularize.forecast.LONG_RUN_S`: the estimate, its bound and what would shorten it.
     **knobs
