@@ -20,6 +20,7 @@ from __future__ import annotations
 import contextlib
 import io
 import json
+import os
 from pathlib import Path
 
 import h5py
@@ -41,6 +42,9 @@ __all__ = [
     "write_image",
     "read_kgrid",
     "write_kgrid",
+    "IN_MEMORY_MAX_BYTES",
+    "reserve_space",
+    "reserved_bytes",
     "PH_FORMAT",
     "IMAGE_FORMAT",
 ]
@@ -88,15 +92,42 @@ def _check_format(path, f, expected):
 
 #: Files up to this size are built in memory and written with one write of our own, so a full
 #: disk or a file-size limit is an ordinary OSError (one line, exit 2) instead of a failure inside
-#: HDF5's close, where h5py prints tracebacks from its destructors or crashes; larger files are
-#: written in place (the same atomic rename protects the previous file either way).
-IN_MEMORY_MAX_BYTES = 1 << 30
+#: HDF5's close, where h5py prints tracebacks from its destructors or crashes. Larger files are
+#: written by HDF5 straight into the temporary file once their space is reserved
+#: (:func:`reserve_space`): a copy in memory would cost as much again in fresh pages as the file
+#: itself (docs/performance.md, "Writing an image"). The atomic rename protects the previous file
+#: either way.
+IN_MEMORY_MAX_BYTES = 16 << 20
+#: Bytes :func:`reserve_space` adds to a file's large datasets for the rest of it (HDF5's
+#: metadata, attributes, the small datasets), besides 1/64 of the datasets' bytes.
+RESERVE_SLACK_BYTES = 4 << 20
+
+
+def reserved_bytes(nbytes: int) -> int:
+    """The bytes reserved for a file whose large datasets hold ``nbytes``: an upper bound of its size."""
+    return int(nbytes) + int(nbytes) // 64 + RESERVE_SLACK_BYTES
+
+
+def reserve_space(tmp, nbytes: int) -> None:
+    """Allocate ``nbytes`` to the file ``tmp`` (``posix_fallocate``; where the system has none, the
+    file is extended to that size), so a full disk, a quota or a file-size limit fails here, as one
+    :class:`OSError` before HDF5 writes anything. HDF5 then truncates the file as it opens it and
+    writes into the space just freed (only another writer filling the disk in that moment can still
+    make HDF5 fail, the previous file untouched all the same)."""
+    with open_held(tmp) as fh:
+        allocate = getattr(os, "posix_fallocate", None)
+        if allocate is not None:
+            allocate(fh.fileno(), 0, int(nbytes))
+        else:   # pragma: no cover - systems without posix_fallocate
+            fh.truncate(int(nbytes))
 
 
 @contextlib.contextmanager
 def _h5_output(tmp, nbytes):
-    """An HDF5 file opened for writing whose bytes end up in ``tmp`` (see IN_MEMORY_MAX_BYTES)."""
+    """An HDF5 file opened for writing whose bytes end up in ``tmp`` (see IN_MEMORY_MAX_BYTES);
+    ``nbytes``: the bytes of its large datasets."""
     if nbytes > IN_MEMORY_MAX_BYTES:
+        reserve_space(tmp, reserved_bytes(nbytes))
         with h5py.File(tmp, "w") as f:
             yield f
         return
@@ -167,6 +198,9 @@ def write_phase_history(path, ph: PhaseHistory, *, blocks=None) -> Path:
     nbytes = int(np.prod(ph.data.shape)) * np.dtype(ph.data.dtype).itemsize
     if ph.truth is not None and ph.truth.scene is not None:
         nbytes += 3 * np.asarray(ph.truth.scene).nbytes
+    nbytes += 8 * sum(np.size(a) for a in (acq.frequency_hz, acq.azimuth_rad, acq.elevation_rad, acq.antenna_position_m,
+                                           acq.range_to_center_m, acq.transmit_position_m, acq.receive_position_m)
+                      if a is not None) + len(acq.config_text or "")
     with atomic_path(path) as tmp:
         with _h5_output(tmp, nbytes) as f:
             f.attrs["format"] = PH_FORMAT
@@ -384,7 +418,9 @@ def write_image(path, img: Image, dtype=None) -> Path:
     if stored not in (np.dtype(np.complex64), np.dtype(np.complex128)):
         raise ValueError(f"an image is stored complex64 or complex128, not {stored}")
     with atomic_path(path) as tmp:
-        with _h5_output(tmp, data.size * stored.itemsize) as f:
+        nbytes = data.size * stored.itemsize + 8 * (np.size(img.x_m) + np.size(img.y_m)) \
+            + 8 * sum(np.size(v) for v in (img.history or {}).values())
+        with _h5_output(tmp, nbytes) as f:
             f.attrs["format"] = IMAGE_FORMAT
             f.attrs["version"] = FILE_VERSION
             f.attrs["method"] = img.method
@@ -440,7 +476,7 @@ def read_image(path) -> Image:
 # --------------------------------------------------------------------------------------------
 def write_kgrid(path, kgrid: KGrid) -> Path:
     """Write a k-grid (format ``sarcli-kgrid``, version 1), atomically."""
-    with atomic_path(path) as tmp, _h5_output(tmp, np.asarray(kgrid.samples).nbytes) as h5:
+    with atomic_path(path) as tmp, _h5_output(tmp, np.size(kgrid.samples) * 16) as h5:
         h5.attrs["format"] = KGRID_FORMAT
         h5.attrs["version"] = FILE_VERSION
         h5.create_dataset("samples", data=np.asarray(kgrid.samples, dtype=np.complex128))
