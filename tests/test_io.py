@@ -209,7 +209,17 @@ def test_large_files_are_written_in_place_into_space_reserved_first(ph_file, tmp
     def no_copy(*a, **k):
         raise AssertionError("a large file was built in memory")
 
+    import os
+
+    writes = []
+    pwrite = os.pwrite
+
+    def count(fd, data, offset):
+        writes.append(len(data))
+        return pwrite(fd, data, offset)
+
     reserve = hdf5.reserve_space
+    monkeypatch.setattr(os, "pwrite", count)
     monkeypatch.setattr(hdf5, "reserve_space", spy)
     monkeypatch.setattr(hdf5, "IN_MEMORY_MAX_BYTES", 1024)
     monkeypatch.setattr(io, "BytesIO", no_copy)
@@ -223,8 +233,11 @@ def test_large_files_are_written_in_place_into_space_reserved_first(ph_file, tmp
              lambda b: np.array_equal(b.image, a.astype(np.complex64)) and b.parameters == {"k": 1}),
             (tmp_path / "ph.h5", lambda p: sarcli.write_phase_history(p, ph), sarcli.read_phase_history,
              lambda b: np.array_equal(b.data, ph.data))):
+        writes.clear()
         write(path)
         assert same(read(path))
+        if path.name == "img.h5":   # the samples by our own writes, none larger than WRITE_CHUNK_BYTES
+            assert sum(writes) == a.size * 8 and max(writes) == hdf5.WRITE_CHUNK_BYTES
         assert path.stat().st_size <= reserved[-1]          # the reservation bounds the file from above
         assert not list(tmp_path.glob(f".{path.name}.tmp-*"))
     assert len(reserved) == 2
@@ -263,3 +276,29 @@ def test_a_file_size_limit_on_an_in_place_write_is_one_line(tmp_path):
     assert r.stderr == "" and len(r.stdout.strip().splitlines()) == 1
     assert "could not be written (File too large)" in r.stdout
     assert out.read_bytes() == b"previous output" and not list(tmp_path.glob(".img.h5.tmp-*"))
+
+
+def test_write_chunked_goes_on_after_short_writes_and_stops_on_none(tmp_path, monkeypatch):
+    import os
+
+    from sarcli.io.hdf5 import WRITE_CHUNK_BYTES, write_chunked
+
+    data = np.arange(3 * WRITE_CHUNK_BYTES // 8 + 5, dtype=np.float64)
+    pwrite = os.pwrite
+    sizes = []
+
+    def short(fd, buf, offset):   # at most 1000 bytes a call
+        sizes.append(len(buf))
+        return pwrite(fd, buf[:1000], offset)
+
+    monkeypatch.setattr(os, "pwrite", short)
+    path = tmp_path / "f.bin"
+    with open(path, "wb") as fh:
+        fh.write(b"head")
+        end = write_chunked(fh.fileno(), data, 4)
+    assert end == 4 + data.nbytes and max(sizes) == WRITE_CHUNK_BYTES
+    raw = path.read_bytes()
+    assert raw[:4] == b"head" and np.array_equal(np.frombuffer(raw[4:], np.float64), data)
+    monkeypatch.setattr(os, "pwrite", lambda fd, buf, offset: 0)
+    with open(path, "r+b") as fh, pytest.raises(OSError, match="No space left"):
+        write_chunked(fh.fileno(), data, 0)

@@ -45,6 +45,8 @@ __all__ = [
     "IN_MEMORY_MAX_BYTES",
     "reserve_space",
     "reserved_bytes",
+    "write_chunked",
+    "WRITE_CHUNK_BYTES",
     "PH_FORMAT",
     "IMAGE_FORMAT",
 ]
@@ -90,17 +92,22 @@ def _check_format(path, f, expected):
         raise InputFileError(path, f"{expected} version {ver} is not supported (this sarcli reads {FILE_VERSION})")
 
 
-#: Files up to this size are built in memory and written with one write of our own, so a full
-#: disk or a file-size limit is an ordinary OSError (one line, exit 2) instead of a failure inside
-#: HDF5's close, where h5py prints tracebacks from its destructors or crashes. Larger files are
-#: written by HDF5 straight into the temporary file once their space is reserved
-#: (:func:`reserve_space`): a copy in memory would cost as much again in fresh pages as the file
-#: itself (docs/performance.md, "Writing an image"). The atomic rename protects the previous file
+#: Files up to this size are built in memory and written by our own writes, so a full disk or a
+#: file-size limit is an ordinary OSError (one line, exit 2) instead of a failure inside HDF5's
+#: close, where h5py prints tracebacks from its destructors or crashes. Larger files are written by
+#: HDF5 straight into the temporary file once their space is reserved (:func:`reserve_space`): a
+#: copy in memory would cost as much again in fresh pages as the file itself; an image's samples go
+#: in by our own writes too (:func:`write_image`). The atomic rename protects the previous file
 #: either way.
 IN_MEMORY_MAX_BYTES = 16 << 20
 #: Bytes :func:`reserve_space` adds to a file's large datasets for the rest of it (HDF5's
 #: metadata, attributes, the small datasets), besides 1/64 of the datasets' bytes.
 RESERVE_SLACK_BYTES = 4 << 20
+#: Bytes of each write call of our own. A buffered write gets file-cache pages of its own size: one
+#: large write makes the kernel assemble large blocks of memory, which on a virtual machine whose
+#: host backs memory on first use costs about 20 ns a byte, where writes of 128 KiB take single
+#: pages at about 0.4 ns (docs/performance.md, "Writing an image").
+WRITE_CHUNK_BYTES = 128 << 10
 
 
 def reserved_bytes(nbytes: int) -> int:
@@ -122,6 +129,34 @@ def reserve_space(tmp, nbytes: int) -> None:
             fh.truncate(int(nbytes))
 
 
+def write_chunked(fd, data, offset: int) -> int:
+    """Write the bytes of ``data`` (a buffer) to the file ``fd`` at ``offset`` in calls of
+    :data:`WRITE_CHUNK_BYTES`; returns the offset after them. A write that cannot go on (a full
+    disk) raises :class:`OSError`."""
+    mv = memoryview(data).cast("B")
+    done = 0
+    while done < mv.nbytes:
+        n = os.pwrite(fd, mv[done:done + WRITE_CHUNK_BYTES], offset + done)
+        if n <= 0:
+            raise OSError(28, os.strerror(28))   # ENOSPC
+        done += n
+    return offset + done
+
+
+def _allocated_dataset(f, name, shape, dtype) -> int:
+    """Create the contiguous dataset ``name`` of ``f`` with its file space allocated at once and never
+    filled by HDF5; returns its offset in the file, where :func:`write_chunked` puts its samples."""
+    dcpl = h5py.h5p.create(h5py.h5p.DATASET_CREATE)
+    dcpl.set_layout(h5py.h5d.CONTIGUOUS)
+    dcpl.set_alloc_time(h5py.h5d.ALLOC_TIME_EARLY)
+    dcpl.set_fill_time(h5py.h5d.FILL_TIME_NEVER)
+    ds = h5py.h5d.create(f.id, name.encode(), h5py.h5t.py_create(np.dtype(dtype)),
+                         h5py.h5s.create_simple(tuple(int(n) for n in shape)), dcpl=dcpl)
+    offset = ds.get_offset()
+    ds.close()
+    return int(offset)
+
+
 @contextlib.contextmanager
 def _h5_output(tmp, nbytes):
     """An HDF5 file opened for writing whose bytes end up in ``tmp`` (see IN_MEMORY_MAX_BYTES);
@@ -135,7 +170,7 @@ def _h5_output(tmp, nbytes):
     with h5py.File(buf, "w") as f:
         yield f
     with open_held(tmp) as fh:
-        fh.write(buf.getbuffer())
+        write_chunked(fh.fileno(), buf.getbuffer(), 0)
 
 
 def _write_attrs(f, attrs, *, skip=()):
@@ -412,14 +447,23 @@ def write_image(path, img: Image, dtype=None) -> Path:
 
     ``dtype``: complex64 or complex128, the stored type of ``/image`` (default: the image's own);
     an image of another type is cast by blocks of rows as it is written (no whole copy in memory).
+    An image above :data:`IN_MEMORY_MAX_BYTES` goes by blocks of rows straight into its file's
+    space, allocated by HDF5, by our own writes (:func:`write_chunked`).
     """
     data = np.asarray(img.image)
     stored = np.dtype(data.dtype if dtype is None else dtype)
     if stored not in (np.dtype(np.complex64), np.dtype(np.complex128)):
         raise ValueError(f"an image is stored complex64 or complex128, not {stored}")
+    step = max(1, _CAST_ROWS_BYTES // max(1, data[:1].nbytes))
+
+    def blocks():
+        for r in range(0, data.shape[0], step):
+            yield np.ascontiguousarray(data[r:r + step], dtype=stored)
+
     with atomic_path(path) as tmp:
         nbytes = data.size * stored.itemsize + 8 * (np.size(img.x_m) + np.size(img.y_m)) \
             + 8 * sum(np.size(v) for v in (img.history or {}).values())
+        in_place = nbytes > IN_MEMORY_MAX_BYTES
         with _h5_output(tmp, nbytes) as f:
             f.attrs["format"] = IMAGE_FORMAT
             f.attrs["version"] = FILE_VERSION
@@ -428,19 +472,24 @@ def write_image(path, img: Image, dtype=None) -> Path:
             f.attrs["runtime_s"] = float(img.runtime_s)
             f.attrs["sarcli_version"] = __version__
             _write_attrs(f, img.attrs, skip=("format", "version", "method", "parameters", "runtime_s"))
-            if data.dtype == stored:
+            if in_place:
+                offset = _allocated_dataset(f, "image", data.shape, stored)
+            elif data.dtype == stored:
                 f.create_dataset("image", data=data)
             else:
                 ds = f.create_dataset("image", shape=data.shape, dtype=stored)
-                step = max(1, _CAST_ROWS_BYTES // max(1, data[:1].nbytes))
-                for r in range(0, data.shape[0], step):
-                    ds[r:r + step] = data[r:r + step].astype(stored)
+                for r, block in zip(range(0, data.shape[0], step), blocks()):
+                    ds[r:r + step] = block
             f.create_dataset("x_m", data=np.asarray(img.x_m, np.float64))
             f.create_dataset("y_m", data=np.asarray(img.y_m, np.float64))
             if img.history:
                 h = f.create_group("history")
                 for k, v in img.history.items():
                     h.create_dataset(k, data=np.asarray(v, np.float64))
+        if in_place:
+            with open_held(tmp, "r+b") as fh:
+                for block in blocks():
+                    offset = write_chunked(fh.fileno(), block, offset)
     return Path(path)
 
 

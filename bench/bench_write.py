@@ -1,0 +1,110 @@
+"""The planner's predicted write and read seconds against the measured, from 32 MiB to gigabytes (no
+assertions; target within 1.5x either way).
+
+Runs as ``sar`` does (numpy's huge-page advice off, :func:`sarcli.cli.main.no_huge_pages`). First
+measures the command's I/O constants in this run (:func:`sarcli.formers.planning.calibration.command_costs`:
+``read_per_byte``, and ``write_per_byte`` / ``write_per_byte_large`` from images written to new
+files), then, ``--rounds`` times, for each size in its own fresh process as ``sar form-image`` ends:
+
+- an image held complex128 (every page touched, as a former leaves it) written by
+  :func:`sarcli.io.hdf5.write_image` stored complex64 to a new file, the files of the sizes before
+  kept (an output's bytes take pages the kernel's file cache has not had); measured wall seconds
+  against :func:`sarcli.formers.planning.cost.write_seconds`;
+- that file read back by blocks of 128 rows into one buffer, as the formers read a phase history's
+  pulses (:meth:`sarcli.io.pulses.PulseArray.read_into`); against
+  :func:`sarcli.formers.planning.cost.read_seconds`.
+
+Sizes (stored): 32 MiB (the calibration's), 288 MB (the Panama quarter's 6,000² image), 861 MB (the
+full size's 12,208 x 8,808) and 2 GB (16,384²; ``--no-2g`` leaves it out: it holds 4.3 GB).
+
+    python bench/bench_write.py [--rounds 2] [--dir DIR] [--no-2g]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+from sarcli.cli.main import no_huge_pages
+
+no_huge_pages()   # as `sar` runs (numpy reads the setting when first imported); children inherit it
+
+SIZES = {"32MiB": (4096, 1024), "quarter": (6000, 6000), "full": (8808, 12208), "2GB": (16384, 16384)}
+
+CHILD = """
+import json, sys, time
+import numpy as np
+from sarcli.core.types import Image
+from sarcli.io.hdf5 import write_image
+from sarcli.io.pulses import PulseArray
+ny, nx, path = int(sys.argv[1]), int(sys.argv[2]), sys.argv[3]
+a = np.empty((ny, nx), np.complex128)
+a.real = 1.0
+a.imag = -1.0
+img = Image(image=a, x_m=np.arange(nx, dtype=float), y_m=np.arange(ny, dtype=float), method="bench",
+            parameters={}, runtime_s=0.0)
+t0 = time.perf_counter()
+write_image(path, img, np.complex64)
+w = time.perf_counter() - t0
+del img, a
+src = PulseArray(path, "image", (ny, nx), np.complex64)
+buf = np.empty((128, nx), np.complex64)
+t0 = time.perf_counter()
+for r in range(0, ny, 128):
+    n = min(128, ny - r)
+    src.read_into(slice(r, r + n), buf[:n])
+print(json.dumps({"write_s": w, "read_s": time.perf_counter() - t0}))
+"""
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--rounds", type=int, default=2)
+    ap.add_argument("--dir", default=None, help="working folder (default: a temporary one, removed)")
+    ap.add_argument("--no-2g", action="store_true", help="leave out the 2 GB image")
+    args = ap.parse_args(argv)
+    from sarcli.formers.planning.calibration import command_costs
+    from sarcli.formers.planning.cost import read_seconds, write_seconds
+
+    work = Path(args.dir or tempfile.mkdtemp(prefix="bench-write-"))
+    work.mkdir(parents=True, exist_ok=True)
+    res = {"load_before": os.getloadavg()[0]}
+    t0 = time.perf_counter()
+    c = command_costs(3)
+    res["calibration"] = dict(c, seconds=time.perf_counter() - t0)
+    sizes = [s for s in SIZES if not (args.no_2g and s == "2GB")]
+    rows = []
+    for r in range(args.rounds):
+        for name in (sizes if r % 2 == 0 else sizes[::-1]):
+            ny, nx = SIZES[name]
+            stored = ny * nx * 8
+            path = work / f"img-{name}-{r}.h5"
+            out = subprocess.run([sys.executable, "-c", CHILD, str(ny), str(nx), str(path)], check=True,
+                                 capture_output=True, text=True)
+            m = json.loads(out.stdout.strip().splitlines()[-1])
+            pw, pr = write_seconds(c, stored), read_seconds(c, stored)
+            rows.append({"size": name, "round": r, "stored_mb": stored / 1e6, "write_s": m["write_s"],
+                         "write_predicted_s": pw, "write_ratio": m["write_s"] / pw, "read_s": m["read_s"],
+                         "read_predicted_s": pr, "read_ratio": m["read_s"] / pr, "load": os.getloadavg()[0]})
+            print(f"{name:8s} round {r}: write {m['write_s']:.3f} s / predicted {pw:.3f} s = "
+                  f"{m['write_s'] / pw:.2f}; read {m['read_s']:.3f} s / {pr:.3f} s = {m['read_s'] / pr:.2f}",
+                  file=sys.stderr)
+    res["rows"] = rows
+    res["load_after"] = os.getloadavg()[0]
+    print(json.dumps(res, indent=1))
+    if not args.dir:
+        shutil.rmtree(work)
+    else:
+        for p in work.glob("img-*.h5"):
+            p.unlink()
+
+
+if __name__ == "__main__":
+    main()
