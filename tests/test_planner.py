@@ -258,6 +258,29 @@ def test_calibration_writes_new_files_the_way_form_image_writes_images(tmp_path,
     assert 4096 * (cal.WRITE_BYTES // (4096 * 8)) * 8 == cal.WRITE_BYTES > hdf5.IN_MEMORY_MAX_BYTES
 
 
+def test_calibration_reads_by_blocks_of_rows_as_the_formers_read_pulses(monkeypatch):
+    """command_costs times reads of READ_ROWS rows into one buffer through PulseArray (the formers'
+    reader of a phase history left on disk), every row once per pass."""
+    from sarcli.formers.planning import calibration as cal
+    from sarcli.io.pulses import PulseArray
+
+    reads, buffers = [], set()
+    real = PulseArray.read_into
+
+    def spy(self, rows, out):
+        reads.append((rows.start, rows.stop))
+        buffers.add(out.__array_interface__["data"][0])
+        return real(self, rows, out)
+
+    monkeypatch.setattr(PulseArray, "read_into", spy)
+    monkeypatch.setattr(cal, "write_costs", lambda folder: (1e-9, 2e-9))
+    c = cal.command_costs(1)
+    assert c["read_per_byte"] > 0 and (c["write_per_byte"], c["write_per_byte_large"]) == (1e-9, 2e-9)
+    assert len(buffers) == 1 and all(b - a == cal.READ_ROWS for a, b in reads)
+    passes = len(reads) * cal.READ_ROWS // 512
+    assert passes == 2 and sorted(reads) == sorted([(r, r + cal.READ_ROWS) for r in range(0, 512, cal.READ_ROWS)] * 2)
+
+
 def test_sar_plan_measures_an_uncalibrated_machine_once(tmp_path, monkeypatch, sph):
     import json
 

@@ -3,9 +3,9 @@
 :mod:`sarcli.formers.planning.planner` predicts a former's time as its operation counts times these
 constants; its ``calibrate`` measures them with small instances of every former (a few seconds)
 and, for the whole command, the start-up (a fresh interpreter importing what ``sar form-image``
-imports), reading and writing (images written to new files, :func:`write_costs`). Its result is kept per machine in the user's cache folder
-(``$SARCLI_CACHE_DIR``, else ``$XDG_CACHE_HOME/sarcli``, else ``~/.cache/sarcli``), named by a
-fingerprint of the CPU model, the processors this process may use, the kernels' SIMD level,
+imports), reading and writing (images written to new files, :func:`write_costs`). Its result is
+kept per machine in the user's cache folder (``$SARCLI_CACHE_DIR``, else ``$XDG_CACHE_HOME/sarcli``,
+else ``~/.cache/sarcli``), named by a fingerprint of the CPU model, the processors this process may use, the kernels' SIMD level,
 sarcli's version and the compiled kernels' build (:func:`sarcli._native.build_id`), so a
 calibration never serves another machine, nor kernels rebuilt since. Until a machine is calibrated
 (``sar plan`` calibrates it on first use; ``sar plan --calibrate`` again), the constants are those
@@ -29,7 +29,7 @@ import numpy as np
 
 __all__ = ["DEFAULT_COSTS", "COST_MODEL_PATH", "STARTUP_IMPORTS", "TOUCH_BYTES", "load_cost_model", "save_cost_model",
            "is_calibrated", "machine", "user_cost_model_path", "best_of", "touch_cost", "fft_cost", "WRITE_BYTES",
-           "WRITE_FILES", "write_costs", "command_costs"]
+           "WRITE_FILES", "write_costs", "READ_ROWS", "command_costs"]
 
 #: The reference machine's constants, shipped with the package.
 COST_MODEL_PATH = Path(__file__).with_name("cost_model.json")
@@ -190,25 +190,37 @@ def write_costs(folder) -> tuple:
     return ts[0] / stored, float(np.mean(ts[1:])) / stored
 
 
+#: Rows of each block :func:`command_costs` reads, as the formers read a phase history's pulses.
+READ_ROWS = 128
+
+
 def command_costs(repeat) -> dict:
     """Start-up of a fresh interpreter importing what ``sar form-image`` does, HDF5 read seconds per
-    byte (a 32 MiB complex array, best of ``repeat``) and write seconds per byte (:func:`write_costs`)."""
+    byte (a 32 MiB complex64 dataset of 512 x 8,192 read by blocks of :data:`READ_ROWS` rows into
+    one buffer, as the formers read the pulses of a phase history left on disk,
+    :class:`sarcli.io.pulses.PulseArray`; best of ``repeat``) and write seconds per byte
+    (:func:`write_costs`)."""
     import tempfile
 
     import h5py
 
+    from ...io.pulses import PulseArray
+
     startup = best_of(lambda: subprocess.run([sys.executable, "-c", STARTUP_IMPORTS], check=True,
                                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL), repeat)
-    a = np.zeros((2048, 1024), np.complex128)
+    shape = (512, 8192)   # blocks of 8 MiB, as a long collection's (128 pulses of 8,192 samples)
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / "io.h5"
         with h5py.File(path, "w") as f:
-            f["a"] = a
+            f["a"] = np.zeros(shape, np.complex64)
+        src = PulseArray(path, "a", shape, np.complex64)
+        buf = np.empty((READ_ROWS, shape[1]), np.complex64)
 
         def read():
-            with h5py.File(path, "r") as f:
-                f["a"][()]
+            for r in range(0, shape[0], READ_ROWS):
+                src.read_into(slice(r, r + READ_ROWS), buf)
 
         r = best_of(read, repeat)
         w, w_large = write_costs(tmp)
-    return {"startup": startup, "read_per_byte": r / a.nbytes, "write_per_byte": w, "write_per_byte_large": w_large}
+    return {"startup": startup, "read_per_byte": r / (shape[0] * shape[1] * 8), "write_per_byte": w,
+            "write_per_byte_large": w_large}
