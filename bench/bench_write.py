@@ -22,7 +22,10 @@ records what it held: a write that takes the machine's unwritten data past the k
 Sizes (stored): 32 MiB (the calibration's), 288 MB (the Panama quarter's 6,000² image), 861 MB (the
 full size's 12,208 x 8,808) and 2 GB (16,384²; ``--no-2g`` leaves it out: it holds 4.3 GB).
 
-    python bench/bench_write.py [--rounds 2] [--dir DIR] [--no-2g] [--settle MB]
+With ``--chunks`` only this: 256 MiB written to a new file by ``os.write`` calls of 16 KiB to
+256 MiB, the sizes interleaved in one process, the files kept until the end (seconds per byte).
+
+    python bench/bench_write.py [--rounds 2] [--dir DIR] [--no-2g] [--settle MB] [--chunks]
 """
 
 from __future__ import annotations
@@ -87,6 +90,40 @@ def settle(limit_mb, wait_s=120.0) -> int:
     return unwritten_bytes()
 
 
+CHUNKS = """
+import os, sys, time
+import numpy as np
+n, folder = 2 ** 28, sys.argv[1]
+mv = memoryview(np.ones(n // 8, np.complex64)).cast("B")
+out = []
+for i, chunk in enumerate(int(c) for c in sys.argv[2:]):
+    t0 = time.perf_counter()
+    fd = os.open(os.path.join(folder, f"raw-{i}"), os.O_WRONLY | os.O_CREAT | os.O_TRUNC)
+    for s in range(0, n, chunk):
+        os.write(fd, mv[s:s + chunk])
+    os.close(fd)
+    out.append([chunk, (time.perf_counter() - t0) / n])
+print(out)
+"""
+#: ``--chunks``: write sizes of 256 MiB of new files, interleaved (bytes).
+CHUNK_SIZES = (2 ** 28, 2 ** 17, 2 ** 23, 2 ** 16, 2 ** 20, 2 ** 19, 2 ** 28, 2 ** 17, 2 ** 23, 2 ** 14)
+
+
+def chunks(work) -> list:
+    """Seconds per byte of writing 256 MiB to a new file in one process by ``os.write`` calls of each
+    of :data:`CHUNK_SIZES`, the files kept until the end."""
+    import ast
+
+    out = subprocess.run([sys.executable, "-c", CHUNKS, str(work), *map(str, CHUNK_SIZES)], check=True,
+                         capture_output=True, text=True)
+    rows = ast.literal_eval(out.stdout.strip().splitlines()[-1])
+    for chunk, per_byte in rows:
+        print(f"write calls of {chunk // 1024:7d} KiB: {per_byte * 1e9:6.2f} ns/B", file=sys.stderr)
+    for p in Path(work).glob("raw-*"):
+        p.unlink()
+    return rows
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--rounds", type=int, default=2)
@@ -95,7 +132,16 @@ def main(argv=None):
     ap.add_argument("--settle", type=float, default=100.0, metavar="MB",
                     help="before each size wait until the kernel holds under this much unwritten file data "
                          "(default 100; a large number: no wait)")
+    ap.add_argument("--chunks", action="store_true",
+                    help="only: 256 MiB to new files by raw writes of 16 KiB to 256 MiB, interleaved")
     args = ap.parse_args(argv)
+    if args.chunks:
+        work = Path(args.dir or tempfile.mkdtemp(prefix="bench-write-"))
+        print(json.dumps({"load_before": os.getloadavg()[0], "chunks": chunks(work),
+                          "load_after": os.getloadavg()[0]}))
+        if not args.dir:
+            shutil.rmtree(work)
+        return
     from sarcli.formers.planning.calibration import command_costs
     from sarcli.formers.planning.cost import read_seconds, write_seconds
 

@@ -197,7 +197,7 @@ def test_large_files_are_written_in_place_into_space_reserved_first(ph_file, tmp
     import io
 
     from sarcli.core.types import Image
-    from sarcli.io import hdf5
+    from sarcli.io import h5output
 
     reserved = []
 
@@ -218,10 +218,10 @@ def test_large_files_are_written_in_place_into_space_reserved_first(ph_file, tmp
         writes.append(len(data))
         return pwrite(fd, data, offset)
 
-    reserve = hdf5.reserve_space
+    reserve = h5output.reserve_space
     monkeypatch.setattr(os, "pwrite", count)
-    monkeypatch.setattr(hdf5, "reserve_space", spy)
-    monkeypatch.setattr(hdf5, "IN_MEMORY_MAX_BYTES", 1024)
+    monkeypatch.setattr(h5output, "reserve_space", spy)
+    monkeypatch.setattr(h5output, "IN_MEMORY_MAX_BYTES", 1024)
     monkeypatch.setattr(io, "BytesIO", no_copy)
     rng = np.random.default_rng(5)
     a = (rng.normal(size=(300, 200)) + 1j * rng.normal(size=(300, 200))).astype(np.complex128)
@@ -237,7 +237,7 @@ def test_large_files_are_written_in_place_into_space_reserved_first(ph_file, tmp
         write(path)
         assert same(read(path))
         if path.name == "img.h5":   # the samples by our own writes, none larger than WRITE_CHUNK_BYTES
-            assert sum(writes) == a.size * 8 and max(writes) == hdf5.WRITE_CHUNK_BYTES
+            assert sum(writes) == a.size * 8 and max(writes) == h5output.WRITE_CHUNK_BYTES
         assert path.stat().st_size <= reserved[-1]          # the reservation bounds the file from above
         assert not list(tmp_path.glob(f".{path.name}.tmp-*"))
     assert len(reserved) == 2
@@ -254,10 +254,10 @@ def test_a_file_size_limit_on_an_in_place_write_is_one_line(tmp_path):
     out = tmp_path / "img.h5"
     out.write_bytes(b"previous output")
     script = ("import numpy as np, sys\n"
-              "from sarcli.io import hdf5\n"
+              "from sarcli.io import h5output, hdf5\n"
               "from sarcli.core.types import Image\n"
               "from sarcli._util.atomic import WriteError\n"
-              "hdf5.IN_MEMORY_MAX_BYTES = 0\n"
+              "h5output.IN_MEMORY_MAX_BYTES = 0\n"
               "a = np.ones((256, 128), np.complex128)\n"
               "img = Image(image=a, x_m=np.arange(128.0), y_m=np.arange(256.0), method='direct', parameters={},"
               " runtime_s=0.0)\n"
@@ -281,7 +281,7 @@ def test_a_file_size_limit_on_an_in_place_write_is_one_line(tmp_path):
 def test_write_chunked_goes_on_after_short_writes_and_stops_on_none(tmp_path, monkeypatch):
     import os
 
-    from sarcli.io.hdf5 import WRITE_CHUNK_BYTES, write_chunked
+    from sarcli.io.h5output import WRITE_CHUNK_BYTES, write_chunked
 
     data = np.arange(3 * WRITE_CHUNK_BYTES // 8 + 5, dtype=np.float64)
     pwrite = os.pwrite

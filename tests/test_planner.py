@@ -239,7 +239,7 @@ def test_calibration_writes_new_files_the_way_form_image_writes_images(tmp_path,
     """write_costs writes WRITE_FILES images through write_image (complex128 stored complex64), each
     to a new file kept until the end, and divides by the stored bytes."""
     from sarcli.formers.planning import calibration as cal
-    from sarcli.io import hdf5
+    from sarcli.io import h5output, hdf5
 
     calls = []
     real = hdf5.write_image
@@ -255,7 +255,7 @@ def test_calibration_writes_new_files_the_way_form_image_writes_images(tmp_path,
     for i, (name, src, stored, before) in enumerate(calls):
         assert src == np.complex128 and stored == np.complex64
         assert len(before) == i                      # the earlier files are all still there
-    assert 4096 * (cal.WRITE_BYTES // (4096 * 8)) * 8 == cal.WRITE_BYTES > hdf5.IN_MEMORY_MAX_BYTES
+    assert 4096 * (cal.WRITE_BYTES // (4096 * 8)) * 8 == cal.WRITE_BYTES > h5output.IN_MEMORY_MAX_BYTES
 
 
 def test_calibration_reads_by_blocks_of_rows_as_the_formers_read_pulses(monkeypatch):

@@ -17,16 +17,15 @@ write_kgrid(path, kgrid)
 
 from __future__ import annotations
 
-import contextlib
-import io
 import json
-import os
 from pathlib import Path
 
 import h5py
 import numpy as np
 
 from .._util.atomic import atomic_path, open_held
+from . import h5output
+from .h5output import allocated_dataset, h5_output, write_chunked
 from .._version import __version__
 from ..core.acquisition import MODELS, Acquisition
 from ..core.grid import Grid, derive_grid
@@ -42,11 +41,6 @@ __all__ = [
     "write_image",
     "read_kgrid",
     "write_kgrid",
-    "IN_MEMORY_MAX_BYTES",
-    "reserve_space",
-    "reserved_bytes",
-    "write_chunked",
-    "WRITE_CHUNK_BYTES",
     "PH_FORMAT",
     "IMAGE_FORMAT",
 ]
@@ -90,87 +84,6 @@ def _check_format(path, f, expected):
         raise InputFileError(path, f"root attribute 'version' is {ver!r}, expected an integer") from None
     if ver != FILE_VERSION:
         raise InputFileError(path, f"{expected} version {ver} is not supported (this sarcli reads {FILE_VERSION})")
-
-
-#: Files up to this size are built in memory and written by our own writes, so a full disk or a
-#: file-size limit is an ordinary OSError (one line, exit 2) instead of a failure inside HDF5's
-#: close, where h5py prints tracebacks from its destructors or crashes. Larger files are written by
-#: HDF5 straight into the temporary file once their space is reserved (:func:`reserve_space`): a
-#: copy in memory would cost as much again in fresh pages as the file itself; an image's samples go
-#: in by our own writes too (:func:`write_image`). The atomic rename protects the previous file
-#: either way.
-IN_MEMORY_MAX_BYTES = 16 << 20
-#: Bytes :func:`reserve_space` adds to a file's large datasets for the rest of it (HDF5's
-#: metadata, attributes, the small datasets), besides 1/64 of the datasets' bytes.
-RESERVE_SLACK_BYTES = 4 << 20
-#: Bytes of each write call of our own. A buffered write gets file-cache pages of its own size: one
-#: large write makes the kernel assemble large blocks of memory, which on a virtual machine whose
-#: host backs memory on first use costs about 20 ns a byte, where writes of 128 KiB take single
-#: pages at about 0.4 ns (docs/performance.md, "Writing an image").
-WRITE_CHUNK_BYTES = 128 << 10
-
-
-def reserved_bytes(nbytes: int) -> int:
-    """The bytes reserved for a file whose large datasets hold ``nbytes``: an upper bound of its size."""
-    return int(nbytes) + int(nbytes) // 64 + RESERVE_SLACK_BYTES
-
-
-def reserve_space(tmp, nbytes: int) -> None:
-    """Allocate ``nbytes`` to the file ``tmp`` (``posix_fallocate``; where the system has none, the
-    file is extended to that size), so a full disk, a quota or a file-size limit fails here, as one
-    :class:`OSError` before HDF5 writes anything. HDF5 then truncates the file as it opens it and
-    writes into the space just freed (only another writer filling the disk in that moment can still
-    make HDF5 fail, the previous file untouched all the same)."""
-    with open_held(tmp) as fh:
-        allocate = getattr(os, "posix_fallocate", None)
-        if allocate is not None:
-            allocate(fh.fileno(), 0, int(nbytes))
-        else:   # pragma: no cover - systems without posix_fallocate
-            fh.truncate(int(nbytes))
-
-
-def write_chunked(fd, data, offset: int) -> int:
-    """Write the bytes of ``data`` (a buffer) to the file ``fd`` at ``offset`` in calls of
-    :data:`WRITE_CHUNK_BYTES`; returns the offset after them. A write that cannot go on (a full
-    disk) raises :class:`OSError`."""
-    mv = memoryview(data).cast("B")
-    done = 0
-    while done < mv.nbytes:
-        n = os.pwrite(fd, mv[done:done + WRITE_CHUNK_BYTES], offset + done)
-        if n <= 0:
-            raise OSError(28, os.strerror(28))   # ENOSPC
-        done += n
-    return offset + done
-
-
-def _allocated_dataset(f, name, shape, dtype) -> int:
-    """Create the contiguous dataset ``name`` of ``f`` with its file space allocated at once and never
-    filled by HDF5; returns its offset in the file, where :func:`write_chunked` puts its samples."""
-    dcpl = h5py.h5p.create(h5py.h5p.DATASET_CREATE)
-    dcpl.set_layout(h5py.h5d.CONTIGUOUS)
-    dcpl.set_alloc_time(h5py.h5d.ALLOC_TIME_EARLY)
-    dcpl.set_fill_time(h5py.h5d.FILL_TIME_NEVER)
-    ds = h5py.h5d.create(f.id, name.encode(), h5py.h5t.py_create(np.dtype(dtype)),
-                         h5py.h5s.create_simple(tuple(int(n) for n in shape)), dcpl=dcpl)
-    offset = ds.get_offset()
-    ds.close()
-    return int(offset)
-
-
-@contextlib.contextmanager
-def _h5_output(tmp, nbytes):
-    """An HDF5 file opened for writing whose bytes end up in ``tmp`` (see IN_MEMORY_MAX_BYTES);
-    ``nbytes``: the bytes of its large datasets."""
-    if nbytes > IN_MEMORY_MAX_BYTES:
-        reserve_space(tmp, reserved_bytes(nbytes))
-        with h5py.File(tmp, "w") as f:
-            yield f
-        return
-    buf = io.BytesIO()
-    with h5py.File(buf, "w") as f:
-        yield f
-    with open_held(tmp) as fh:
-        write_chunked(fh.fileno(), buf.getbuffer(), 0)
 
 
 def _write_attrs(f, attrs, *, skip=()):
@@ -237,7 +150,7 @@ def write_phase_history(path, ph: PhaseHistory, *, blocks=None) -> Path:
                                            acq.range_to_center_m, acq.transmit_position_m, acq.receive_position_m)
                       if a is not None) + len(acq.config_text or "")
     with atomic_path(path) as tmp:
-        with _h5_output(tmp, nbytes) as f:
+        with h5_output(tmp, nbytes) as f:
             f.attrs["format"] = PH_FORMAT
             f.attrs["version"] = FILE_VERSION
             f.attrs["model"] = acq.model
@@ -447,8 +360,9 @@ def write_image(path, img: Image, dtype=None) -> Path:
 
     ``dtype``: complex64 or complex128, the stored type of ``/image`` (default: the image's own);
     an image of another type is cast by blocks of rows as it is written (no whole copy in memory).
-    An image above :data:`IN_MEMORY_MAX_BYTES` goes by blocks of rows straight into its file's
-    space, allocated by HDF5, by our own writes (:func:`write_chunked`).
+    An image above :data:`~sarcli.io.h5output.IN_MEMORY_MAX_BYTES` goes by blocks of rows straight
+    into its file's space, allocated by HDF5, by our own writes
+    (:func:`~sarcli.io.h5output.write_chunked`).
     """
     data = np.asarray(img.image)
     stored = np.dtype(data.dtype if dtype is None else dtype)
@@ -463,8 +377,8 @@ def write_image(path, img: Image, dtype=None) -> Path:
     with atomic_path(path) as tmp:
         nbytes = data.size * stored.itemsize + 8 * (np.size(img.x_m) + np.size(img.y_m)) \
             + 8 * sum(np.size(v) for v in (img.history or {}).values())
-        in_place = nbytes > IN_MEMORY_MAX_BYTES
-        with _h5_output(tmp, nbytes) as f:
+        in_place = h5output.in_place(nbytes)
+        with h5_output(tmp, nbytes) as f:
             f.attrs["format"] = IMAGE_FORMAT
             f.attrs["version"] = FILE_VERSION
             f.attrs["method"] = img.method
@@ -473,7 +387,7 @@ def write_image(path, img: Image, dtype=None) -> Path:
             f.attrs["sarcli_version"] = __version__
             _write_attrs(f, img.attrs, skip=("format", "version", "method", "parameters", "runtime_s"))
             if in_place:
-                offset = _allocated_dataset(f, "image", data.shape, stored)
+                offset = allocated_dataset(f, "image", data.shape, stored)
             elif data.dtype == stored:
                 f.create_dataset("image", data=data)
             else:
@@ -525,7 +439,7 @@ def read_image(path) -> Image:
 # --------------------------------------------------------------------------------------------
 def write_kgrid(path, kgrid: KGrid) -> Path:
     """Write a k-grid (format ``sarcli-kgrid``, version 1), atomically."""
-    with atomic_path(path) as tmp, _h5_output(tmp, np.size(kgrid.samples) * 16) as h5:
+    with atomic_path(path) as tmp, h5_output(tmp, np.size(kgrid.samples) * 16) as h5:
         h5.attrs["format"] = KGRID_FORMAT
         h5.attrs["version"] = FILE_VERSION
         h5.create_dataset("samples", data=np.asarray(kgrid.samples, dtype=np.complex128))

@@ -156,7 +156,7 @@ def fft_cost(repeat, thr) -> float:
     return best * thr / (d.shape[0] * L * math.log2(L))
 
 
-#: Bytes of each image :func:`write_costs` writes: above :data:`sarcli.io.hdf5.IN_MEMORY_MAX_BYTES`,
+#: Bytes of each image :func:`write_costs` writes: above :data:`sarcli.io.h5output.IN_MEMORY_MAX_BYTES`,
 #: so that it is written in place, as the images of large collections are.
 WRITE_BYTES = 32 * 2 ** 20
 #: Images :func:`write_costs` writes one after the other, each to a new file (160 MiB in all).
@@ -171,10 +171,10 @@ def write_costs(folder) -> tuple:
 
     :data:`WRITE_FILES` images of :data:`WRITE_BYTES` go to new files in ``folder``, the earlier
     ones kept, so their bytes take pages the kernel's file cache has not had, as an image written
-    under a new name does: the first file's cost is the first constant, the others' the second. The
-    first bytes find memory freed a moment before; past it, on a virtual machine whose host backs
-    memory on first use, each byte costs about ten times as much (docs/performance.md, "Writing an
-    image"), and one size would predict a 300 MB image ten times too fast."""
+    under a new name does: the first file's cost is the first constant, the others' the second. A
+    file's first bytes may find memory freed a moment before, the rest not; where that costs more
+    (on a virtual machine whose host backs memory on first use), the second constant carries it
+    (docs/performance.md, "Writing an image"). Rewriting one cached file would measure neither."""
     from ...core.types import Image
     from ...io.hdf5 import write_image
 
