@@ -28,8 +28,8 @@ Measured, each command in its own process (peak memory from ``wait4``):
   sarcli's ``direct`` former on a small patch (same sum, evaluated term by term);
 - rate: pixel-pulses / (runtime_s x vCPUs) against FastSAR's 9.0e9 (target ≥ 3x).
 
-With ``--baseline SAR`` (the ``sar`` of another checkout, e.g. the main branch's) ``sar plan`` and
-``sar form-image`` run for both, alternating for ``--rounds`` rounds on the same phase history, each
+With ``--baseline SAR`` (the ``sar`` of another checkout, e.g. the main branch's) ``sar simulate``
+(unless ``--reuse`` finds the phase history), ``sar plan`` and ``sar form-image`` run for both, alternating for ``--rounds`` rounds on the same phase history, each
 with its own cost-model cache (``SARCLI_CACHE_DIR``: each calibrates with its own code on its first
 ``sar plan``); each run's measured / predicted is reported beside the other's (``rounds``).
 
@@ -246,10 +246,21 @@ def main(argv=None):
            "load_before": os.getloadavg()[0]}
     grid_opts = ["--extent", f"{w:.6f},{h:.6f}", "--pixel-size", f"{PIXEL_M}"]
 
-    if not (args.reuse and ph_path.exists()):
-        t, rss, _ = run([sar, "-q", "simulate", work / "panama.yaml", "-o", ph_path, "--noiseless"])
-        res["simulate"] = {"s": t, "peak_rss_mb": rss / 2**20}
     sides = [("this", sar)] + ([("baseline", Path(args.baseline))] if args.baseline else [])
+    if not (args.reuse and ph_path.exists()):
+        # with a baseline, both simulate (alternating, to new files); this side's last is the one imaged
+        res["simulate_rounds"] = []
+        for r in range(args.rounds if args.baseline else 1):
+            for label, exe in (sides if r % 2 == 0 else sides[::-1]):
+                out_path = work / f"ph-{label}-{r}.h5"
+                out_path.unlink(missing_ok=True)
+                t, rss, _ = run([exe, "-q", "simulate", work / "panama.yaml", "-o", out_path, "--noiseless"])
+                res["simulate_rounds"].append({"side": label, "round": r, "s": t, "peak_rss_mb": rss / 2**20})
+        last = [x for x in res["simulate_rounds"] if x["side"] == "this"][-1]
+        res["simulate"] = {"s": last["s"], "peak_rss_mb": last["peak_rss_mb"]}
+        (work / f"ph-this-{last['round']}.h5").replace(ph_path)
+        for x in res["simulate_rounds"]:
+            (work / f"ph-{x['side']}-{x['round']}.h5").unlink(missing_ok=True)
     res["rounds"] = []
     # every image goes to a new file, the earlier ones kept until the end: an image written over a
     # file just removed would find its memory in the kernel's file cache freed a moment before

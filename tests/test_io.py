@@ -236,11 +236,20 @@ def test_large_files_are_written_in_place_into_space_reserved_first(ph_file, tmp
         writes.clear()
         write(path)
         assert same(read(path))
-        if path.name == "img.h5":   # the samples by our own writes, none larger than WRITE_CHUNK_BYTES
-            assert sum(writes) == a.size * 8 and max(writes) == h5output.WRITE_CHUNK_BYTES
+        # the samples by our own writes, none larger than WRITE_CHUNK_BYTES
+        samples = a.size * 8 if path.name == "img.h5" else ph.data.nbytes
+        assert sum(writes) == samples and max(writes) <= h5output.WRITE_CHUNK_BYTES
         assert path.stat().st_size <= reserved[-1]          # the reservation bounds the file from above
         assert not list(tmp_path.glob(f".{path.name}.tmp-*"))
-    assert len(reserved) == 2
+    # a phase history given by blocks of pulses (as the simulator writes it), the blocks uneven
+    cuts = [0, 1, 7, ph.data.shape[0]]
+    blocks = [(slice(a0, a1), ph.data[a0:a1]) for a0, a1 in zip(cuts, cuts[1:])]
+    writes.clear()
+    sarcli.write_phase_history(tmp_path / "blocks.h5", ph, blocks=iter(blocks))
+    back = sarcli.read_phase_history(tmp_path / "blocks.h5")
+    assert np.array_equal(back.data, ph.data) and back.data.dtype == ph.data.dtype
+    assert sum(writes) == ph.data.nbytes
+    assert len(reserved) == 3
 
 
 def test_a_file_size_limit_on_an_in_place_write_is_one_line(tmp_path):

@@ -162,7 +162,9 @@ def write_phase_history(path, ph: PhaseHistory, *, blocks=None) -> Path:
                 f.attrs["config_source"] = str(acq.source)
             if acq.snr_db is not None:
                 f.attrs["snr_db"] = float(acq.snr_db)
-            if blocks is None:
+            if h5output.in_place(nbytes):   # the samples by our own writes, into space HDF5 allocates
+                _samples_in_place(tmp, f, ph.data, blocks)
+            elif blocks is None:
                 f.create_dataset("phase_history", data=ph.data)
             else:
                 dset = f.create_dataset("phase_history", shape=ph.data.shape, dtype=ph.data.dtype)
@@ -198,6 +200,21 @@ def write_phase_history(path, ph: PhaseHistory, *, blocks=None) -> Path:
                         t.create_dataset("magnitude", data=np.asarray(ph.truth.magnitude, np.float64),
                                          compression="gzip", shuffle=True)
     return Path(path)
+
+
+def _samples_in_place(tmp, f, data, blocks) -> None:
+    """Write ``/phase_history`` of the file ``f`` (its temporary path ``tmp``) into space HDF5
+    allocates for it, by :func:`~sarcli.io.h5output.write_chunked`: ``blocks`` (pairs of a slice of
+    pulses and their samples) as they come, else ``data`` by blocks of rows."""
+    dtype = np.dtype(data.dtype)
+    offset = allocated_dataset(f, "phase_history", data.shape, dtype)
+    row = int(data.shape[1]) * dtype.itemsize
+    if blocks is None:
+        step = max(1, _CAST_ROWS_BYTES // max(1, row))
+        blocks = ((slice(r, r + step), data[r:r + step]) for r in range(0, data.shape[0], step))
+    with open_held(tmp, "r+b") as fh:
+        for rows, block in blocks:
+            write_chunked(fh.fileno(), np.ascontiguousarray(block, dtype=dtype), offset + (rows.start or 0) * row)
 
 
 def read_phase_history(path, *, truth: bool = True, lazy: bool = False) -> PhaseHistory:
