@@ -19,6 +19,7 @@ Usage::
 
 ``--calibrate`` first re-measures the planner's reference cost model, the one shipped with the
 package (``sarcli/formers/planning/cost_model.json``; a user's machine measures its own on first `sar plan`).
+Runs as ``sar`` does: numpy's huge-page advice off (:func:`sarcli.cli.main.no_huge_pages`).
 """
 
 from __future__ import annotations
@@ -31,15 +32,19 @@ import time
 import warnings
 from pathlib import Path
 
-import numpy as np
+from sarcli.cli.main import no_huge_pages
 
-from sarcli.analysis.accuracy import reference_grid
-from sarcli.core import geometry
-from sarcli.core.acquisition import Acquisition
-from sarcli.core.grid import Grid
-from sarcli.core.types import PhaseHistory
-from sarcli.formers.formation import form_image, image_error
-from sarcli.io.gotcha import gotcha_files
+no_huge_pages()   # as `sar` runs, and as `sar plan --calibrate` measures (numpy reads it when first imported)
+
+import numpy as np  # noqa: E402
+
+from sarcli.analysis.accuracy import reference_grid  # noqa: E402
+from sarcli.core import geometry  # noqa: E402
+from sarcli.core.acquisition import Acquisition  # noqa: E402
+from sarcli.core.grid import Grid  # noqa: E402
+from sarcli.core.types import PhaseHistory  # noqa: E402
+from sarcli.formers.formation import form_image, image_error  # noqa: E402
+from sarcli.io.gotcha import gotcha_files  # noqa: E402
 
 
 

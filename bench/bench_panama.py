@@ -18,7 +18,8 @@ Measured, each command in its own process (peak memory from ``wait4``):
   the vCPUs / predicted (a lower bound of the ratio the machine would give idle, where other jobs
   stretch the wall time);
 - ``sar form-image`` with the default method, under a pseudo-terminal so the progress bar draws:
-  wall time, the formation's own ``runtime_s``, peak memory against 1.5 x (phase history + image as
+  wall time, the formation's own ``runtime_s``, the rest of the command (wall − ``runtime_s``:
+  start-up, planning, writing the image) against the rest of the prediction (whole − formation), peak memory against 1.5 x (phase history + image as
   stored: the datasets' bytes), and how many different percentages the progress bar showed;
 - error: on a 16 x 16 pixel patch centred on each target, ``‖f − f_ref‖ / ‖f_ref‖`` with ``f_ref``
   the exact matched filter of the noiseless point scene, summed in closed form over frequencies
@@ -27,7 +28,13 @@ Measured, each command in its own process (peak memory from ``wait4``):
   sarcli's ``direct`` former on a small patch (same sum, evaluated term by term);
 - rate: pixel-pulses / (runtime_s x vCPUs) against FastSAR's 9.0e9 (target ≥ 3x).
 
+With ``--baseline SAR`` (the ``sar`` of another checkout, e.g. the main branch's) ``sar simulate``
+(unless ``--reuse`` finds the phase history), ``sar plan`` and ``sar form-image`` run for both, alternating for ``--rounds`` rounds on the same phase history, each
+with its own cost-model cache (``SARCLI_CACHE_DIR``: each calibrates with its own code on its first
+``sar plan``); each run's measured / predicted is reported beside the other's (``rounds``).
+
     python bench/bench_panama.py [--size quarter|full] [--dir DIR] [--keep] [--check-direct]
+                                 [--baseline SAR] [--rounds N] [--reuse]
 
 The full size writes a 1.75 GB phase history and a 1.7 GB image and takes minutes; it runs only
 with ``--size full`` or ``SARCLI_BENCH_FULL=1``.
@@ -94,13 +101,15 @@ def config(size: str) -> tuple[dict, tuple[float, float]]:
     return cfg, (w, h)
 
 
-def run(cmd, *, tty=False):
-    """Run ``cmd``; return (wall s, peak RSS bytes, stdout text). ``tty``: under a pseudo-terminal."""
+def run(cmd, *, tty=False, env=None):
+    """Run ``cmd``; return (wall s, peak RSS bytes, stdout text). ``tty``: under a pseudo-terminal;
+    ``env``: variables added to this process's environment."""
     if tty:
         # a pseudo-terminal has no size unless told: tqdm draws nothing on zero columns
         cmd = ["script", "-q", "-e", "-c", "stty cols 100 rows 40; " + " ".join(map(str, cmd)), "/dev/null"]
     t0 = time.perf_counter()
-    proc = subprocess.Popen(list(map(str, cmd)), stdout=subprocess.PIPE, stderr=subprocess.STDOUT)
+    proc = subprocess.Popen(list(map(str, cmd)), stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                            env=None if env is None else {**os.environ, **env})
     out = proc.stdout.read().decode(errors="replace")
     _, status, usage = os.wait4(proc.pid, 0)
     wall = time.perf_counter() - t0
@@ -174,35 +183,16 @@ def check_direct(ph_path, n=4):
     return float(np.linalg.norm(closed - ref) / np.linalg.norm(ref))
 
 
-def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--size", choices=sorted(SIZES), default="full" if os.environ.get("SARCLI_BENCH_FULL") else "quarter")
-    ap.add_argument("--dir", default=None, help="working folder (default: a temporary one)")
-    ap.add_argument("--keep", action="store_true", help="keep the phase history and image")
-    ap.add_argument("--check-direct", action="store_true", help="also check the closed-form reference against direct")
-    args = ap.parse_args(argv)
-    sar = Path(sys.executable).with_name("sar")
-    work = Path(args.dir or tempfile.mkdtemp(prefix="panama-"))
-    work.mkdir(parents=True, exist_ok=True)
-    cfg, (w, h) = config(args.size)
-    P, M, (nx, ny) = SIZES[args.size]
-    import yaml
-
-    (work / "panama.yaml").write_text(yaml.safe_dump(cfg, sort_keys=False))
-    ph_path, img_path = work / "ph.h5", work / "img.h5"
-    vcpus = os.cpu_count() or 1
-    res = {"size": args.size, "pulses": P, "frequencies": M, "vcpus": vcpus,
-           "load_before": os.getloadavg()[0]}
-    grid_opts = ["--extent", f"{w:.6f},{h:.6f}", "--pixel-size", f"{PIXEL_M}"]
-
-    t, rss, _ = run([sar, "-q", "simulate", work / "panama.yaml", "-o", ph_path, "--noiseless"])
-    res["simulate"] = {"s": t, "peak_rss_mb": rss / 2**20}
-    t, rss, out = run([sar, "plan", ph_path, *grid_opts, "--json"])
+def plan_and_form(sar, ph_path, img_path, grid_opts, P, vcpus, env):
+    """``sar plan --json`` then ``sar form-image`` (default method) of ``sar``, each in its own process."""
+    res = {}
+    t, rss, out = run([sar, "plan", ph_path, *grid_opts, "--json"], env=env)
     plan = json.loads(out[out.index("{"):])
     res["plan"] = {"s": t, "choice": plan["auto"]["method"], "knobs": plan["auto"]["knobs"],
                    "predicted_error": plan["auto"]["predicted_error"],
-                   "predicted_command_s": plan["auto"]["predicted_command_s"]}
-    t, rss, out = run([sar, "form-image", ph_path, "-o", img_path, *grid_opts], tty=True)
+                   "predicted_command_s": plan["auto"]["predicted_command_s"],
+                   "predicted_formation_s": plan["auto"]["predicted_s"]}
+    t, rss, out = run([sar, "form-image", ph_path, "-o", img_path, *grid_opts], tty=True, env=env)
     with h5py.File(ph_path, "r") as f, h5py.File(img_path, "r") as im:
         hist_bytes = f["phase_history"].size * f["phase_history"].dtype.itemsize
         img_bytes = im["image"].size * im["image"].dtype.itemsize
@@ -218,6 +208,9 @@ def main(argv=None):
         "rss_over_stored": rss / (hist_bytes + img_bytes), "within_1.5x": rss <= bound,
         "progress_percentages_seen": len(set(re.findall(r"(\d+)%\|", out))),
         "plan_ratio_measured_over_predicted": t / res["plan"]["predicted_command_s"],
+        # the command besides the formation (start-up, planning, reading outside it, writing the
+        # image): other jobs on the machine stretch it far less than the threaded formation
+        "rest_s": t - runtime, "rest_predicted_s": res["plan"]["predicted_command_s"] - res["plan"]["predicted_formation_s"],
         # processor seconds of the whole command over threads: on a machine shared with other jobs
         # the wall time overstates what the command costs, and this bounds the ratio from below
         "cpu_s": run.cpu_s,
@@ -225,6 +218,68 @@ def main(argv=None):
         "rate_per_vcpu": pp / (runtime * vcpus), "rate_vs_fastsar": pp / (runtime * vcpus) / FASTSAR_RATE,
         "rate_vs_fastsar_whole_command": pp / (t * vcpus) / FASTSAR_RATE,
     }
+    return res
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--size", choices=sorted(SIZES), default="full" if os.environ.get("SARCLI_BENCH_FULL") else "quarter")
+    ap.add_argument("--dir", default=None, help="working folder (default: a temporary one)")
+    ap.add_argument("--keep", action="store_true", help="keep the phase history and image")
+    ap.add_argument("--check-direct", action="store_true", help="also check the closed-form reference against direct")
+    ap.add_argument("--baseline", default=None, metavar="SAR",
+                    help="another checkout's sar: plan and form-image run for both, alternating")
+    ap.add_argument("--rounds", type=int, default=1, help="rounds of plan and form-image (default 1)")
+    ap.add_argument("--reuse", action="store_true", help="with --dir: keep a phase history simulated there before")
+    args = ap.parse_args(argv)
+    sar = Path(sys.executable).with_name("sar")
+    work = Path(args.dir or tempfile.mkdtemp(prefix="panama-"))
+    work.mkdir(parents=True, exist_ok=True)
+    cfg, (w, h) = config(args.size)
+    P, M, (nx, ny) = SIZES[args.size]
+    import yaml
+
+    (work / "panama.yaml").write_text(yaml.safe_dump(cfg, sort_keys=False))
+    ph_path, img_path = work / "ph.h5", work / "img.h5"
+    vcpus = os.cpu_count() or 1
+    res = {"size": args.size, "pulses": P, "frequencies": M, "vcpus": vcpus,
+           "load_before": os.getloadavg()[0]}
+    grid_opts = ["--extent", f"{w:.6f},{h:.6f}", "--pixel-size", f"{PIXEL_M}"]
+
+    sides = [("this", sar)] + ([("baseline", Path(args.baseline))] if args.baseline else [])
+    if not (args.reuse and ph_path.exists()):
+        # with a baseline, both simulate (alternating, to new files); this side's last is the one imaged
+        res["simulate_rounds"] = []
+        for r in range(args.rounds if args.baseline else 1):
+            for label, exe in (sides if r % 2 == 0 else sides[::-1]):
+                out_path = work / f"ph-{label}-{r}.h5"
+                out_path.unlink(missing_ok=True)
+                t, rss, _ = run([exe, "-q", "simulate", work / "panama.yaml", "-o", out_path, "--noiseless"])
+                res["simulate_rounds"].append({"side": label, "round": r, "s": t, "peak_rss_mb": rss / 2**20})
+        last = [x for x in res["simulate_rounds"] if x["side"] == "this"][-1]
+        res["simulate"] = {"s": last["s"], "peak_rss_mb": last["peak_rss_mb"]}
+        (work / f"ph-this-{last['round']}.h5").replace(ph_path)
+        for x in res["simulate_rounds"]:
+            (work / f"ph-{x['side']}-{x['round']}.h5").unlink(missing_ok=True)
+    res["rounds"] = []
+    # every image goes to a new file, the earlier ones kept until the end: an image written over a
+    # file just removed would find its memory in the kernel's file cache freed a moment before
+    others = []
+    for r in range(args.rounds):
+        for label, exe in (sides if r % 2 == 0 else sides[::-1]):
+            last_round = r == args.rounds - 1
+            out_path = img_path if label == "this" and last_round else work / f"img-{label}-{r}.h5"
+            out_path.unlink(missing_ok=True)
+            env = {"SARCLI_CACHE_DIR": str(work / f"cache-{label}")}
+            row = plan_and_form(exe, ph_path, out_path, grid_opts, P, vcpus, env)
+            row.update(side=label, round=r)
+            res["rounds"].append(row)
+            if out_path != img_path:
+                others.append(out_path)
+    for p in others:
+        p.unlink()
+    last = [x for x in res["rounds"] if x["side"] == "this"][-1]
+    res["plan"], res["form_image"] = last["plan"], last["form_image"]
     errs = errors(ph_path, img_path)
     res["error"] = {"max": max(errs), "median": float(np.median(errs)), "patches": len(errs)}
     if args.check_direct:

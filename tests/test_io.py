@@ -189,3 +189,125 @@ def test_form_image_stores_complex64_from_complex64_samples_unless_asked(ph_file
     assert all(out[name].dtype == np.complex128 for name in ("wide", "fine", "exact", "bp64"))
     # the stored image differs from the complex128 one by complex64's rounding only
     assert np.linalg.norm(out["default"] - out["wide"]) <= 1e-7 * np.linalg.norm(out["wide"])
+
+
+def test_large_files_are_written_in_place_into_space_reserved_first(ph_file, tmp_path, monkeypatch):
+    """Above IN_MEMORY_MAX_BYTES a file is written by HDF5 straight into its temporary file (no copy
+    in memory), after space at least the file's size is reserved; the files read back the same."""
+    import io
+
+    from sarcli.core.types import Image
+    from sarcli.io import h5output
+
+    reserved = []
+
+    def spy(tmp, nbytes):
+        reserved.append(nbytes)
+        assert tmp.name.startswith(".") and ".tmp-" in tmp.name   # the temporary name, not the output
+        return reserve(tmp, nbytes)
+
+    def no_copy(*a, **k):
+        raise AssertionError("a large file was built in memory")
+
+    import os
+
+    writes = []
+    pwrite = os.pwrite
+
+    def count(fd, data, offset):
+        writes.append(len(data))
+        return pwrite(fd, data, offset)
+
+    reserve = h5output.reserve_space
+    monkeypatch.setattr(os, "pwrite", count)
+    monkeypatch.setattr(h5output, "reserve_space", spy)
+    monkeypatch.setattr(h5output, "IN_MEMORY_MAX_BYTES", 1024)
+    monkeypatch.setattr(io, "BytesIO", no_copy)
+    rng = np.random.default_rng(5)
+    a = (rng.normal(size=(300, 200)) + 1j * rng.normal(size=(300, 200))).astype(np.complex128)
+    img = Image(image=a, x_m=np.arange(200.0), y_m=np.arange(300.0), method="direct", parameters={"k": 1},
+                runtime_s=0.25, history={"objective": np.arange(50.0)})
+    ph, _ = ph_file
+    for path, write, read, same in (
+            (tmp_path / "img.h5", lambda p: sarcli.write_image(p, img, np.complex64), sarcli.read_image,
+             lambda b: np.array_equal(b.image, a.astype(np.complex64)) and b.parameters == {"k": 1}),
+            (tmp_path / "ph.h5", lambda p: sarcli.write_phase_history(p, ph), sarcli.read_phase_history,
+             lambda b: np.array_equal(b.data, ph.data))):
+        writes.clear()
+        write(path)
+        assert same(read(path))
+        # the samples by our own writes, none larger than WRITE_CHUNK_BYTES
+        samples = a.size * 8 if path.name == "img.h5" else ph.data.nbytes
+        assert sum(writes) == samples and max(writes) <= h5output.WRITE_CHUNK_BYTES
+        assert path.stat().st_size <= reserved[-1]          # the reservation bounds the file from above
+        assert not list(tmp_path.glob(f".{path.name}.tmp-*"))
+    # a phase history given by blocks of pulses (as the simulator writes it), the blocks uneven
+    cuts = [0, 1, 7, ph.data.shape[0]]
+    blocks = [(slice(a0, a1), ph.data[a0:a1]) for a0, a1 in zip(cuts, cuts[1:])]
+    writes.clear()
+    sarcli.write_phase_history(tmp_path / "blocks.h5", ph, blocks=iter(blocks))
+    back = sarcli.read_phase_history(tmp_path / "blocks.h5")
+    assert np.array_equal(back.data, ph.data) and back.data.dtype == ph.data.dtype
+    assert sum(writes) == ph.data.nbytes
+    assert len(reserved) == 3
+
+
+def test_a_file_size_limit_on_an_in_place_write_is_one_line(tmp_path):
+    """A write in place that cannot fit fails at the reservation: one clean error, no traceback
+    from h5py's destructors, no temporary left, the previous file untouched."""
+    import resource
+    import signal
+    import subprocess
+    import sys
+
+    out = tmp_path / "img.h5"
+    out.write_bytes(b"previous output")
+    script = ("import numpy as np, sys\n"
+              "from sarcli.io import h5output, hdf5\n"
+              "from sarcli.core.types import Image\n"
+              "from sarcli._util.atomic import WriteError\n"
+              "h5output.IN_MEMORY_MAX_BYTES = 0\n"
+              "a = np.ones((256, 128), np.complex128)\n"
+              "img = Image(image=a, x_m=np.arange(128.0), y_m=np.arange(256.0), method='direct', parameters={},"
+              " runtime_s=0.0)\n"
+              "try:\n"
+              f"    hdf5.write_image({str(out)!r}, img)\n"
+              "except WriteError as exc:\n"
+              "    print(exc)\n"
+              "    sys.exit(2)\n")
+
+    def limit():
+        signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+        resource.setrlimit(resource.RLIMIT_FSIZE, (64_000, 64_000))
+
+    r = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, preexec_fn=limit, timeout=120)
+    assert r.returncode == 2, r.stderr
+    assert r.stderr == "" and len(r.stdout.strip().splitlines()) == 1
+    assert "could not be written (File too large)" in r.stdout
+    assert out.read_bytes() == b"previous output" and not list(tmp_path.glob(".img.h5.tmp-*"))
+
+
+def test_write_chunked_goes_on_after_short_writes_and_stops_on_none(tmp_path, monkeypatch):
+    import os
+
+    from sarcli.io.h5output import WRITE_CHUNK_BYTES, write_chunked
+
+    data = np.arange(3 * WRITE_CHUNK_BYTES // 8 + 5, dtype=np.float64)
+    pwrite = os.pwrite
+    sizes = []
+
+    def short(fd, buf, offset):   # at most 1000 bytes a call
+        sizes.append(len(buf))
+        return pwrite(fd, buf[:1000], offset)
+
+    monkeypatch.setattr(os, "pwrite", short)
+    path = tmp_path / "f.bin"
+    with open(path, "wb") as fh:
+        fh.write(b"head")
+        end = write_chunked(fh.fileno(), data, 4)
+    assert end == 4 + data.nbytes and max(sizes) == WRITE_CHUNK_BYTES
+    raw = path.read_bytes()
+    assert raw[:4] == b"head" and np.array_equal(np.frombuffer(raw[4:], np.float64), data)
+    monkeypatch.setattr(os, "pwrite", lambda fd, buf, offset: 0)
+    with open(path, "r+b") as fh, pytest.raises(OSError, match="No space left"):
+        write_chunked(fh.fileno(), data, 0)

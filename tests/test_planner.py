@@ -214,6 +214,73 @@ def test_command_seconds_adds_what_the_command_pays(sph):
     assert command_seconds(cand, ph, GRID, c, auto=True) == pytest.approx(0.32 + io + cand.seconds)
 
 
+def test_a_files_write_costs_its_first_bytes_at_one_rate_and_the_rest_at_another(sph):
+    """write_seconds: the calibrated rate of a file's first WRITE_BYTES, the large-file rate beyond;
+    command_seconds charges the image as stored through it."""
+    from sarcli.formers.planning.calibration import WRITE_BYTES
+    from sarcli.formers.planning.cost import write_seconds
+    from sarcli.formers.planning.planner import command_seconds
+
+    c = {"write_per_byte": 1e-9, "write_per_byte_large": 1e-8}
+    assert write_seconds(c, 1000) == pytest.approx(1e-6)
+    assert write_seconds(c, WRITE_BYTES) == pytest.approx(1e-9 * WRITE_BYTES)
+    assert write_seconds(c, 3 * WRITE_BYTES) == pytest.approx(1e-9 * WRITE_BYTES + 2e-8 * WRITE_BYTES)
+    assert write_seconds({"write_per_byte": 1e-9}, 3 * WRITE_BYTES) == pytest.approx(3e-9 * WRITE_BYTES)
+    ph, _ = sph
+    base = dict(load_cost_model(), startup=0.3, planning=0.0, read_per_byte=0.0, write_per_byte=1e-9)
+    cand = recommend(ph, GRID, 1e-3, costs=base)
+    image = 16 * GRID.nx * GRID.ny     # complex128 samples: a complex128 image
+    for large in (1e-9, 1e-8, 1e-7):
+        c = dict(base, write_per_byte_large=large)
+        assert command_seconds(cand, ph, GRID, c) == pytest.approx(0.3 + cand.seconds + write_seconds(c, image))
+
+
+def test_calibration_writes_new_files_the_way_form_image_writes_images(tmp_path, monkeypatch):
+    """write_costs writes WRITE_FILES images through write_image (complex128 stored complex64), each
+    to a new file kept until the end, and divides by the stored bytes."""
+    from sarcli.formers.planning import calibration as cal
+    from sarcli.io import h5output, hdf5
+
+    calls = []
+    real = hdf5.write_image
+
+    def spy(path, img, dtype=None):
+        calls.append((path.name, img.image.dtype, np.dtype(dtype), sorted(p.name for p in tmp_path.iterdir())))
+        return real(path, img, dtype)
+
+    monkeypatch.setattr(hdf5, "write_image", spy)
+    first, large = cal.write_costs(tmp_path)
+    assert first > 0 and large > 0
+    assert len(calls) == cal.WRITE_FILES == len({name for name, *_ in calls})
+    for i, (name, src, stored, before) in enumerate(calls):
+        assert src == np.complex128 and stored == np.complex64
+        assert len(before) == i                      # the earlier files are all still there
+    assert 4096 * (cal.WRITE_BYTES // (4096 * 8)) * 8 == cal.WRITE_BYTES > h5output.IN_MEMORY_MAX_BYTES
+
+
+def test_calibration_reads_by_blocks_of_rows_as_the_formers_read_pulses(monkeypatch):
+    """command_costs times reads of READ_ROWS rows into one buffer through PulseArray (the formers'
+    reader of a phase history left on disk), every row once per pass."""
+    from sarcli.formers.planning import calibration as cal
+    from sarcli.io.pulses import PulseArray
+
+    reads, buffers = [], set()
+    real = PulseArray.read_into
+
+    def spy(self, rows, out):
+        reads.append((rows.start, rows.stop))
+        buffers.add(out.__array_interface__["data"][0])
+        return real(self, rows, out)
+
+    monkeypatch.setattr(PulseArray, "read_into", spy)
+    monkeypatch.setattr(cal, "write_costs", lambda folder: (1e-9, 2e-9))
+    c = cal.command_costs(1)
+    assert c["read_per_byte"] > 0 and (c["write_per_byte"], c["write_per_byte_large"]) == (1e-9, 2e-9)
+    assert len(buffers) == 1 and all(b - a == cal.READ_ROWS for a, b in reads)
+    passes = len(reads) * cal.READ_ROWS // 512
+    assert passes == 2 and sorted(reads) == sorted([(r, r + cal.READ_ROWS) for r in range(0, 512, cal.READ_ROWS)] * 2)
+
+
 def test_sar_plan_measures_an_uncalibrated_machine_once(tmp_path, monkeypatch, sph):
     import json
 
@@ -257,7 +324,7 @@ def test_calibrate_measures_every_constant(tmp_path):
     assert doc["seconds_per_op"] == c and doc["machine"]["cpus"] >= 1
     for key in ("bp", "bp_fft", "direct", "ffbp_stage0", "ffbp_mac", "ffbp_pair", "ffbp_final", "ffbp_tone",
                 "ffbp_touch", "nufft_spread", "subimage_point", "startup", "planning", "read_per_byte",
-                "write_per_byte"):
+                "write_per_byte", "write_per_byte_large"):
         assert c[key] > 0, key
 
 

@@ -17,8 +17,6 @@ write_kgrid(path, kgrid)
 
 from __future__ import annotations
 
-import contextlib
-import io
 import json
 from pathlib import Path
 
@@ -26,6 +24,8 @@ import h5py
 import numpy as np
 
 from .._util.atomic import atomic_path, open_held
+from . import h5output
+from .h5output import allocated_dataset, h5_output, write_chunked
 from .._version import __version__
 from ..core.acquisition import MODELS, Acquisition
 from ..core.grid import Grid, derive_grid
@@ -84,27 +84,6 @@ def _check_format(path, f, expected):
         raise InputFileError(path, f"root attribute 'version' is {ver!r}, expected an integer") from None
     if ver != FILE_VERSION:
         raise InputFileError(path, f"{expected} version {ver} is not supported (this sarcli reads {FILE_VERSION})")
-
-
-#: Files up to this size are built in memory and written with one write of our own, so a full
-#: disk or a file-size limit is an ordinary OSError (one line, exit 2) instead of a failure inside
-#: HDF5's close, where h5py prints tracebacks from its destructors or crashes; larger files are
-#: written in place (the same atomic rename protects the previous file either way).
-IN_MEMORY_MAX_BYTES = 1 << 30
-
-
-@contextlib.contextmanager
-def _h5_output(tmp, nbytes):
-    """An HDF5 file opened for writing whose bytes end up in ``tmp`` (see IN_MEMORY_MAX_BYTES)."""
-    if nbytes > IN_MEMORY_MAX_BYTES:
-        with h5py.File(tmp, "w") as f:
-            yield f
-        return
-    buf = io.BytesIO()
-    with h5py.File(buf, "w") as f:
-        yield f
-    with open_held(tmp) as fh:
-        fh.write(buf.getbuffer())
 
 
 def _write_attrs(f, attrs, *, skip=()):
@@ -167,8 +146,11 @@ def write_phase_history(path, ph: PhaseHistory, *, blocks=None) -> Path:
     nbytes = int(np.prod(ph.data.shape)) * np.dtype(ph.data.dtype).itemsize
     if ph.truth is not None and ph.truth.scene is not None:
         nbytes += 3 * np.asarray(ph.truth.scene).nbytes
+    nbytes += 8 * sum(np.size(a) for a in (acq.frequency_hz, acq.azimuth_rad, acq.elevation_rad, acq.antenna_position_m,
+                                           acq.range_to_center_m, acq.transmit_position_m, acq.receive_position_m)
+                      if a is not None) + len(acq.config_text or "")
     with atomic_path(path) as tmp:
-        with _h5_output(tmp, nbytes) as f:
+        with h5_output(tmp, nbytes) as f:
             f.attrs["format"] = PH_FORMAT
             f.attrs["version"] = FILE_VERSION
             f.attrs["model"] = acq.model
@@ -180,7 +162,9 @@ def write_phase_history(path, ph: PhaseHistory, *, blocks=None) -> Path:
                 f.attrs["config_source"] = str(acq.source)
             if acq.snr_db is not None:
                 f.attrs["snr_db"] = float(acq.snr_db)
-            if blocks is None:
+            if h5output.in_place(nbytes):   # the samples by our own writes, into space HDF5 allocates
+                _samples_in_place(tmp, f, ph.data, blocks)
+            elif blocks is None:
                 f.create_dataset("phase_history", data=ph.data)
             else:
                 dset = f.create_dataset("phase_history", shape=ph.data.shape, dtype=ph.data.dtype)
@@ -216,6 +200,21 @@ def write_phase_history(path, ph: PhaseHistory, *, blocks=None) -> Path:
                         t.create_dataset("magnitude", data=np.asarray(ph.truth.magnitude, np.float64),
                                          compression="gzip", shuffle=True)
     return Path(path)
+
+
+def _samples_in_place(tmp, f, data, blocks) -> None:
+    """Write ``/phase_history`` of the file ``f`` (its temporary path ``tmp``) into space HDF5
+    allocates for it, by :func:`~sarcli.io.h5output.write_chunked`: ``blocks`` (pairs of a slice of
+    pulses and their samples) as they come, else ``data`` by blocks of rows."""
+    dtype = np.dtype(data.dtype)
+    offset = allocated_dataset(f, "phase_history", data.shape, dtype)
+    row = int(data.shape[1]) * dtype.itemsize
+    if blocks is None:
+        step = max(1, _CAST_ROWS_BYTES // max(1, row))
+        blocks = ((slice(r, r + step), data[r:r + step]) for r in range(0, data.shape[0], step))
+    with open_held(tmp, "r+b") as fh:
+        for rows, block in blocks:
+            write_chunked(fh.fileno(), np.ascontiguousarray(block, dtype=dtype), offset + (rows.start or 0) * row)
 
 
 def read_phase_history(path, *, truth: bool = True, lazy: bool = False) -> PhaseHistory:
@@ -378,13 +377,25 @@ def write_image(path, img: Image, dtype=None) -> Path:
 
     ``dtype``: complex64 or complex128, the stored type of ``/image`` (default: the image's own);
     an image of another type is cast by blocks of rows as it is written (no whole copy in memory).
+    An image above :data:`~sarcli.io.h5output.IN_MEMORY_MAX_BYTES` goes by blocks of rows straight
+    into its file's space, allocated by HDF5, by our own writes
+    (:func:`~sarcli.io.h5output.write_chunked`).
     """
     data = np.asarray(img.image)
     stored = np.dtype(data.dtype if dtype is None else dtype)
     if stored not in (np.dtype(np.complex64), np.dtype(np.complex128)):
         raise ValueError(f"an image is stored complex64 or complex128, not {stored}")
+    step = max(1, _CAST_ROWS_BYTES // max(1, data[:1].nbytes))
+
+    def blocks():
+        for r in range(0, data.shape[0], step):
+            yield np.ascontiguousarray(data[r:r + step], dtype=stored)
+
     with atomic_path(path) as tmp:
-        with _h5_output(tmp, data.size * stored.itemsize) as f:
+        nbytes = data.size * stored.itemsize + 8 * (np.size(img.x_m) + np.size(img.y_m)) \
+            + 8 * sum(np.size(v) for v in (img.history or {}).values())
+        in_place = h5output.in_place(nbytes)
+        with h5_output(tmp, nbytes) as f:
             f.attrs["format"] = IMAGE_FORMAT
             f.attrs["version"] = FILE_VERSION
             f.attrs["method"] = img.method
@@ -392,19 +403,24 @@ def write_image(path, img: Image, dtype=None) -> Path:
             f.attrs["runtime_s"] = float(img.runtime_s)
             f.attrs["sarcli_version"] = __version__
             _write_attrs(f, img.attrs, skip=("format", "version", "method", "parameters", "runtime_s"))
-            if data.dtype == stored:
+            if in_place:
+                offset = allocated_dataset(f, "image", data.shape, stored)
+            elif data.dtype == stored:
                 f.create_dataset("image", data=data)
             else:
                 ds = f.create_dataset("image", shape=data.shape, dtype=stored)
-                step = max(1, _CAST_ROWS_BYTES // max(1, data[:1].nbytes))
-                for r in range(0, data.shape[0], step):
-                    ds[r:r + step] = data[r:r + step].astype(stored)
+                for r, block in zip(range(0, data.shape[0], step), blocks()):
+                    ds[r:r + step] = block
             f.create_dataset("x_m", data=np.asarray(img.x_m, np.float64))
             f.create_dataset("y_m", data=np.asarray(img.y_m, np.float64))
             if img.history:
                 h = f.create_group("history")
                 for k, v in img.history.items():
                     h.create_dataset(k, data=np.asarray(v, np.float64))
+        if in_place:
+            with open_held(tmp, "r+b") as fh:
+                for block in blocks():
+                    offset = write_chunked(fh.fileno(), block, offset)
     return Path(path)
 
 
@@ -440,7 +456,7 @@ def read_image(path) -> Image:
 # --------------------------------------------------------------------------------------------
 def write_kgrid(path, kgrid: KGrid) -> Path:
     """Write a k-grid (format ``sarcli-kgrid``, version 1), atomically."""
-    with atomic_path(path) as tmp, _h5_output(tmp, np.asarray(kgrid.samples).nbytes) as h5:
+    with atomic_path(path) as tmp, h5_output(tmp, np.size(kgrid.samples) * 16) as h5:
         h5.attrs["format"] = KGRID_FORMAT
         h5.attrs["version"] = FILE_VERSION
         h5.create_dataset("samples", data=np.asarray(kgrid.samples, dtype=np.complex128))

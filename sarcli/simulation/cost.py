@@ -12,10 +12,10 @@ def simulate_bytes(acq, *, precision="float32") -> float:
 
     A point scene: one block of pulses (``BLOCK_SAMPLES`` samples: the complex128 sums, the noise
     and the stored copy), and the whole stored collection when it is built in memory (at most
-    ``IN_MEMORY_MAX_BYTES`` of file, :mod:`sarcli.io.hdf5`). An extended scene: the whole collection
+    ``IN_MEMORY_MAX_BYTES`` of file, :mod:`sarcli.io.h5output`). An extended scene: the whole collection
     in complex128 three times (the sum, the noise, the stored copy) and the scene on the grid.
     """
-    from ..io.hdf5 import IN_MEMORY_MAX_BYTES
+    from ..io.h5output import IN_MEMORY_MAX_BYTES
     from .simulator import BLOCK_SAMPLES
 
     item = 8 if precision == "float32" else 16

@@ -27,7 +27,7 @@ from ...errors import SarcliInputError, SarcliWarning
 __all__ = ["UPSAMPLE_RANGE", "OVERSAMPLE_RANGE", "WIDTH_RANGE", "EPS_RANGE", "NUFFT_EPS", "check_knobs", "Samples", "threads",
            "form_image_bytes", "kgrid_bytes", "direct_seconds", "nufft_width", "nufft_seconds", "n_tiles",
            "subimage_seconds", "bp_seconds", "bp_units", "bp_constants", "FFBP_TERMS", "FFBP_PARTS", "ffbp_counts", "ffbp_seconds",
-           "regularize_bytes", "check_regularize", "DIRECT_WARN_S"]
+           "regularize_bytes", "check_regularize", "DIRECT_WARN_S", "write_seconds", "read_seconds"]
 
 #: backprojection range-profile upsampling (1: no upsampling; 64 reaches 1e-5 peak accuracy)
 UPSAMPLE_RANGE = (1.0, 64.0)
@@ -160,6 +160,22 @@ def direct_seconds(n_pulses, n_freq, n_pixels, nthreads=None, costs=None) -> flo
 
     c = load_cost_model() if costs is None else costs
     return float(n_pulses) * n_freq * n_pixels * c["direct"] / threads(nthreads, c)
+
+
+def write_seconds(c, nbytes) -> float:
+    """Predicted seconds of writing a file of ``nbytes`` (an image, as ``sar form-image`` stores it):
+    ``c["write_per_byte"]`` for its first :data:`~sarcli.formers.planning.calibration.WRITE_BYTES`,
+    ``c["write_per_byte_large"]`` for the rest (a file's first bytes find memory freed a moment
+    before, the rest memory the host backs anew: :func:`~sarcli.formers.planning.calibration.write_costs`)."""
+    from .calibration import WRITE_BYTES
+
+    first = min(float(nbytes), float(WRITE_BYTES))
+    return c["write_per_byte"] * first + c.get("write_per_byte_large", c["write_per_byte"]) * (float(nbytes) - first)
+
+
+def read_seconds(c, nbytes) -> float:
+    """Predicted seconds of reading ``nbytes`` of samples from a file (``c["read_per_byte"]``)."""
+    return c["read_per_byte"] * float(nbytes)
 
 
 def nufft_width(eps: float) -> int:

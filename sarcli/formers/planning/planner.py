@@ -36,7 +36,8 @@ from ..options import OPTIONS, SubimageOptions
 from .calibration import (DEFAULT_COSTS, best_of, command_costs, fft_cost, load_cost_model, save_cost_model,
                           touch_cost)
 from .cost import (FFBP_PARTS, FFBP_TERMS, Samples, bp_constants, bp_seconds, direct_seconds, ffbp_counts, ffbp_seconds,
-                   form_image_bytes, n_tiles, nufft_seconds, nufft_width, subimage_seconds, threads)
+                   form_image_bytes, n_tiles, nufft_seconds, nufft_width, read_seconds, subimage_seconds, threads,
+                   write_seconds)
 
 __all__ = ["Candidate", "candidates", "recommend", "same_run", "ffbp_knobs", "command_seconds", "load_cost_model", "calibrate"]
 
@@ -359,7 +360,7 @@ def command_seconds(cand: Candidate, ph, grid: Grid, costs=None, *, auto=False, 
     P, M = ph.data.shape
     # the samples at their stored size; the image as `sar form-image` stores it
     image = stored_image_dtype(ph.data.dtype, tolerance=tolerance).itemsize
-    io = c["read_per_byte"] * np.dtype(ph.data.dtype).itemsize * P * M + c["write_per_byte"] * image * grid.nx * grid.ny
+    io = read_seconds(c, np.dtype(ph.data.dtype).itemsize * P * M) + write_seconds(c, image * grid.nx * grid.ny)
     return c["startup"] + (c["planning"] if auto else 0.0) + io + cand.seconds
 
 
