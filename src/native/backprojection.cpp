@@ -577,13 +577,11 @@ struct ExactLanes<NE, 1> {
 #undef SARCLI_EXACT_BODY
 #endif
 
-// Pulse p's carried samples at one group of lanes (eval_lanes' ranges): each lane's stencil of the
-// profile pp, weighted, times its carrier: (ur + i ui) = (Σ w v)(c + i s). The forward rows add
-// them up; the contraction weighs them by the image's gradient.
-template <typename PT, int K, int ISA, int NE>
-SARCLI_INLINE void carried_lanes(const Anchor& a, const ExactAnchor* ex, const float* uf, const double* ud,
-                                 long pad, const PT* pp, Lanes<K>& L, PT* __restrict ur, PT* __restrict ui) {
-  eval_lanes<K, NE, ISA>(a, ex, uf, ud, pad, L);
+// Pulse p's carried samples at one group of lanes whose ranges eval_lanes put in L: each lane's
+// stencil of the profile pp, weighted, times its carrier: (ur + i ui) = (Σ w v)(c + i s). The
+// forward rows add them up; the contraction weighs them by the image's gradient.
+template <typename PT, int K, int ISA>
+SARCLI_INLINE void carry_lanes(const Lanes<K>& L, const PT* pp, PT* __restrict ur, PT* __restrict ui) {
   PT tp[2 * Kernel<K>::taps][kLanes];
   Taps<PT, K, ISA>::load(pp, L.idx, tp);
 #pragma omp simd
@@ -599,44 +597,87 @@ SARCLI_INLINE void carried_lanes(const Anchor& a, const ExactAnchor* ex, const f
   }
 }
 
+// eval_lanes then carry_lanes: pulse p's carried samples at one group of lanes.
+template <typename PT, int K, int ISA, int NE>
+SARCLI_INLINE void carried_lanes(const Anchor& a, const ExactAnchor* ex, const float* uf, const double* ud,
+                                 long pad, const PT* pp, Lanes<K>& L, PT* __restrict ur, PT* __restrict ui) {
+  eval_lanes<K, NE, ISA>(a, ex, uf, ud, pad, L);
+  carry_lanes<PT, K, ISA>(L, pp, ur, ui);
+}
+
+// The forward row's work item (pulse p0 + i, group g) in two steps: its lanes' ranges, weights
+// and carrier (eval), then its stencils carried into the tile's accumulators (add).
+template <typename PT, int K, int ISA, int NE>
+struct RowItems {
+  const Args& A;
+  const PT* prof;
+  const Anchors& an;
+  long p0;
+  const float (*uf)[kLanes];
+  const double (*ud)[kLanes];
+  PT (*ar)[kLanes];
+  PT (*ai)[kLanes];
+  SARCLI_INLINE void eval(long i, long g, Lanes<K>& L) const {
+    const Anchor a = an.get(i);
+    ExactAnchor ex;
+    if (NE > 0) ex = an.exact(i, NE);
+    eval_lanes<K, NE, ISA>(a, &ex, uf[g], ud[g], A.pad, L);
+  }
+  SARCLI_INLINE void add(long i, long g, const Lanes<K>& L) const {
+    PT ur[kLanes], ui[kLanes];
+    carry_lanes<PT, K, ISA>(L, prof + 2 * (p0 + i) * A.lp, ur, ui);
+    PT* __restrict gr = ar[g];
+    PT* __restrict gi = ai[g];
+#pragma omp simd
+    for (int l = 0; l < kLanes; ++l) {
+      gr[l] += ur[l];
+      gi[l] += ui[l];
+    }
+  }
+};
+
 // Forward: pulses [p0, p1) into image row `row` (accumulators in registers per tile); NE: the
-// range model (0 the economised quadratic, 1 or 2 the exact model of one or two ends).
+// range model (0 the economised quadratic, 1 or 2 the exact model of one or two ends). The
+// (pulse, group) items run software-pipelined: the next item's lanes are evaluated before this
+// item's stencils are loaded, so that the loads find their indices stored long before (the
+// chain from a lane's range to its stencil's address is the loop's longest).
 template <typename PT, int K, int ISA, int NE>
 SARCLI_INLINE void bp_row_model(const Args& A, const PT* prof, long row, long p0, long p1,
                                 Anchors& an, double* ore, double* oim) {
   const double y = A.y[row];
   float uf[kGroups][kLanes];
   double ud[kGroups][kLanes];
-  Lanes<K> L;
+  Lanes<K> L0, L1;
   for (long c0 = 0; c0 < A.nx; c0 += A.width) {
     double xc, he;
     const long wv = tile_lanes(A, c0, uf, ud, xc, he);
     const long ng = (wv + kLanes - 1) / kLanes;
     anchors(A, p0, p1, xc, y, NE > 0 ? 0.0 : he, an);
     PT ar[kGroups][kLanes] = {}, ai[kGroups][kLanes] = {};
-    for (long p = p0; p < p1; ++p) {
-      const Anchor a = an.get(p - p0);
-      ExactAnchor exv;
-      if (NE > 0) exv = an.exact(p - p0, NE);
-      const ExactAnchor* ex = &exv;
-      const PT* pp = prof + 2 * p * A.lp;
-      for (long g = 0; g < ng; ++g) {
-        PT ur[kLanes], ui[kLanes];
-        carried_lanes<PT, K, ISA, NE>(a, ex, uf[g], ud[g], A.pad, pp, L, ur, ui);
-        PT* __restrict gr = ar[g];
-        PT* __restrict gi = ai[g];
-#pragma omp simd
-        for (int i = 0; i < kLanes; ++i) {
-          gr[i] += ur[i];
-          gi[i] += ui[i];
-        }
-      }
+    const RowItems<PT, K, ISA, NE> it{A, prof, an, p0, uf, ud, ar, ai};
+    // items j = 0 .. n - 1 in the order (pulse i = j / ng, group g = j % ng), two a turn so that
+    // the two Lanes alternate without an index
+    const long n = (p1 - p0) * ng;
+    long i = 0, g = 0;
+    it.eval(0, 0, L0);
+    for (long j = 0; j < n; j += 2) {
+      long i1 = i, g1 = g + 1;
+      if (g1 == ng) { g1 = 0; ++i1; }
+      if (j + 1 < n) it.eval(i1, g1, L1);
+      it.add(i, g, L0);
+      if (j + 1 >= n) break;
+      long i2 = i1, g2 = g1 + 1;
+      if (g2 == ng) { g2 = 0; ++i2; }
+      if (j + 2 < n) it.eval(i2, g2, L0);
+      it.add(i1, g1, L1);
+      i = i2;
+      g = g2;
     }
     double* r = ore + row * A.nx + c0;
     double* m = oim + row * A.nx + c0;
-    for (long i = 0; i < wv; ++i) {
-      r[i] += static_cast<double>(ar[i / kLanes][i % kLanes]);
-      m[i] += static_cast<double>(ai[i / kLanes][i % kLanes]);
+    for (long c = 0; c < wv; ++c) {
+      r[c] += static_cast<double>(ar[c / kLanes][c % kLanes]);
+      m[c] += static_cast<double>(ai[c / kLanes][c % kLanes]);
     }
   }
 }
