@@ -109,10 +109,13 @@ SARCLI_INLINE ExactEnd exact_end(double r, double c, double s2) {
 // (no cancellation), evaluated in float32 and added to the float64 quadratic.
 struct ExactAnchor {
   ExactEnd e[2];
-  float ib, kc;  // bins and radians per metre of exact_lanes' output (-1/(2 R_c) folded in if NE = 1)
+  float ib, kc;  // bins and half radians (Anchor) per metre of exact_lanes' output (-1/(2 R_c) folded in if NE = 1)
 };
 
-// Tile anchor terms for one pulse (float64 geometry; see the file comment).
+// Tile anchor terms for one pulse (float64 geometry; see the file comment). ph0, ph1, ph2: the
+// carrier's half phase kc Δr / 2 (ExactAnchor::kc halved alike), the argument of
+// carrier::sincos_half_f32, which so needs no halving a lane: scaling by 1/2 is exact, the same
+// bits as cos_sin_f32 of the whole phase.
 struct Anchor {
   int j0;
   float f0, s1, s2, lo, hi, top;
@@ -192,7 +195,7 @@ SARCLI_INLINE Anchor anchor(const Args& A, long p, double xc, double y, double h
   ex.e[1] = ex.e[0];
   const double fold = BIST ? 1.0 : -0.5 / r;
   ex.ib = static_cast<float>(g[GIB * B + p] * fold);
-  ex.kc = static_cast<float>(g[GKC * B + p] * fold);
+  ex.kc = static_cast<float>(0.5 * g[GKC * B + p] * fold);
   if (BIST) {
     double drb, d1b, d2b, rb, cb, s2b;
     one_way(xc, y, g[G2BX * B + p], g[G2BY * B + p], g[GB2 * B + p], g[GNB * B + p], he, drb, d1b,
@@ -218,9 +221,9 @@ SARCLI_INLINE Anchor anchor(const Args& A, long p, double xc, double y, double h
   an.top = static_cast<float>(n_len - 1.0 - fj);
   const double ph = kc * dr;
   const double k = std::rint(ph * kInvTwoPi);
-  an.ph0 = (ph - k * kTwoPi) - k * kTwoPiLo;
-  an.ph1 = kc * d1;
-  an.ph2 = kc * d2;
+  an.ph0 = 0.5 * ((ph - k * kTwoPi) - k * kTwoPiLo);
+  an.ph1 = 0.5 * kc * d1;
+  an.ph2 = 0.5 * kc * d2;
   return an;
 }
 
@@ -315,10 +318,10 @@ SARCLI_INLINE void eval_lanes(const Anchor& an, const ExactAnchor* ex, const flo
 #pragma omp simd
   for (int i = 0; i < kLanes; ++i) {
     const double v = ud[i];
-    double ph = an.ph0 + v * (an.ph1 + v * an.ph2);
-    if (NE > 0) ph += static_cast<double>(kc * rho[i]);
+    double hp = an.ph0 + v * (an.ph1 + v * an.ph2);
+    if (NE > 0) hp += static_cast<double>(kc * rho[i]);
     float c, s;
-    carrier::cos_sin_f32(ph, c, s);
+    carrier::sincos_half_f32(hp, c, s);
     L.c[i] = m[i] * c;
     L.s[i] = m[i] * s;
   }
@@ -638,7 +641,7 @@ struct RowItems {
 
 // Forward: pulses [p0, p1) into image row `row` (accumulators in registers per tile); NE: the
 // range model (0 the economised quadratic, 1 or 2 the exact model of one or two ends). The
-// (pulse, group) items run software-pipelined: the next item's lanes are evaluated before this
+// (pulse, group) items run software-pipelined on AVX-512: the next item's lanes are evaluated before this
 // item's stencils are loaded, so that the loads find their indices stored long before (the
 // chain from a lane's range to its stencil's address is the loop's longest).
 template <typename PT, int K, int ISA, int NE>
@@ -659,19 +662,27 @@ SARCLI_INLINE void bp_row_model(const Args& A, const PT* prof, long row, long p0
     // the two Lanes alternate without an index
     const long n = (p1 - p0) * ng;
     long i = 0, g = 0;
-    it.eval(0, 0, L0);
-    for (long j = 0; j < n; j += 2) {
-      long i1 = i, g1 = g + 1;
-      if (g1 == ng) { g1 = 0; ++i1; }
-      if (j + 1 < n) it.eval(i1, g1, L1);
-      it.add(i, g, L0);
-      if (j + 1 >= n) break;
-      long i2 = i1, g2 = g1 + 1;
-      if (g2 == ng) { g2 = 0; ++i2; }
-      if (j + 2 < n) it.eval(i2, g2, L0);
-      it.add(i1, g1, L1);
-      i = i2;
-      g = g2;
+    if (ISA < 2) {  // AVX2 and baseline: the loop's arithmetic, not its latency, sets the pace
+      for (long j = 0; j < n; ++j) {
+        it.eval(i, g, L0);
+        it.add(i, g, L0);
+        if (++g == ng) { g = 0; ++i; }
+      }
+    } else {
+      it.eval(0, 0, L0);
+      for (long j = 0; j < n; j += 2) {
+        long i1 = i, g1 = g + 1;
+        if (g1 == ng) { g1 = 0; ++i1; }
+        if (j + 1 < n) it.eval(i1, g1, L1);
+        it.add(i, g, L0);
+        if (j + 1 >= n) break;
+        long i2 = i1, g2 = g1 + 1;
+        if (g2 == ng) { g2 = 0; ++i2; }
+        if (j + 2 < n) it.eval(i2, g2, L0);
+        it.add(i1, g1, L1);
+        i = i2;
+        g = g2;
+      }
     }
     double* r = ore + row * A.nx + c0;
     double* m = oim + row * A.nx + c0;
