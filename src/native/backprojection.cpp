@@ -684,11 +684,14 @@ SARCLI_INLINE void bp_row_model(const Args& A, const PT* prof, long row, long p0
         g = g2;
       }
     }
-    double* r = ore + row * A.nx + c0;
-    double* m = oim + row * A.nx + c0;
+    double* __restrict r = ore + row * A.nx + c0;
+    double* __restrict m = oim + row * A.nx + c0;
+    const PT* __restrict fr = ar[0];  // the groups' lanes in a row (the tile's pixels in order)
+    const PT* __restrict fi = ai[0];
+#pragma omp simd
     for (long c = 0; c < wv; ++c) {
-      r[c] += static_cast<double>(ar[c / kLanes][c % kLanes]);
-      m[c] += static_cast<double>(ai[c / kLanes][c % kLanes]);
+      r[c] += static_cast<double>(fr[c]);
+      m[c] += static_cast<double>(fi[c]);
     }
   }
 }
