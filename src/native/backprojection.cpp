@@ -580,23 +580,35 @@ struct ExactLanes<NE, 1> {
 #undef SARCLI_EXACT_BODY
 #endif
 
-// Pulse p's carried samples at one group of lanes whose ranges eval_lanes put in L: each lane's
-// stencil of the profile pp, weighted, times its carrier: (ur + i ui) = (Σ w v)(c + i s). The
-// forward rows add them up; the contraction weighs them by the image's gradient.
+// Each lane's stencil of the profile pp, weighted (L from eval_lanes): vr + i vi = Σ w v.
 template <typename PT, int K, int ISA>
-SARCLI_INLINE void carry_lanes(const Lanes<K>& L, const PT* pp, PT* __restrict ur, PT* __restrict ui) {
+SARCLI_INLINE void stencil_sums(const Lanes<K>& L, const PT* pp, PT* __restrict vr, PT* __restrict vi) {
   PT tp[2 * Kernel<K>::taps][kLanes];
   Taps<PT, K, ISA>::load(pp, L.idx, tp);
 #pragma omp simd
   for (int i = 0; i < kLanes; ++i) {
-    PT vr = 0, vi = 0;
+    PT r = 0, m = 0;
     for (int k = 0; k < Kernel<K>::taps; ++k) {
-      vr += static_cast<PT>(L.w[k][i]) * tp[2 * k][i];
-      vi += static_cast<PT>(L.w[k][i]) * tp[2 * k + 1][i];
+      r += static_cast<PT>(L.w[k][i]) * tp[2 * k][i];
+      m += static_cast<PT>(L.w[k][i]) * tp[2 * k + 1][i];
     }
+    vr[i] = r;
+    vi[i] = m;
+  }
+}
+
+// Pulse p's carried samples at one group of lanes whose ranges eval_lanes put in L: each lane's
+// stencil sum times its carrier, (ur + i ui) = (Σ w v)(c + i s). The contraction weighs them by
+// the image's gradient (the forward rows fold the product into their sums, RowItems::add).
+template <typename PT, int K, int ISA>
+SARCLI_INLINE void carry_lanes(const Lanes<K>& L, const PT* pp, PT* __restrict ur, PT* __restrict ui) {
+  PT vr[kLanes], vi[kLanes];
+  stencil_sums<PT, K, ISA>(L, pp, vr, vi);
+#pragma omp simd
+  for (int i = 0; i < kLanes; ++i) {
     const PT c = L.c[i], s = L.s[i];
-    ur[i] = vr * c - vi * s;
-    ui[i] = vr * s + vi * c;
+    ur[i] = vr[i] * c - vi[i] * s;
+    ui[i] = vr[i] * s + vi[i] * c;
   }
 }
 
@@ -626,15 +638,17 @@ struct RowItems {
     if (NE > 0) ex = an.exact(i, NE);
     eval_lanes<K, NE, ISA>(a, &ex, uf[g], ud[g], A.pad, L);
   }
+  // the sums += (vr + i vi)(c + i s), as two fused multiply-adds a part
   SARCLI_INLINE void add(long i, long g, const Lanes<K>& L) const {
-    PT ur[kLanes], ui[kLanes];
-    carry_lanes<PT, K, ISA>(L, prof + 2 * (p0 + i) * A.lp, ur, ui);
+    PT vr[kLanes], vi[kLanes];
+    stencil_sums<PT, K, ISA>(L, prof + 2 * (p0 + i) * A.lp, vr, vi);
     PT* __restrict gr = ar[g];
     PT* __restrict gi = ai[g];
 #pragma omp simd
     for (int l = 0; l < kLanes; ++l) {
-      gr[l] += ur[l];
-      gi[l] += ui[l];
+      const PT c = L.c[l], s = L.s[l];
+      gr[l] = (gr[l] + vr[l] * c) - vi[l] * s;
+      gi[l] = (gi[l] + vr[l] * s) + vi[l] * c;
     }
   }
 };
