@@ -15,7 +15,8 @@
 // in cache, and each lane reads its stencil as one contiguous vector (profiles interleave real
 // and imaginary parts) that is transposed in registers. The profile position is kept
 // relative to an integer bin of the anchor and evaluated in float32; the carrier phase
-// kc Δr(u) in float64, reduced to [-π, π] and evaluated by a float32 polynomial. The interpolation
+// kc Δr(u) in float64 turns (the anchor's part reduced first), reduced to half a turn either side
+// (exactly) and evaluated by a float32 polynomial. The interpolation
 // weights and the carrier are therefore float32 in every precision; the profiles and the
 // accumulation are float32 or float64 (the template's PT). The forward and adjoint kernels share
 // one inline evaluation of these weights, so reprojection is the transpose of the same matrix.
@@ -109,13 +110,12 @@ SARCLI_INLINE ExactEnd exact_end(double r, double c, double s2) {
 // (no cancellation), evaluated in float32 and added to the float64 quadratic.
 struct ExactAnchor {
   ExactEnd e[2];
-  float ib, kc;  // bins and half radians (Anchor) per metre of exact_lanes' output (-1/(2 R_c) folded in if NE = 1)
+  float ib, kc;  // bins and turns (Anchor) per metre of exact_lanes' output (-1/(2 R_c) folded in if NE = 1)
 };
 
 // Tile anchor terms for one pulse (float64 geometry; see the file comment). ph0, ph1, ph2: the
-// carrier's half phase kc Δr / 2 (ExactAnchor::kc halved alike), the argument of
-// carrier::sincos_half_f32, which so needs no halving a lane: scaling by 1/2 is exact, the same
-// bits as cos_sin_f32 of the whole phase.
+// carrier's phase kc Δr in turns (ExactAnchor::kc alike; ph0 reduced to [-1/2, 1/2] turn in
+// radians first), the argument of carrier::cos_sin_turns_f32, whose reduction a lane is exact.
 struct Anchor {
   int j0;
   float f0, s1, s2, lo, hi, top;
@@ -195,7 +195,7 @@ SARCLI_INLINE Anchor anchor(const Args& A, long p, double xc, double y, double h
   ex.e[1] = ex.e[0];
   const double fold = BIST ? 1.0 : -0.5 / r;
   ex.ib = static_cast<float>(g[GIB * B + p] * fold);
-  ex.kc = static_cast<float>(0.5 * g[GKC * B + p] * fold);
+  ex.kc = static_cast<float>(kInvTwoPi * g[GKC * B + p] * fold);
   if (BIST) {
     double drb, d1b, d2b, rb, cb, s2b;
     one_way(xc, y, g[G2BX * B + p], g[G2BY * B + p], g[GB2 * B + p], g[GNB * B + p], he, drb, d1b,
@@ -221,9 +221,9 @@ SARCLI_INLINE Anchor anchor(const Args& A, long p, double xc, double y, double h
   an.top = static_cast<float>(n_len - 1.0 - fj);
   const double ph = kc * dr;
   const double k = std::rint(ph * kInvTwoPi);
-  an.ph0 = 0.5 * ((ph - k * kTwoPi) - k * kTwoPiLo);
-  an.ph1 = 0.5 * kc * d1;
-  an.ph2 = 0.5 * kc * d2;
+  an.ph0 = kInvTwoPi * ((ph - k * kTwoPi) - k * kTwoPiLo);
+  an.ph1 = kInvTwoPi * kc * d1;
+  an.ph2 = kInvTwoPi * kc * d2;
   return an;
 }
 
@@ -318,10 +318,10 @@ SARCLI_INLINE void eval_lanes(const Anchor& an, const ExactAnchor* ex, const flo
 #pragma omp simd
   for (int i = 0; i < kLanes; ++i) {
     const double v = ud[i];
-    double hp = an.ph0 + v * (an.ph1 + v * an.ph2);
-    if (NE > 0) hp += static_cast<double>(kc * rho[i]);
+    double q = an.ph0 + v * (an.ph1 + v * an.ph2);
+    if (NE > 0) q += static_cast<double>(kc * rho[i]);
     float c, s;
-    carrier::sincos_half_f32(hp, c, s);
+    carrier::cos_sin_turns_f32(q, c, s);
     L.c[i] = m[i] * c;
     L.s[i] = m[i] * s;
   }
@@ -1223,6 +1223,11 @@ void carrier_run(const double* ph, std::size_t n, float* c, float* s) {
 }
 
 SARCLI_CLONES
+void carrier_turns_run(const double* q, std::size_t n, float* c, float* s) {
+  for (std::size_t i = 0; i < n; ++i) carrier::cos_sin_turns_f32(q[i], c[i], s[i]);
+}
+
+SARCLI_CLONES
 void weight_groups(const float* t, std::size_t n, int kind, float* w) {
   const std::size_t taps = interp::kTaps[kind];
   for (std::size_t i0 = 0; i0 < n; i0 += kLanes) {
@@ -1243,6 +1248,12 @@ void carrier_values(in<double, 1> ph, out<float, 1> c, out<float, 1> s) {
   const size_t n = ph.shape(0);
   if (c.shape(0) != n || s.shape(0) != n) throw nb::value_error("carrier_values: shapes");
   carrier_run(ph.data(), n, c.data(), s.data());
+}
+
+void carrier_turn_values(in<double, 1> q, out<float, 1> c, out<float, 1> s) {
+  const size_t n = q.shape(0);
+  if (c.shape(0) != n || s.shape(0) != n) throw nb::value_error("carrier_turn_values: shapes");
+  carrier_turns_run(q.data(), n, c.data(), s.data());
 }
 
 void weight_values(in<float, 1> t, int kind, out<float, 2> w) {
