@@ -300,10 +300,8 @@ struct ExactLanes {
 template <int K, int NE, int ISA>
 SARCLI_INLINE void eval_lanes(const Anchor& an, const ExactAnchor* ex, const float* uf,
                               const double* ud, long pad, Lanes<K>& L) {
-  // twice the first tap's index, in float: exact (|2 base| < 2^24, the anchors clamp j0 to 4e6),
-  // one fused multiply-add and a conversion a lane
-  const float base2 = static_cast<float>(2 * (an.j0 + static_cast<int>(pad) - Kernel<K>::first));
-  float t[kLanes], rho[kLanes];
+  const int base = an.j0 + static_cast<int>(pad) - Kernel<K>::first;
+  float t[kLanes], m[kLanes], rho[kLanes];
   if (NE > 0) ExactLanes<NE, ISA>::eval(*ex, uf, rho);
   const float ib = NE > 0 ? ex->ib : 0.0f, kc = NE > 0 ? ex->kc : 0.0f;
 #pragma omp simd
@@ -311,18 +309,21 @@ SARCLI_INLINE void eval_lanes(const Anchor& an, const ExactAnchor* ex, const flo
     const float u = uf[i];
     float sp = an.f0 + u * (an.s1 + u * an.s2);
     if (NE > 0) sp += ib * rho[i];
-    const bool inside = sp >= an.lo && sp < an.hi;  // outside the profile's window: no carrier
+    m[i] = (sp >= an.lo && sp < an.hi) ? 1.0f : 0.0f;
     sp = std::min(std::max(sp, an.lo), an.top);
     const float fl = std::floor(sp);
     t[i] = sp - fl;
-    L.idx[i] = static_cast<int>(2.0f * fl + base2);
+    L.idx[i] = 2 * (base + static_cast<int>(fl));
+  }
+#pragma omp simd
+  for (int i = 0; i < kLanes; ++i) {
     const double v = ud[i];
     double q = an.ph0 + v * (an.ph1 + v * an.ph2);
     if (NE > 0) q += static_cast<double>(kc * rho[i]);
     float c, s;
     carrier::cos_sin_turns_f32(q, c, s);
-    L.c[i] = inside ? c : 0.0f;
-    L.s[i] = inside ? s : 0.0f;
+    L.c[i] = m[i] * c;
+    L.s[i] = m[i] * s;
   }
   Kernel<K>::weights(t, L.w);
 }
