@@ -15,7 +15,8 @@
 // in cache, and each lane reads its stencil as one contiguous vector (profiles interleave real
 // and imaginary parts) that is transposed in registers. The profile position is kept
 // relative to an integer bin of the anchor and evaluated in float32; the carrier phase
-// kc Δr(u) in float64, reduced to [-π, π] and evaluated by a float32 polynomial. The interpolation
+// kc Δr(u) in float64 turns (the anchor's part reduced first), reduced to half a turn either side
+// (exactly) and evaluated by a float32 polynomial. The interpolation
 // weights and the carrier are therefore float32 in every precision; the profiles and the
 // accumulation are float32 or float64 (the template's PT). The forward and adjoint kernels share
 // one inline evaluation of these weights, so reprojection is the transpose of the same matrix.
@@ -109,10 +110,12 @@ SARCLI_INLINE ExactEnd exact_end(double r, double c, double s2) {
 // (no cancellation), evaluated in float32 and added to the float64 quadratic.
 struct ExactAnchor {
   ExactEnd e[2];
-  float ib, kc;  // bins and radians per metre of exact_lanes' output (-1/(2 R_c) folded in if NE = 1)
+  float ib, kc;  // bins and turns (Anchor) per metre of exact_lanes' output (-1/(2 R_c) folded in if NE = 1)
 };
 
-// Tile anchor terms for one pulse (float64 geometry; see the file comment).
+// Tile anchor terms for one pulse (float64 geometry; see the file comment). ph0, ph1, ph2: the
+// carrier's phase kc Δr in turns (ExactAnchor::kc alike; ph0 reduced to [-1/2, 1/2] turn in
+// radians first), the argument of carrier::cos_sin_turns_f32, whose reduction a lane is exact.
 struct Anchor {
   int j0;
   float f0, s1, s2, lo, hi, top;
@@ -192,7 +195,7 @@ SARCLI_INLINE Anchor anchor(const Args& A, long p, double xc, double y, double h
   ex.e[1] = ex.e[0];
   const double fold = BIST ? 1.0 : -0.5 / r;
   ex.ib = static_cast<float>(g[GIB * B + p] * fold);
-  ex.kc = static_cast<float>(g[GKC * B + p] * fold);
+  ex.kc = static_cast<float>(kInvTwoPi * g[GKC * B + p] * fold);
   if (BIST) {
     double drb, d1b, d2b, rb, cb, s2b;
     one_way(xc, y, g[G2BX * B + p], g[G2BY * B + p], g[GB2 * B + p], g[GNB * B + p], he, drb, d1b,
@@ -218,9 +221,9 @@ SARCLI_INLINE Anchor anchor(const Args& A, long p, double xc, double y, double h
   an.top = static_cast<float>(n_len - 1.0 - fj);
   const double ph = kc * dr;
   const double k = std::rint(ph * kInvTwoPi);
-  an.ph0 = (ph - k * kTwoPi) - k * kTwoPiLo;
-  an.ph1 = kc * d1;
-  an.ph2 = kc * d2;
+  an.ph0 = kInvTwoPi * ((ph - k * kTwoPi) - k * kTwoPiLo);
+  an.ph1 = kInvTwoPi * kc * d1;
+  an.ph2 = kInvTwoPi * kc * d2;
   return an;
 }
 
@@ -315,10 +318,10 @@ SARCLI_INLINE void eval_lanes(const Anchor& an, const ExactAnchor* ex, const flo
 #pragma omp simd
   for (int i = 0; i < kLanes; ++i) {
     const double v = ud[i];
-    double ph = an.ph0 + v * (an.ph1 + v * an.ph2);
-    if (NE > 0) ph += static_cast<double>(kc * rho[i]);
+    double q = an.ph0 + v * (an.ph1 + v * an.ph2);
+    if (NE > 0) q += static_cast<double>(kc * rho[i]);
     float c, s;
-    carrier::cos_sin_f32(ph, c, s);
+    carrier::cos_sin_turns_f32(q, c, s);
     L.c[i] = m[i] * c;
     L.s[i] = m[i] * s;
   }
@@ -577,66 +580,132 @@ struct ExactLanes<NE, 1> {
 #undef SARCLI_EXACT_BODY
 #endif
 
-// Pulse p's carried samples at one group of lanes (eval_lanes' ranges): each lane's stencil of the
-// profile pp, weighted, times its carrier: (ur + i ui) = (Σ w v)(c + i s). The forward rows add
-// them up; the contraction weighs them by the image's gradient.
-template <typename PT, int K, int ISA, int NE>
-SARCLI_INLINE void carried_lanes(const Anchor& a, const ExactAnchor* ex, const float* uf, const double* ud,
-                                 long pad, const PT* pp, Lanes<K>& L, PT* __restrict ur, PT* __restrict ui) {
-  eval_lanes<K, NE, ISA>(a, ex, uf, ud, pad, L);
+// Each lane's stencil of the profile pp, weighted (L from eval_lanes): vr + i vi = Σ w v.
+template <typename PT, int K, int ISA>
+SARCLI_INLINE void stencil_sums(const Lanes<K>& L, const PT* pp, PT* __restrict vr, PT* __restrict vi) {
   PT tp[2 * Kernel<K>::taps][kLanes];
   Taps<PT, K, ISA>::load(pp, L.idx, tp);
 #pragma omp simd
   for (int i = 0; i < kLanes; ++i) {
-    PT vr = 0, vi = 0;
+    PT r = 0, m = 0;
     for (int k = 0; k < Kernel<K>::taps; ++k) {
-      vr += static_cast<PT>(L.w[k][i]) * tp[2 * k][i];
-      vi += static_cast<PT>(L.w[k][i]) * tp[2 * k + 1][i];
+      r += static_cast<PT>(L.w[k][i]) * tp[2 * k][i];
+      m += static_cast<PT>(L.w[k][i]) * tp[2 * k + 1][i];
     }
-    const PT c = L.c[i], s = L.s[i];
-    ur[i] = vr * c - vi * s;
-    ui[i] = vr * s + vi * c;
+    vr[i] = r;
+    vi[i] = m;
   }
 }
 
+// Pulse p's carried samples at one group of lanes whose ranges eval_lanes put in L: each lane's
+// stencil sum times its carrier, (ur + i ui) = (Σ w v)(c + i s). The contraction weighs them by
+// the image's gradient (the forward rows fold the product into their sums, RowItems::add).
+template <typename PT, int K, int ISA>
+SARCLI_INLINE void carry_lanes(const Lanes<K>& L, const PT* pp, PT* __restrict ur, PT* __restrict ui) {
+  PT vr[kLanes], vi[kLanes];
+  stencil_sums<PT, K, ISA>(L, pp, vr, vi);
+#pragma omp simd
+  for (int i = 0; i < kLanes; ++i) {
+    const PT c = L.c[i], s = L.s[i];
+    ur[i] = vr[i] * c - vi[i] * s;
+    ui[i] = vr[i] * s + vi[i] * c;
+  }
+}
+
+// eval_lanes then carry_lanes: pulse p's carried samples at one group of lanes.
+template <typename PT, int K, int ISA, int NE>
+SARCLI_INLINE void carried_lanes(const Anchor& a, const ExactAnchor* ex, const float* uf, const double* ud,
+                                 long pad, const PT* pp, Lanes<K>& L, PT* __restrict ur, PT* __restrict ui) {
+  eval_lanes<K, NE, ISA>(a, ex, uf, ud, pad, L);
+  carry_lanes<PT, K, ISA>(L, pp, ur, ui);
+}
+
+// The forward row's work item (pulse p0 + i, group g) in two steps: its lanes' ranges, weights
+// and carrier (eval), then its stencils carried into the tile's accumulators (add).
+template <typename PT, int K, int ISA, int NE>
+struct RowItems {
+  const Args& A;
+  const PT* prof;
+  const Anchors& an;
+  long p0;
+  const float (*uf)[kLanes];
+  const double (*ud)[kLanes];
+  PT (*ar)[kLanes];
+  PT (*ai)[kLanes];
+  SARCLI_INLINE void eval(long i, long g, Lanes<K>& L) const {
+    const Anchor a = an.get(i);
+    ExactAnchor ex;
+    if (NE > 0) ex = an.exact(i, NE);
+    eval_lanes<K, NE, ISA>(a, &ex, uf[g], ud[g], A.pad, L);
+  }
+  // the sums += (vr + i vi)(c + i s), as two fused multiply-adds a part
+  SARCLI_INLINE void add(long i, long g, const Lanes<K>& L) const {
+    PT vr[kLanes], vi[kLanes];
+    stencil_sums<PT, K, ISA>(L, prof + 2 * (p0 + i) * A.lp, vr, vi);
+    PT* __restrict gr = ar[g];
+    PT* __restrict gi = ai[g];
+#pragma omp simd
+    for (int l = 0; l < kLanes; ++l) {
+      const PT c = L.c[l], s = L.s[l];
+      gr[l] = (gr[l] + vr[l] * c) - vi[l] * s;
+      gi[l] = (gi[l] + vr[l] * s) + vi[l] * c;
+    }
+  }
+};
+
 // Forward: pulses [p0, p1) into image row `row` (accumulators in registers per tile); NE: the
-// range model (0 the economised quadratic, 1 or 2 the exact model of one or two ends).
+// range model (0 the economised quadratic, 1 or 2 the exact model of one or two ends). The
+// (pulse, group) items run software-pipelined on AVX-512: the next item's lanes are evaluated before this
+// item's stencils are loaded, so that the loads find their indices stored long before (the
+// chain from a lane's range to its stencil's address is the loop's longest).
 template <typename PT, int K, int ISA, int NE>
 SARCLI_INLINE void bp_row_model(const Args& A, const PT* prof, long row, long p0, long p1,
                                 Anchors& an, double* ore, double* oim) {
   const double y = A.y[row];
   float uf[kGroups][kLanes];
   double ud[kGroups][kLanes];
-  Lanes<K> L;
+  Lanes<K> L0, L1;
   for (long c0 = 0; c0 < A.nx; c0 += A.width) {
     double xc, he;
     const long wv = tile_lanes(A, c0, uf, ud, xc, he);
     const long ng = (wv + kLanes - 1) / kLanes;
     anchors(A, p0, p1, xc, y, NE > 0 ? 0.0 : he, an);
     PT ar[kGroups][kLanes] = {}, ai[kGroups][kLanes] = {};
-    for (long p = p0; p < p1; ++p) {
-      const Anchor a = an.get(p - p0);
-      ExactAnchor exv;
-      if (NE > 0) exv = an.exact(p - p0, NE);
-      const ExactAnchor* ex = &exv;
-      const PT* pp = prof + 2 * p * A.lp;
-      for (long g = 0; g < ng; ++g) {
-        PT ur[kLanes], ui[kLanes];
-        carried_lanes<PT, K, ISA, NE>(a, ex, uf[g], ud[g], A.pad, pp, L, ur, ui);
-        PT* __restrict gr = ar[g];
-        PT* __restrict gi = ai[g];
-#pragma omp simd
-        for (int i = 0; i < kLanes; ++i) {
-          gr[i] += ur[i];
-          gi[i] += ui[i];
-        }
+    const RowItems<PT, K, ISA, NE> it{A, prof, an, p0, uf, ud, ar, ai};
+    // items j = 0 .. n - 1 in the order (pulse i = j / ng, group g = j % ng), two a turn so that
+    // the two Lanes alternate without an index
+    const long n = (p1 - p0) * ng;
+    long i = 0, g = 0;
+    if (ISA < 2) {  // AVX2 and baseline: the loop's arithmetic, not its latency, sets the pace
+      for (long j = 0; j < n; ++j) {
+        it.eval(i, g, L0);
+        it.add(i, g, L0);
+        if (++g == ng) { g = 0; ++i; }
+      }
+    } else {
+      it.eval(0, 0, L0);
+      for (long j = 0; j < n; j += 2) {
+        long i1 = i, g1 = g + 1;
+        if (g1 == ng) { g1 = 0; ++i1; }
+        if (j + 1 < n) it.eval(i1, g1, L1);
+        it.add(i, g, L0);
+        if (j + 1 >= n) break;
+        long i2 = i1, g2 = g1 + 1;
+        if (g2 == ng) { g2 = 0; ++i2; }
+        if (j + 2 < n) it.eval(i2, g2, L0);
+        it.add(i1, g1, L1);
+        i = i2;
+        g = g2;
       }
     }
-    double* r = ore + row * A.nx + c0;
-    double* m = oim + row * A.nx + c0;
-    for (long i = 0; i < wv; ++i) {
-      r[i] += static_cast<double>(ar[i / kLanes][i % kLanes]);
-      m[i] += static_cast<double>(ai[i / kLanes][i % kLanes]);
+    double* __restrict r = ore + row * A.nx + c0;
+    double* __restrict m = oim + row * A.nx + c0;
+    const PT* __restrict fr = ar[0];  // the groups' lanes in a row (the tile's pixels in order)
+    const PT* __restrict fi = ai[0];
+#pragma omp simd
+    for (long c = 0; c < wv; ++c) {
+      r[c] += static_cast<double>(fr[c]);
+      m[c] += static_cast<double>(fi[c]);
     }
   }
 }
@@ -1138,6 +1207,11 @@ void carrier_run(const double* ph, std::size_t n, float* c, float* s) {
 }
 
 SARCLI_CLONES
+void carrier_turns_run(const double* q, std::size_t n, float* c, float* s) {
+  for (std::size_t i = 0; i < n; ++i) carrier::cos_sin_turns_f32(q[i], c[i], s[i]);
+}
+
+SARCLI_CLONES
 void weight_groups(const float* t, std::size_t n, int kind, float* w) {
   const std::size_t taps = interp::kTaps[kind];
   for (std::size_t i0 = 0; i0 < n; i0 += kLanes) {
@@ -1158,6 +1232,12 @@ void carrier_values(in<double, 1> ph, out<float, 1> c, out<float, 1> s) {
   const size_t n = ph.shape(0);
   if (c.shape(0) != n || s.shape(0) != n) throw nb::value_error("carrier_values: shapes");
   carrier_run(ph.data(), n, c.data(), s.data());
+}
+
+void carrier_turn_values(in<double, 1> q, out<float, 1> c, out<float, 1> s) {
+  const size_t n = q.shape(0);
+  if (c.shape(0) != n || s.shape(0) != n) throw nb::value_error("carrier_turn_values: shapes");
+  carrier_turns_run(q.data(), n, c.data(), s.data());
 }
 
 void weight_values(in<float, 1> t, int kind, out<float, 2> w) {

@@ -36,6 +36,8 @@ void rp_points(in<PT, 1> fre, in<PT, 1> fim, in<double, 2> pts, in<double, 2> ge
 int isa_level();
 // The carrier and interpolation weights as the kernels evaluate them (for tests).
 void carrier_values(in<double, 1> ph, out<float, 1> c, out<float, 1> s);
+// The tiled kernels' carrier of phases in turns, (cos, sin)(2π q) (for tests).
+void carrier_turn_values(in<double, 1> q, out<float, 1> c, out<float, 1> s);
 void weight_values(in<float, 1> t, int kind, out<float, 2> w);
 
 }  // namespace sarcli

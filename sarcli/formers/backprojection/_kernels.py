@@ -29,8 +29,8 @@ in float32 (a square root and a division per pixel; no cancellation). Its error 
 rounding of ρ alone (:func:`exact_error`), since ``0 ≤ δ ≤ u²/(2 R_min)``. :func:`tiling` picks,
 of the two models, the tiling of least predicted cost (:func:`tile_cost`) whose error stays below
 :data:`MODEL_TOLERANCE` in both carrier phase and profile bins. The profile position is float32
-relative to an integer bin of the centre, the carrier phase float64 reduced to [-π, π] and
-evaluated by a float32 minimax polynomial; the interpolation weights and the carrier are thus
+relative to an integer bin of the centre, the carrier phase float64 in turns reduced to half a
+turn either side and evaluated by a float32 minimax polynomial; the interpolation weights and the carrier are thus
 float32 (errors ~1e-7), the profiles and accumulation follow ``precision``.
 """
 

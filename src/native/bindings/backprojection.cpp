@@ -56,6 +56,8 @@ NB_MODULE(_backprojection, m) {
   m.def("isa_level", &isa_level, "The kernels' instruction set here: 2 AVX-512, 1 AVX2, 0 baseline.");
   m.def("carrier_values", &carrier_values, "phase"_a, "cos"_a, "sin"_a,
         "(cos, sin) of float64 phases as the kernels evaluate them (float32).");
+  m.def("carrier_turn_values", &carrier_turn_values, "turns"_a, "cos"_a, "sin"_a,
+        "(cos, sin) of 2π q for float64 phases q in turns as the tiled kernels evaluate them (float32).");
   m.def("weight_values", &weight_values, "t"_a, "kind"_a, "w"_a,
         "Interpolation weights at fractions t (kind 0 linear, 1 Keys cubic, 2 Lanczos-3).");
 }

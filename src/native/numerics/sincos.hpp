@@ -55,6 +55,16 @@ SARCLI_INLINE void sincos_half_f32(double hp, float& c, float& s) {
 // (cos, sin) of a float64 phase ph in float32 (= sincos_half_f32(ph / 2)).
 SARCLI_INLINE void cos_sin_f32(double ph, float& c, float& s) { sincos_half_f32(0.5 * ph, c, s); }
 
+// (cos, sin) of 2π·q, a phase q in turns, in float32: r = q − rint(q) in [−1/2, 1/2] is exact in
+// float64 whatever |q|, and the half angle h = π r is rounded once to float32 (the same ~1e-7 as
+// cos_sin_f32); three operations a value where cos_sin_f32's reduction takes five. For phases
+// that a kernel evaluates in turns from anchors reduced with cos_sin_f32's care (backprojection).
+constexpr double kPi = 3.141592653589793;
+SARCLI_INLINE void cos_sin_turns_f32(double q, float& c, float& s) {
+  const double r = q - std::nearbyint(q);
+  double_angle_f32(static_cast<float>(kPi * r), c, s);
+}
+
 // cos_sin_f32 of a phase |ph| < π, whose half angle needs no reduction (k = 0 there): the same
 // bits without the reduction's work (the Lanczos weights' sines).
 SARCLI_INLINE void cos_sin_small_f32(double ph, float& c, float& s) {
