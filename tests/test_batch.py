@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 import logging
+import os
 
 import numpy as np
 import pytest
@@ -257,3 +258,33 @@ def test_cli_embedded_local_cluster(tmp_path, data):
     assert np.array_equal(read_image(out / "one" / "ph1.h5").image, ref.image)
     both = CliRunner().invoke(cli, ["batch", str(plan), "-o", str(out), "--workers", "1", "--scheduler", "tcp://x:1"])
     assert both.exit_code == 2 and "--workers" in both.output
+
+
+
+@pytest.mark.skipif(not os.path.exists("/proc/self/task"), reason="needs Linux /proc")
+def test_interrupt_finds_grandchildren():
+    """On an interruption the grandchildren (a dask nanny's worker) are stopped too, before their
+    parents: the watchdog finds every process below it, parents first."""
+    import subprocess
+    import sys
+    import time
+
+    from sarcli._util.interrupt import descendants
+
+    code = ("import subprocess, sys, time; "
+            "subprocess.Popen([sys.executable, '-c', 'import time; time.sleep(30)']); time.sleep(30)")
+    child = subprocess.Popen([sys.executable, "-c", code])
+    grand = []
+    try:
+        for _ in range(200):
+            grand = descendants(child.pid)
+            if grand:
+                break
+            time.sleep(0.05)
+        assert len(grand) == 1
+        mine = descendants(os.getpid())   # other tests' helpers (a resource tracker) may be there too
+        assert mine.index(child.pid) < mine.index(grand[0])
+    finally:
+        for pid in grand + [child.pid]:
+            os.kill(pid, 9)
+        child.wait()

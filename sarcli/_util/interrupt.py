@@ -18,14 +18,47 @@ import signal
 import sys
 import threading
 
-__all__ = ["install", "installed", "EXIT_CODES"]
+__all__ = ["install", "installed", "descendants", "EXIT_CODES"]
 
 #: signal -> exit status
 EXIT_CODES = {signal.SIGINT: 130, signal.SIGTERM: 143}
 _state = {"installed": False}
 
 
+def descendants(pid: int) -> list[int]:
+    """Every process below ``pid``, parents before their children (Linux: ``/proc/PID/task/TID/children``;
+    elsewhere none)."""
+    found, todo = [], [pid]
+    while todo:
+        p = todo.pop(0)
+        try:
+            tasks = os.listdir(f"/proc/{p}/task")
+        except OSError:
+            continue
+        for t in tasks:
+            try:
+                with open(f"/proc/{p}/task/{t}/children") as fh:
+                    kids = [int(k) for k in fh.read().split()]
+            except (OSError, ValueError):
+                continue
+            found += kids
+            todo += kids
+    return found
+
+
 def _stop_children(timeout=0.3):
+    # the grandchildren first (a dask nanny's worker, perhaps still starting): were its parent gone
+    # first, a starting worker would read end-of-file from it and print a traceback on our stderr
+    # after "interrupted"; SIGTERM ends it where it stands, silently
+    try:
+        below = descendants(os.getpid())
+    except Exception:  # noqa: BLE001 - best effort while exiting
+        below = []
+    for pid in reversed(below):
+        try:
+            os.kill(pid, signal.SIGTERM)
+        except OSError:
+            pass
     try:
         import multiprocessing
 
