@@ -311,3 +311,25 @@ def test_write_chunked_goes_on_after_short_writes_and_stops_on_none(tmp_path, mo
     monkeypatch.setattr(os, "pwrite", lambda fd, buf, offset: 0)
     with open(path, "r+b") as fh, pytest.raises(OSError, match="No space left"):
         write_chunked(fh.fileno(), data, 0)
+
+
+def test_an_interruption_between_reserving_and_opening_leaves_no_temporary(tmp_path, monkeypatch):
+    """The interruption's clean-up removes the temporary file while the main thread runs on (it
+    stops the children first): the in-place HDF5 file must not be created again behind it."""
+    from sarcli._util import atomic
+    from sarcli.io import h5output
+
+    reserve = h5output.reserve_space
+
+    def reserve_then_interrupted(tmp, nbytes):
+        reserve(tmp, nbytes)
+        atomic.release_all()            # what the watchdog does on SIGINT
+
+    monkeypatch.setattr(h5output, "reserve_space", reserve_then_interrupted)
+    out, created = tmp_path / "img.h5", []
+    with pytest.raises(KeyboardInterrupt):
+        with atomic.atomic_path(out) as tmp:
+            with h5output.h5_output(tmp, h5output.IN_MEMORY_MAX_BYTES + 1):
+                # the process may end at any moment now (os._exit): nothing may be on disk
+                created += [p.name for p in tmp_path.iterdir()]
+    assert created == [] and sorted(p.name for p in tmp_path.iterdir()) == []

@@ -163,15 +163,16 @@ def _discard(tmp: Path) -> None:
             tmp.unlink()
 
 
-def open_held(tmp, mode: str = "wb"):
+def open_held(tmp, mode: str = "wb", opener=open):
     """Open the temporary file ``tmp`` of an :func:`atomic_path` for writing, only while it is still
     held: an interruption that already removed it must not see it created again behind its back.
     The open itself is taken under the lock; the writing that follows is not (a clean-up that
-    removes the file meanwhile leaves the writes on an unlinked inode: nothing stays on disk)."""
+    removes the file meanwhile leaves the writes on an unlinked inode: nothing stays on disk).
+    ``opener(tmp, mode)`` opens it (default :func:`open`; e.g. ``h5py.File``)."""
     with LOCK:
         if Path(tmp) not in _TEMPS:
             raise KeyboardInterrupt
-        return open(tmp, mode)
+        return opener(tmp, mode)
 
 
 def release_all() -> list[Path]:

@@ -94,7 +94,9 @@ def h5_output(tmp, nbytes):
     ``nbytes``: the bytes of its large datasets."""
     if in_place(nbytes):
         reserve_space(tmp, reserved_bytes(nbytes))
-        with h5py.File(tmp, "w") as f:
+        # created under the clean-up's lock: an interruption between the reservation and this open
+        # must not find the file gone and then see HDF5 create it again (a temporary left behind)
+        with open_held(tmp, "w", opener=h5py.File) as f:
             yield f
         return
     buf = io.BytesIO()
