@@ -20,7 +20,7 @@ from __future__ import annotations
 import numpy as np
 
 from .core import geometry
-from ._util.atomic import atomic_path
+from ._util.atomic import atomic_path, open_held
 from .errors import SarcliInputError
 from .core.grid import Grid
 from .core.types import Image
@@ -41,8 +41,8 @@ def _figure(ncols=1, size=(6.4, 4.8), nrows=1, layout="constrained"):
 
 def _save(fig, path, *, metadata=None, **kwargs):
     if path is not None:
-        with atomic_path(path) as tmp:
-            fig.savefig(tmp, format="png", metadata=metadata, **kwargs)
+        with atomic_path(path) as tmp, open_held(tmp) as fh:
+            fig.savefig(fh, format="png", metadata=metadata, **kwargs)
 
 
 def _as_image(img_or_psf, grid=None) -> Image:
@@ -373,8 +373,8 @@ def plot_benchmark(result, path, *, title: str = ""):
         ax.legend(fontsize=8)
     fig.suptitle(title or "error against run time")
     path = Path(path)
-    with atomic_path(path) as tmp:
-        fig.savefig(tmp, dpi=110, format="png")
+    with atomic_path(path) as tmp, open_held(tmp) as fh:
+        fig.savefig(fh, dpi=110, format="png")
     return path
 
 

@@ -42,7 +42,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .._util.atomic import atomic_path
+from .._util.atomic import atomic_path, open_held
 from .._util.options import with_options
 from ..analysis.accuracy import MAX_REFERENCE_COST, pareto_front, reference_grid, truth_error, truth_on_grid
 from ..errors import SarcliInputError
@@ -350,7 +350,7 @@ def write_csv(result: BenchResult, path) -> Path:
     """``error_vs_time.csv``: the notes as ``#`` lines, then one row per setting (:data:`CSV_COLUMNS`)."""
     path = Path(path)
     with atomic_path(path) as tmp:
-        with open(tmp, "w", newline="") as fh:
+        with open_held(tmp, "w", opener=lambda p, m: open(p, m, newline="")) as fh:
             for note in result.notes:
                 fh.write(f"# {note}\n")
             w = csv.DictWriter(fh, fieldnames=CSV_COLUMNS)

@@ -326,10 +326,10 @@ def run_plan(plan, outdir, *, client=None, scheduler: str | None = None, n_worke
             obj.close()
     report = BatchReport([results[j.name] for j in plan.jobs], wall_s=time.perf_counter() - t0, workers=n_workers)
     if report_file:
-        from .._util.atomic import atomic_path
+        from .._util.atomic import atomic_path, open_held
 
-        with atomic_path(outdir / report_file) as tmp:
-            Path(tmp).write_text(json.dumps({"plan": plan.source, **report.to_dict()}, indent=1))
+        with atomic_path(outdir / report_file) as tmp, open_held(tmp, "w") as fh:
+            fh.write(json.dumps({"plan": plan.source, **report.to_dict()}, indent=1))
     return report
 
 

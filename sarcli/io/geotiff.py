@@ -25,7 +25,7 @@ import math
 import numpy as np
 import tifffile
 
-from .._util.atomic import atomic_path
+from .._util.atomic import atomic_path, open_held
 from .._version import __version__
 from ..core.types import Image
 from . import pixels
@@ -198,8 +198,8 @@ def write_geotiff(img: Image, path, *, kind: str = "magnitude", dynamic_range_db
         *([(_TAG_GEODOUBLE, "d", len(doubles), doubles, True)] if doubles else []),
         (_TAG_GEOASCII, "s", 0, ascii_, True),
     ]
-    with atomic_path(path) as tmp:
-        tifffile.imwrite(tmp, data, photometric="minisblack", description=description,
+    with atomic_path(path) as tmp, open_held(tmp) as fh:
+        tifffile.imwrite(fh, data, photometric="minisblack", description=description,
                          metadata=None, software=f"sarcli {__version__}", extratags=extratags)
     return frame
 

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._util.atomic import atomic_path
+from .._util.atomic import atomic_path, open_held
 from .._version import __version__
 from ..errors import SarcliInputError
 from ..core.types import Image
@@ -86,6 +86,6 @@ def write_png(img: Image, path, *, kind: str = "db", dynamic_range_db: float = 5
     info = PngInfo()
     for key, value in png_text(kind=kind, dynamic_range_db=dynamic_range_db, cmap=cmap).items():
         info.add_text(key, value)
-    with atomic_path(path) as tmp:
-        pic.save(tmp, format="PNG", pnginfo=info)
+    with atomic_path(path) as tmp, open_held(tmp) as fh:
+        pic.save(fh, format="PNG", pnginfo=info)
 

@@ -35,7 +35,7 @@ import lxml.etree
 import numpy as np
 
 from ..core import geometry
-from .._util.atomic import atomic_path
+from .._util.atomic import atomic_path, open_held
 from .._version import __version__
 from ..core.acquisition import Acquisition
 from ..errors import SarcliInputError
@@ -361,7 +361,7 @@ def write_sicd(img: Image, path, *, phase_history=None):
         de_subheader_part=sksicd.NitfDeSubheaderPart(security=sec),
     )
     with atomic_path(path) as tmp:
-        with open(tmp, "wb") as f, sksicd.NitfWriter(f, meta) as w:
+        with open_held(tmp) as f, sksicd.NitfWriter(f, meta) as w:
             w.write_image(orient["array"])
     out = {k: v for k, v in orient.items() if k != "array"}
     out["reference"] = ref

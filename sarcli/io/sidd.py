@@ -24,7 +24,7 @@ import json
 import lxml.builder
 import numpy as np
 
-from .._util.atomic import atomic_path
+from .._util.atomic import atomic_path, open_held
 from .._version import __version__
 from ..core import geometry
 from ..core.types import Image
@@ -180,7 +180,7 @@ def _write_nitf(path, tree, pixels) -> None:
             xmltree=tree, im_subheader_part=sksidd.NitfImSubheaderPart(security=sec),
             de_subheader_part=sksidd.NitfDeSubheaderPart(security=sec))])
     with atomic_path(path) as tmp:
-        with open(tmp, "wb") as f, sksidd.NitfWriter(f, meta) as w:
+        with open_held(tmp) as f, sksidd.NitfWriter(f, meta) as w:
             w.write_image(0, pixels)
 
 

@@ -32,7 +32,7 @@ import lxml.etree
 import numpy as np
 
 from ...core import geometry, sampling
-from ..._util.atomic import atomic_path
+from ..._util.atomic import atomic_path, open_held
 from ..._version import __version__
 from ...errors import SarcliInputError
 from ..georef import ReferencePoint, enu_basis, enu_to_ecf, reference_point
@@ -318,7 +318,7 @@ def write_cphd(ph: PhaseHistory, path) -> Path:
     root.append(refgeom)
     meta = skcphd.Metadata(xmltree=tree)
     with atomic_path(path) as tmp:
-        with open(tmp, "wb") as f, skcphd.Writer(f, meta) as w:
+        with open_held(tmp) as f, skcphd.Writer(f, meta) as w:
             w.write_signal(CHANNEL_ID, sig)
             w.write_pvp(CHANNEL_ID, pvp)
     return Path(path)
