@@ -447,6 +447,39 @@ def test_ffbp_depth_first_groups_give_the_same_image(monkeypatch):
     assert image_error(parts, whole) < 1e-12
 
 
+def test_each_level_is_freed_once_its_parents_are_formed(monkeypatch):
+    """Memory: when a merge runs, the grids two levels below (the previous merge's children, stage
+    0's at the second merge) are no longer held by anyone, in every depth-first group."""
+    import gc
+    import weakref
+
+    import sarcli.formers.ffbp._image as fb
+    import sarcli.formers.ffbp._kernels as kernels
+
+    a, r0 = circle(P=512, aperture_deg=8.0)
+    d = point_data(a, r0)
+    plan = plan_stages(a, FREQ, GRID, base=2, final=8)
+    assert len(plan.levels) >= 4
+    per = sum(lv.nbytes for lv in plan.levels) / plan.levels[-1].n
+    monkeypatch.setattr(fb, "SUBTREE_BYTES", per)   # one last-level sub-image a group
+    assert len(fb.subtree_groups(plan, fb.SUBTREE_BYTES)) >= 2
+    merge, calls = kernels.merge, []
+
+    def watched(children, *args):
+        gc.collect()
+        calls.append(([weakref.ref(x) for x in children], len(calls) and [r() is not None for r in calls[-1][0]]))
+        return merge(children, *args)
+
+    monkeypatch.setattr(kernels, "merge", watched)
+    img = ffbp(d, Collection(FREQ, a, r0), GRID, base=2, final=8)
+    per_group = len(plan.levels) - 1
+    assert len(calls) == per_group * len(fb.subtree_groups(plan, fb.SUBTREE_BYTES))
+    for i, (_, before_alive) in enumerate(calls):
+        if i % per_group:   # not a group's first merge: the level below its children is gone
+            assert before_alive == [False, False], i
+    assert image_error(img, direct_spherical(d, FREQ, a, r0, GRID)) <= 5e-3
+
+
 def _merge_reference(cre, cim, cf, pf, first, count, tab_q, tab_t, dq, kref, n_u, n_q):
     """NumPy twin of the compiled merge's separable path (``separable_row`` in src/native/ffbp.cpp)
     for the optimal 6-tap kernels: each parent row's nodes in every child's (q, u); the child's

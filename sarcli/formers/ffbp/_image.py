@@ -215,8 +215,7 @@ def ffbp(data, collection, grid: Grid, *, nthreads=None, return_plan=False, plan
         # depth first: the last level's sub-images in groups, each group's whole subtree (stage 0,
         # merges) formed, added to the image and freed, so memory does not grow with the pulses
         for a0, b0 in _subtree_groups(plan):
-            rng = _descend(plan.levels, a0, b0)
-            cur_re, cur_im = run.merged(*run.stage0(*rng[0], nthr, bar), rng)
+            cur_re, cur_im = run.subtree(_descend(plan.levels, a0, b0), nthr, bar)
             if img is None:
                 img = np.zeros(grid.shape, dtype=np.complex128)
             run.final(cur_re, cur_im, a0, b0, grid, img)
@@ -261,8 +260,8 @@ class _Inputs:
 
 class _Pass:
     """One run of a plan over checked inputs: stage 0's pulse tables, each interpolation's kernel
-    and the deapodization, made once; :meth:`stage0`, :meth:`merged` and :meth:`final` form one
-    depth-first group after another."""
+    and the deapodization, made once; :meth:`subtree` (stage 0 by blocks, then the merges) and
+    :meth:`final` form one depth-first group after another."""
 
     def __init__(self, inp: _Inputs, plan, clock=None):
         from ._stage0 import pulse_geometry, pulse_table, series_inputs
@@ -344,10 +343,14 @@ class _Pass:
             bar.update(p1 - p0)
         return cur_re, cur_im
 
-    def merged(self, cur_re, cur_im, rng):
-        """Stage 0's sub-images merged level by level up the subtree ``rng`` (:func:`_descend`)."""
+    def subtree(self, rng, nthr, bar):
+        """Stage 0 of the subtree ``rng`` (:func:`_descend`) and its merges level by level: the last
+        level's sub-images ``(real, imaginary)``. Each level's grids are freed once its parents are
+        formed (only a child level and its parents are held at once): no caller holds stage 0's
+        grids, the largest level, through the merges."""
         from ._kernels import frame, merge as merge_stage
 
+        cur_re, cur_im = self.stage0(*rng[0], nthr, bar)
         levels = self.plan.levels
         for l in range(1, len(levels)):
             child, parent = levels[l - 1], levels[l]
