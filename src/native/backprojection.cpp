@@ -318,10 +318,18 @@ SARCLI_INLINE void eval_lanes(const Anchor& an, const ExactAnchor* ex, const flo
 #pragma omp simd
   for (int i = 0; i < kLanes; ++i) {
     const double v = ud[i];
-    double q = an.ph0 + v * (an.ph1 + v * an.ph2);
-    if (NE > 0) q += static_cast<double>(kc * rho[i]);
+    const double q = an.ph0 + v * (an.ph1 + v * an.ph2);
     float c, s;
-    carrier::cos_sin_turns_f32(q, c, s);
+    if (NE > 0) {
+      // the quadratic's turns reduced in float64, then ρ's turns added and the sum reduced in
+      // float32 (one more float32 rounding of the sum; float64 would take twice the vectors for
+      // the sum and its reduction)
+      float f = static_cast<float>(q - std::nearbyint(q)) + kc * rho[i];
+      f -= std::nearbyint(f);
+      carrier::double_angle_f32(static_cast<float>(carrier::kPi) * f, c, s);
+    } else {
+      carrier::cos_sin_turns_f32(q, c, s);
+    }
     L.c[i] = m[i] * c;
     L.s[i] = m[i] * s;
   }
