@@ -43,6 +43,7 @@ namespace {
 
 constexpr int kLanes = 16;
 constexpr int kGroups = 4;  // lane groups a tile may hold (tiles of up to 64 pixels)
+constexpr int kUf = 2 * kLanes;  // a group's float32 lane offsets u, then their squares u²
 constexpr double kTwoPi = 6.283185307179586;
 constexpr double kInvTwoPi = 0.15915494309189535;
 constexpr double kTwoPiLo = 2.4492935982947064e-16;  // 2π - kTwoPi
@@ -281,12 +282,13 @@ struct ExactLanes {
   static SARCLI_INLINE void eval(const ExactAnchor& x, const float* uf, float* rho) {
 #pragma omp simd
     for (int i = 0; i < kLanes; ++i) {
-      const float u = uf[i], uu = u * u;
+      const float u = uf[i], uu = uf[kLanes + i];
       float r = 0.0f;
       for (int e = 0; e < NE; ++e) {
         const ExactEnd& q = x.e[e];
-        const float R = std::sqrt(q.rc2 + q.tdx * u + uu);
-        const float d = q.s2 * uu / (q.rc + q.c * u + R);
+        const float Q = q.rc + q.c * u, su = q.s2 * uu;  // R(u)² = Q² + (1 - c²) u²
+        const float R = std::sqrt(Q * Q + su);
+        const float d = su / (Q + R);
         const float m = d * (q.c2 * u + d);
         r = NE == 1 ? m : r + m * q.i2r;
       }
@@ -338,7 +340,7 @@ SARCLI_INLINE void eval_lanes(const Anchor& an, const ExactAnchor* ex, const flo
 
 // The tile starting at column c0: its width, lane offsets from the anchor, and 3/4 h².
 // A tile holds up to kGroups groups of kLanes pixels that share one anchor.
-SARCLI_INLINE long tile_lanes(const Args& A, long c0, float (*uf)[kLanes], double (*ud)[kLanes],
+SARCLI_INLINE long tile_lanes(const Args& A, long c0, float (*uf)[kUf], double (*ud)[kLanes],
                               double& xc, double& he) {
   const long wv = std::min<long>(A.width, A.nx - c0);
   const double xa = A.x[c0], xb = A.x[c0 + wv - 1];
@@ -350,6 +352,7 @@ SARCLI_INLINE long tile_lanes(const Args& A, long c0, float (*uf)[kLanes], doubl
       const long c = g * kLanes + i;
       ud[g][i] = c < wv ? A.x[c0 + c] - xc : 0.0;
       uf[g][i] = static_cast<float>(ud[g][i]);
+      uf[g][kLanes + i] = uf[g][i] * uf[g][i];
     }
   return wv;
 }
@@ -404,25 +407,6 @@ SARCLI_V4_INLINE void transpose8_v4(__m512* r) {
   for (int k = 0; k < 4; ++k) {
     r[k] = _mm512_permutex2var_ps(u[k], lo, u[k + 4]);
     r[k + 4] = _mm512_permutex2var_ps(u[k], hi, u[k + 4]);
-  }
-}
-
-// 8 x 8 transpose of floats in eight AVX2 registers.
-SARCLI_V3_INLINE void transpose8_v3(__m256* r) {
-  __m256 t[8], u[8];
-  for (int i = 0; i < 4; ++i) {
-    t[2 * i] = _mm256_unpacklo_ps(r[2 * i], r[2 * i + 1]);
-    t[2 * i + 1] = _mm256_unpackhi_ps(r[2 * i], r[2 * i + 1]);
-  }
-  for (int h = 0; h < 2; ++h) {
-    u[4 * h + 0] = _mm256_shuffle_ps(t[4 * h + 0], t[4 * h + 2], 0x44);
-    u[4 * h + 1] = _mm256_shuffle_ps(t[4 * h + 0], t[4 * h + 2], 0xEE);
-    u[4 * h + 2] = _mm256_shuffle_ps(t[4 * h + 1], t[4 * h + 3], 0x44);
-    u[4 * h + 3] = _mm256_shuffle_ps(t[4 * h + 1], t[4 * h + 3], 0xEE);
-  }
-  for (int k = 0; k < 4; ++k) {
-    r[k] = _mm256_permute2f128_ps(u[k], u[k + 4], 0x20);
-    r[k + 4] = _mm256_permute2f128_ps(u[k], u[k + 4], 0x31);
   }
 }
 
@@ -507,16 +491,33 @@ struct Taps<double, 1, 1> {
   }
 };
 
-// float, 4 taps, AVX2: two groups of eight lanes.
+// float, 4 taps, AVX2: two groups of eight lanes. Lane i's first and second four floats go to
+// the low halves of r[i] and r[i + 4] and lane i + 4's to their high halves (128-bit loads, the
+// insertion on any vector port), so that two 4 x 4 transposes within the halves finish the
+// 8 x 8 one: 16 shuffles on the shuffle port where transpose8_v3 takes 24.
 template <>
 struct Taps<float, 1, 1> {
   static SARCLI_V3_LOAD void load(const float* pp, const int* idx_, float (*t)[kLanes]) {
     const volatile int* idx = idx_;  // see Lanes::idx
     for (int g = 0; g < 2; ++g) {
-      __m256 r[8];
-      for (int i = 0; i < 8; ++i) r[i] = _mm256_loadu_ps(pp + idx[8 * g + i]);
-      transpose8_v3(r);
-      for (int k = 0; k < 8; ++k) _mm256_storeu_ps(t[k] + 8 * g, r[k]);
+      __m256 r[8], q[8];
+      for (int i = 0; i < 4; ++i) {
+        const float* a = pp + idx[8 * g + i];
+        const float* b = pp + idx[8 * g + i + 4];
+        r[i] = _mm256_insertf128_ps(_mm256_castps128_ps256(_mm_loadu_ps(a)), _mm_loadu_ps(b), 1);
+        r[i + 4] = _mm256_insertf128_ps(_mm256_castps128_ps256(_mm_loadu_ps(a + 4)), _mm_loadu_ps(b + 4), 1);
+      }
+      for (int h = 0; h < 2; ++h) {  // rows 4h .. 4h + 3 hold columns 4h .. 4h + 3 of the lanes
+        const __m256 t0 = _mm256_unpacklo_ps(r[4 * h + 0], r[4 * h + 1]);
+        const __m256 t1 = _mm256_unpackhi_ps(r[4 * h + 0], r[4 * h + 1]);
+        const __m256 t2 = _mm256_unpacklo_ps(r[4 * h + 2], r[4 * h + 3]);
+        const __m256 t3 = _mm256_unpackhi_ps(r[4 * h + 2], r[4 * h + 3]);
+        q[4 * h + 0] = _mm256_shuffle_ps(t0, t2, 0x44);
+        q[4 * h + 1] = _mm256_shuffle_ps(t0, t2, 0xEE);
+        q[4 * h + 2] = _mm256_shuffle_ps(t1, t3, 0x44);
+        q[4 * h + 3] = _mm256_shuffle_ps(t1, t3, 0xEE);
+      }
+      for (int k = 0; k < 8; ++k) _mm256_storeu_ps(t[k] + 8 * g, q[k]);
     }
   }
 };
@@ -545,18 +546,20 @@ struct Taps<float, 0, 1> {
 // R = A y refined by R + (y/2)(A - R²), 1/D by v (2 - D v). AVX-512's 14-bit estimates leave
 // about 1 ulp; AVX2's 12-bit ones about 2 (within _bp_kernels.EXACT_ROUNDINGS either way).
 #define SARCLI_EXACT_BODY(V, P)                                                                      \
-  const V u = P##_loadu_ps(uf), uu = P##_mul_ps(u, u);                                               \
+  const V u = P##_loadu_ps(uf), uu = P##_loadu_ps(uf + kLanes);                                     \
   V r = P##_setzero_ps();                                                                            \
   for (int e = 0; e < NE; ++e) {                                                                     \
     const ExactEnd& q = x.e[e];                                                                      \
-    const V A = P##_add_ps(P##_fmadd_ps(P##_set1_ps(q.tdx), u, P##_set1_ps(q.rc2)), uu);             \
+    const V Q = P##_fmadd_ps(P##_set1_ps(q.c), u, P##_set1_ps(q.rc));                                \
+    const V su = P##_mul_ps(P##_set1_ps(q.s2), uu);                                                  \
+    const V A = P##_fmadd_ps(Q, Q, su);                                                              \
     const V y = RSQRT(A);                                                                            \
     V R = P##_mul_ps(A, y);                                                                          \
     R = P##_fmadd_ps(P##_mul_ps(P##_set1_ps(0.5f), y), P##_fnmadd_ps(R, R, A), R);                   \
-    const V D = P##_add_ps(P##_fmadd_ps(P##_set1_ps(q.c), u, P##_set1_ps(q.rc)), R);                 \
+    const V D = P##_add_ps(Q, R);                                                                    \
     V iv = RCP(D);                                                                                   \
     iv = P##_mul_ps(iv, P##_fnmadd_ps(D, iv, P##_set1_ps(2.0f)));                                    \
-    const V d = P##_mul_ps(P##_mul_ps(P##_set1_ps(q.s2), uu), iv);                                   \
+    const V d = P##_mul_ps(su, iv);                                                                  \
     const V m = P##_mul_ps(d, P##_fmadd_ps(P##_set1_ps(q.c2), u, d));                                \
     r = NE == 1 ? m : P##_fmadd_ps(m, P##_set1_ps(q.i2r), r);                                        \
   }
@@ -636,7 +639,7 @@ struct RowItems {
   const PT* prof;
   const Anchors& an;
   long p0;
-  const float (*uf)[kLanes];
+  const float (*uf)[kUf];
   const double (*ud)[kLanes];
   PT (*ar)[kLanes];
   PT (*ai)[kLanes];
@@ -663,14 +666,14 @@ struct RowItems {
 
 // Forward: pulses [p0, p1) into image row `row` (accumulators in registers per tile); NE: the
 // range model (0 the economised quadratic, 1 or 2 the exact model of one or two ends). The
-// (pulse, group) items run software-pipelined on AVX-512: the next item's lanes are evaluated before this
-// item's stencils are loaded, so that the loads find their indices stored long before (the
-// chain from a lane's range to its stencil's address is the loop's longest).
+// (pulse, group) items run software-pipelined on AVX-512 and AVX2: the next item's lanes are
+// evaluated before this item's stencils are loaded, so that the loads find their indices stored
+// long before (the chain from a lane's range to its stencil's address is the loop's longest).
 template <typename PT, int K, int ISA, int NE>
 SARCLI_INLINE void bp_row_model(const Args& A, const PT* prof, long row, long p0, long p1,
                                 Anchors& an, double* ore, double* oim) {
   const double y = A.y[row];
-  float uf[kGroups][kLanes];
+  float uf[kGroups][kUf];
   double ud[kGroups][kLanes];
   Lanes<K> L0, L1;
   for (long c0 = 0; c0 < A.nx; c0 += A.width) {
@@ -684,7 +687,7 @@ SARCLI_INLINE void bp_row_model(const Args& A, const PT* prof, long row, long p0
     // the two Lanes alternate without an index
     const long n = (p1 - p0) * ng;
     long i = 0, g = 0;
-    if (ISA < 2) {  // AVX2 and baseline: the loop's arithmetic, not its latency, sets the pace
+    if (ISA < 1) {  // baseline: the loop's arithmetic, not its latency, sets the pace
       for (long j = 0; j < n; ++j) {
         it.eval(i, g, L0);
         it.add(i, g, L0);
@@ -739,7 +742,7 @@ template <typename PT, int K, int ISA, int NE>
 SARCLI_INLINE void bp_contract_row_model(const Args& A, const PT* prof, const PT* gre, const PT* gim,
                                          long row, long p0, long p1, Anchors& an, double* acc) {
   const double y = A.y[row];
-  float uf[kGroups][kLanes];
+  float uf[kGroups][kUf];
   double ud[kGroups][kLanes];
   PT wr[kGroups][kLanes], wi[kGroups][kLanes];
   Lanes<K> L;
@@ -798,7 +801,7 @@ SARCLI_INLINE void bp_contract_row(const Args& A, const PT* prof, const PT* gre,
 // Adjoint: every pixel of the image scattered onto pulse p's profile.
 template <typename PT, int K, int ISA, int NE>
 SARCLI_INLINE void rp_pulse_model(const Args& A, const PT* fre, const PT* fim, long p, PT* h) {
-  float uf[kGroups][kLanes];
+  float uf[kGroups][kUf];
   double ud[kGroups][kLanes];
   Lanes<K> L;
   PT ur[kLanes], ui[kLanes];
