@@ -96,13 +96,12 @@ struct Args {
 
 // The exact model's float32 terms of one end at the anchor (ExactAnchor).
 struct ExactEnd {
-  float tdx, rc2, rc, c, c2, s2, i2r;
+  float rc, c, c2, s2, i2r;
 };
 // i2r: -1/(4 R_c), each end's weight in the bistatic mean (exact_lanes).
 SARCLI_INLINE ExactEnd exact_end(double r, double c, double s2) {
-  return ExactEnd{static_cast<float>(2.0 * c * r), static_cast<float>(r * r), static_cast<float>(r),
-                  static_cast<float>(c), static_cast<float>(2.0 * c), static_cast<float>(s2),
-                  static_cast<float>(-0.25 / r)};
+  return ExactEnd{static_cast<float>(r), static_cast<float>(c), static_cast<float>(2.0 * c),
+                  static_cast<float>(s2), static_cast<float>(-0.25 / r)};
 }
 
 // The exact range model's per-pulse terms at a tile's anchor: with u the pixel's offset along the
@@ -132,7 +131,7 @@ struct Anchors {
   // the contraction's per-pulse lane sums over a row, [n][2][kLanes] of the working precision
   std::vector<double> sums;
   // the exact model's terms (filled only when Args::exact), one array a field so that the pulse
-  // loop vectorises: ExactEnd's seven fields of end e at xf[8 e + field], ExactAnchor::ib at
+  // loop vectorises: ExactEnd's five fields of end e at xf[8 e + field], ExactAnchor::ib at
   // xf[7], ::kc at xf[15]
   std::vector<float> xstore;
   float* xf[16];
@@ -147,9 +146,8 @@ struct Anchors {
   SARCLI_INLINE void put_exact(long i, const ExactAnchor& x, int ends) {
     for (int e = 0; e < ends; ++e) {
       const ExactEnd& q = x.e[e];
-      xf[8 * e + 0][i] = q.tdx; xf[8 * e + 1][i] = q.rc2; xf[8 * e + 2][i] = q.rc;
-      xf[8 * e + 3][i] = q.c; xf[8 * e + 4][i] = q.c2; xf[8 * e + 5][i] = q.s2;
-      xf[8 * e + 6][i] = q.i2r;
+      xf[8 * e + 0][i] = q.rc; xf[8 * e + 1][i] = q.c; xf[8 * e + 2][i] = q.c2;
+      xf[8 * e + 3][i] = q.s2; xf[8 * e + 4][i] = q.i2r;
     }
     xf[7][i] = x.ib;
     xf[15][i] = x.kc;
@@ -158,8 +156,7 @@ struct Anchors {
     ExactAnchor x;
     for (int e = 0; e < 2; ++e) {
       const int f = e < ends ? 8 * e : 0;
-      x.e[e] = ExactEnd{xf[f][i], xf[f + 1][i], xf[f + 2][i], xf[f + 3][i], xf[f + 4][i],
-                        xf[f + 5][i], xf[f + 6][i]};
+      x.e[e] = ExactEnd{xf[f][i], xf[f + 1][i], xf[f + 2][i], xf[f + 3][i], xf[f + 4][i]};
     }
     x.ib = xf[7][i];
     x.kc = xf[15][i];
