@@ -43,7 +43,6 @@ namespace {
 
 constexpr int kLanes = 16;
 constexpr int kGroups = 4;  // lane groups a tile may hold (tiles of up to 64 pixels)
-constexpr int kUf = 2 * kLanes;  // a group's float32 lane offsets u, then their squares u²
 constexpr double kTwoPi = 6.283185307179586;
 constexpr double kInvTwoPi = 0.15915494309189535;
 constexpr double kTwoPiLo = 2.4492935982947064e-16;  // 2π - kTwoPi
@@ -279,7 +278,7 @@ struct ExactLanes {
   static SARCLI_INLINE void eval(const ExactAnchor& x, const float* uf, float* rho) {
 #pragma omp simd
     for (int i = 0; i < kLanes; ++i) {
-      const float u = uf[i], uu = uf[kLanes + i];
+      const float u = uf[i], uu = u * u;
       float r = 0.0f;
       for (int e = 0; e < NE; ++e) {
         const ExactEnd& q = x.e[e];
@@ -337,7 +336,7 @@ SARCLI_INLINE void eval_lanes(const Anchor& an, const ExactAnchor* ex, const flo
 
 // The tile starting at column c0: its width, lane offsets from the anchor, and 3/4 h².
 // A tile holds up to kGroups groups of kLanes pixels that share one anchor.
-SARCLI_INLINE long tile_lanes(const Args& A, long c0, float (*uf)[kUf], double (*ud)[kLanes],
+SARCLI_INLINE long tile_lanes(const Args& A, long c0, float (*uf)[kLanes], double (*ud)[kLanes],
                               double& xc, double& he) {
   const long wv = std::min<long>(A.width, A.nx - c0);
   const double xa = A.x[c0], xb = A.x[c0 + wv - 1];
@@ -349,7 +348,6 @@ SARCLI_INLINE long tile_lanes(const Args& A, long c0, float (*uf)[kUf], double (
       const long c = g * kLanes + i;
       ud[g][i] = c < wv ? A.x[c0 + c] - xc : 0.0;
       uf[g][i] = static_cast<float>(ud[g][i]);
-      uf[g][kLanes + i] = uf[g][i] * uf[g][i];
     }
   return wv;
 }
@@ -545,7 +543,7 @@ struct Taps<float, 0, 1> {
 // R = A y refined by R + (y/2)(A - R²), 1/D by v (2 - D v). AVX-512's 14-bit estimates leave
 // about 1 ulp; AVX2's 12-bit ones about 2 (within _bp_kernels.EXACT_ROUNDINGS either way).
 #define SARCLI_EXACT_BODY(V, P)                                                                      \
-  const V u = P##_loadu_ps(uf), uu = P##_loadu_ps(uf + kLanes);                                     \
+  const V u = P##_loadu_ps(uf), uu = P##_mul_ps(u, u);                                              \
   V r = P##_setzero_ps();                                                                            \
   for (int e = 0; e < NE; ++e) {                                                                     \
     const ExactEnd& q = x.e[e];                                                                      \
@@ -638,7 +636,7 @@ struct RowItems {
   const PT* prof;
   const Anchors& an;
   long p0;
-  const float (*uf)[kUf];
+  const float (*uf)[kLanes];
   const double (*ud)[kLanes];
   PT (*ar)[kLanes];
   PT (*ai)[kLanes];
@@ -672,7 +670,7 @@ template <typename PT, int K, int ISA, int NE>
 SARCLI_INLINE void bp_row_model(const Args& A, const PT* prof, long row, long p0, long p1,
                                 Anchors& an, double* ore, double* oim) {
   const double y = A.y[row];
-  float uf[kGroups][kUf];
+  float uf[kGroups][kLanes];
   double ud[kGroups][kLanes];
   Lanes<K> L0, L1;
   for (long c0 = 0; c0 < A.nx; c0 += A.width) {
@@ -744,7 +742,7 @@ template <typename PT, int K, int ISA, int NE>
 SARCLI_INLINE void bp_contract_row_model(const Args& A, const PT* prof, const PT* gre, const PT* gim,
                                          long row, long p0, long p1, Anchors& an, double* acc) {
   const double y = A.y[row];
-  float uf[kGroups][kUf];
+  float uf[kGroups][kLanes];
   double ud[kGroups][kLanes];
   PT wr[kGroups][kLanes], wi[kGroups][kLanes];
   Lanes<K> L;
@@ -803,7 +801,7 @@ SARCLI_INLINE void bp_contract_row(const Args& A, const PT* prof, const PT* gre,
 // Adjoint: every pixel of the image scattered onto pulse p's profile.
 template <typename PT, int K, int ISA, int NE>
 SARCLI_INLINE void rp_pulse_model(const Args& A, const PT* fre, const PT* fim, long p, PT* h) {
-  float uf[kGroups][kUf];
+  float uf[kGroups][kLanes];
   double ud[kGroups][kLanes];
   Lanes<K> L;
   PT ur[kLanes], ui[kLanes];
