@@ -128,7 +128,7 @@ def tile_costs(n: int, pulses: int, repeat: int) -> None:
             rows, rhs = [], []
             for w in widths:
                 _bp_setup.tiling = lambda *args, **kw: bk.Tiling(model, w, 0.0, 1.0)  # noqa: B023
-                t = time_ours((data, freq, a, r0, grid), repeat)
+                t = time_ours((data, Collection(freq, a, r0), grid), repeat)
                 rows.append([math.ceil(w / 16) / w, 1.0 / w])
                 rhs.append(t / (n * n * pulses))
                 print(f"{model} width {w}: {n * n * pulses / t:.3g} pixel-pulses/s", flush=True)

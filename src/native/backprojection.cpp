@@ -95,13 +95,12 @@ struct Args {
 
 // The exact model's float32 terms of one end at the anchor (ExactAnchor).
 struct ExactEnd {
-  float tdx, rc2, rc, c, c2, s2, i2r;
+  float rc, c, c2, s2, i2r;
 };
 // i2r: -1/(4 R_c), each end's weight in the bistatic mean (exact_lanes).
 SARCLI_INLINE ExactEnd exact_end(double r, double c, double s2) {
-  return ExactEnd{static_cast<float>(2.0 * c * r), static_cast<float>(r * r), static_cast<float>(r),
-                  static_cast<float>(c), static_cast<float>(2.0 * c), static_cast<float>(s2),
-                  static_cast<float>(-0.25 / r)};
+  return ExactEnd{static_cast<float>(r), static_cast<float>(c), static_cast<float>(2.0 * c),
+                  static_cast<float>(s2), static_cast<float>(-0.25 / r)};
 }
 
 // The exact range model's per-pulse terms at a tile's anchor: with u the pixel's offset along the
@@ -131,7 +130,7 @@ struct Anchors {
   // the contraction's per-pulse lane sums over a row, [n][2][kLanes] of the working precision
   std::vector<double> sums;
   // the exact model's terms (filled only when Args::exact), one array a field so that the pulse
-  // loop vectorises: ExactEnd's seven fields of end e at xf[8 e + field], ExactAnchor::ib at
+  // loop vectorises: ExactEnd's five fields of end e at xf[8 e + field], ExactAnchor::ib at
   // xf[7], ::kc at xf[15]
   std::vector<float> xstore;
   float* xf[16];
@@ -146,9 +145,8 @@ struct Anchors {
   SARCLI_INLINE void put_exact(long i, const ExactAnchor& x, int ends) {
     for (int e = 0; e < ends; ++e) {
       const ExactEnd& q = x.e[e];
-      xf[8 * e + 0][i] = q.tdx; xf[8 * e + 1][i] = q.rc2; xf[8 * e + 2][i] = q.rc;
-      xf[8 * e + 3][i] = q.c; xf[8 * e + 4][i] = q.c2; xf[8 * e + 5][i] = q.s2;
-      xf[8 * e + 6][i] = q.i2r;
+      xf[8 * e + 0][i] = q.rc; xf[8 * e + 1][i] = q.c; xf[8 * e + 2][i] = q.c2;
+      xf[8 * e + 3][i] = q.s2; xf[8 * e + 4][i] = q.i2r;
     }
     xf[7][i] = x.ib;
     xf[15][i] = x.kc;
@@ -157,8 +155,7 @@ struct Anchors {
     ExactAnchor x;
     for (int e = 0; e < 2; ++e) {
       const int f = e < ends ? 8 * e : 0;
-      x.e[e] = ExactEnd{xf[f][i], xf[f + 1][i], xf[f + 2][i], xf[f + 3][i], xf[f + 4][i],
-                        xf[f + 5][i], xf[f + 6][i]};
+      x.e[e] = ExactEnd{xf[f][i], xf[f + 1][i], xf[f + 2][i], xf[f + 3][i], xf[f + 4][i]};
     }
     x.ib = xf[7][i];
     x.kc = xf[15][i];
@@ -285,8 +282,9 @@ struct ExactLanes {
       float r = 0.0f;
       for (int e = 0; e < NE; ++e) {
         const ExactEnd& q = x.e[e];
-        const float R = std::sqrt(q.rc2 + q.tdx * u + uu);
-        const float d = q.s2 * uu / (q.rc + q.c * u + R);
+        const float Q = q.rc + q.c * u, su = q.s2 * uu;  // R(u)² = Q² + (1 - c²) u²
+        const float R = std::sqrt(Q * Q + su);
+        const float d = su / (Q + R);
         const float m = d * (q.c2 * u + d);
         r = NE == 1 ? m : r + m * q.i2r;
       }
@@ -318,10 +316,18 @@ SARCLI_INLINE void eval_lanes(const Anchor& an, const ExactAnchor* ex, const flo
 #pragma omp simd
   for (int i = 0; i < kLanes; ++i) {
     const double v = ud[i];
-    double q = an.ph0 + v * (an.ph1 + v * an.ph2);
-    if (NE > 0) q += static_cast<double>(kc * rho[i]);
+    const double q = an.ph0 + v * (an.ph1 + v * an.ph2);
     float c, s;
-    carrier::cos_sin_turns_f32(q, c, s);
+    if (NE > 0) {
+      // the quadratic's turns reduced in float64, then ρ's turns added and the sum reduced in
+      // float32 (one more float32 rounding of the sum; float64 would take twice the vectors for
+      // the sum and its reduction)
+      float f = static_cast<float>(q - std::nearbyint(q)) + kc * rho[i];
+      f -= std::nearbyint(f);
+      carrier::double_angle_f32(static_cast<float>(carrier::kPi) * f, c, s);
+    } else {
+      carrier::cos_sin_turns_f32(q, c, s);
+    }
     L.c[i] = m[i] * c;
     L.s[i] = m[i] * s;
   }
@@ -537,18 +543,20 @@ struct Taps<float, 0, 1> {
 // R = A y refined by R + (y/2)(A - R²), 1/D by v (2 - D v). AVX-512's 14-bit estimates leave
 // about 1 ulp; AVX2's 12-bit ones about 2 (within _bp_kernels.EXACT_ROUNDINGS either way).
 #define SARCLI_EXACT_BODY(V, P)                                                                      \
-  const V u = P##_loadu_ps(uf), uu = P##_mul_ps(u, u);                                               \
+  const V u = P##_loadu_ps(uf), uu = P##_mul_ps(u, u);                                              \
   V r = P##_setzero_ps();                                                                            \
   for (int e = 0; e < NE; ++e) {                                                                     \
     const ExactEnd& q = x.e[e];                                                                      \
-    const V A = P##_add_ps(P##_fmadd_ps(P##_set1_ps(q.tdx), u, P##_set1_ps(q.rc2)), uu);             \
+    const V Q = P##_fmadd_ps(P##_set1_ps(q.c), u, P##_set1_ps(q.rc));                                \
+    const V su = P##_mul_ps(P##_set1_ps(q.s2), uu);                                                  \
+    const V A = P##_fmadd_ps(Q, Q, su);                                                              \
     const V y = RSQRT(A);                                                                            \
     V R = P##_mul_ps(A, y);                                                                          \
     R = P##_fmadd_ps(P##_mul_ps(P##_set1_ps(0.5f), y), P##_fnmadd_ps(R, R, A), R);                   \
-    const V D = P##_add_ps(P##_fmadd_ps(P##_set1_ps(q.c), u, P##_set1_ps(q.rc)), R);                 \
+    const V D = P##_add_ps(Q, R);                                                                    \
     V iv = RCP(D);                                                                                   \
     iv = P##_mul_ps(iv, P##_fnmadd_ps(D, iv, P##_set1_ps(2.0f)));                                    \
-    const V d = P##_mul_ps(P##_mul_ps(P##_set1_ps(q.s2), uu), iv);                                   \
+    const V d = P##_mul_ps(su, iv);                                                                  \
     const V m = P##_mul_ps(d, P##_fmadd_ps(P##_set1_ps(q.c2), u, d));                                \
     r = NE == 1 ? m : P##_fmadd_ps(m, P##_set1_ps(q.i2r), r);                                        \
   }
@@ -655,9 +663,9 @@ struct RowItems {
 
 // Forward: pulses [p0, p1) into image row `row` (accumulators in registers per tile); NE: the
 // range model (0 the economised quadratic, 1 or 2 the exact model of one or two ends). The
-// (pulse, group) items run software-pipelined on AVX-512: the next item's lanes are evaluated before this
-// item's stencils are loaded, so that the loads find their indices stored long before (the
-// chain from a lane's range to its stencil's address is the loop's longest).
+// (pulse, group) items run software-pipelined on AVX-512 (and AVX2's exact model): the next item's lanes are
+// evaluated before this item's stencils are loaded, so that the loads find their indices stored
+// long before (the chain from a lane's range to its stencil's address is the loop's longest).
 template <typename PT, int K, int ISA, int NE>
 SARCLI_INLINE void bp_row_model(const Args& A, const PT* prof, long row, long p0, long p1,
                                 Anchors& an, double* ore, double* oim) {
@@ -676,7 +684,10 @@ SARCLI_INLINE void bp_row_model(const Args& A, const PT* prof, long row, long p0
     // the two Lanes alternate without an index
     const long n = (p1 - p0) * ng;
     long i = 0, g = 0;
-    if (ISA < 2) {  // AVX2 and baseline: the loop's arithmetic, not its latency, sets the pace
+    // the plain order where the loop's arithmetic, not its latency, sets the pace: the baseline,
+    // and AVX2 with the quadratic model (the exact model's longer chain to the stencil's address
+    // gains from the pipelined order there)
+    if (ISA < 1 || (ISA == 1 && NE == 0)) {
       for (long j = 0; j < n; ++j) {
         it.eval(i, g, L0);
         it.add(i, g, L0);
