@@ -52,6 +52,16 @@ def _no_user_calibration(tmp_path_factory):
         os.environ["SARCLI_CACHE_DIR"] = old
 
 
+@pytest.fixture(autouse=True)
+def _bars_as_a_library_call_finds_them():
+    """Each test starts with bars allowed, as a library call does: ``sar -q`` through click's
+    CliRunner sets the process-wide quiet flag and nothing in-process resets it."""
+    from sarcli._util.progress import set_quiet
+
+    set_quiet(False)
+    yield
+
+
 def spy_rows(monkeypatch) -> list:
     """Record the number of pulses of every block read from samples left on disk (HDF5 or CPHD:
     both go through ``PulseSource.__getitem__`` or ``PulseSource.read_into``); returns the list it
