@@ -53,6 +53,6 @@ def test_interpolator_registry_matches_the_formers():
     from sarcli.formers import backprojection
     from sarcli.formers.ffbp._kernels import NTAPS
     assert set(sampling.PROFILE_INTERPOLATORS) <= set(sampling.INTERPOLATORS)
-    assert backprojection.INTERPOLATORS == {n: sampling.INTERPOLATORS[n].code for n in ("linear", "cubic", "lanczos")}
+    assert backprojection.INTERPOLATORS == {n: sampling.INTERPOLATORS[n].code for n in ("linear", "cubic", "lanczos", "lagrange")}
     for i in sampling.INTERPOLATORS.values():
         assert NTAPS[i.code] == i.taps

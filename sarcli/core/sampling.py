@@ -165,9 +165,12 @@ class Interpolator:
     taps: int
 
 
-#: Every interpolator, by name: linear (2 taps), Keys cubic (4), Lanczos-3 (6) and ffbp's
-#: ``optimal`` 6-tap kernel designed for the oversampling at hand (:mod:`sarcli.formers.ffbp.model`).
+#: Every interpolator, by name: linear (2 taps), Keys cubic (4, ``a = -1/2``), Lanczos-3 (6), ffbp's
+#: ``optimal`` 6-tap kernel designed for the oversampling at hand (:mod:`sarcli.formers.ffbp.model`)
+#: and the cubic Lagrange polynomial through 4 samples (``lagrange``: exact for cubics, so its error
+#: at a frequency ν cycles a sample falls as ν⁴ where Keys' falls as ν³).
 INTERPOLATORS = {i.name: i for i in (Interpolator("linear", 0, 2), Interpolator("cubic", 1, 4),
-                                     Interpolator("lanczos", 2, 6), Interpolator("optimal", 3, 6))}
+                                     Interpolator("lanczos", 2, 6), Interpolator("optimal", 3, 6),
+                                     Interpolator("lagrange", 4, 4))}
 #: The interpolators backprojection offers (``optimal`` is designed per level, for ffbp only).
-PROFILE_INTERPOLATORS = ("linear", "cubic", "lanczos")
+PROFILE_INTERPOLATORS = ("linear", "cubic", "lanczos", "lagrange")

@@ -21,7 +21,7 @@ __all__ = ["DirectOptions", "NufftOptions", "PfaOptions", "BackprojectionOptions
 DEFAULT_TOLERANCE = 1e-3
 #: The tolerance subimage's tile is chosen for when neither a tile nor a tolerance is given.
 SUBIMAGE_TOLERANCE = 1e-2
-_INTERPS = ("linear", "cubic", "lanczos")
+_INTERPS = ("linear", "cubic", "lanczos", "lagrange")
 
 
 @dataclass(frozen=True)

@@ -70,6 +70,14 @@ struct Kernel<interp::kKeysCubic> {
   }
 };
 template <>
+struct Kernel<interp::kLagrange3> {
+  static constexpr int taps = interp::kTaps[interp::kLagrange3], first = 1;
+  static SARCLI_INLINE void weights(const float* t, float (*w)[kLanes]) {
+#pragma omp simd
+    for (int i = 0; i < kLanes; ++i) interp::lagrange(t[i], &w[0][i], kLanes);
+  }
+};
+template <>
 struct Kernel<interp::kLanczos3> {
   static constexpr int taps = interp::kTaps[interp::kLanczos3], first = 2;
   static SARCLI_INLINE void weights(const float* t, float (*w)[kLanes]) {
@@ -365,13 +373,14 @@ SARCLI_INLINE long tile_lanes(const Args& A, long c0, float (*uf)[kLanes], doubl
 // The profile samples of every lane's stencil, transposed: t[2k][i] and t[2k + 1][i] are the real
 // and imaginary parts of tap k of lane i (profiles interleave real and imaginary parts). The
 // generic version reads them one by one; the AVX-512 and AVX2 versions below load each lane's
-// stencil as one contiguous vector and transpose in registers.
-template <typename PT, int K, int ISA>
+// stencil as one contiguous vector and transpose in registers. Keyed on the taps NT, so that the
+// interpolators of one width (Keys and Lagrange: 4) share them.
+template <typename PT, int NT, int ISA>
 struct Taps {
   static SARCLI_INLINE void load(const PT* pp, const int* idx, PT (*t)[kLanes]) {
     for (int i = 0; i < kLanes; ++i) {
       const PT* q = pp + idx[i];
-      for (int k = 0; k < 2 * Kernel<K>::taps; ++k) t[k][i] = q[k];
+      for (int k = 0; k < 2 * NT; ++k) t[k][i] = q[k];
     }
   }
 };
@@ -426,7 +435,7 @@ SARCLI_V3_INLINE void transpose8_v3(__m256* r) {
 
 // float, 4 taps (8 floats a lane), AVX-512: lanes i and i + 8 share a register.
 template <>
-struct Taps<float, 1, 2> {
+struct Taps<float, 4, 2> {
   static SARCLI_V4_LOAD void load(const float* pp, const int* idx_, float (*t)[kLanes]) {
     const volatile int* idx = idx_;  // see Lanes::idx
     __m512 r[8];
@@ -440,7 +449,7 @@ struct Taps<float, 1, 2> {
 
 // float, 2 taps (4 floats a lane), AVX-512: lanes i, i + 4, i + 8, i + 12 share a register.
 template <>
-struct Taps<float, 0, 2> {
+struct Taps<float, 2, 2> {
   static SARCLI_V4_LOAD void load(const float* pp, const int* idx_, float (*t)[kLanes]) {
     const volatile int* idx = idx_;  // see Lanes::idx
     __m512 r[4];
@@ -461,7 +470,7 @@ struct Taps<float, 0, 2> {
 
 // double, 4 taps (8 doubles a lane), AVX-512: one register a lane, two 8 x 8 transposes.
 template <>
-struct Taps<double, 1, 2> {
+struct Taps<double, 4, 2> {
   static SARCLI_V4_LOAD void load(const double* pp, const int* idx_, double (*t)[kLanes]) {
     const volatile int* idx = idx_;  // see Lanes::idx
     const __m512i lo = _mm512_setr_epi64(0, 1, 8, 9, 4, 5, 12, 13);
@@ -488,7 +497,7 @@ struct Taps<double, 1, 2> {
 
 // double, 4 taps, AVX2: two registers a lane, 4 x 4 transposes of four lanes at a time.
 template <>
-struct Taps<double, 1, 1> {
+struct Taps<double, 4, 1> {
   static SARCLI_V3_LOAD void load(const double* pp, const int* idx_, double (*t)[kLanes]) {
     const volatile int* idx = idx_;  // see Lanes::idx
     for (int g = 0; g < 4; ++g)
@@ -507,7 +516,7 @@ struct Taps<double, 1, 1> {
 
 // float, 4 taps, AVX2: two groups of eight lanes.
 template <>
-struct Taps<float, 1, 1> {
+struct Taps<float, 4, 1> {
   static SARCLI_V3_LOAD void load(const float* pp, const int* idx_, float (*t)[kLanes]) {
     const volatile int* idx = idx_;  // see Lanes::idx
     for (int g = 0; g < 2; ++g) {
@@ -521,7 +530,7 @@ struct Taps<float, 1, 1> {
 
 // float, 2 taps, AVX2: lanes i and i + 4 of each group of eight share a register.
 template <>
-struct Taps<float, 0, 1> {
+struct Taps<float, 2, 1> {
   static SARCLI_V3_LOAD void load(const float* pp, const int* idx_, float (*t)[kLanes]) {
     const volatile int* idx = idx_;  // see Lanes::idx
     for (int g = 0; g < 2; ++g) {
@@ -592,7 +601,7 @@ struct ExactLanes<NE, 1> {
 template <typename PT, int K, int ISA>
 SARCLI_INLINE void stencil_sums(const Lanes<K>& L, const PT* pp, PT* __restrict vr, PT* __restrict vi) {
   PT tp[2 * Kernel<K>::taps][kLanes];
-  Taps<PT, K, ISA>::load(pp, L.idx, tp);
+  Taps<PT, Kernel<K>::taps, ISA>::load(pp, L.idx, tp);
 #pragma omp simd
   for (int i = 0; i < kLanes; ++i) {
     PT r = 0, m = 0;
@@ -859,16 +868,18 @@ SARCLI_INLINE void rp_pulse(const Args& A, const PT* fre, const PT* fim, long p,
                                   long row, long p0, long p1, Anchors& an, double* acc) {       \
     bp_contract_row<PT, K, ISA>(A, prof, gre, gim, row, p0, p1, an, acc);                       \
   }
-// WORKER(PT, K, SUF, ATTR, ISA) for each precision and interpolator (SUF: f0 .. d2, then the
+// WORKER(PT, K, SUF, ATTR, ISA) for each precision and interpolator (SUF: f0 .. d4, then the
 // instruction set's v4, v3 or v1), then for each instruction set: the tiled kernels' workers and
 // the terrain kernels' (bp_points) alike, picked by SARCLI_PICK.
 #define SARCLI_INSTANCES(WORKER, SUF, ATTR, ISA) \
   WORKER(float, 0, f0_##SUF, ATTR, ISA)          \
   WORKER(float, 1, f1_##SUF, ATTR, ISA)          \
   WORKER(float, 2, f2_##SUF, ATTR, ISA)          \
+  WORKER(float, 4, f4_##SUF, ATTR, ISA)          \
   WORKER(double, 0, d0_##SUF, ATTR, ISA)         \
   WORKER(double, 1, d1_##SUF, ATTR, ISA)         \
-  WORKER(double, 2, d2_##SUF, ATTR, ISA)
+  WORKER(double, 2, d2_##SUF, ATTR, ISA)         \
+  WORKER(double, 4, d4_##SUF, ATTR, ISA)
 #define SARCLI_ALL_ISAS(WORKER)                   \
   SARCLI_INSTANCES(WORKER, v4, SARCLI_BP_V4, 2)   \
   SARCLI_INSTANCES(WORKER, v3, SARCLI_BP_V3, 1)   \
@@ -897,11 +908,14 @@ using RowFn = void (*)(const Args&, const PT*, long, long, long, Anchors&, doubl
 template <typename PT>
 using PulseFn = void (*)(const Args&, const PT*, const PT*, long, PT*);
 
-// The worker NAME of precision P (f or d) for the interpolator `kind` on instruction set `level`.
-#define SARCLI_PICK(NAME, P)                                                               \
-  (level == 2 ? (kind == 0 ? NAME##_##P##0_v4 : kind == 1 ? NAME##_##P##1_v4 : NAME##_##P##2_v4) \
-   : level == 1 ? (kind == 0 ? NAME##_##P##0_v3 : kind == 1 ? NAME##_##P##1_v3 : NAME##_##P##2_v3) \
-                : (kind == 0 ? NAME##_##P##0_v1 : kind == 1 ? NAME##_##P##1_v1 : NAME##_##P##2_v1))
+// The worker NAME of precision P (f or d) for the interpolator `kind` (a profile kind) on
+// instruction set `level`.
+#define SARCLI_PICK_KIND(NAME, P, V)                                                      \
+  (kind == 0 ? NAME##_##P##0_##V : kind == 1 ? NAME##_##P##1_##V : kind == 2 ? NAME##_##P##2_##V \
+                                                                 : NAME##_##P##4_##V)
+#define SARCLI_PICK(NAME, P)                                                      \
+  (level == 2 ? SARCLI_PICK_KIND(NAME, P, v4) : level == 1 ? SARCLI_PICK_KIND(NAME, P, v3) \
+                                                 : SARCLI_PICK_KIND(NAME, P, v1))
 // The picker FN<PT>(kind) of function-pointer type TYPE<PT>: the worker NAME for float and double.
 #define SARCLI_PICKER(TYPE, FN, NAME)                                                               \
   template <typename PT>                                                                            \
@@ -950,8 +964,7 @@ void bp_tiles(in<PT, 3> prof, in<double, 1> x, in<double, 1> y, in<double, 2> ge
   Args A = make_args(x, y, geo, static_cast<long>(prof.shape(1)), n_len, pad, width, bist, exact);
   if (prof.shape(0) != static_cast<size_t>(A.B) || prof.shape(2) != 2 ||
       ore.shape(0) != static_cast<size_t>(A.ny) || ore.shape(1) != static_cast<size_t>(A.nx) ||
-      oim.shape(0) != ore.shape(0) || oim.shape(1) != ore.shape(1) || kind < interp::kLinear ||
-      kind > interp::kLanczos3)
+      oim.shape(0) != ore.shape(0) || oim.shape(1) != ore.shape(1) || !interp::profile_kind(kind))
     throw nb::value_error("bp_tiles: inconsistent shapes or options");
   const long nb_ = std::max<long>(1, block);
   const PT* pr = prof.data();
@@ -976,8 +989,7 @@ void rp_tiles(in<PT, 2> fre, in<PT, 2> fim, in<double, 1> x, in<double, 1> y, in
   Args A = make_args(x, y, geo, static_cast<long>(h.shape(1)), n_len, pad, width, bist, exact);
   if (h.shape(0) != static_cast<size_t>(A.B) || h.shape(2) != 2 ||
       fre.shape(0) != static_cast<size_t>(A.ny) || fre.shape(1) != static_cast<size_t>(A.nx) ||
-      fim.shape(0) != fre.shape(0) || fim.shape(1) != fre.shape(1) || kind < interp::kLinear ||
-      kind > interp::kLanczos3)
+      fim.shape(0) != fre.shape(0) || fim.shape(1) != fre.shape(1) || !interp::profile_kind(kind))
     throw nb::value_error("rp_tiles: inconsistent shapes or options");
   const PT *f_r = fre.data(), *f_i = fim.data();
   PT* hp = h.data();
@@ -995,8 +1007,7 @@ void bp_contract(in<PT, 3> prof, in<PT, 2> gre, in<PT, 2> gim, in<double, 1> x, 
   if (prof.shape(0) != static_cast<size_t>(A.B) || prof.shape(2) != 2 ||
       gre.shape(0) != static_cast<size_t>(A.ny) || gre.shape(1) != static_cast<size_t>(A.nx) ||
       gim.shape(0) != gre.shape(0) || gim.shape(1) != gre.shape(1) ||
-      acc.shape(0) != static_cast<size_t>(A.B) || acc.shape(1) != 2 || kind < interp::kLinear ||
-      kind > interp::kLanczos3)
+      acc.shape(0) != static_cast<size_t>(A.B) || acc.shape(1) != 2 || !interp::profile_kind(kind))
     throw nb::value_error("bp_contract: inconsistent shapes or options");
   const long nb_ = std::max<long>(1, block);
   const PT* pr = prof.data();
@@ -1098,7 +1109,7 @@ SARCLI_INLINE void bp_points_group(const PointArgs& A, const PT* prof, long i0, 
   for (long q = 0; q < A.B; ++q) {
     point_lanes<K>(A, i0, q, L);
     PT tp[2 * Kernel<K>::taps][kLanes];
-    Taps<PT, K, ISA>::load(prof + 2 * q * A.lp, L.idx, tp);
+    Taps<PT, Kernel<K>::taps, ISA>::load(prof + 2 * q * A.lp, L.idx, tp);
 #pragma omp simd
     for (int i = 0; i < kLanes; ++i) {
       PT vr = 0, vi = 0;
@@ -1156,10 +1167,11 @@ SARCLI_PICKER(PointFn, point_fn, bp_points)
 SARCLI_PICKER(PointAdjFn, point_adj_fn, rp_points)
 #undef SARCLI_PICKER
 #undef SARCLI_PICK
+#undef SARCLI_PICK_KIND
 
 PointArgs point_args(in<double, 2> pts, in<double, 2> geo, long lp, long n_len, long pad, bool bist, int kind,
                      const char* name) {
-  if (pts.shape(1) != 3 || geo.shape(0) != kPtRows || kind < interp::kLinear || kind > interp::kLanczos3 ||
+  if (pts.shape(1) != 3 || geo.shape(0) != kPtRows || !interp::profile_kind(kind) ||
       n_len < 2 || pad < 3 || lp != n_len + 2 * pad)
     throw nb::value_error((std::string(name) + ": inconsistent shapes or options").c_str());
   PointArgs A;
@@ -1230,6 +1242,7 @@ void weight_groups(const float* t, std::size_t n, int kind, float* w) {
     for (std::size_t i = 0; i < kLanes && i0 + i < n; ++i) tl[i] = t[i0 + i];
     if (kind == interp::kLinear) Kernel<interp::kLinear>::weights(tl, wl);
     else if (kind == interp::kKeysCubic) Kernel<interp::kKeysCubic>::weights(tl, wl);
+    else if (kind == interp::kLagrange3) Kernel<interp::kLagrange3>::weights(tl, wl);
     else Kernel<interp::kLanczos3>::weights(tl, wl);
     for (std::size_t i = 0; i < kLanes && i0 + i < n; ++i)
       for (std::size_t k = 0; k < taps; ++k) w[(i0 + i) * taps + k] = wl[k][i];
@@ -1253,7 +1266,7 @@ void carrier_turn_values(in<double, 1> q, out<float, 1> c, out<float, 1> s) {
 
 void weight_values(in<float, 1> t, int kind, out<float, 2> w) {
   const size_t n = t.shape(0);
-  if (kind < interp::kLinear || kind > interp::kLanczos3 || w.shape(0) != n ||
+  if (!interp::profile_kind(kind) || w.shape(0) != n ||
       w.shape(1) != static_cast<size_t>(interp::kTaps[kind]))
     throw nb::value_error("weight_values: shapes");
   weight_groups(t.data(), n, kind, w.data());

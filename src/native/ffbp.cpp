@@ -111,6 +111,9 @@ SARCLI_INLINE void row_weights(int kind, const T* frac, std::size_t n, T* w, std
   } else if (kind == interp::kKeysCubic) {
 #pragma omp simd
     for (std::size_t i = 0; i < n; ++i) interp::keys(frac[i], w + i, stride);
+  } else if (kind == interp::kLagrange3) {
+#pragma omp simd
+    for (std::size_t i = 0; i < n; ++i) interp::lagrange(frac[i], w + i, stride);
   } else {
     T v[6] = {};
     for (std::size_t i = 0; i < n; ++i) {
@@ -659,7 +662,7 @@ void stage0(in<float, 2> pre, in<float, 2> pim, in<i64, 1> first, in<i64, 1> cou
             out<float, 3> out_im) {
   const int kind = o.kind;
   const std::size_t S = out_re.shape(0), nt = out_re.shape(1), nq = out_re.shape(2), B = pre.shape(0);
-  if (kind < interp::kLinear || kind > interp::kPoly6) throw nb::value_error("stage0: unknown interpolation kind");
+  if (kind < interp::kLinear || kind >= interp::kKinds) throw nb::value_error("stage0: unknown interpolation kind");
   if (pim.shape(0) != B || pim.shape(1) != pre.shape(1) || pulses.shape(0) != kPulseRows || pulses.shape(1) != B ||
       first.shape(0) != S || count.shape(0) != S || series.shape(0) != S || frame.shape(0) != kFrameRows ||
       frame.shape(1) != S || tab.shape(0) != 6 || tab.shape(1) != 8 || out_im.shape(0) != S ||
@@ -1023,7 +1026,7 @@ void merge_row(const Merge& A, std::size_t s, std::size_t it, RowScratch& W) {
 }
 
 void check_tabs(in<float, 2>& tab_q, in<float, 2>& tab_t, int kind, const char* who) {
-  if (kind < interp::kLinear || kind > interp::kPoly6)
+  if (kind < interp::kLinear || kind >= interp::kKinds)
     throw nb::value_error((std::string(who) + ": unknown interpolation kind").c_str());
   if (tab_q.shape(0) != 6 || tab_q.shape(1) != 8 || tab_t.shape(0) != 6 || tab_t.shape(1) != 8)
     throw nb::value_error((std::string(who) + ": kernel tables must be [6, 8]").c_str());
@@ -1187,7 +1190,7 @@ void carrier_run(const double* ph, std::size_t n, float* c, float* s) {
 
 template <typename T>
 void weights_of(int kind, in<T, 1> frac, in<T, 2> tab, out<T, 2> w) {
-  if (kind < interp::kLinear || kind > interp::kPoly6) throw nb::value_error("row_weights: unknown interpolation kind");
+  if (kind < interp::kLinear || kind >= interp::kKinds) throw nb::value_error("row_weights: unknown interpolation kind");
   const std::size_t n = frac.shape(0);
   if (w.shape(0) != static_cast<std::size_t>(kTaps[kind]) || w.shape(1) != n || tab.shape(0) != 6 ||
       tab.shape(1) != 8)

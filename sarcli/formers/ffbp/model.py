@@ -167,6 +167,9 @@ def _kernel_weights(kind: int, t: np.ndarray, design_beta: float = 2.0):
         w2 = (1.5 * d2 - 2.5) * d2 * d2 + 1
         w3 = ((2.5 - 0.5 * d3) * d3 - 4) * d3 + 2
         return np.arange(-1, 3), np.stack([w0, w1, w2, w3], axis=-1)
+    if kind == 4:
+        a, b, c = t + 1, t - 1, t - 2
+        return np.arange(-1, 3), np.stack([-t * b * c / 6, a * b * c / 2, -a * t * c / 2, a * t * b / 6], axis=-1)
     offs = np.arange(-2, 4)
     if kind == 3:
         return offs, _poly_weights(optimal_kernel(float(design_beta)), t)

@@ -180,7 +180,7 @@ def _candidates(ph, grid, tolerance, c, nthreads, prune, methods) -> list:
         # the range model and tile width backprojection would choose at each upsampling
         tiled = functools.lru_cache(maxsize=None)(TilingInputs(f, pos, rcv, grid).tiling) \
             if wanted("backprojection") else None
-        for interp in ("cubic", "lanczos", "linear") if wanted("backprojection") else ():
+        for interp in ("lagrange", "cubic", "lanczos", "linear") if wanted("backprojection") else ():
             def seconds(up):
                 return bp_seconds(c, P, M, npix, interp, up, tiled(up).cost, thr)
             if prune and seconds(_BP_UPSAMPLES[0]) > best_ffbp:

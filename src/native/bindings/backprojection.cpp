@@ -49,8 +49,8 @@ NB_MODULE(_backprojection, m) {
   m.attr("GEO_ROWS") = geo_rows;
   // the interpolators by name: (code, taps), as sarcli.core.sampling.INTERPOLATORS names them
   nanobind::dict interpolators;
-  for (int k = interp::kLinear; k <= interp::kLanczos3; ++k)
-    interpolators[interp::kNames[k]] = nanobind::make_tuple(k, interp::kTaps[k]);
+  for (int k = interp::kLinear; k < interp::kKinds; ++k)
+    if (interp::profile_kind(k)) interpolators[interp::kNames[k]] = nanobind::make_tuple(k, interp::kTaps[k]);
   m.attr("INTERPOLATORS") = interpolators;
   m.attr("POINT_ROWS") = point_rows;
   m.def("isa_level", &isa_level, "The kernels' instruction set here: 2 AVX-512, 1 AVX2, 0 baseline.");
@@ -59,5 +59,5 @@ NB_MODULE(_backprojection, m) {
   m.def("carrier_turn_values", &carrier_turn_values, "turns"_a, "cos"_a, "sin"_a,
         "(cos, sin) of 2π q for float64 phases q in turns as the tiled kernels evaluate them (float32).");
   m.def("weight_values", &weight_values, "t"_a, "kind"_a, "w"_a,
-        "Interpolation weights at fractions t (kind 0 linear, 1 Keys cubic, 2 Lanczos-3).");
+        "Interpolation weights at fractions t (kind 0 linear, 1 Keys cubic, 2 Lanczos-3, 4 cubic Lagrange).");
 }

@@ -21,7 +21,7 @@ NB_MODULE(_ffbp, m) {
   m.attr("FRAME_ROWS") = frame_rows;
   // the interpolators by name: (code, taps), as sarcli.core.sampling.INTERPOLATORS names them
   nanobind::dict interpolators;
-  for (int k = sarcli::interp::kLinear; k <= sarcli::interp::kPoly6; ++k)
+  for (int k = sarcli::interp::kLinear; k < sarcli::interp::kKinds; ++k)
     interpolators[sarcli::interp::kNames[k]] = nanobind::make_tuple(k, sarcli::interp::kTaps[k]);
   m.attr("INTERPOLATORS") = interpolators;
   m.attr("PULSE_ROWS") = pulse_rows;
