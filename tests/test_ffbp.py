@@ -304,25 +304,27 @@ def test_optimal_kernel_polynomials_match_minimax_weights(beta):
     np.testing.assert_allclose(row_weights(3, t.astype(np.float32), coef).T, w, rtol=0, atol=1e-6)   # measured 1.1e-7
 
 
-@pytest.mark.parametrize("kind", [0, 1, 2])
+@pytest.mark.parametrize("kind", [0, 1, 2, 4])
 def test_analytic_kernel_weights(kind):
-    """The compiled linear, Keys cubic (a = -1/2) and normalised Lanczos-3 weights, against their
-    formulas at each tap's distance from the point."""
+    """The compiled linear, Keys cubic (a = -1/2), normalised Lanczos-3 and cubic Lagrange weights,
+    against their formulas at each tap's distance from the point."""
     from sarcli.formers.ffbp._kernels import row_weights
 
     t = np.random.default_rng(6).random(30)
-    offs = {0: np.arange(0, 2), 1: np.arange(-1, 3), 2: np.arange(-2, 4)}[kind]
+    offs = {0: np.arange(0, 2), 1: np.arange(-1, 3), 2: np.arange(-2, 4), 4: np.arange(-1, 3)}[kind]
     d = np.abs(t[None, :] - offs[:, None])
     if kind == 0:
         ref = 1.0 - d
     elif kind == 1:
         ref = np.where(d <= 1, (1.5 * d - 2.5) * d * d + 1, ((2.5 - 0.5 * d) * d - 4) * d + 2)
+    elif kind == 4:   # Π_{m≠n} (t - m) / (n - m)
+        ref = np.stack([np.prod([(t - m) / (n - m) for m in offs if m != n], axis=0) for n in offs])
     else:
         ref = np.sinc(d) * np.sinc(d / 3)
         ref /= ref.sum(axis=0)
     # Lanczos-3 is float32 in every family (numerics/lanczos.hpp), so its float64 weights are those
     # rounded: measured 0, 6.2e-16, 1.3e-7 (float64), 3.7e-8, 3.4e-7, 1.3e-7 (float32)
-    np.testing.assert_allclose(row_weights(kind, t), ref, rtol=0, atol=5e-15 if kind < 2 else 1e-6)
+    np.testing.assert_allclose(row_weights(kind, t), ref, rtol=0, atol=5e-15 if kind != 2 else 1e-6)
     np.testing.assert_allclose(row_weights(kind, t.astype(np.float32)), ref, rtol=0, atol=1e-6)
 
 

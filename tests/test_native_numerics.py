@@ -11,21 +11,21 @@ from sarcli._native.layout import BpGeo, BpPointGeo, FfbpFrame, FfbpPulse
 
 
 def _bp_weights(kind, t):
-    taps = (2, 4, 6)[kind]
+    taps = {0: 2, 1: 4, 2: 6, 4: 4}[kind]
     w = np.empty((t.size, taps), np.float32)
     load("backprojection").weight_values(t, kind, w)
     return w
 
 
 def _ffbp_weights(kind, t):
-    w = np.empty(((2, 4, 6)[kind], t.size), np.float32)
+    w = np.empty(({0: 2, 1: 4, 2: 6, 4: 4}[kind], t.size), np.float32)
     load("ffbp").row_weights(kind, t, np.zeros((6, 8), np.float32), w)
     return w.T
 
 
-@pytest.mark.parametrize("kind", [0, 1, 2])
+@pytest.mark.parametrize("kind", [0, 1, 2, 4])
 def test_interpolation_weights_are_the_same_bits_in_backprojection_and_ffbp(kind):
-    """Linear, Keys cubic and Lanczos-3 (numerics/keys.hpp, numerics/lanczos.hpp): one evaluation,
+    """Linear, Keys cubic, Lanczos-3 and cubic Lagrange (numerics/keys.hpp, numerics/lanczos.hpp): one evaluation,
     so the two families' weights agree bit for bit at every fraction, the ends included."""
     t = np.concatenate([np.random.default_rng(kind).random(4000), [0.0, 0.5, 1e-7, 1 - 2**-24]]).astype(np.float32)
     bp, ff = _bp_weights(kind, t), _ffbp_weights(kind, t)

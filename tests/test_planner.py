@@ -467,3 +467,19 @@ def test_candidates_cache_is_shared_by_threads(sph, monkeypatch):
         got = list(pool.map(lambda g: (g, [(x.method, x.knobs) for x in candidates(ph, g, 1e-3)]), grids * 6))
     assert all(cands == want[g] for g, cands in got)
     assert len(planner._CANDIDATE_CACHE) <= 2
+
+
+@pytest.mark.parametrize("tol", [1e-3, 1e-4])
+def test_planner_picks_lagrange_for_backprojection(sph, tol):
+    """Lagrange costs what Keys costs at the same upsampling and errs less (its error falls as 1/u⁴),
+    so among backprojection's candidates it meets the tolerance at a lower upsampling or, at the
+    same one, is listed first; its pick meets the tolerance against ``direct``."""
+    ph, ref = sph
+    bp = {c.knobs["interp"]: c for c in candidates(ph, GRID, tol, methods=("backprojection",))
+          if c.method == "backprojection"}
+    lag, keys = bp["lagrange"], bp["cubic"]
+    assert lag.meets and lag.knobs["upsample"] < keys.knobs["upsample"] and lag.seconds < keys.seconds, (lag, keys)
+    best = min((c for c in bp.values() if c.meets), key=lambda c: c.seconds)
+    assert best.knobs["interp"] == "lagrange"
+    img = form_image(ph, "backprojection", **best.knobs)
+    assert image_error(img.image, ref) <= tol

@@ -60,7 +60,8 @@ def test_points_on_the_plane_equal_the_tiled_kernel():
     assert np.linalg.norm(pts - tiled) / np.linalg.norm(tiled) < 1e-5
 
 
-@pytest.mark.parametrize("interp, precision", [("linear", "float64"), ("cubic", "float32"), ("lanczos", "float64")])
+@pytest.mark.parametrize("interp, precision", [("linear", "float64"), ("cubic", "float32"), ("lanczos", "float64"),
+                                              ("lagrange", "float64")])
 def test_reproject_points_is_the_exact_adjoint(interp, precision):
     f, a, b, r0 = _collection(P=12, M=20, bistatic=True)
     pts = _terrain(n=10)

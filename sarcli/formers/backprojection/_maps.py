@@ -134,8 +134,8 @@ def backproject(data, collection, grid, options=None, *, nthreads=None) -> np.nd
     options : BackprojectionOptions, optional
         The knobs (:class:`sarcli.formers.options.BackprojectionOptions`): ``upsample``, the
         profile oversampling (the IFFT length is ``upsample·M`` rounded up to a fast size);
-        ``interp``, the range-profile interpolation ('linear', Keys 'cubic' (a = -1/2) or
-        normalised 'lanczos'-3); ``precision``, of the range profiles and the accumulation
+        ``interp``, the range-profile interpolation ('linear', Keys 'cubic' (a = -1/2), cubic
+        'lagrange' (the same 4 taps, exact for cubics) or normalised 'lanczos'-3); ``precision``, of the range profiles and the accumulation
         ('float64' or 'float32'; geometry is float64 per tile, interpolation weights and carrier
         float32 in both; module docstring). None: 16, 'cubic' and :data:`MAP_PRECISION` (float64).
     nthreads : int, optional

@@ -183,7 +183,7 @@ def ffbp(data, collection, grid: Grid, *, nthreads=None, return_plan=False, plan
     os_range, os_angle : float, optional
         Oversampling of the polar grids over the Nyquist rate in range and angle (not given: 1.5
         where that axis's kernel can be deapodized, else 2; :func:`plan_stages`).
-    interp : {'linear', 'cubic', 'lanczos', 'optimal'}, default 'optimal'
+    interp : {'linear', 'cubic', 'lanczos', 'lagrange', 'optimal'}, default 'optimal'
         Interpolator of the range profiles and the polar grids (``optimal``: minimax 6-tap
         kernels designed for each grid's oversampling, :func:`optimal_kernel`, deapodized where
         the plan finds it pays: module docstring).

@@ -29,20 +29,21 @@ SARCLI_INLINE void keys(T t, T* w, std::size_t stride) {
 }
 
 // The cubic Lagrange weights (the cubic through the samples at offsets −1, 0, 1, 2, exact for
-// cubics: error O(ν⁴) in the signal's frequency ν where Keys' is O(ν³)), with a = t + 1, b = t − 1,
-// c = t − 2:
-//   w0 = −t b c / 6,  w1 = a b c / 2,  w2 = −a t c / 2,  w3 = a t b / 6,
-// in ten operations: the products t b and a c are shared, w1 = (a c) b / 2, w2 = −(a c) t / 2,
-// w0 = −(t b) c / 6, w3 = (t b) a / 6. Called as keys() is (the same note on fused operations).
+// cubics: error O(ν⁴) in the signal's frequency ν where Keys' is O(ν³)):
+//   w0 = −t (t − 1)(t − 2) / 6,  w1 = (t + 1)(t − 1)(t − 2) / 2,  w2 = −(t + 1) t (t − 2) / 2,
+//   w3 = (t + 1) t (t − 1) / 6,
+// in eleven operations, as Keys' (no negations): with h = −(t + 1)/2 and m = t (1 − t) / 6,
+//   w0 = m (t − 2),  w1 = h (t − 2)(1 − t),  w2 = h (t − 2) t,  w3 = −(t + 1) m.
+// Called as keys() is (the same note on fused operations).
 template <typename T>
 SARCLI_INLINE void lagrange(T t, T* w, std::size_t stride) {
-  const T a = t + T(1), b = t - T(1), c = t - T(2);
-  const T tb = t * b, ac = a * c;
-  const T tb6 = tb * T(1.0 / 6.0), ac2 = ac * T(0.5);
-  w[0] = -tb6 * c;
-  w[stride] = ac2 * b;
-  w[2 * stride] = -ac2 * t;
-  w[3 * stride] = tb6 * a;
+  const T c = t - T(2), nb = T(1) - t, na = -T(1) - t;
+  const T h = T(-0.5) * t - T(0.5);
+  const T hc = h * c, m = t * nb * T(1.0 / 6.0);
+  w[0] = m * c;
+  w[stride] = hc * nb;
+  w[2 * stride] = hc * t;
+  w[3 * stride] = na * m;
 }
 
 }  // namespace interp
