@@ -43,7 +43,8 @@ def test_sweep_covers_every_accuracy_knob():
     eps = sorted(k["eps"] for m, k in s if m == "nufft" and "eps" in k)
     assert eps[0] == pytest.approx(1e-12) and eps[-1] == pytest.approx(1e-2) and len(eps) == 11
     bp = [k for m, k in s if m == "backprojection" and "upsample" in k]
-    assert len(bp) == 5 * 3 * 2 and {k["upsample"] for k in bp} == {1, 2, 4, 8, 16}
+    assert len(bp) == 5 * 4 * 2 and {k["upsample"] for k in bp} == {1, 2, 4, 8, 16}
+    assert {k["interp"] for k in bp} == {"linear", "cubic", "lagrange", "lanczos"}
     pfa = [k for m, k in s if m == "pfa" and "oversample" in k]
     assert {k["oversample"] for k in pfa} == {1.25, 1.5, 2.0, 3.0} and {k["kernel"] for k in pfa} == {"kaiser", "linear"}
     assert sum(k.get("window") == "taylor" for _, k in s) == 3

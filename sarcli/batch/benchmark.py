@@ -60,7 +60,7 @@ NUFFT_EPS = tuple(10.0 ** -k for k in range(2, 13))
 PFA_OVERSAMPLE = (1.25, 1.5, 2.0, 3.0)
 PFA_WIDTH = (2, 4, 6, 8)
 BP_UPSAMPLE = (1, 2, 4, 8, 16)
-BP_INTERP = ("linear", "cubic", "lanczos")
+BP_INTERP = ("linear", "cubic", "lagrange", "lanczos")
 BP_PRECISION = ("float32", "float64")
 FAST_METHODS = ("nufft", "pfa", "backprojection")
 #: Formers for spherical data, swept when asked for (``sar bench --methods ...,ffbp,subimage``).
