@@ -68,11 +68,12 @@ def test_ffbp_matches_direct_default_knobs(geometry_fn):
 
 
 @pytest.mark.parametrize("knobs", [dict(interp="cubic", os_range=3, os_angle=3, upsample=8, tol=5e-2),
+                                   dict(interp="lagrange", os_range=3, os_angle=3, upsample=8, tol=5e-2),
                                    dict(interp="optimal", os_range=3, os_angle=3, base=4, tol=2e-5),
                                    dict(interp="linear", os_range=4, os_angle=4, upsample=8, tol=0.2),
                                    dict(interp="optimal", base=2, merge=3, tol=1e-3),
                                    dict(interp="optimal", os_range=1.5, upsample=3.0, tol=5e-4)])
-# measured 1.6e-2, 3.6e-6, 5.3e-2, 1.5e-4, 8.4e-5
+# measured 1.6e-2, 1.3e-2, 3.6e-6, 5.3e-2, 1.5e-4, 8.4e-5
 def test_ffbp_knobs_and_error_model(knobs):
     """Several stages and kernels: measured within tol, predicted within 3x of measured. Upsample
     3 over os_range 1.5 puts two profile bins between polar nodes, so stage 0 takes its gather
