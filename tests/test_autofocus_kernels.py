@@ -107,7 +107,8 @@ def _circle_case(P, M, seed):
 
 
 @pytest.mark.parametrize("opts", [BackprojectionOptions(upsample=4, interp="linear", precision="float32"),
-                                  BackprojectionOptions(upsample=8, interp="cubic", precision="float64")])
+                                  BackprojectionOptions(upsample=8, interp="cubic", precision="float64"),
+                                  BackprojectionOptions(upsample=6, interp="lagrange", precision="float64")])
 def test_pulse_contractions_are_the_reprojection_formula(opts):
     from sarcli.core.grid import Grid
     from sarcli.formers.backprojection import backproject, pulse_contractions, reproject
