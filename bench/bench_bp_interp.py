@@ -1,8 +1,9 @@
 """Backprojection's 4-tap range-profile interpolators, Keys cubic and cubic Lagrange, against each other (no assertions).
 
 For each case and each ``(interp, upsample)``: the relative error against the exact matched filter
-(``direct``) on a strided sub-grid (:func:`sarcli.analysis.accuracy.reference_grid`,
-``max_cost=3e8``), and the CPU seconds of a float32 ``backproject`` on one thread, the best of
+(``direct``) on a strided sub-grid (:func:`sarcli.analysis.accuracy.reference_grid`, ``--max-cost``:
+3e8 as in ``bench/bench_bp_peer.py``, 17² to 48² pixels here; 3e9 makes it 93² to 128², where a few
+pixels near the point targets no longer carry most of the error), and the CPU seconds of a float32 ``backproject`` on one thread, the best of
 ``--rounds`` rounds that run every setting in turn (forwards, then backwards), with its speed as the
 ratio of the first setting's seconds (Keys at 16, the default) to its own. The cases:
 
@@ -13,7 +14,8 @@ ratio of the first setting's seconds (Keys at 16, the default) to its own. The c
 
 ``SARCLI_BP_ISA=1`` runs the AVX2 copy. Usage::
 
-    python bench/bench_bp_interp.py [--case gotcha,orbit,50,1000,10000] [--settings cubic:16,lagrange:12,...] [--rounds 5]
+    python bench/bench_bp_interp.py [--case gotcha,orbit,50,1000,10000] [--settings cubic:16,lagrange:12,...]
+                                    [--rounds 5] [--max-cost 3e8]
 """
 
 from __future__ import annotations
@@ -53,13 +55,13 @@ def case_data(name: str):
     return points, freq, a, r0, grid
 
 
-def run(name: str, settings, rounds: int) -> None:
+def run(name: str, settings, rounds: int, max_cost: float) -> None:
     got = case_data(name)
     if got is None:
         print(f"{name}: no GOTCHA files, skipped")
         return
     data, freq, a, r0, grid = got
-    sub, rows, cols, _ = reference_grid(SimpleNamespace(data=data), grid, max_cost=3e8)
+    sub, rows, cols, _ = reference_grid(SimpleNamespace(data=data), grid, max_cost=max_cost)
     ref = direct_spherical(data, freq, a, r0, sub)
     col = Collection(freq, a, r0)
     seconds = {s: np.inf for s in settings}
@@ -72,6 +74,7 @@ def run(name: str, settings, rounds: int) -> None:
                 img = backproject(data, col, grid, opts, nthreads=1)
                 seconds[s] = min(seconds[s], time.process_time() - t)
                 errors[s] = image_error(img[np.ix_(rows, cols)], ref)
+    print(f"{name}: reference sub-grid {len(rows)} x {len(cols)}")
     base = seconds[settings[0]]
     isa = os.environ.get("SARCLI_BP_ISA", "best")
     for s in settings:
@@ -84,10 +87,11 @@ def main() -> None:
     ap.add_argument("--case", default="gotcha,orbit,50,1000,10000")
     ap.add_argument("--settings", default=SETTINGS, help="interp:upsample, comma separated; the first is the baseline")
     ap.add_argument("--rounds", type=int, default=5)
+    ap.add_argument("--max-cost", type=float, default=3e8, help="the reference sub-grid's P·M·pixels")
     args = ap.parse_args()
     settings = [(s.split(":")[0], float(s.split(":")[1])) for s in args.settings.split(",")]
     for name in args.case.split(","):
-        run(name, settings, args.rounds)
+        run(name, settings, args.rounds, args.max_cost)
 
 
 if __name__ == "__main__":

@@ -9,7 +9,7 @@ compares two programs under the same load. Per instruction set (sarcli's kernels
 
 - ranges: the collection of ``bench_bp_range.py`` (X band, 512 pulses onto 512² pixels) at 50 m
   to 1,000 km; the anchor's pixel-pulses per CPU second (``bp_anchor.c``, its process's CPU time)
-  against sarcli's default (float32, Keys cubic, upsample 16) and float32 linear upsample 4;
+  against sarcli's default (float32, cubic Lagrange, upsample 12) and float32 linear upsample 4;
 - peers: the GOTCHA and 740 km orbit cases of ``bench_bp_peer.py``; FastSAR's ``ExactFormer``
   (cpu, cubic, upsample 8, no window; in its own virtual environment) against sarcli's default;
   both images against the exact matched filter (``direct``) on a strided sub-grid, FastSAR's after

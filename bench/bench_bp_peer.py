@@ -203,7 +203,7 @@ def run_case(case, args, tmp, exe):
             fs_runs.append(res)
         img, t, c = timed(default, 2)
         ours_runs.append((t, c))
-    out.append(("sarcli default (%s, cubic, upsample %g)" % (DEFAULT_PRECISION, _default_upsample()), min(r[0] for r in ours_runs),
+    out.append(("sarcli default (%s, %s, upsample %g)" % (DEFAULT_PRECISION, _default_interp(), _default_upsample()), min(r[0] for r in ours_runs),
                 min(r[1] for r in ours_runs), image_error(img[pick], ref)))
     if fs_runs:
         fimg, _, _, info = fs_runs[-1]
@@ -214,7 +214,7 @@ def run_case(case, args, tmp, exe):
     else:
         note = f"FastSAR skipped: no {FASTSAR_PY} (create it: python3 -m venv /work/venv-fastsar && " \
                "/work/venv-fastsar/bin/pip install fastsar)"
-    for label, kw in [("sarcli float64 cubic", BackprojectionOptions(precision="float64")),
+    for label, kw in [("sarcli float64 " + _default_interp(), BackprojectionOptions(precision="float64")),
                       ("sarcli float32 linear upsample 4",
                        BackprojectionOptions(precision="float32", interp="linear", upsample=4))]:
         im, t, c = timed(lambda: backproject(data, col, grid, kw), args.repeat)
@@ -253,6 +253,12 @@ def _default_upsample():
     from sarcli.formers.backprojection import DEFAULT_UPSAMPLE
 
     return DEFAULT_UPSAMPLE
+
+
+def _default_interp():
+    from sarcli.formers.backprojection import DEFAULT_INTERP
+
+    return DEFAULT_INTERP
 
 
 def main(argv=None):

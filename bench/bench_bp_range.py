@@ -6,7 +6,7 @@ grid), onto 512² pixels of 0.25 m (smaller where the range is short: the scene'
 stays within half the range, so 50 m images a 35 m square). Per range, one thread:
 
 - the anchor's pixel-pulses per second (``bp_anchor.c``, built as bench_backprojection.py builds
-  it) and backprojection's default (``form_image``'s: float32, Keys cubic, upsample 16), timed
+  it) and backprojection's default (``form_image``'s: float32, cubic Lagrange, upsample 12), timed
   alternately A B A B, best of ``--repeat`` in CPU seconds; the ratios to the anchor and to the 10 km rate;
 - the tiling the kernels chose (range model and tile width, :func:`sarcli.formers.backprojection._kernels.tiling`);
 - the planner's predicted seconds, one thread (:func:`sarcli.formers.planning.cost.bp_seconds`; its ``bp``

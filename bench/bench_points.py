@@ -3,8 +3,7 @@ kernel on the plane (no assertions).
 
 One collection: X band, 30° elevation, 10 km, ±3° of azimuth, 256 pulses x 256 frequencies, onto
 192² pixels of 0.3 m; the points kernel's pixels carry a 5 m sinusoidal relief, the tiled kernel's
-lie on the plane. Both at ``form_image``'s backprojection defaults (float32, Keys cubic, upsample
-16), one thread, timed alternately A B A B; the median of the ratios is printed. Usage::
+lie on the plane. Both at float32, Keys cubic, upsample 16, one thread, timed alternately A B A B; the median of the ratios is printed. Usage::
 
     python bench/bench_points.py [--repeat 5] [--n 192] [--pulses 256]
 """

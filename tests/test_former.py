@@ -14,6 +14,7 @@ from sarcli.cli.main import cli
 from sarcli.cli.options import method_options
 from sarcli.errors import SarcliInputError
 from sarcli.formers.planning.cost import Samples, form_image_bytes
+from sarcli.formers.backprojection import DEFAULT_UPSAMPLE
 from sarcli.formers.families import FORMERS
 from sarcli.formers.formation import PLANNED, default_candidates, form_image, image_error, plan_rows
 from sarcli.formers.former import Settings
@@ -101,7 +102,7 @@ def test_one_memory_model(scenes):
         assert row.memory == pytest.approx(plan.bytes), row.method
     smp = Samples.of(ph)
     bp = FORMERS["backprojection"].make(ph, GRID)
-    assert bp.bytes == form_image_bytes("backprojection", smp, GRID, upsample=16, precision="float32")
+    assert bp.bytes == form_image_bytes("backprojection", smp, GRID, upsample=DEFAULT_UPSAMPLE, precision="float32")
 
 
 def test_flags_write_numbers_that_read_back():

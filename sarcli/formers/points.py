@@ -91,7 +91,7 @@ def backproject_points(data, collection, points_m, options=None, *, nthreads=Non
     points_m : array_like, shape (..., 3)
         Pixel positions in the local frame (m).
     options, nthreads :
-        As for :func:`sarcli.formers.backprojection.backproject` (None: upsample 16, cubic, float64).
+        As for :func:`sarcli.formers.backprojection.backproject` (None: upsample 16, lagrange, float64).
 
     Returns
     -------
@@ -148,7 +148,7 @@ def form_map(ph, method, grid: Grid, dem, *, crs=None, weights=None, options=Non
     EPSG ``crs``, default the scene centre's UTM zone), each pixel at its DEM height
     (:func:`sarcli.io.dem.map_points`), formed there by ``method`` ('backprojection' or 'direct';
     backprojection with ``options``, a :class:`~sarcli.formers.options.BackprojectionOptions`, default
-    that of ``form_image``: 16, cubic, float32) and window ``weights``.
+    that of ``form_image``: 12, lagrange, float32) and window ``weights``.
 
     Returns
     -------

@@ -11,11 +11,11 @@
 
 from ._kernels import kernels
 from ._maps import (DEFAULT_INTERP, DEFAULT_PRECISION, DEFAULT_UPSAMPLE, FORM_KNOBS, INTERPOLATORS, MAP_KNOBS,
-                    MAP_PRECISION, Knobs, backproject, knobs_of, pulse_contractions, reproject)
+                    MAP_PRECISION, MAP_UPSAMPLE, Knobs, backproject, knobs_of, pulse_contractions, reproject)
 from ._prepared import Backprojector
 from ._setup import (BLOCK, PAD, ProfileWork, Setup, TilingInputs, check_data, profile_length, profiles,
                      range_profiles, tiling_for)
 
 __all__ = ["backproject", "reproject", "pulse_contractions", "Backprojector", "profile_length", "DEFAULT_UPSAMPLE",
-           "DEFAULT_INTERP", "DEFAULT_PRECISION", "MAP_PRECISION", "Knobs", "MAP_KNOBS", "FORM_KNOBS", "knobs_of", "INTERPOLATORS", "BLOCK", "PAD", "ProfileWork", "Setup",
+           "DEFAULT_INTERP", "DEFAULT_PRECISION", "MAP_PRECISION", "MAP_UPSAMPLE", "Knobs", "MAP_KNOBS", "FORM_KNOBS", "knobs_of", "INTERPOLATORS", "BLOCK", "PAD", "ProfileWork", "Setup",
            "TilingInputs", "check_data", "profiles", "range_profiles", "tiling_for", "kernels"]

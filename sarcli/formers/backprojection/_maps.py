@@ -51,9 +51,10 @@ its sine and cosine a float32 polynomial (error 4e-7). ``precision`` sets the pr
 accumulation: ``'float64'`` keeps both in float64, so that :func:`reproject` is the adjoint to
 float64 rounding; ``'float32'`` stores and sums in float32 (1e-7 of float64; faster).
 
-Defaults: Keys cubic interpolation with 16× oversampled profiles (measured: 3.5e-5 relative
-error vs the exact matched filter on the test scene, 2.9e-4 at 8×; unit-point peaks within 1e-4
-of 1). Linear interpolation needs ``upsample=8`` for 1e-2 (6e-3) and 32 for peaks within 1e-3.
+Defaults: cubic Lagrange interpolation with 12× oversampled profiles (measured: 2.6e-5 relative
+error vs the exact matched filter on the test scene, 1.3e-4 at 8×, where Keys cubic errs 3.5e-5
+at 16× and 8.1e-5 at 12×; unit-point peaks within 1e-4 of 1). Linear interpolation needs
+``upsample=8`` for 1e-2 (6e-3) and 32 for peaks within 1e-3.
 """
 
 from __future__ import annotations
@@ -69,12 +70,13 @@ from ._kernels import kernels
 from ._setup import INTERPOLATORS, PAD, ProfileWork, Setup, check_data, profile_length, profiles
 
 __all__ = ["backproject", "reproject", "pulse_contractions", "profile_length", "INTERPOLATORS", "DEFAULT_UPSAMPLE", "DEFAULT_PRECISION",
-           "DEFAULT_INTERP", "MAP_PRECISION", "Knobs", "MAP_KNOBS", "FORM_KNOBS", "knobs_of"]
+           "DEFAULT_INTERP", "MAP_PRECISION", "MAP_UPSAMPLE", "Knobs", "MAP_KNOBS", "FORM_KNOBS", "knobs_of"]
 
-#: Default profile oversampling and interpolation: relative error 3.5e-5 vs the exact matched
-#: filter and unit-point peaks 1 ± 1e-4 (measured: see tests/test_backprojection.py).
-DEFAULT_UPSAMPLE = 16
-DEFAULT_INTERP = "cubic"
+#: Default profile oversampling and interpolation: relative error 2.6e-5 vs the exact matched
+#: filter and unit-point peaks 1 ± 1e-4 (measured: see tests/test_backprojection.py); Keys cubic
+#: at 16 errs more (3.5e-5) at the same cost a pixel (docs/performance.md).
+DEFAULT_UPSAMPLE = 12
+DEFAULT_INTERP = "lagrange"
 #: Precision of an image formed by backprojection (``form_image``, ``sar form-image``): the tiles'
 #: ranges are float64 either way, so float32 profiles and sums err no more than float64 at the
 #: interpolation's own error (measured: GOTCHA 800² 3.20e-4 both, a 740 km orbit 9.3e-5 both) and
@@ -85,6 +87,11 @@ DEFAULT_PRECISION = "float32"
 #: :func:`pulse_contractions` and the prepared :class:`~sarcli.formers.backprojection.Backprojector`)
 #: when no options are given: float64, so that :func:`reproject` is the adjoint to float64 rounding.
 MAP_PRECISION = "float64"
+#: Profile oversampling of the linear maps themselves when no options are given: 16, finer than an
+#: image's, because the iterative methods that apply them (the regulariser's exact pair, autofocus)
+#: take their error for noise in the data (measured: the automatic λ of a 16 x 16-sample spherical
+#: scene is 2.1 times larger at 12 than at 16, and its image less accurate than the matched filter's).
+MAP_UPSAMPLE = 16
 
 
 class Knobs(NamedTuple):
@@ -98,14 +105,14 @@ class Knobs(NamedTuple):
 
 
 #: The maps' knobs when no options are given (float64: the adjoint pair).
-MAP_KNOBS = Knobs(DEFAULT_UPSAMPLE, DEFAULT_INTERP, MAP_PRECISION)
+MAP_KNOBS = Knobs(MAP_UPSAMPLE, DEFAULT_INTERP, MAP_PRECISION)
 #: The knobs of an image formed by backprojection (those of ``BackprojectionOptions()``).
 FORM_KNOBS = Knobs(DEFAULT_UPSAMPLE, DEFAULT_INTERP, DEFAULT_PRECISION)
 
 
 def knobs_of(options) -> Knobs:
     """``(upsample, interp, precision)`` of a :class:`~sarcli.formers.options.BackprojectionOptions`
-    (or a :class:`Knobs`); None: :data:`MAP_KNOBS` (16, 'cubic', 'float64')."""
+    (or a :class:`Knobs`); None: :data:`MAP_KNOBS` (16, 'lagrange', 'float64')."""
     if options is None:
         return MAP_KNOBS
     return Knobs(options.upsample, options.interp, options.precision)
@@ -137,7 +144,7 @@ def backproject(data, collection, grid, options=None, *, nthreads=None) -> np.nd
         ``interp``, the range-profile interpolation ('linear', Keys 'cubic' (a = -1/2), cubic
         'lagrange' (the same 4 taps, exact for cubics) or normalised 'lanczos'-3); ``precision``, of the range profiles and the accumulation
         ('float64' or 'float32'; geometry is float64 per tile, interpolation weights and carrier
-        float32 in both; module docstring). None: 16, 'cubic' and :data:`MAP_PRECISION` (float64).
+        float32 in both; module docstring). None: :data:`MAP_KNOBS` (16, 'lagrange', float64).
     nthreads : int, optional
         Threads of the kernel (default: ``sarcli._native.threads()``).
 
