@@ -80,9 +80,8 @@ DEFAULT_INTERP = "lagrange"
 #: Precision of an image formed by backprojection (``form_image``, ``sar form-image``): the tiles'
 #: ranges are float64 either way, so float32 profiles and sums err no more than float64 at the
 #: interpolation's own error (measured at the default interpolation: GOTCHA 800² 3.44e-4 both, a
-#: 740 km orbit 5.4e-5 both) and
-#: run faster (docs/performance.md). :func:`backproject` and :func:`reproject` themselves, the linear map and
-#: its exact adjoint, default to float64.
+#: 740 km orbit 5.4e-5 both) and run faster (docs/performance.md). :func:`backproject` and
+#: :func:`reproject` themselves, the linear map and its exact adjoint, default to float64.
 DEFAULT_PRECISION = "float32"
 #: Precision of the linear maps themselves (:func:`backproject`, :func:`reproject`,
 #: :func:`pulse_contractions` and the prepared :class:`~sarcli.formers.backprojection.Backprojector`)
