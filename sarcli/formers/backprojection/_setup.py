@@ -17,7 +17,7 @@ from ...core.grid import Grid
 from ...core.sampling import INTERPOLATORS as ALL_INTERPOLATORS, PROFILE_INTERPOLATORS, equally_spaced, frequency_line
 from ...errors import AliasingWarning, SarcliInputError
 from ..._native.layout import BpGeo
-from ._kernels import EXACT, GEO_ROWS, min_range, next_fast_len, tiling
+from ._kernels import EXACT, GEO_ROWS, min_range, next_fast_len, row_cosine, tiling
 from .._samples import is_lazy
 
 __all__ = ["INTERPOLATORS", "PAD", "BLOCK", "profile_length", "ProfileWork", "profiles", "range_profiles", "TilingInputs", "tiling_for", "Setup",
@@ -173,10 +173,18 @@ def range_profiles(data, weights, total_weight, n_len, nthreads, dtype=np.comple
     return re, im
 
 
-def _tiling(grid, a, b, kc_max, inv_bin_max):
+def _tiling(grid, a, b, kc_max, inv_bin_max, c_max):
     """:func:`._kernels.tiling` for transmit positions ``a`` and receive positions ``b`` [P, 3]."""
     r_min = min(min_range(a, grid), min_range(b, grid))
-    return tiling(grid, r_min, kc_max, inv_bin_max, bistatic=not np.array_equal(a, b))
+    return tiling(grid, r_min, kc_max, inv_bin_max, bistatic=not np.array_equal(a, b), c_max=c_max)
+
+
+def row_reach_bins(grid, c_max: float, inv_bin_max: float, taps: int) -> float:
+    """Profile bins that one image row reads of each pulse's profile, at most: the row's length times
+    the largest direction cosine along it (:func:`._kernels.row_cosine`), in bins, plus a stencil
+    either side."""
+    length = abs(grid.x[-1] - grid.x[0]) + abs(grid.dx)
+    return length * c_max * inv_bin_max + 2 * taps
 
 
 class TilingInputs:
@@ -192,6 +200,7 @@ class TilingInputs:
         b = a if receive_position_m is None else np.asarray(receive_position_m, dtype=np.float64)
         self.grid = grid
         self.r_min = min(min_range(a, grid), min_range(b, grid))
+        self.c_max = max(row_cosine(a, grid), row_cosine(b, grid))
         self.bistatic = not np.array_equal(a, b)
         self.kc_max = float(np.max(np.abs(4.0 * np.pi * np.asarray(alpha_ref) / C)))
         self.dalpha_max = float(np.max(np.abs(dalpha)))
@@ -199,7 +208,8 @@ class TilingInputs:
     def tiling(self, upsample):
         """The tiling :class:`Setup` chooses at profile oversampling ``upsample``."""
         n_len = profile_length(self.m, upsample)
-        return tiling(self.grid, self.r_min, self.kc_max, 2.0 * self.dalpha_max * n_len / C, bistatic=self.bistatic)
+        return tiling(self.grid, self.r_min, self.kc_max, 2.0 * self.dalpha_max * n_len / C, bistatic=self.bistatic,
+                      c_max=self.c_max)
 
 
 def tiling_for(freq_hz, antenna_position_m, receive_position_m, grid, upsample):
@@ -277,14 +287,20 @@ class Setup:
         self.y = np.ascontiguousarray(grid.y, dtype=np.float64)
         self.shape = grid.shape
         #: the range model and tile width (:func:`._kernels.tiling`)
-        self.tiling = _tiling(grid, a, b, float(np.max(np.abs(g[BpGeo.KC]))), float(np.max(np.abs(g[BpGeo.INV_BIN]))))
+        inv_bin_max = float(np.max(np.abs(g[BpGeo.INV_BIN])))
+        c_max = max(row_cosine(a, grid), row_cosine(b, grid))
+        self.tiling = _tiling(grid, a, b, float(np.max(np.abs(g[BpGeo.KC]))), inv_bin_max, c_max)
         self.model, self.width = self.tiling.model, self.tiling.width
         self._check_window(a, b, r0, grid, np.abs(bin_m) * self.n_len / 2.0)
-        # pulses per pass over the image inside a kernel call: their profiles stay in cache; at
-        # least 8: one AVX-512 vector of the kernels' float64 pulse loop over a tile's anchors,
-        # and each pass adds every tile's accumulators into the image once
+        # pulses per pass over the image inside a kernel call: the parts of their profiles that a
+        # row reads stay in cache from one row to the next; at least 8: one AVX-512 vector of the
+        # kernels' float64 pulse loop over a tile's anchors. Each pass adds every tile's
+        # accumulators into the (float64) image once, so the fewer passes the better: rows across
+        # the look direction read a few bins of each profile, and many pulses share the cache
         row_bytes = (self.n_len + 2 * PAD) * 2 * np.dtype(dt).itemsize
-        self.cache_block = max(8, _CACHE_BYTES // row_bytes)
+        reach = row_reach_bins(grid, c_max, inv_bin_max, ALL_INTERPOLATORS[interp].taps)
+        touched = min(row_bytes, int(math.ceil(reach)) * 2 * np.dtype(dt).itemsize)
+        self.cache_block = max(8, _CACHE_BYTES // max(touched, 1))
         # pulses whose profiles live at once: at most BLOCK, and no more bytes than the phase
         # history and the image hold (complex128), so few long pulses onto a small image stay
         # within a few times the data and the image
