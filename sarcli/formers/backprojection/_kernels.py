@@ -172,8 +172,10 @@ def tiling(grid, r_min: float, kc_max: float, inv_bin_max: float, *, bistatic: b
     scale = max(abs(kc_max), abs(inv_bin_max), 1e-30)
     r = max(r_min, 1e-9)
     best = None
+    # a tile wider than the row is the row: price the tiles the kernel would run
+    widths = sorted({min(w, max(int(grid.nx), 1)) for w in _WIDTHS}, reverse=True)
     for model, error in ((QUADRATIC, functools.partial(quadratic_error, c_max=c_max)), (EXACT, exact_error)):
-        for w in _WIDTHS:
+        for w in widths:
             e = error(0.5 * (w - 1) * abs(grid.dx), r) * scale
             if e <= MODEL_TOLERANCE or w == 1:
                 cost = tile_cost(model, w)
