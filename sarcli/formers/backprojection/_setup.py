@@ -1,13 +1,33 @@
 """Backprojection's setup, shared by the one-shot maps (:mod:`.backprojection`), the prepared
 backprojector (:mod:`._prepared`) and ffbp's range profiles: the validated inputs, the
-per-pulse constants in the working precision, the FFT layout and the range profiles. The model
-and its formulas are in :mod:`.backprojection`'s docstring.
+per-pulse constants in the working precision, the FFT layout, the range profiles and the
+orientation of the kernels' rows. The model and its formulas are in :mod:`.backprojection`'s docstring.
+
+Orientation
+-----------
+The kernels run along rows: a tile is up to 64 consecutive pixels of a row sharing one range
+model, and its 16-lane groups read each a 4-tap stencil of the pulse's profile. The range is
+symmetric in swapping x and y of the pixels and of the antennas, so the kernels may equally run
+on the transposed problem (grid axes and antenna x, y swapped: kernel rows are image columns)
+and hand back the transpose. :func:`orient` picks, per call, the orientation of
+
+1. least tiling cost (:func:`._kernels.tile_cost` of the tiling :func:`._kernels.tiling` picks for
+   that row's pixel spacing, over a row's whole and last, partial tiles: :func:`row_cost`): the
+   arithmetic per pixel-pulse;
+2. on a tie (square pixels and rows longer than a tile: the usual case), least range step along
+   the row, ``mean_p |∂Δr_p/∂u| · Δu`` at the grid's centre (``u`` the row's axis; the direction
+   cosine of the antennas along it): the profile span a lane group reads per pulse. Rows across the
+   look direction keep a group's 16 stencils within a cache line or two; rows along it spread
+   them over ``16 Δu |c| / bin`` bins (GOTCHA at 0.125 m pixels, 16x profiles: about 12 lines).
 """
 
 from __future__ import annotations
 
 import math
+import os
 import warnings
+from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 
@@ -17,11 +37,11 @@ from ...core.grid import Grid
 from ...core.sampling import INTERPOLATORS as ALL_INTERPOLATORS, PROFILE_INTERPOLATORS, equally_spaced, frequency_line
 from ...errors import AliasingWarning, SarcliInputError
 from ..._native.layout import BpGeo
-from ._kernels import EXACT, GEO_ROWS, min_range, next_fast_len, tiling
+from ._kernels import EXACT, GEO_ROWS, Tiling, min_range, next_fast_len, tile_cost, tiling
 from .._samples import is_lazy
 
 __all__ = ["INTERPOLATORS", "PAD", "BLOCK", "profile_length", "ProfileWork", "profiles", "range_profiles", "TilingInputs", "tiling_for", "Setup",
-           "check_data"]
+           "check_data", "Orientation", "orient", "transposed_grid", "row_steps", "row_cost", "l2_cache_bytes", "CACHE_FRACTION", "FALLBACK_L2_BYTES"]
 
 #: Interpolation kernels for the range profiles and their codes in the compiled kernels.
 INTERPOLATORS = {name: ALL_INTERPOLATORS[name].code for name in PROFILE_INTERPOLATORS}
@@ -30,8 +50,38 @@ PAD = 3
 _PRECISIONS = {"float64": np.float64, "float32": np.float32}
 #: Most pulses range-compressed and backprojected together (bounds the profile memory).
 BLOCK = 128
-#: Profile bytes one pass over the image works through (about a core's L2 cache).
-_CACHE_BYTES = 640 * 1024
+#: L2 cache per core assumed where neither sysfs nor ``sysconf`` tells it (the smallest of current
+#: x86 cores with AVX2; a smaller pulse block costs a few percent, a larger one than the cache much more).
+FALLBACK_L2_BYTES = 512 * 1024
+#: Share of a core's L2 cache that the profiles of one pass over the image fill (the rest holds the
+#: tiles' accumulators and the image rows; measured: docs/performance.md).
+CACHE_FRACTION = 0.5
+
+
+def l2_cache_bytes(sysfs="/sys/devices/system/cpu/cpu0/cache", sysconf=getattr(os, "sysconf", None)) -> int:
+    """Bytes of one core's L2 cache: the level-2 data or unified cache under ``sysfs`` (Linux), else
+    ``sysconf("SC_LEVEL2_CACHE_SIZE")`` (glibc), else :data:`FALLBACK_L2_BYTES`."""
+    try:
+        for index in sorted(Path(sysfs).glob("index*")):
+            if (index / "level").read_text().strip() != "2" or \
+                    (index / "type").read_text().strip() not in ("Unified", "Data"):
+                continue
+            text = (index / "size").read_text().strip().upper()
+            unit = {"K": 1 << 10, "M": 1 << 20, "G": 1 << 30}.get(text[-1:], 1)
+            size = int(text.rstrip("KMG")) * unit
+            if size > 0:
+                return size
+    except (OSError, ValueError):
+        pass
+    try:
+        size = int(sysconf("SC_LEVEL2_CACHE_SIZE")) if sysconf is not None else 0
+    except (OSError, ValueError, TypeError):
+        size = 0
+    return size if size > 0 else FALLBACK_L2_BYTES
+
+
+#: Profile bytes one pass over the image works through: :data:`CACHE_FRACTION` of a core's L2.
+_CACHE_BYTES = int(CACHE_FRACTION * l2_cache_bytes())
 
 
 def profile_length(n_frequencies: int, upsample: float) -> int:
@@ -173,15 +223,62 @@ def range_profiles(data, weights, total_weight, n_len, nthreads, dtype=np.comple
     return re, im
 
 
-def _tiling(grid, a, b, kc_max, inv_bin_max):
-    """:func:`._kernels.tiling` for transmit positions ``a`` and receive positions ``b`` [P, 3]."""
-    r_min = min(min_range(a, grid), min_range(b, grid))
-    return tiling(grid, r_min, kc_max, inv_bin_max, bistatic=not np.array_equal(a, b))
+class Orientation(NamedTuple):
+    """The orientation of the kernels' rows (module docstring): ``transposed`` when kernel rows are
+    image columns, the tiling on those rows (:class:`._kernels.Tiling`), its cost over a row
+    (:func:`row_cost`), and the range step along a row (m per pixel, mean over pulses at the grid's centre)."""
+    transposed: bool
+    tiling: Tiling
+    cost: float
+    step: float
+
+
+def transposed_grid(grid: Grid) -> Grid:
+    """``grid`` with x and y swapped: its ``x`` is ``grid.y``, its ``y`` is ``grid.x``."""
+    return Grid(grid.ny, grid.nx, grid.dy, grid.dx, grid.cy, grid.cx)
+
+
+def row_steps(a, b, grid) -> tuple[float, float]:
+    """Mean over pulses of ``|∂Δr/∂x| Δx`` and ``|∂Δr/∂y| Δy`` at the grid's centre, for transmit
+    positions ``a`` and receive positions ``b`` [P, 3]: how far the range moves from one pixel to the
+    next along a row and along a column (``Δr = (|a - x| + |b - x|)/2 - r0``)."""
+    centre = np.array([0.5 * (grid.x[0] + grid.x[-1]), 0.5 * (grid.y[0] + grid.y[-1]), 0.0])
+    grad = np.zeros((a.shape[0], 2))
+    for pos in (a, b):
+        d = centre - pos
+        grad += 0.5 * d[:, :2] / np.maximum(np.linalg.norm(d, axis=1), 1e-30)[:, None]
+    mean = np.mean(np.abs(grad), axis=0)
+    return float(mean[0] * grid.dx), float(mean[1] * grid.dy)
+
+
+def row_cost(t: Tiling, n: int, bistatic: bool = False) -> float:
+    """Predicted work per pixel-pulse (:func:`._kernels.tile_cost`) of a row of ``n`` pixels cut into
+    tiles of ``t.width`` from its start, the last one what is left."""
+    full, rest = divmod(int(n), t.width)
+    work = full * t.width * tile_cost(t.model, t.width, bistatic)
+    if rest:
+        work += rest * tile_cost(t.model, rest, bistatic)
+    return work / n
+
+
+def orient(grid, r_min: float, kc_max: float, inv_bin_max: float, steps, *, bistatic: bool = False) -> Orientation:
+    """The orientation of the kernels' rows (module docstring): of the grid as it is and transposed,
+    the one of least tiling cost (:func:`._kernels.tiling` on that row's spacing, :func:`row_cost` of
+    its rows), then of least range step along the row (``steps``, :func:`row_steps`)."""
+    best = None
+    for transposed, g, step in ((False, grid, steps[0]), (True, transposed_grid(grid), steps[1])):
+        t = tiling(g, r_min, kc_max, inv_bin_max, bistatic=bistatic)
+        cost = row_cost(t, g.nx, bistatic)
+        cand = Orientation(transposed, t, cost, step)
+        if best is None or (cand.cost, cand.step) < (best.cost, best.step):
+            best = cand
+    return best
 
 
 class TilingInputs:
-    """What :func:`._kernels.tiling` needs of a collection, computed once for several upsamplings:
-    the smallest antenna-to-grid range, the largest carrier wavenumber and frequency step."""
+    """What :func:`._kernels.tiling` and :func:`orient` need of a collection, computed once for several
+    upsamplings: the smallest antenna-to-grid range, the largest carrier wavenumber and frequency
+    step, and the range steps along rows and columns (:func:`row_steps`)."""
 
     def __init__(self, freq_hz, antenna_position_m, receive_position_m, grid):
         f = np.asarray(freq_hz, dtype=np.float64)
@@ -193,18 +290,26 @@ class TilingInputs:
         self.grid = grid
         self.r_min = min(min_range(a, grid), min_range(b, grid))
         self.bistatic = not np.array_equal(a, b)
+        self.steps = row_steps(a, b, grid)
         self.kc_max = float(np.max(np.abs(4.0 * np.pi * np.asarray(alpha_ref) / C)))
         self.dalpha_max = float(np.max(np.abs(dalpha)))
 
-    def tiling(self, upsample):
-        """The tiling :class:`Setup` chooses at profile oversampling ``upsample``."""
+    def orientation(self, upsample) -> Orientation:
+        """The orientation and tiling :class:`Setup` chooses at profile oversampling ``upsample``."""
         n_len = profile_length(self.m, upsample)
-        return tiling(self.grid, self.r_min, self.kc_max, 2.0 * self.dalpha_max * n_len / C, bistatic=self.bistatic)
+        return orient(self.grid, self.r_min, self.kc_max, 2.0 * self.dalpha_max * n_len / C, self.steps,
+                      bistatic=self.bistatic)
+
+    def tiling(self, upsample):
+        """The tiling :class:`Setup` chooses at profile oversampling ``upsample`` (on the rows of
+        :meth:`orientation`)."""
+        return self.orientation(upsample).tiling
 
 
 def tiling_for(freq_hz, antenna_position_m, receive_position_m, grid, upsample):
     """The tiling :class:`Setup` chooses for these frequencies, positions, grid and ``upsample``
-    (:func:`._kernels.tiling`; ``receive_position_m`` None when monostatic), without the checks."""
+    (:func:`._kernels.tiling` on the rows of :func:`orient`; ``receive_position_m`` None when
+    monostatic), without the checks."""
     return TilingInputs(freq_hz, antenna_position_m, receive_position_m, grid).tiling(upsample)
 
 
@@ -273,11 +378,20 @@ class Setup:
         g[BpGeo.OFFSET] = (0.5 * (na + nb) if self.bistatic else na) - r0
         g[BpGeo.INV_BIN] = 1.0 / bin_m
         g[BpGeo.KC] = 4.0 * np.pi * alpha_ref / C
-        self.x = np.ascontiguousarray(grid.x, dtype=np.float64)
-        self.y = np.ascontiguousarray(grid.y, dtype=np.float64)
-        self.shape = grid.shape
+        #: the orientation of the kernels' rows and their tiling (:func:`orient`)
+        self.orientation = orient(grid, min(min_range(a, grid), min_range(b, grid)), float(np.max(np.abs(g[BpGeo.KC]))),
+                                  float(np.max(np.abs(g[BpGeo.INV_BIN]))), row_steps(a, b, grid), bistatic=self.bistatic)
+        self.transposed = self.orientation.transposed
+        kgrid = transposed_grid(grid) if self.transposed else grid
+        if self.transposed:   # kernel x is the image's y: the antennas' x and y swap with the grid's
+            g[[BpGeo.TWO_AX, BpGeo.TWO_AY]] = g[[BpGeo.TWO_AY, BpGeo.TWO_AX]]
+            g[[BpGeo.TWO_BX, BpGeo.TWO_BY]] = g[[BpGeo.TWO_BY, BpGeo.TWO_BX]]
+        self.x = np.ascontiguousarray(kgrid.x, dtype=np.float64)
+        self.y = np.ascontiguousarray(kgrid.y, dtype=np.float64)
+        #: the image's shape and the kernels' (its transpose when :attr:`transposed`)
+        self.shape, self.kernel_shape = grid.shape, kgrid.shape
         #: the range model and tile width (:func:`._kernels.tiling`)
-        self.tiling = _tiling(grid, a, b, float(np.max(np.abs(g[BpGeo.KC]))), float(np.max(np.abs(g[BpGeo.INV_BIN]))))
+        self.tiling = self.orientation.tiling
         self.model, self.width = self.tiling.model, self.tiling.width
         self._check_window(a, b, r0, grid, np.abs(bin_m) * self.n_len / 2.0)
         # pulses per pass over the image inside a kernel call: their profiles stay in cache; at
@@ -309,6 +423,30 @@ class Setup:
                 f"|Δr| < c/(4Δα) = {half_window[worst]:.4g} m (pulse {worst}); backprojection leaves "
                 f"pixels outside it out of those pulses", AliasingWarning, stacklevel=4)
 
+    def image_view(self, arr):
+        """An array of the kernels' shape as an array of the image's (a transposed view when
+        :attr:`transposed`)."""
+        return arr.T if self.transposed else arr
+
+    def image(self, out_re, out_im):
+        """The complex128 image from the kernels' real and imaginary parts (the one copy, transposing
+        when :attr:`transposed`)."""
+        img = np.empty(self.shape, dtype=np.complex128)
+        _copy_oriented(img.real, out_re, self.transposed)
+        _copy_oriented(img.imag, out_im, self.transposed)
+        return img
+
+    def kernel_input(self, f):
+        """Real and imaginary parts of an image-shaped ``f``, C-contiguous in the working precision
+        and the kernels' orientation (zeros for the imaginary part of real ``f``)."""
+        f = np.asarray(f)
+        re = np.empty(self.kernel_shape, dtype=self.dtype)
+        _copy_oriented(re, f.real, self.transposed)
+        im = np.zeros_like(re)
+        if np.iscomplexobj(f):
+            _copy_oriented(im, f.imag, self.transposed)
+        return re, im
+
     def kernel_args(self, sl):
         """Geometry and options of the kernels for the pulses in slice ``sl``."""
         return (self.x, self.y, np.ascontiguousarray(self.geo[:, sl]), self.n_len, PAD, self.kind,
@@ -329,6 +467,20 @@ class Setup:
     def blocks(self):
         """Slices of at most ``self.block`` pulses: profiles live one block at a time."""
         return [slice(b, min(b + self.block, self.n_pulses)) for b in range(0, self.n_pulses, self.block)]
+
+
+#: Rows of the source a transposing copy takes at a time: the strip it writes stays in cache
+#: (measured: 4096² float64, 2.6 x faster than one strided copy).
+_STRIP = 64
+
+
+def _copy_oriented(dst, src, transposed):
+    """``dst[...] = src.T`` if ``transposed`` (by strips of rows), else ``dst[...] = src``."""
+    if not transposed:
+        np.copyto(dst, src)
+        return
+    for i in range(0, src.shape[0], _STRIP):
+        np.copyto(dst[:, i:i + _STRIP], src[i:i + _STRIP].T)
 
 
 def check_data(data):
