@@ -54,8 +54,10 @@ BLOCK = 128
 #: x86 cores with AVX2; a smaller pulse block costs a few percent, a larger one than the cache much more).
 FALLBACK_L2_BYTES = 512 * 1024
 #: Share of a core's L2 cache that the profiles of one pass over the image fill (the rest holds the
-#: tiles' accumulators and the image rows; measured: docs/performance.md).
-CACHE_FRACTION = 0.5
+#: tiles' accumulators and the image rows). Rows along the look direction read all of each profile
+#: in a pass and slow down sharply once the profiles outgrow the L2; rows across it read a few lines
+#: at a time and barely notice (measured: docs/performance.md, ``bench/bench_bp_orient.py``).
+CACHE_FRACTION = 0.75
 
 
 def l2_cache_bytes(sysfs="/sys/devices/system/cpu/cpu0/cache", sysconf=getattr(os, "sysconf", None)) -> int:
