@@ -2,13 +2,13 @@
 the core's L2 cache, in one run (no assertions).
 
 The kernels run along rows (tiles of up to 64 pixels, 16-lane groups each reading a 4-tap
-stencil of the pulse's profile); :func:`sarcli.formers.backprojection._setup.orient` runs them on
+stencil of the pulse's profile); :func:`sarcli.formers.backprojection._rows.orient` runs them on
 the transposed problem when that puts the rows across the look direction. Per case, one thread,
 CPU seconds, best of ``--repeat``, every configuration timed in turn within each round (A B C A B C):
 
 - ``along, 640 KiB``: rows along the look direction and 640 KiB of profiles a pass (the reference);
 - ``across, f x L2`` and ``along, f x L2`` for the fractions ``--fractions`` of the L2 size
-  :func:`sarcli.formers.backprojection._setup.l2_cache_bytes` reads.
+  :func:`sarcli.formers.backprojection._rows.l2_cache_bytes` reads.
 
 Cases: ``gotcha`` and ``orbit`` (bench_bp_peer.py's: GOTCHA 4 files onto 800² of 0.125 m, the 740 km
 orbit onto 1024² of 0.5 m) and ``r<metres>`` (bench_bp_range.py's collection at that slant range,
@@ -34,6 +34,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import bench_bp_peer as peer  # noqa: E402
 import bench_bp_range as brange  # noqa: E402
 
+import sarcli.formers.backprojection._rows as bp_rows  # noqa: E402
 import sarcli.formers.backprojection._setup as bp_setup  # noqa: E402
 from sarcli.core.collection import Collection  # noqa: E402
 from sarcli.formers.backprojection import backproject  # noqa: E402
@@ -61,7 +62,7 @@ def case(name, n, pulses):
 def run(data, col, grid, across, cache_bytes):
     """CPU seconds of one call with the rows across (or along) the look direction."""
     bp_setup._CACHE_BYTES = int(cache_bytes)
-    steps = bp_setup.row_steps(col.antenna_position_m, col.antenna_position_m, grid)
+    steps = bp_rows.row_steps(col.antenna_position_m, col.antenna_position_m, grid)
     along_x = steps[0] >= steps[1]                  # the x rows run along the look direction
     transposed = along_x if across else not along_x
     bp_setup.row_steps = (lambda a, b, g: (1.0, 0.0)) if transposed else (lambda a, b, g: (0.0, 1.0))
@@ -70,10 +71,7 @@ def run(data, col, grid, across, cache_bytes):
         backproject(data, col, grid, DEFAULT, nthreads=1)
         return time.process_time() - t
     finally:
-        bp_setup.row_steps = ROW_STEPS
-
-
-ROW_STEPS = bp_setup.row_steps
+        bp_setup.row_steps = bp_rows.row_steps
 
 
 def main(argv=None):
@@ -84,10 +82,10 @@ def main(argv=None):
     ap.add_argument("--n", type=int, default=512)
     ap.add_argument("--pulses", type=int, default=512)
     opts = ap.parse_args(argv)
-    l2 = bp_setup.l2_cache_bytes()
+    l2 = bp_rows.l2_cache_bytes()
     chosen = bp_setup._CACHE_BYTES
     fractions = [float(f) for f in opts.fractions.split(",") if f]
-    print(f"L2 {l2 // 1024} KiB a core; the pulse block fills {bp_setup.CACHE_FRACTION:g} of it "
+    print(f"L2 {l2 // 1024} KiB a core; the pulse block fills {bp_rows.CACHE_FRACTION:g} of it "
           f"({chosen // 1024} KiB); one thread, CPU s, best of {opts.repeat}; load average "
           f"{os.getloadavg()[0]:.1f} at start")
     for name in opts.cases.split(","):
@@ -97,7 +95,7 @@ def main(argv=None):
             continue
         label, data, col, grid = c
         st = bp_setup.Setup(data.shape, col, grid, DEFAULT.upsample, DEFAULT.interp, DEFAULT.precision)
-        sx, sy = bp_setup.row_steps(col.antenna_position_m, col.antenna_position_m, grid)
+        sx, sy = bp_rows.row_steps(col.antenna_position_m, col.antenna_position_m, grid)
         confs = [("along", REFERENCE_BYTES)] + [(o, f * l2) for f in fractions for o in ("across", "along")]
         best = {}
         for _ in range(opts.repeat):
@@ -106,7 +104,8 @@ def main(argv=None):
                 best[(across, nbytes)] = min(best.get((across, nbytes), np.inf), t)
         ref = best[confs[0]]
         print(f"\n{label}: range step a pixel along x {sx:.3g} m, along y {sy:.3g} m; the former runs "
-              f"{'transposed' if st.transposed else 'as is'} ({st.model}, {st.width})")
+              f"{'transposed' if st.transposed else 'as is'} ({st.model}, {st.width}; a lane group spans "
+              f"{st.orientation.lines:.2g} lines of profile)")
         print("| rows | profiles a pass | CPU s | speed-up over along, 640 KiB |")
         print("|---|---|---|---|")
         for across, nbytes in confs:

@@ -7,13 +7,16 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+import sarcli.formers.backprojection._rows as bp_rows
 import sarcli.formers.backprojection._setup as bp_setup
+from sarcli._native.layout import BpGeo
 from sarcli.core import geometry
 from sarcli.core.collection import Collection
 from sarcli.core.grid import Grid
 from sarcli.formers.backprojection import (Backprojector, Setup, TilingInputs, backproject, pulse_contractions,
                                            reproject)
-from sarcli.formers.backprojection._setup import FALLBACK_L2_BYTES, l2_cache_bytes
+from sarcli.formers.backprojection._kernels import min_range
+from sarcli.formers.backprojection._rows import FALLBACK_L2_BYTES, l2_cache_bytes
 from sarcli.formers.options import BackprojectionOptions
 
 # 16 m x 25.6 m of unequal pixels and unequal sides (a transposed shape or spacing mixed up fails),
@@ -69,9 +72,9 @@ def test_rows_run_across_the_look_direction(look_along, transposed):
     assert st.transposed is transposed
     assert st.kernel_shape == (GRID.shape[::-1] if transposed else GRID.shape)
     # the planner prices the tiling the former runs
-    o = TilingInputs(col.frequency_hz, col.antenna_position_m, None, GRID).orientation(16)
+    o = TilingInputs(col.frequency_hz, col.antenna_position_m, None, GRID).orientation(16, "float64")
     assert o.transposed is transposed and o.tiling == st.tiling
-    sx, sy = bp_setup.row_steps(col.antenna_position_m, col.antenna_position_m, GRID)
+    sx, sy = bp_rows.row_steps(col.antenna_position_m, col.antenna_position_m, GRID)
     assert (sx > sy) is transposed
 
 
@@ -82,11 +85,10 @@ def test_tiling_cost_decides_before_the_range_step():
     data, col = _case("y", r0=60.0)
     st = Setup(data.shape, col, grid, 16, "cubic", "float64")
     a = col.antenna_position_m
-    sx, sy = bp_setup.row_steps(a, a, grid)
+    sx, sy = bp_rows.row_steps(a, a, grid)
     assert sy > sx   # the range step alone would keep rows along x
-    args = (bp_setup.min_range(a, grid), float(np.max(st.geo[bp_setup.BpGeo.KC])),
-            float(np.max(st.geo[bp_setup.BpGeo.INV_BIN])))
-    along_x, along_y = bp_setup.tiling(grid, *args), bp_setup.tiling(bp_setup.transposed_grid(grid), *args)
+    args = (min_range(a, grid), float(np.max(st.geo[BpGeo.KC])), float(np.max(st.geo[BpGeo.INV_BIN])))
+    along_x, along_y = bp_rows.tiling(grid, *args), bp_rows.tiling(bp_rows.transposed_grid(grid), *args)
     assert along_y.cost < along_x.cost
     assert st.transposed and st.tiling == along_y
 

@@ -1,33 +1,14 @@
 """Backprojection's setup, shared by the one-shot maps (:mod:`.backprojection`), the prepared
 backprojector (:mod:`._prepared`) and ffbp's range profiles: the validated inputs, the
 per-pulse constants in the working precision, the FFT layout, the range profiles and the
-orientation of the kernels' rows. The model and its formulas are in :mod:`.backprojection`'s docstring.
-
-Orientation
------------
-The kernels run along rows: a tile is up to 64 consecutive pixels of a row sharing one range
-model, and its 16-lane groups read each a 4-tap stencil of the pulse's profile. The range is
-symmetric in swapping x and y of the pixels and of the antennas, so the kernels may equally run
-on the transposed problem (grid axes and antenna x, y swapped: kernel rows are image columns)
-and hand back the transpose. :func:`orient` picks, per call, the orientation of
-
-1. least tiling cost (:func:`._kernels.tile_cost` of the tiling :func:`._kernels.tiling` picks for
-   that row's pixel spacing, over a row's whole and last, partial tiles: :func:`row_cost`): the
-   arithmetic per pixel-pulse;
-2. on a tie (square pixels and rows longer than a tile: the usual case), least range step along
-   the row, ``mean_p |∂Δr_p/∂u| · Δu`` at the grid's centre (``u`` the row's axis; the direction
-   cosine of the antennas along it): the profile span a lane group reads per pulse. Rows across the
-   look direction keep a group's 16 stencils within a cache line or two; rows along it spread
-   them over ``16 Δu |c| / bin`` bins (GOTCHA at 0.125 m pixels, 16x profiles: about 12 lines).
+orientation of the kernels' rows (:mod:`._rows`). The model and its formulas are in
+:mod:`.backprojection`'s docstring.
 """
 
 from __future__ import annotations
 
 import math
-import os
 import warnings
-from pathlib import Path
-from typing import NamedTuple
 
 import numpy as np
 
@@ -37,11 +18,12 @@ from ...core.grid import Grid
 from ...core.sampling import INTERPOLATORS as ALL_INTERPOLATORS, PROFILE_INTERPOLATORS, equally_spaced, frequency_line
 from ...errors import AliasingWarning, SarcliInputError
 from ..._native.layout import BpGeo
-from ._kernels import EXACT, GEO_ROWS, Tiling, min_range, next_fast_len, tile_cost, tiling
+from ._kernels import EXACT, GEO_ROWS, min_range, next_fast_len
+from ._rows import CACHE_FRACTION, Orientation, copy_oriented, l2_cache_bytes, orient, row_steps, transposed_grid
 from .._samples import is_lazy
 
 __all__ = ["INTERPOLATORS", "PAD", "BLOCK", "profile_length", "ProfileWork", "profiles", "range_profiles", "TilingInputs", "tiling_for", "Setup",
-           "check_data", "Orientation", "orient", "transposed_grid", "row_steps", "row_cost", "l2_cache_bytes", "CACHE_FRACTION", "FALLBACK_L2_BYTES"]
+           "check_data", "Orientation", "orient", "transposed_grid", "row_steps", "row_cost", "group_lines", "LINE_COST", "l2_cache_bytes", "CACHE_FRACTION", "FALLBACK_L2_BYTES"]
 
 #: Interpolation kernels for the range profiles and their codes in the compiled kernels.
 INTERPOLATORS = {name: ALL_INTERPOLATORS[name].code for name in PROFILE_INTERPOLATORS}
@@ -50,38 +32,6 @@ PAD = 3
 _PRECISIONS = {"float64": np.float64, "float32": np.float32}
 #: Most pulses range-compressed and backprojected together (bounds the profile memory).
 BLOCK = 128
-#: L2 cache per core assumed where neither sysfs nor ``sysconf`` tells it (the smallest of current
-#: x86 cores with AVX2; a smaller pulse block costs a few percent, a larger one than the cache much more).
-FALLBACK_L2_BYTES = 512 * 1024
-#: Share of a core's L2 cache that the profiles of one pass over the image fill (the rest holds the
-#: tiles' accumulators and the image rows). Rows along the look direction read all of each profile
-#: in a pass and slow down sharply once the profiles outgrow the L2; rows across it read a few lines
-#: at a time and barely notice (measured: docs/performance.md, ``bench/bench_bp_orient.py``).
-CACHE_FRACTION = 0.75
-
-
-def l2_cache_bytes(sysfs="/sys/devices/system/cpu/cpu0/cache", sysconf=getattr(os, "sysconf", None)) -> int:
-    """Bytes of one core's L2 cache: the level-2 data or unified cache under ``sysfs`` (Linux), else
-    ``sysconf("SC_LEVEL2_CACHE_SIZE")`` (glibc), else :data:`FALLBACK_L2_BYTES`."""
-    try:
-        for index in sorted(Path(sysfs).glob("index*")):
-            if (index / "level").read_text().strip() != "2" or \
-                    (index / "type").read_text().strip() not in ("Unified", "Data"):
-                continue
-            text = (index / "size").read_text().strip().upper()
-            unit = {"K": 1 << 10, "M": 1 << 20, "G": 1 << 30}.get(text[-1:], 1)
-            size = int(text.rstrip("KMG")) * unit
-            if size > 0:
-                return size
-    except (OSError, ValueError):
-        pass
-    try:
-        size = int(sysconf("SC_LEVEL2_CACHE_SIZE")) if sysconf is not None else 0
-    except (OSError, ValueError, TypeError):
-        size = 0
-    return size if size > 0 else FALLBACK_L2_BYTES
-
-
 #: Profile bytes one pass over the image works through: :data:`CACHE_FRACTION` of a core's L2.
 _CACHE_BYTES = int(CACHE_FRACTION * l2_cache_bytes())
 
@@ -225,58 +175,6 @@ def range_profiles(data, weights, total_weight, n_len, nthreads, dtype=np.comple
     return re, im
 
 
-class Orientation(NamedTuple):
-    """The orientation of the kernels' rows (module docstring): ``transposed`` when kernel rows are
-    image columns, the tiling on those rows (:class:`._kernels.Tiling`), its cost over a row
-    (:func:`row_cost`), and the range step along a row (m per pixel, mean over pulses at the grid's centre)."""
-    transposed: bool
-    tiling: Tiling
-    cost: float
-    step: float
-
-
-def transposed_grid(grid: Grid) -> Grid:
-    """``grid`` with x and y swapped: its ``x`` is ``grid.y``, its ``y`` is ``grid.x``."""
-    return Grid(grid.ny, grid.nx, grid.dy, grid.dx, grid.cy, grid.cx)
-
-
-def row_steps(a, b, grid) -> tuple[float, float]:
-    """Mean over pulses of ``|∂Δr/∂x| Δx`` and ``|∂Δr/∂y| Δy`` at the grid's centre, for transmit
-    positions ``a`` and receive positions ``b`` [P, 3]: how far the range moves from one pixel to the
-    next along a row and along a column (``Δr = (|a - x| + |b - x|)/2 - r0``)."""
-    centre = np.array([0.5 * (grid.x[0] + grid.x[-1]), 0.5 * (grid.y[0] + grid.y[-1]), 0.0])
-    grad = np.zeros((a.shape[0], 2))
-    for pos in (a, b):
-        d = centre - pos
-        grad += 0.5 * d[:, :2] / np.maximum(np.linalg.norm(d, axis=1), 1e-30)[:, None]
-    mean = np.mean(np.abs(grad), axis=0)
-    return float(mean[0] * grid.dx), float(mean[1] * grid.dy)
-
-
-def row_cost(t: Tiling, n: int, bistatic: bool = False) -> float:
-    """Predicted work per pixel-pulse (:func:`._kernels.tile_cost`) of a row of ``n`` pixels cut into
-    tiles of ``t.width`` from its start, the last one what is left."""
-    full, rest = divmod(int(n), t.width)
-    work = full * t.width * tile_cost(t.model, t.width, bistatic)
-    if rest:
-        work += rest * tile_cost(t.model, rest, bistatic)
-    return work / n
-
-
-def orient(grid, r_min: float, kc_max: float, inv_bin_max: float, steps, *, bistatic: bool = False) -> Orientation:
-    """The orientation of the kernels' rows (module docstring): of the grid as it is and transposed,
-    the one of least tiling cost (:func:`._kernels.tiling` on that row's spacing, :func:`row_cost` of
-    its rows), then of least range step along the row (``steps``, :func:`row_steps`)."""
-    best = None
-    for transposed, g, step in ((False, grid, steps[0]), (True, transposed_grid(grid), steps[1])):
-        t = tiling(g, r_min, kc_max, inv_bin_max, bistatic=bistatic)
-        cost = row_cost(t, g.nx, bistatic)
-        cand = Orientation(transposed, t, cost, step)
-        if best is None or (cand.cost, cand.step) < (best.cost, best.step):
-            best = cand
-    return best
-
-
 class TilingInputs:
     """What :func:`._kernels.tiling` and :func:`orient` need of a collection, computed once for several
     upsamplings: the smallest antenna-to-grid range, the largest carrier wavenumber and frequency
@@ -296,23 +194,29 @@ class TilingInputs:
         self.kc_max = float(np.max(np.abs(4.0 * np.pi * np.asarray(alpha_ref) / C)))
         self.dalpha_max = float(np.max(np.abs(dalpha)))
 
-    def orientation(self, upsample) -> Orientation:
-        """The orientation and tiling :class:`Setup` chooses at profile oversampling ``upsample``."""
+    def orientation(self, upsample, precision="float32") -> Orientation:
+        """The orientation and tiling :class:`Setup` chooses at profile oversampling ``upsample`` and
+        ``precision`` (of the profiles: 'float32' or 'float64')."""
         n_len = profile_length(self.m, upsample)
         return orient(self.grid, self.r_min, self.kc_max, 2.0 * self.dalpha_max * n_len / C, self.steps,
-                      bistatic=self.bistatic)
+                      bistatic=self.bistatic, sample_bytes=_sample_bytes(precision))
 
-    def tiling(self, upsample):
-        """The tiling :class:`Setup` chooses at profile oversampling ``upsample`` (on the rows of
-        :meth:`orientation`)."""
-        return self.orientation(upsample).tiling
+    def tiling(self, upsample, precision="float32"):
+        """The tiling :class:`Setup` chooses at profile oversampling ``upsample`` and ``precision``
+        (on the rows of :meth:`orientation`)."""
+        return self.orientation(upsample, precision).tiling
 
 
-def tiling_for(freq_hz, antenna_position_m, receive_position_m, grid, upsample):
-    """The tiling :class:`Setup` chooses for these frequencies, positions, grid and ``upsample``
-    (:func:`._kernels.tiling` on the rows of :func:`orient`; ``receive_position_m`` None when
-    monostatic), without the checks."""
-    return TilingInputs(freq_hz, antenna_position_m, receive_position_m, grid).tiling(upsample)
+def tiling_for(freq_hz, antenna_position_m, receive_position_m, grid, upsample, precision="float32"):
+    """The tiling :class:`Setup` chooses for these frequencies, positions, grid, ``upsample`` and
+    ``precision`` (:func:`._kernels.tiling` on the rows of :func:`orient`; ``receive_position_m``
+    None when monostatic), without the checks."""
+    return TilingInputs(freq_hz, antenna_position_m, receive_position_m, grid).tiling(upsample, precision)
+
+
+def _sample_bytes(precision) -> int:
+    """Bytes of a profile sample (re and im) in ``precision``; an unknown one is refused by :class:`Setup`."""
+    return 2 * np.dtype(_PRECISIONS.get(precision, np.float32)).itemsize
 
 
 class Setup:
@@ -382,7 +286,8 @@ class Setup:
         g[BpGeo.KC] = 4.0 * np.pi * alpha_ref / C
         #: the orientation of the kernels' rows and their tiling (:func:`orient`)
         self.orientation = orient(grid, min(min_range(a, grid), min_range(b, grid)), float(np.max(np.abs(g[BpGeo.KC]))),
-                                  float(np.max(np.abs(g[BpGeo.INV_BIN]))), row_steps(a, b, grid), bistatic=self.bistatic)
+                                  float(np.max(np.abs(g[BpGeo.INV_BIN]))), row_steps(a, b, grid), bistatic=self.bistatic,
+                                  sample_bytes=_sample_bytes(precision))
         self.transposed = self.orientation.transposed
         kgrid = transposed_grid(grid) if self.transposed else grid
         if self.transposed:   # kernel x is the image's y: the antennas' x and y swap with the grid's
@@ -434,8 +339,8 @@ class Setup:
         """The complex128 image from the kernels' real and imaginary parts (the one copy, transposing
         when :attr:`transposed`)."""
         img = np.empty(self.shape, dtype=np.complex128)
-        _copy_oriented(img.real, out_re, self.transposed)
-        _copy_oriented(img.imag, out_im, self.transposed)
+        copy_oriented(img.real, out_re, self.transposed)
+        copy_oriented(img.imag, out_im, self.transposed)
         return img
 
     def kernel_input(self, f):
@@ -443,10 +348,10 @@ class Setup:
         and the kernels' orientation (zeros for the imaginary part of real ``f``)."""
         f = np.asarray(f)
         re = np.empty(self.kernel_shape, dtype=self.dtype)
-        _copy_oriented(re, f.real, self.transposed)
+        copy_oriented(re, f.real, self.transposed)
         im = np.zeros_like(re)
         if np.iscomplexobj(f):
-            _copy_oriented(im, f.imag, self.transposed)
+            copy_oriented(im, f.imag, self.transposed)
         return re, im
 
     def kernel_args(self, sl):
@@ -469,20 +374,6 @@ class Setup:
     def blocks(self):
         """Slices of at most ``self.block`` pulses: profiles live one block at a time."""
         return [slice(b, min(b + self.block, self.n_pulses)) for b in range(0, self.n_pulses, self.block)]
-
-
-#: Rows of the source a transposing copy takes at a time: the strip it writes stays in cache
-#: (measured: 4096² float64, 2.6 x faster than one strided copy).
-_STRIP = 64
-
-
-def _copy_oriented(dst, src, transposed):
-    """``dst[...] = src.T`` if ``transposed`` (by strips of rows), else ``dst[...] = src``."""
-    if not transposed:
-        np.copyto(dst, src)
-        return
-    for i in range(0, src.shape[0], _STRIP):
-        np.copyto(dst[:, i:i + _STRIP], src[i:i + _STRIP].T)
 
 
 def check_data(data):
