@@ -93,6 +93,22 @@ def test_tiling_cost_decides_before_the_range_step():
     assert st.transposed and st.tiling == along_y
 
 
+@pytest.mark.parametrize("lines,transposed", [(12.0, False), (20.0, True)])
+def test_a_row_of_partial_tiles_against_the_lines(lines, transposed):
+    """Rows of 128 pixels along the look (two 64-pixel tiles, cost 1.125) or of 120 across it (64 +
+    56: 1.2): the 0.075 between them is 15 lines at LINE_COST, so 12 lines along the look keep the
+    rows and 20 turn them."""
+    grid = Grid(128, 120, 0.25, 0.25)
+    kc, inv_bin = 420.0, 68.0
+    o = bp_rows.orient(grid, 1e5, kc, inv_bin, (lines / (2 * inv_bin), 0.0), sample_bytes=8)
+    assert o.transposed is transposed
+    assert o.tiling.width == 64 and o.tiling.model == "quadratic"
+    along = bp_rows.row_cost(o.tiling, 128) + bp_rows.LINE_COST * lines
+    across = bp_rows.row_cost(o.tiling, 120)
+    assert across - along == pytest.approx(0.075 - bp_rows.LINE_COST * lines)
+    assert o.cost == pytest.approx(min(along, across))
+
+
 @pytest.mark.parametrize("look_along", ["x", "y"])
 def test_both_orientations_match_the_exact_matched_filter(monkeypatch, look_along):
     data, col = _case(look_along)

@@ -49,9 +49,10 @@ from ._kernels import Tiling, tile_cost, tiling
 __all__ = ["Orientation", "LINE_COST", "group_lines", "transposed_grid", "row_steps", "row_cost", "orient",
            "copy_oriented", "FALLBACK_L2_BYTES", "CACHE_FRACTION", "l2_cache_bytes"]
 
-#: L2 cache per core assumed where neither sysfs nor ``sysconf`` tells it (the smallest of current
-#: x86 cores with AVX2; a smaller pulse block costs a few percent, a larger one than the cache much more).
-FALLBACK_L2_BYTES = 512 * 1024
+#: L2 cache per core assumed where neither sysfs nor ``sysconf`` tells it: the smallest of x86 cores
+#: with AVX2 (Intel's client cores from Haswell to Comet Lake). A pulse block smaller than the cache
+#: costs a few percent; one larger, with rows along the look direction, a third.
+FALLBACK_L2_BYTES = 256 * 1024
 #: Share of a core's L2 cache that the profiles of one pass over the image fill (the rest holds the
 #: tiles' accumulators and the image rows). Rows along the look direction read all of each profile
 #: in a pass and slow down sharply once the profiles outgrow the L2; rows across it read a few lines
@@ -152,8 +153,8 @@ def orient(grid, r_min: float, kc_max: float, inv_bin_max: float, steps, *, bist
     return best
 
 
-#: Rows of the source a transposing copy takes at a time: the strip it writes stays in cache
-#: (measured: 4096² float64, 2.6 x faster than one strided copy).
+#: Rows of the source a transposing copy takes at a time: the strip of columns it writes stays in
+#: cache (one strided copy of the whole array misses it on every write).
 _STRIP = 64
 
 

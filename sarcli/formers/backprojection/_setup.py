@@ -23,7 +23,7 @@ from ._rows import CACHE_FRACTION, Orientation, copy_oriented, l2_cache_bytes, o
 from .._samples import is_lazy
 
 __all__ = ["INTERPOLATORS", "PAD", "BLOCK", "profile_length", "ProfileWork", "profiles", "range_profiles", "TilingInputs", "tiling_for", "Setup",
-           "check_data", "Orientation", "orient", "transposed_grid", "row_steps", "row_cost", "group_lines", "LINE_COST", "l2_cache_bytes", "CACHE_FRACTION", "FALLBACK_L2_BYTES"]
+           "check_data"]
 
 #: Interpolation kernels for the range profiles and their codes in the compiled kernels.
 INTERPOLATORS = {name: ALL_INTERPOLATORS[name].code for name in PROFILE_INTERPOLATORS}
