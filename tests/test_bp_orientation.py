@@ -33,7 +33,7 @@ def _rotate(pos, quarter_turns):
     return out
 
 
-def _case(look_along, P=48, M=64, r0=2e3, seed=0):
+def _case(look_along, P=64, M=64, r0=2e3, seed=0):
     """Spotlight data of six points, the antennas looking along x (azimuth near 0°) or y (near 90°)."""
     rng = np.random.default_rng(seed)
     el = np.radians(35.0)
@@ -78,6 +78,16 @@ def test_rows_run_across_the_look_direction(look_along, transposed):
     assert (sx > sy) is transposed
 
 
+def test_a_few_pulses_keep_the_grid_as_it_is():
+    """The transposing copy is paid once a call: 64 pulses looking along x share it (13 lines a
+    lane group saved each), 8 do not."""
+    for pulses, transposed in ((64, True), (8, False)):
+        data, col = _case("x", P=pulses)
+        st = Setup(data.shape, col, GRID, 16, "cubic", "float32")
+        assert st.transposed is transposed
+        assert (st.orientation.lines < 1) is transposed   # the kernels' rows: across, or along the look
+
+
 def test_tiling_cost_decides_before_the_range_step():
     """Pixels 4x finer along y, 60 m from the radar: rows along y take wider tiles (less work per
     pixel), so the kernels run along y though that is the look direction."""
@@ -100,12 +110,12 @@ def test_a_row_of_partial_tiles_against_the_lines(lines, transposed):
     rows and 20 turn them."""
     grid = Grid(128, 120, 0.25, 0.25)
     kc, inv_bin = 420.0, 68.0
-    o = bp_rows.orient(grid, 1e5, kc, inv_bin, (lines / (2 * inv_bin), 0.0), sample_bytes=8)
+    o = bp_rows.orient(grid, 1e5, kc, inv_bin, (lines / (2 * inv_bin), 0.0), 10**6, sample_bytes=8)
     assert o.transposed is transposed
     assert o.tiling.width == 64 and o.tiling.model == "quadratic"
     along = bp_rows.row_cost(o.tiling, 128) + bp_rows.LINE_COST * lines
-    across = bp_rows.row_cost(o.tiling, 120)
-    assert across - along == pytest.approx(0.075 - bp_rows.LINE_COST * lines)
+    across = bp_rows.row_cost(o.tiling, 120) + bp_rows.TRANSPOSE_COST / 10**6
+    assert across - along == pytest.approx(0.075 - bp_rows.LINE_COST * lines, abs=1e-5)
     assert o.cost == pytest.approx(min(along, across))
 
 

@@ -178,7 +178,7 @@ def range_profiles(data, weights, total_weight, n_len, nthreads, dtype=np.comple
 class TilingInputs:
     """What :func:`._kernels.tiling` and :func:`orient` need of a collection, computed once for several
     upsamplings: the smallest antenna-to-grid range, the largest carrier wavenumber and frequency
-    step, and the range steps along rows and columns (:func:`row_steps`)."""
+    step, the range steps along rows and columns (:func:`row_steps`) and the pulses."""
 
     def __init__(self, freq_hz, antenna_position_m, receive_position_m, grid):
         f = np.asarray(freq_hz, dtype=np.float64)
@@ -191,6 +191,7 @@ class TilingInputs:
         self.r_min = min(min_range(a, grid), min_range(b, grid))
         self.bistatic = not np.array_equal(a, b)
         self.steps = row_steps(a, b, grid)
+        self.n_pulses = a.shape[0]
         self.kc_max = float(np.max(np.abs(4.0 * np.pi * np.asarray(alpha_ref) / C)))
         self.dalpha_max = float(np.max(np.abs(dalpha)))
 
@@ -199,7 +200,7 @@ class TilingInputs:
         ``precision`` (of the profiles: 'float32' or 'float64')."""
         n_len = profile_length(self.m, upsample)
         return orient(self.grid, self.r_min, self.kc_max, 2.0 * self.dalpha_max * n_len / C, self.steps,
-                      bistatic=self.bistatic, sample_bytes=_sample_bytes(precision))
+                      self.n_pulses, bistatic=self.bistatic, sample_bytes=_sample_bytes(precision))
 
     def tiling(self, upsample, precision="float32"):
         """The tiling :class:`Setup` chooses at profile oversampling ``upsample`` and ``precision``
@@ -286,8 +287,8 @@ class Setup:
         g[BpGeo.KC] = 4.0 * np.pi * alpha_ref / C
         #: the orientation of the kernels' rows and their tiling (:func:`orient`)
         self.orientation = orient(grid, min(min_range(a, grid), min_range(b, grid)), float(np.max(np.abs(g[BpGeo.KC]))),
-                                  float(np.max(np.abs(g[BpGeo.INV_BIN]))), row_steps(a, b, grid), bistatic=self.bistatic,
-                                  sample_bytes=_sample_bytes(precision))
+                                  float(np.max(np.abs(g[BpGeo.INV_BIN]))), row_steps(a, b, grid), n_pulses,
+                                  bistatic=self.bistatic, sample_bytes=_sample_bytes(precision))
         self.transposed = self.orientation.transposed
         kgrid = transposed_grid(grid) if self.transposed else grid
         if self.transposed:   # kernel x is the image's y: the antennas' x and y swap with the grid's
