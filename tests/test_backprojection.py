@@ -327,9 +327,9 @@ def _tone_collection(r0, dx, *, P=4, M=16, n=128, el_deg=30.0, tone=0):
 
 def _forced_tiling(monkeypatch, model, width):
     import sarcli.formers.backprojection._kernels as bk
-    import sarcli.formers.backprojection._setup as _bp_setup
+    import sarcli.formers.backprojection._rows as _bp_rows
 
-    monkeypatch.setattr(_bp_setup, "tiling", lambda *args, **kw: bk.Tiling(model, width, 0.0, 1.0))
+    monkeypatch.setattr(_bp_rows, "tiling", lambda *args, **kw: bk.Tiling(model, width, 0.0, 1.0))
 
 
 @pytest.mark.parametrize("model", ["quadratic", "exact"])

@@ -155,12 +155,15 @@ def exact_error(h: float, r: float) -> float:
     return EXACT_ROUNDINGS * _EPS32 * d * (2.0 * h + d) / (2.0 * r)
 
 
-def tile_cost(model: str, width: int) -> float:
+def tile_cost(model: str, width: int, bistatic: bool = False) -> float:
     """Predicted work per pixel-pulse of tiles of ``width`` pixels in ``model``, relative to full
     tiles of the quadratic model's lane groups (each tile runs whole groups of 16 lanes
-    and computes one float64 anchor per pulse)."""
+    and computes one float64 anchor per pulse). A bistatic exact model evaluates two ends a lane."""
     groups = math.ceil(width / _LANES)
-    return (groups * _GROUP_COST[model] + _ANCHOR_COST[model]) / (width / _LANES)
+    cost = (groups * _GROUP_COST[model] + _ANCHOR_COST[model]) / (width / _LANES)
+    if model == EXACT and bistatic:
+        cost += groups * (_GROUP_COST[EXACT] - _GROUP_COST[QUADRATIC]) / (width / _LANES)
+    return cost
 
 
 def tiling(grid, r_min: float, kc_max: float, inv_bin_max: float, *, bistatic: bool = False,
@@ -178,10 +181,7 @@ def tiling(grid, r_min: float, kc_max: float, inv_bin_max: float, *, bistatic: b
         for w in widths:
             e = error(0.5 * (w - 1) * abs(grid.dx), r) * scale
             if e <= MODEL_TOLERANCE or w == 1:
-                cost = tile_cost(model, w)
-                if model == EXACT and bistatic:
-                    cost += math.ceil(w / _LANES) * (_GROUP_COST[EXACT] - _GROUP_COST[QUADRATIC]) / (w / _LANES)
-                cand = Tiling(model, w, e, cost)
+                cand = Tiling(model, w, e, tile_cost(model, w, bistatic))
                 if best is None or cand.cost < best.cost:
                     best = cand
                 break
