@@ -291,7 +291,8 @@ class Setup:
         #: the orientation of the kernels' rows and their tiling (:func:`orient`)
         self.orientation = orient(grid, min(min_range(a, grid), min_range(b, grid)), float(np.max(np.abs(g[BpGeo.KC]))),
                                   float(np.max(np.abs(g[BpGeo.INV_BIN]))), row_steps(a, b, grid), n_pulses,
-                                  bistatic=self.bistatic, sample_bytes=_sample_bytes(precision))
+                                  bistatic=self.bistatic, sample_bytes=_sample_bytes(precision),
+                                  cosines=row_cosines(a, b, grid))
         self.transposed = self.orientation.transposed
         kgrid = transposed_grid(grid) if self.transposed else grid
         if self.transposed:   # kernel x is the image's y: the antennas' x and y swap with the grid's
