@@ -41,7 +41,7 @@ The frequencies enter through the least-squares line ``α_pj ≈ α_ref,p + (j -
 frequencies are rounded to float32: 2.4e-4 of the exact matched filter).
 
 The kernels (``src/native/backprojection.cpp``, :mod:`._kernels`) take the differential range
-of each tile of up to 64 pixels along a row (of the image, or of its transpose when that puts the
+of each tile of up to 128 pixels along a row (of the image, or of its transpose when that puts the
 rows across the look direction: :mod:`._rows`) in float64 at the tile's centre, without
 cancellation (``Δr = (|x|² - 2 a·x) / (|a - x| + |a|) + (|a| - r0)``), and inside the tile either
 a quadratic in the pixel's offset or, near the radar where the quadratic's tiles would narrow, the
