@@ -388,6 +388,33 @@ def test_rows_across_the_look_direction_keep_the_cosine_bound(monkeypatch, r0):
     assert wide > narrow if r0 >= 1e3 else wide >= narrow   # at 200 m the quartic term sets both
 
 
+def test_a_coarse_interpolator_prices_its_tiles_for_its_own_accuracy(monkeypatch):
+    """Linear interpolation at 4x errs 2.5e-2: its range model may add 1 % of that (2.5e-4 rad), the
+    default's keeps MODEL_TOLERANCE; the cheaper tiling it takes changes its image by no more than that
+    tolerance against the same image at the default's tiling."""
+    import sarcli.formers.backprojection._kernels as bk
+    import sarcli.formers.backprojection._rows as bp_rows
+    from sarcli.formers.backprojection._setup import Setup
+    from sarcli.formers.ffbp.model import interp_error
+
+    assert bk.model_tolerance("cubic", 16) == bk.MODEL_TOLERANCE
+    tol = bk.model_tolerance("linear", 4)
+    assert tol == pytest.approx(bk.MODEL_SHARE * interp_error("linear", 4.0)) and tol > 10 * bk.MODEL_TOLERANCE
+    data, freq, a, r0s, grid = _tone_collection(1e4, 0.25, n=256)
+    col = Collection(freq, a, r0s)
+    lin = BackprojectionOptions(precision="float32", interp="linear", upsample=4)
+    coarse = Setup(data.shape, col, grid, 4, "linear", "float32")
+    strict = bk.tiling(grid if not coarse.transposed else bp_rows.transposed_grid(grid), bk.min_range(a, grid),
+                       np.max(np.abs(coarse.geo[BpGeo.KC])), np.max(np.abs(coarse.geo[BpGeo.INV_BIN])),
+                       c_max=coarse.orientation.c_max)
+    assert coarse.tiling.cost < strict.cost and coarse.tiling.error <= tol
+    img = backproject(data, col, grid, lin)
+    monkeypatch.setattr(bp_rows, "tiling", lambda *args, **kw: strict)
+    assert Setup(data.shape, col, grid, 4, "linear", "float32").tiling == strict
+    forced = backproject(data, col, grid, lin)
+    assert 0 < np.max(np.abs(img - forced)) * data.shape[1] <= tol + 1.5e-6
+
+
 def test_row_cosine_is_the_largest_cosine_along_the_rows():
     """row_cosine against a dense sampling of the grid's rectangle, for antennas looking along x and y."""
     from sarcli.formers.backprojection._kernels import row_cosine

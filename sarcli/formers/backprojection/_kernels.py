@@ -48,12 +48,15 @@ from ..._native import load
 from ..._native.layout import BpGeo
 
 __all__ = ["GEO_ROWS", "MODEL_TOLERANCE", "QUADRATIC", "EXACT", "Tiling", "next_fast_len", "quadratic_error",
-           "exact_error", "row_cosine", "tile_cost", "tile_width", "tiling", "kernels"]
+           "exact_error", "row_cosine", "MODEL_SHARE", "model_tolerance", "tile_cost", "tile_width", "tiling", "kernels"]
 
 #: Rows of the per-pulse geometry table the kernels read (:class:`sarcli._native.layout.BpGeo`).
 GEO_ROWS = len(BpGeo)
 #: Largest model error of a tile, in radians of carrier phase and in profile bins.
 MODEL_TOLERANCE = 1e-5
+#: Share of the interpolation's own RMS error (:func:`sarcli.formers.ffbp.model.interp_error`) that
+#: the range model may add where that is more than :data:`MODEL_TOLERANCE` (:func:`model_tolerance`).
+MODEL_SHARE = 0.01
 _WIDTHS = (128, 96, 64, 48, 32, 16, 12, 8, 4, 2, 1)
 
 
@@ -155,6 +158,16 @@ def exact_error(h: float, r: float) -> float:
     return EXACT_ROUNDINGS * _EPS32 * d * (2.0 * h + d) / (2.0 * r)
 
 
+def model_tolerance(interp: str, upsample: float) -> float:
+    """The range model's tolerance for profiles interpolated by ``interp`` at ``upsample``: far below
+    the interpolation's own error, :data:`MODEL_SHARE` of it (which then adds 5e-5 of it in
+    quadrature), and never above :data:`MODEL_TOLERANCE`'s accuracy is asked of a coarse
+    interpolator it cannot use (linear at 4x errs 2.5e-2: its tiles are priced for 2.5e-4)."""
+    from ..ffbp.model import interp_error
+
+    return max(MODEL_TOLERANCE, MODEL_SHARE * interp_error(interp, float(upsample)))
+
+
 def tile_cost(model: str, width: int, bistatic: bool = False) -> float:
     """Predicted work per pixel-pulse of tiles of ``width`` pixels in ``model``, relative to full
     tiles of the quadratic model's lane groups (each tile runs whole groups of 16 lanes
@@ -167,8 +180,9 @@ def tile_cost(model: str, width: int, bistatic: bool = False) -> float:
 
 
 def tiling(grid, r_min: float, kc_max: float, inv_bin_max: float, *, bistatic: bool = False,
-           c_max: float = 1.0) -> Tiling:
-    """The cheapest tiling (:func:`tile_cost`) whose range model stays within :data:`MODEL_TOLERANCE`
+           c_max: float = 1.0, tolerance: float = MODEL_TOLERANCE) -> Tiling:
+    """The cheapest tiling (:func:`tile_cost`) whose range model stays within ``tolerance``
+    (:data:`MODEL_TOLERANCE`; :func:`model_tolerance` for an interpolator)
     in carrier phase (``kc_max`` rad/m) and profile bins (``inv_bin_max`` bins/m), for pixels at least
     ``r_min`` from every antenna that see it at direction cosines along the rows of at most
     ``c_max`` (:func:`row_cosine`). A bistatic exact model evaluates two ends a lane."""
@@ -180,7 +194,7 @@ def tiling(grid, r_min: float, kc_max: float, inv_bin_max: float, *, bistatic: b
     for model, error in ((QUADRATIC, functools.partial(quadratic_error, c_max=c_max)), (EXACT, exact_error)):
         for w in widths:
             e = error(0.5 * (w - 1) * abs(grid.dx), r) * scale
-            if e <= MODEL_TOLERANCE or w == 1:
+            if e <= tolerance or w == 1:
                 cand = Tiling(model, w, e, tile_cost(model, w, bistatic))
                 if best is None or cand.cost < best.cost:
                     best = cand

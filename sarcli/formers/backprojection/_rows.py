@@ -50,7 +50,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ...core.grid import Grid
-from ._kernels import Tiling, row_cosine, tile_cost, tiling
+from ._kernels import MODEL_TOLERANCE, Tiling, row_cosine, tile_cost, tiling
 
 __all__ = ["Orientation", "LINE_COST", "TRANSPOSE_COST", "group_lines", "transposed_grid", "row_steps", "row_cost", "orient",
            "copy_oriented", "row_cosines", "row_reach_bins", "FALLBACK_L2_BYTES", "CACHE_FRACTION", "l2_cache_bytes"]
@@ -168,17 +168,19 @@ def row_cost(t: Tiling, n: int, bistatic: bool = False) -> float:
 
 
 def orient(grid, r_min: float, kc_max: float, inv_bin_max: float, steps, n_pulses: int, *,
-           bistatic: bool = False, sample_bytes: int = 8, cosines=(1.0, 1.0)) -> Orientation:
+           bistatic: bool = False, sample_bytes: int = 8, cosines=(1.0, 1.0),
+           tolerance: float = MODEL_TOLERANCE) -> Orientation:
     """The orientation of the kernels' rows (module docstring): of the grid as it is and transposed,
     the one of least predicted cost per pixel-pulse, the tiling's over a row (:func:`._kernels.tiling`
     on that row's spacing, :func:`row_cost`) plus :data:`LINE_COST` for each cache line a lane group
     spans (:func:`group_lines` of ``steps``, :func:`row_steps`), plus, transposed,
     :data:`TRANSPOSE_COST` shared by the ``n_pulses``; the grid as it is on a tie. ``cosines``: the
     largest direction cosines along the rows and the columns (:func:`row_cosines`; the tiling's
-    bound takes the one along its rows)."""
+    bound takes the one along its rows); ``tolerance``: the range model's
+    (:func:`._kernels.model_tolerance`)."""
     best = None
     for transposed, g, step, c in ((False, grid, steps[0], cosines[0]), (True, transposed_grid(grid), steps[1], cosines[1])):
-        t = tiling(g, r_min, kc_max, inv_bin_max, bistatic=bistatic, c_max=c)
+        t = tiling(g, r_min, kc_max, inv_bin_max, bistatic=bistatic, c_max=c, tolerance=tolerance)
         lines = group_lines(step, inv_bin_max, sample_bytes)
         cost = row_cost(t, g.nx, bistatic) + LINE_COST * lines + (TRANSPOSE_COST / max(int(n_pulses), 1) if transposed else 0.0)
         cand = Orientation(transposed, t, lines, cost, c)

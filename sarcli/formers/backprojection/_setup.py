@@ -18,7 +18,7 @@ from ...core.grid import Grid
 from ...core.sampling import INTERPOLATORS as ALL_INTERPOLATORS, PROFILE_INTERPOLATORS, equally_spaced, frequency_line
 from ...errors import AliasingWarning, SarcliInputError
 from ..._native.layout import BpGeo
-from ._kernels import EXACT, GEO_ROWS, min_range, next_fast_len
+from ._kernels import EXACT, GEO_ROWS, min_range, model_tolerance, next_fast_len
 from ._rows import (CACHE_FRACTION, Orientation, copy_oriented, l2_cache_bytes, orient, row_cosines, row_reach_bins,
                     row_steps, transposed_grid)
 from .._samples import is_lazy
@@ -197,25 +197,26 @@ class TilingInputs:
         self.kc_max = float(np.max(np.abs(4.0 * np.pi * np.asarray(alpha_ref) / C)))
         self.dalpha_max = float(np.max(np.abs(dalpha)))
 
-    def orientation(self, upsample, precision="float32") -> Orientation:
-        """The orientation and tiling :class:`Setup` chooses at profile oversampling ``upsample`` and
-        ``precision`` (of the profiles: 'float32' or 'float64')."""
+    def orientation(self, upsample, precision="float32", interp="cubic") -> Orientation:
+        """The orientation and tiling :class:`Setup` chooses at profile oversampling ``upsample``,
+        ``precision`` (of the profiles: 'float32' or 'float64') and interpolator ``interp`` (the range
+        model's tolerance: :func:`._kernels.model_tolerance`)."""
         n_len = profile_length(self.m, upsample)
         return orient(self.grid, self.r_min, self.kc_max, 2.0 * self.dalpha_max * n_len / C, self.steps,
                       self.n_pulses, bistatic=self.bistatic, sample_bytes=_sample_bytes(precision),
-                      cosines=self.cosines)
+                      cosines=self.cosines, tolerance=model_tolerance(interp, upsample))
 
-    def tiling(self, upsample, precision="float32"):
-        """The tiling :class:`Setup` chooses at profile oversampling ``upsample`` and ``precision``
-        (on the rows of :meth:`orientation`)."""
-        return self.orientation(upsample, precision).tiling
+    def tiling(self, upsample, precision="float32", interp="cubic"):
+        """The tiling :class:`Setup` chooses at profile oversampling ``upsample``, ``precision`` and
+        ``interp`` (on the rows of :meth:`orientation`)."""
+        return self.orientation(upsample, precision, interp).tiling
 
 
-def tiling_for(freq_hz, antenna_position_m, receive_position_m, grid, upsample, precision="float32"):
-    """The tiling :class:`Setup` chooses for these frequencies, positions, grid, ``upsample`` and
-    ``precision`` (:func:`._kernels.tiling` on the rows of :func:`orient`; ``receive_position_m``
-    None when monostatic), without the checks."""
-    return TilingInputs(freq_hz, antenna_position_m, receive_position_m, grid).tiling(upsample, precision)
+def tiling_for(freq_hz, antenna_position_m, receive_position_m, grid, upsample, precision="float32", interp="cubic"):
+    """The tiling :class:`Setup` chooses for these frequencies, positions, grid, ``upsample``,
+    ``precision`` and ``interp`` (:func:`._kernels.tiling` on the rows of :func:`orient`;
+    ``receive_position_m`` None when monostatic), without the checks."""
+    return TilingInputs(freq_hz, antenna_position_m, receive_position_m, grid).tiling(upsample, precision, interp)
 
 
 def _sample_bytes(precision) -> int:
@@ -292,7 +293,7 @@ class Setup:
         self.orientation = orient(grid, min(min_range(a, grid), min_range(b, grid)), float(np.max(np.abs(g[BpGeo.KC]))),
                                   float(np.max(np.abs(g[BpGeo.INV_BIN]))), row_steps(a, b, grid), n_pulses,
                                   bistatic=self.bistatic, sample_bytes=_sample_bytes(precision),
-                                  cosines=row_cosines(a, b, grid))
+                                  cosines=row_cosines(a, b, grid), tolerance=model_tolerance(interp, upsample))
         self.transposed = self.orientation.transposed
         kgrid = transposed_grid(grid) if self.transposed else grid
         if self.transposed:   # kernel x is the image's y: the antennas' x and y swap with the grid's

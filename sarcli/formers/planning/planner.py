@@ -182,11 +182,11 @@ def _candidates(ph, grid, tolerance, c, nthreads, prune, methods) -> list:
             if wanted("backprojection") else None
         for interp in ("cubic", "lanczos", "linear") if wanted("backprojection") else ():
             def seconds(up):
-                return bp_seconds(c, P, M, npix, interp, up, tiled(up).cost, thr)
+                return bp_seconds(c, P, M, npix, interp, up, tiled(up, interp=interp).cost, thr)
             if prune and seconds(_BP_UPSAMPLES[0]) > best_ffbp:
                 continue
             for up in _BP_UPSAMPLES:
-                e = interp_error(interp, float(up)) + e_freq + tiled(up).error
+                e = interp_error(interp, float(up)) + e_freq + tiled(up, interp=interp).error
                 if e <= target or up == _BP_UPSAMPLES[-1]:
                     out.append(Candidate("backprojection", {"upsample": up, "interp": interp}, e, seconds(up),
                                          form_image_bytes("backprojection", smp, grid, upsample=up,
