@@ -118,23 +118,23 @@ def tile_costs(n: int, pulses: int, repeat: int) -> None:
     ``seconds per pixel-pulse = (groups · G + T) / width`` per model by least squares, in units of
     the quadratic's G."""
     import sarcli.formers.backprojection._kernels as bk
-    import sarcli.formers.backprojection._setup as _bp_setup
+    import sarcli.formers.backprojection._rows as _bp_rows
 
     data, freq, a, r0, grid, _ = problem(1e3, n, pulses)
     widths = (4, 8, 16, 32, 48, 64)
-    fits, original = {}, _bp_setup.tiling
+    fits, original = {}, _bp_rows.tiling
     try:
         for model in (bk.QUADRATIC, bk.EXACT):
             rows, rhs = [], []
             for w in widths:
-                _bp_setup.tiling = lambda *args, **kw: bk.Tiling(model, w, 0.0, 1.0)  # noqa: B023
+                _bp_rows.tiling = lambda *args, **kw: bk.Tiling(model, w, 0.0, 1.0)  # noqa: B023
                 t = time_ours((data, Collection(freq, a, r0), grid), repeat)
                 rows.append([math.ceil(w / 16) / w, 1.0 / w])
                 rhs.append(t / (n * n * pulses))
                 print(f"{model} width {w}: {n * n * pulses / t:.3g} pixel-pulses/s", flush=True)
             fits[model] = np.linalg.lstsq(np.array(rows), np.array(rhs), rcond=None)[0]
     finally:
-        _bp_setup.tiling = original
+        _bp_rows.tiling = original
     g = fits[bk.QUADRATIC][0]
     for model, (gm, tm) in fits.items():
         print(f"{model}: group {gm / g:.3f}, anchor {tm / g:.3f} (quadratic groups)")

@@ -16,7 +16,8 @@ Measured, each command in its own process (peak memory from ``wait4``):
 - ``sar plan --json``: auto's choice and its predicted whole-command time; the ratio
   measured / predicted (target within 1.5x either way), and the command's processor seconds over
   the vCPUs / predicted (a lower bound of the ratio the machine would give idle, where other jobs
-  stretch the wall time);
+  stretch the wall time), and measured / the prediction at the load ``sar plan`` saw
+  (``predicted_command_now_s``);
 - ``sar form-image`` with the default method, under a pseudo-terminal so the progress bar draws:
   wall time, the formation's own ``runtime_s``, the rest of the command (wall − ``runtime_s``:
   start-up, planning, writing the image) against the rest of the prediction (whole − formation), peak memory against 1.5 x (phase history + image as
@@ -191,6 +192,9 @@ def plan_and_form(sar, ph_path, img_path, grid_opts, P, vcpus, env):
     res["plan"] = {"s": t, "choice": plan["auto"]["method"], "knobs": plan["auto"]["knobs"],
                    "predicted_error": plan["auto"]["predicted_error"],
                    "predicted_command_s": plan["auto"]["predicted_command_s"],
+                   # at the load `sar plan` saw (other runnable threads): what a busy machine stretches
+                   "predicted_command_now_s": plan["auto"].get("predicted_command_now_s"),
+                   "load_other_threads": plan.get("load", {}).get("other_runnable_threads"),
                    "predicted_formation_s": plan["auto"]["predicted_s"]}
     t, rss, out = run([sar, "form-image", ph_path, "-o", img_path, *grid_opts], tty=True, env=env)
     with h5py.File(ph_path, "r") as f, h5py.File(img_path, "r") as im:
@@ -208,6 +212,8 @@ def plan_and_form(sar, ph_path, img_path, grid_opts, P, vcpus, env):
         "rss_over_stored": rss / (hist_bytes + img_bytes), "within_1.5x": rss <= bound,
         "progress_percentages_seen": len(set(re.findall(r"(\d+)%\|", out))),
         "plan_ratio_measured_over_predicted": t / res["plan"]["predicted_command_s"],
+        "plan_ratio_measured_over_predicted_now": (t / res["plan"]["predicted_command_now_s"]
+                                                   if res["plan"]["predicted_command_now_s"] else None),
         # the command besides the formation (start-up, planning, reading outside it, writing the
         # image): other jobs on the machine stretch it far less than the threaded formation
         "rest_s": t - runtime, "rest_predicted_s": res["plan"]["predicted_command_s"] - res["plan"]["predicted_formation_s"],

@@ -225,9 +225,13 @@ def test_prepared_backprojector_is_backproject_and_pulse_contractions(opts):
     assert bp.on(other).profiles is bp.profiles
     bounds = [0, 7, 8, 100, 150]
     groups = [(b, re.copy(), im.copy()) for b, re, im in bp.group_images(bounds)]
-    for (b, re, im), lo, hi in zip(groups, bounds[:-1], bounds[1:]):   # each its share of the whole
+    # each its share of the whole; a call on a few of the pulses picks its own orientation and range
+    # model (the transposing copy is shared by fewer pulses), which agree within the models' tolerance
+    from sarcli.formers.backprojection._kernels import MODEL_TOLERANCE
+    gtol = max(tol, MODEL_TOLERANCE)
+    for (b, re, im), lo, hi in zip(groups, bounds[:-1], bounds[1:]):
         ref = backproject(d[lo:hi], col.pulses(slice(lo, hi)), grid, opts) * ((hi - lo) / 150)
-        assert np.max(np.abs(re + 1j * im - ref)) < tol * np.max(np.abs(ref))
+        assert np.max(np.abs(re + 1j * im - ref)) < gtol * np.max(np.abs(ref))
     assert [b for b, _, _ in groups] == [0, 1, 2, 3]
     assert len(groups) == 4
     with pytest.raises(SarcliInputError):

@@ -378,9 +378,9 @@ def _tone_collection(r0, dx, *, P=4, M=16, n=128, el_deg=30.0, tone=0):
 
 def _forced_tiling(monkeypatch, model, width):
     import sarcli.formers.backprojection._kernels as bk
-    import sarcli.formers.backprojection._setup as _bp_setup
+    import sarcli.formers.backprojection._rows as _bp_rows
 
-    monkeypatch.setattr(_bp_setup, "tiling", lambda *args, **kw: bk.Tiling(model, width, 0.0, 1.0))
+    monkeypatch.setattr(_bp_rows, "tiling", lambda *args, **kw: bk.Tiling(model, width, 0.0, 1.0))
 
 
 @pytest.mark.parametrize("model", ["quadratic", "exact"])
@@ -411,9 +411,80 @@ def test_range_model_error_within_its_bound(monkeypatch, model, r0):
                 assert err > predicted / 10, (tone, width, err, predicted)   # measured 0.3-0.6
 
 
+@pytest.mark.parametrize("r0", [200.0, 1e3, 1e4])
+def test_rows_across_the_look_direction_keep_the_cosine_bound(monkeypatch, r0):
+    """The antennas at azimuth 90° ± 10° (rows across the look direction): at 128-pixel tiles the
+    quadratic's largest phase error against the exact matched filter is within its bound taken at
+    the collection's largest direction cosine along the rows (``row_cosine``), and that bound gives
+    the quadratic wider tiles than the cosine-blind bound, and a tiling at least as cheap."""
+    import sarcli.formers.backprojection._kernels as bk
+    from sarcli.formers.backprojection._setup import Setup
+
+    floor = 1.5e-6
+    data, freq, a, r0s, grid = _tone_collection(r0, min(0.25, r0 / 300), n=256)
+    a = np.c_[-a[:, 1], a[:, 0], a[:, 2]]   # the flight path turned by 90°: looking along y
+    ref = exact_mf(data, freq, a, r0s, grid)
+    st = Setup(data.shape, Collection(freq, a, r0s), grid, DEFAULT_UPSAMPLE, "cubic", "float32")
+    kc, ib = np.max(np.abs(st.geo[BpGeo.KC])), np.max(np.abs(st.geo[BpGeo.INV_BIN]))
+    r_min, c_max = bk.min_range(a, grid), bk.row_cosine(a, grid)
+    assert c_max < 0.5   # below 1/√3, where the cosine-blind bound sits
+    _forced_tiling(monkeypatch, "quadratic", 128)
+    img = backproject(data, Collection(freq, a, r0s), grid, BackprojectionOptions(precision="float32"))
+    err = np.max(np.abs(img - ref)) * data.shape[1]
+    assert err <= bk.quadratic_error(0.5 * 127 * grid.dx, r_min, c_max) * max(kc, ib) + floor
+    monkeypatch.undo()
+    blind, aware = bk.tiling(grid, r_min, kc, ib), bk.tiling(grid, r_min, kc, ib, c_max=c_max)
+    assert aware.cost <= blind.cost and st.tiling == aware
+    wide, narrow = tile_width(grid, r_min, kc, ib, c_max), tile_width(grid, r_min, kc, ib)
+    assert wide > narrow if r0 >= 1e3 else wide >= narrow   # at 200 m the quartic term sets both
+
+
+def test_a_coarse_interpolator_prices_its_tiles_for_its_own_accuracy(monkeypatch):
+    """Linear interpolation at 4x errs 2.5e-2: its range model may add 1 % of that (2.5e-4 rad), the
+    default's keeps MODEL_TOLERANCE; the cheaper tiling it takes changes its image by no more than that
+    tolerance against the same image at the default's tiling."""
+    import sarcli.formers.backprojection._kernels as bk
+    import sarcli.formers.backprojection._rows as bp_rows
+    from sarcli.formers.backprojection._setup import Setup
+    from sarcli.formers.ffbp.model import interp_error
+
+    assert bk.model_tolerance("cubic", 16) == bk.MODEL_TOLERANCE
+    tol = bk.model_tolerance("linear", 4)
+    assert tol == pytest.approx(bk.MODEL_SHARE * interp_error("linear", 4.0)) and tol > 10 * bk.MODEL_TOLERANCE
+    data, freq, a, r0s, grid = _tone_collection(1e4, 0.25, n=256)
+    col = Collection(freq, a, r0s)
+    lin = BackprojectionOptions(precision="float32", interp="linear", upsample=4)
+    coarse = Setup(data.shape, col, grid, 4, "linear", "float32")
+    strict = bk.tiling(grid if not coarse.transposed else bp_rows.transposed_grid(grid), bk.min_range(a, grid),
+                       np.max(np.abs(coarse.geo[BpGeo.KC])), np.max(np.abs(coarse.geo[BpGeo.INV_BIN])),
+                       c_max=coarse.orientation.c_max)
+    assert coarse.tiling.cost < strict.cost and coarse.tiling.error <= tol
+    img = backproject(data, col, grid, lin)
+    monkeypatch.setattr(bp_rows, "tiling", lambda *args, **kw: strict)
+    assert Setup(data.shape, col, grid, 4, "linear", "float32").tiling == strict
+    forced = backproject(data, col, grid, lin)
+    assert 0 < np.max(np.abs(img - forced)) * data.shape[1] <= tol + 1.5e-6
+
+
+def test_row_cosine_is_the_largest_cosine_along_the_rows():
+    """row_cosine against a dense sampling of the grid's rectangle, for antennas looking along x and y."""
+    from sarcli.formers.backprojection._kernels import row_cosine
+
+    grid = Grid(40, 30, 0.5, 0.5, 3.0, -2.0)
+    xs, ys = np.meshgrid(np.linspace(grid.x[0] - 0.25, grid.x[-1] + 0.25, 81),
+                         np.linspace(grid.y[0] - 0.25, grid.y[-1] + 0.25, 61))
+    for pos in ([[800.0, 20.0, 300.0]], [[10.0, -900.0, 500.0]], [[5.0, 2.0, 40.0]]):
+        p = np.asarray(pos)
+        d = np.stack([xs - p[0, 0], ys - p[0, 1], -p[0, 2] + 0 * xs])
+        dense = np.max(np.abs(d[0]) / np.linalg.norm(d, axis=0))
+        got = row_cosine(p, grid)
+        assert dense <= got + 1e-12 and got <= 1.0
+        assert got <= 1.5 * dense + 1e-3   # a bound, not far above the truth
+
+
 def test_tiling_keeps_wide_tiles_near_the_radar():
     """The quadratic's tiles narrow to 2 pixels at 200 m; the exact model keeps 64 within the same
-    tolerance, and far away (1,000 km) the cheaper quadratic keeps 64 itself."""
+    tolerance, and far away (1,000 km) the cheaper quadratic keeps the widest, 128, itself."""
     from sarcli.formers.backprojection._kernels import EXACT, MODEL_TOLERANCE, QUADRATIC, tiling
 
     grid = Grid(512, 512, 0.25, 0.25)
@@ -423,7 +494,7 @@ def test_tiling_keeps_wide_tiles_near_the_radar():
     assert (near.model, near.width) == (EXACT, 64) and near.error <= MODEL_TOLERANCE
     assert tiling(grid, 50.0, kc, ib).width >= 32
     far = tiling(grid, 1e6, kc, ib)
-    assert (far.model, far.width) == (QUADRATIC, 64) and far.cost < near.cost
+    assert (far.model, far.width) == (QUADRATIC, 128) and far.cost < near.cost
     # a tile may not reach past half the range (the exact model's rounding bound needs it)
     assert tiling(Grid(64, 64, 1.0, 1.0), 20.0, kc, ib).width <= 21
 

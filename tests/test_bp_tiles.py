@@ -20,7 +20,7 @@ import pytest
 from sarcli._native.layout import BpGeo as G
 from sarcli.core import geometry
 from sarcli.core.grid import Grid
-import sarcli.formers.backprojection._setup as _bp_setup
+import sarcli.formers.backprojection._rows as _bp_rows
 from sarcli.formers.backprojection._kernels import (EXACT, GEO_ROWS, MODEL_TOLERANCE, QUADRATIC, Tiling, exact_error, kernels,
                                         min_range, quadratic_error, tiling)
 from sarcli.formers.backprojection._setup import PAD
@@ -195,7 +195,7 @@ def test_adjoint_and_forward_at_tile_widths_that_fill_every_lane(isa, monkeypatc
     (16 + 16 + 13 in one tile), 13 and 17 (odd remainders), 1; each range model. Reprojection is
     the exact adjoint of backprojection at each, and the forward image matches the exact matched
     filter wherever the lanes fall (either model is within tolerance at 10 km even for 64 pixels)."""
-    monkeypatch.setattr(_bp_setup, "tiling", lambda *args, **kw: Tiling(model, width, 0.0, 1.0))
+    monkeypatch.setattr(_bp_rows, "tiling", lambda *args, **kw: Tiling(model, width, 0.0, 1.0))
     rng = np.random.default_rng(7)
     grid = Grid(45, 6, 0.25, 0.25, 0.4, -0.3)
     t, q, r0 = pair(10e3, 9e3 if bistatic else 10e3, 4.0 if bistatic else 0.0,

@@ -214,6 +214,35 @@ def test_command_seconds_adds_what_the_command_pays(sph):
     assert command_seconds(cand, ph, GRID, c, auto=True) == pytest.approx(0.32 + io + cand.seconds)
 
 
+def test_command_seconds_at_the_present_load_stretches_each_part_by_its_share(sph):
+    """With n other runnable threads on p processors a part on t threads takes (t + n)/p as long once
+    t + n > p: the formation on the cost model's threads, the rest (start-up, I/O) on one."""
+    from sarcli._util.load import Load
+    from sarcli.formers.planning.planner import command_seconds
+
+    ph, _ = sph
+    c = dict(load_cost_model(), startup=0.3, planning=0.0, read_per_byte=0.0, write_per_byte=0.0,
+             write_per_byte_large=0.0, threads=2)
+    cand = recommend(ph, GRID, 1e-3, costs=c)
+    idle = command_seconds(cand, ph, GRID, c)
+    assert command_seconds(cand, ph, GRID, c, load=Load(0.0, 2)) == pytest.approx(idle)
+    assert command_seconds(cand, ph, GRID, c, load=Load(1.0, 2)) == pytest.approx(0.3 + 1.5 * cand.seconds)
+    assert command_seconds(cand, ph, GRID, c, load=Load(3.0, 2)) == pytest.approx(0.3 * 2 + 2.5 * cand.seconds)
+    assert command_seconds(cand, ph, GRID, c, load=Load(3.0, 2), nthreads=1) == pytest.approx(0.6 + 2 * cand.seconds)
+
+
+def test_present_load_counts_the_other_runnable_threads(tmp_path):
+    """procs_running less this process's own thread, averaged over the samples; no /proc: idle."""
+    from sarcli._util.load import Load, present_load, usable_cpus
+
+    stat = tmp_path / "stat"
+    stat.write_text("cpu  1 2 3 4\nprocs_running 4\nprocs_blocked 0\n")
+    got = present_load(samples=3, interval_s=0.0, path=str(stat))
+    assert got == Load(3.0, usable_cpus())
+    assert present_load(samples=2, interval_s=0.0, path=str(tmp_path / "missing")).others == 0.0
+    assert Load(3.0, 2).slowdown(2) == pytest.approx(2.5) and Load(0.5, 4).slowdown(2) == 1.0
+
+
 def test_a_files_write_costs_its_first_bytes_at_one_rate_and_the_rest_at_another(sph):
     """write_seconds: the calibrated rate of a file's first WRITE_BYTES, the large-file rate beyond;
     command_seconds charges the image as stored through it."""
@@ -308,6 +337,9 @@ def test_sar_plan_measures_an_uncalibrated_machine_once(tmp_path, monkeypatch, s
     doc = json.loads(again.output)
     for c in doc["candidates"]:
         assert c["predicted_command_s"] >= c["predicted_s"] + 0.25
+        assert c["predicted_command_now_s"] >= c["predicted_command_s"] - 1e-12
+    assert doc["load"]["cpus"] >= 1 and doc["load"]["other_runnable_threads"] >= 0.0
+    assert doc["auto"]["predicted_command_now_s"] >= doc["auto"]["predicted_command_s"] - 1e-12
     CliRunner().invoke(cli, ["plan", str(src), "--calibrate", "--json"])
     assert calls == [1, 1]
 

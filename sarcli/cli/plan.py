@@ -95,6 +95,7 @@ def command(input_path, center, extent, pixel_size, tolerance, as_json, calibrat
     from ..formers.formation import plan_rows
     from ..formers.planning.planner import SAFETY, calibrate as measure, command_seconds, recommend
     from ..io import open_input
+    from .._util.load import present_load
 
     if calibrate or not calibration.is_calibrated():
         click.echo(f"measuring this machine's cost model (a few seconds, once; kept in "
@@ -108,17 +109,29 @@ def command(input_path, center, extent, pixel_size, tolerance, as_json, calibrat
     cands = plan_rows(ph, grid, tolerance, nthreads=nthreads)
     pick = recommend(ph, grid, tolerance, nthreads=nthreads)
     whole = [command_seconds(c, ph, grid, tolerance=tolerance) for c in cands]
+    load = present_load()
+    now = [command_seconds(c, ph, grid, tolerance=tolerance, load=load, nthreads=nthreads) for c in cands]
     if as_json:
         click.echo(json.dumps({"tolerance": tolerance, "grid": grid.as_dict(),
-                               "auto": {**pick.as_dict(), "predicted_command_s": command_seconds(pick, ph, grid, auto=True, tolerance=tolerance)},
+                               "load": {"other_runnable_threads": load.others, "cpus": load.cpus},
+                               "auto": {**pick.as_dict(),
+                                        "predicted_command_s": command_seconds(pick, ph, grid, auto=True, tolerance=tolerance),
+                                        "predicted_command_now_s": command_seconds(pick, ph, grid, auto=True, tolerance=tolerance,
+                                                                                   load=load, nthreads=nthreads)},
                                "status_legend": {w: t.format(safety=SAFETY) for w, t in STATUS_LEGEND},
                                "candidates": [{**c.as_dict(), "predicted_command_s": None if w != w else w,
+                                               "predicted_command_now_s": None if n != n else n,
                                                "status": status_of(c, tolerance, SAFETY)}
-                                              for c, w in zip(cands, whole)]}, indent=1, default=float))
+                                              for c, w, n in zip(cands, whole, now)]}, indent=1, default=float))
         return
     click.echo(f"{ph.model} data, {ph.data.shape[0]} x {ph.data.shape[1]} samples -> {grid.nx} x {grid.ny} "
                f"pixels of {grid.dx:g} m; tolerance {tolerance:g}")
     for line in table(cands, pick, tolerance, SAFETY, shutil.get_terminal_size((80, 24)).columns, whole):
         click.echo(line)
     click.echo("pred.s: the whole `sar form-image` command with that former (start-up, read, form, write) "
-               "on this machine")
+               "on this machine, idle")
+    idle = command_seconds(pick, ph, grid, auto=True, tolerance=tolerance)
+    busy = command_seconds(pick, ph, grid, auto=True, tolerance=tolerance, load=load, nthreads=nthreads)
+    if busy > 1.05 * idle:
+        click.echo(f"this machine is busy now ({load.others:.1f} other runnable threads on {load.cpus} "
+                   f"processors): auto's command would take about {busy:.3g} s rather than {idle:.3g} s")

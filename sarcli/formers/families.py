@@ -181,7 +181,7 @@ def plan_backprojection(ph, grid, options, settings, costs=None) -> Plan:
         from .backprojection import tiling_for
 
         pos, rcv, _ = range_positions(ph, grid)
-        tiling = tiling_for(ph.acquisition.frequency_hz, pos, rcv, grid, up)
+        tiling = tiling_for(ph.acquisition.frequency_hz, pos, rcv, grid, up, options.precision, it)
         c, thr = _constants(settings, costs)
         return (backprojection_error(ph, grid, it, up, tiling),
                 cost.bp_seconds(c, smp.n_pulses, smp.n_freq, npix, it, up, tiling.cost, thr))

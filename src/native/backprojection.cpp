@@ -1,6 +1,6 @@
 // Backprojection (sarcli.formers.backprojection) and its exact adjoint, reprojection.
 //
-// The image is cut into tiles of up to 64 pixels along a row. Per tile and pulse the differential
+// The image is cut into tiles of up to 128 pixels along a row. Per tile and pulse the differential
 // range at the tile's anchor (its centre) and its first two derivatives along the row come from
 // float64 geometry; inside the tile each pixel's range offset u from the anchor enters through
 //     Δr(u) = Δr_c + d1 u + d2 u²,
@@ -42,7 +42,7 @@ namespace sarcli {
 namespace {
 
 constexpr int kLanes = 16;
-constexpr int kGroups = 4;  // lane groups a tile may hold (tiles of up to 64 pixels)
+constexpr int kGroups = 8;  // lane groups a tile may hold (tiles of up to 128 pixels)
 constexpr double kTwoPi = 6.283185307179586;
 constexpr double kInvTwoPi = 0.15915494309189535;
 constexpr double kTwoPiLo = 2.4492935982947064e-16;  // 2π - kTwoPi
@@ -95,7 +95,7 @@ struct Args {
   const double* y;  // [ny] pixel y
   const double* geo;  // [kGeoRows, B]
   long nx, ny, B, lp;  // lp: padded profile length n_len + 2 pad
-  long n_len, pad, width;  // width: tile width <= 16
+  long n_len, pad, width;  // width: tile width <= kLanes * kGroups
   double half_len;
   bool bist;
   bool exact;  // the exact range model (ExactAnchor) rather than the economised quadratic

@@ -6,6 +6,8 @@
   history on one grid (the range profiles made once; autofocus's imager);
 - :mod:`._setup`: checked inputs, per-pulse constants, the range profiles and the tiling, which
   ffbp and the at-height maps (:mod:`sarcli.formers.points`) share;
+- :mod:`._rows`: which image axis the kernels' rows follow (the transposed problem when that puts
+  them across the look direction) and the pulse block's share of the L2 cache;
 - :mod:`._kernels`: the compiled kernels and the per-tile range model.
 """
 

@@ -1,6 +1,6 @@
 """Backprojection's compiled kernels (``src/native/backprojection.cpp``) and their planning.
 
-The kernels cut the image into tiles of up to 64 pixels along a row (groups of 16 lanes). Per tile and pulse they
+The kernels cut the image into tiles of up to 128 pixels along a row (groups of 16 lanes). Per tile and pulse they
 evaluate, in float64, the differential range at the tile's centre ``Δr_c`` and its derivatives
 along the row; inside the tile a pixel at offset ``u`` from the centre takes
 
@@ -12,7 +12,9 @@ along the row; inside the tile a pixel at offset ``u`` from the centre takes
 
 (``R`` the range to the centre, ``c`` the direction cosine along the row, ``h`` the tile's half
 width; the ``3/4 h² d3`` term is the Chebyshev economisation of the cubic Taylor term), so the
-model leaves at most ``|d3| h³ / 4`` plus the quartic term (:func:`quadratic_error`).
+model leaves at most ``|d3| h³ / 4`` plus the quartic term (:func:`quadratic_error`). ``|d3|``
+is largest at ``c² = 1/3``; where every pulse sees the grid's rows at a smaller cosine (rows
+across the look direction, :func:`row_cosine`), the bound takes that cosine and tiles widen.
 
 That error grows as ``h³ / R²``: near the radar the quadratic's tiles narrow to a few pixels and
 the per-tile work dominates. The *exact* model keeps wide tiles there: the plain Taylor quadratic
@@ -36,6 +38,7 @@ float32 (errors ~1e-7), the profiles and accumulation follow ``precision``.
 
 from __future__ import annotations
 
+import functools
 import math
 from typing import NamedTuple
 
@@ -45,13 +48,16 @@ from ..._native import load
 from ..._native.layout import BpGeo
 
 __all__ = ["GEO_ROWS", "MODEL_TOLERANCE", "QUADRATIC", "EXACT", "Tiling", "next_fast_len", "quadratic_error",
-           "exact_error", "tile_cost", "tile_width", "tiling", "kernels"]
+           "exact_error", "row_cosine", "MODEL_SHARE", "model_tolerance", "tile_cost", "tile_width", "tiling", "kernels"]
 
 #: Rows of the per-pulse geometry table the kernels read (:class:`sarcli._native.layout.BpGeo`).
 GEO_ROWS = len(BpGeo)
 #: Largest model error of a tile, in radians of carrier phase and in profile bins.
 MODEL_TOLERANCE = 1e-5
-_WIDTHS = (64, 48, 32, 16, 12, 8, 4, 2, 1)
+#: Share of the interpolation's own RMS error (:func:`sarcli.formers.ffbp.model.interp_error`) that
+#: the range model may add where that is more than :data:`MODEL_TOLERANCE` (:func:`model_tolerance`).
+MODEL_SHARE = 0.01
+_WIDTHS = (128, 96, 64, 48, 32, 16, 12, 8, 4, 2, 1)
 
 
 
@@ -118,11 +124,27 @@ class Tiling(NamedTuple):
     cost: float
 
 
-def quadratic_error(h: float, r: float) -> float:
+def quadratic_error(h: float, r: float, c_max: float = 1.0) -> float:
     """Largest range error (m) of the economised quadratic over a tile of half width ``h`` (m) whose
-    pixels are at least ``r`` (m) from the antenna: ``|d3| h³/4 + |d4| h⁴`` with
-    ``|d3| <= 0.19245 / R²`` and ``|d4| <= 5 / (8 R³)``."""
-    return 0.19245 * h**3 / (4.0 * r * r) + 0.625 * h**4 / r**3
+    pixels are at least ``r`` (m) from the antenna and see it at direction cosines along the row
+    of at most ``c_max``: ``|d3| h³/4 + |d4| h⁴`` with ``|d3| = |c| (1 − c²) / (2R²)``, at most
+    ``0.19245 / R²`` (at ``c² = 1/3``), and ``|d4| <= 5 / (8 R³)``."""
+    c = min(abs(float(c_max)), 1.0)
+    g = c * (1.0 - c * c) if c * c < 1.0 / 3.0 else 2.0 / (3.0 * math.sqrt(3.0))
+    return 0.5 * g * h**3 / (4.0 * r * r) + 0.625 * h**4 / r**3
+
+
+def row_cosine(pos, grid) -> float:
+    """Largest direction cosine along the grid's rows (x) from any antenna position in ``pos`` [P, 3]
+    to any point of the grid's rectangle (z = 0): ``max |x − a_x| / min |x − a|`` per position."""
+    pos = np.asarray(pos, dtype=np.float64)
+    x0, x1 = grid.x[0] - grid.dx / 2, grid.x[-1] + grid.dx / 2
+    y0, y1 = grid.y[0] - grid.dy / 2, grid.y[-1] + grid.dy / 2
+    along = np.maximum(np.abs(x0 - pos[:, 0]), np.abs(x1 - pos[:, 0]))
+    dx = np.clip(pos[:, 0], min(x0, x1), max(x0, x1)) - pos[:, 0]
+    dy = np.clip(pos[:, 1], min(y0, y1), max(y0, y1)) - pos[:, 1]
+    near = np.sqrt(dx * dx + dy * dy + pos[:, 2] ** 2)
+    return float(min(1.0, np.max(along / np.maximum(near, 1e-300))))
 
 
 def exact_error(h: float, r: float) -> float:
@@ -136,41 +158,56 @@ def exact_error(h: float, r: float) -> float:
     return EXACT_ROUNDINGS * _EPS32 * d * (2.0 * h + d) / (2.0 * r)
 
 
-def tile_cost(model: str, width: int) -> float:
+def model_tolerance(interp: str, upsample: float) -> float:
+    """The range model's tolerance for profiles interpolated by ``interp`` at ``upsample``: far below
+    the interpolation's own error, :data:`MODEL_SHARE` of it (which then adds 5e-5 of it in
+    quadrature), and never above :data:`MODEL_TOLERANCE`'s accuracy is asked of a coarse
+    interpolator it cannot use (linear at 4x errs 2.5e-2: its tiles are priced for 2.5e-4)."""
+    from ..ffbp.model import interp_error
+
+    return max(MODEL_TOLERANCE, MODEL_SHARE * interp_error(interp, float(upsample)))
+
+
+def tile_cost(model: str, width: int, bistatic: bool = False) -> float:
     """Predicted work per pixel-pulse of tiles of ``width`` pixels in ``model``, relative to full
-    64-pixel tiles of the quadratic model's lane groups (each tile runs whole groups of 16 lanes
-    and computes one float64 anchor per pulse)."""
+    tiles of the quadratic model's lane groups (each tile runs whole groups of 16 lanes
+    and computes one float64 anchor per pulse). A bistatic exact model evaluates two ends a lane."""
     groups = math.ceil(width / _LANES)
-    return (groups * _GROUP_COST[model] + _ANCHOR_COST[model]) / (width / _LANES)
+    cost = (groups * _GROUP_COST[model] + _ANCHOR_COST[model]) / (width / _LANES)
+    if model == EXACT and bistatic:
+        cost += groups * (_GROUP_COST[EXACT] - _GROUP_COST[QUADRATIC]) / (width / _LANES)
+    return cost
 
 
-def tiling(grid, r_min: float, kc_max: float, inv_bin_max: float, *, bistatic: bool = False) -> Tiling:
-    """The cheapest tiling (:func:`tile_cost`) whose range model stays within :data:`MODEL_TOLERANCE`
+def tiling(grid, r_min: float, kc_max: float, inv_bin_max: float, *, bistatic: bool = False,
+           c_max: float = 1.0, tolerance: float = MODEL_TOLERANCE) -> Tiling:
+    """The cheapest tiling (:func:`tile_cost`) whose range model stays within ``tolerance``
+    (:data:`MODEL_TOLERANCE`; :func:`model_tolerance` for an interpolator)
     in carrier phase (``kc_max`` rad/m) and profile bins (``inv_bin_max`` bins/m), for pixels at least
-    ``r_min`` from every antenna. A bistatic exact model evaluates two ends a lane."""
+    ``r_min`` from every antenna that see it at direction cosines along the rows of at most
+    ``c_max`` (:func:`row_cosine`). A bistatic exact model evaluates two ends a lane."""
     scale = max(abs(kc_max), abs(inv_bin_max), 1e-30)
     r = max(r_min, 1e-9)
     best = None
-    for model, error in ((QUADRATIC, quadratic_error), (EXACT, exact_error)):
-        for w in _WIDTHS:
+    # a tile wider than the row is the row: price the tiles the kernel would run
+    widths = sorted({min(w, max(int(grid.nx), 1)) for w in _WIDTHS}, reverse=True)
+    for model, error in ((QUADRATIC, functools.partial(quadratic_error, c_max=c_max)), (EXACT, exact_error)):
+        for w in widths:
             e = error(0.5 * (w - 1) * abs(grid.dx), r) * scale
-            if e <= MODEL_TOLERANCE or w == 1:
-                cost = tile_cost(model, w)
-                if model == EXACT and bistatic:
-                    cost += math.ceil(w / _LANES) * (_GROUP_COST[EXACT] - _GROUP_COST[QUADRATIC]) / (w / _LANES)
-                cand = Tiling(model, w, e, cost)
+            if e <= tolerance or w == 1:
+                cand = Tiling(model, w, e, tile_cost(model, w, bistatic))
                 if best is None or cand.cost < best.cost:
                     best = cand
                 break
     return best
 
 
-def tile_width(grid, r_min: float, kc_max: float, inv_bin_max: float) -> int:
-    """Widest tile of the quadratic model (pixels along a row, at most 64) within tolerance:
+def tile_width(grid, r_min: float, kc_max: float, inv_bin_max: float, c_max: float = 1.0) -> int:
+    """Widest tile of the quadratic model (pixels along a row, at most 128) within tolerance:
     ``kc · error`` and ``error / bin`` below :data:`MODEL_TOLERANCE` (:func:`quadratic_error`)."""
     scale = max(abs(kc_max), abs(inv_bin_max), 1e-30)
     r = max(r_min, 1e-9)
     for w in _WIDTHS:
-        if quadratic_error(0.5 * (w - 1) * abs(grid.dx), r) * scale <= MODEL_TOLERANCE:
+        if quadratic_error(0.5 * (w - 1) * abs(grid.dx), r, c_max) * scale <= MODEL_TOLERANCE:
             return w
     return 1

@@ -41,7 +41,8 @@ The frequencies enter through the least-squares line ``α_pj ≈ α_ref,p + (j -
 frequencies are rounded to float32: 2.4e-4 of the exact matched filter).
 
 The kernels (``src/native/backprojection.cpp``, :mod:`._kernels`) take the differential range
-of each tile of up to 64 pixels along a row in float64 at the tile's centre, without
+of each tile of up to 128 pixels along a row (of the image, or of its transpose when that puts the
+rows across the look direction: :mod:`._rows`) in float64 at the tile's centre, without
 cancellation (``Δr = (|x|² - 2 a·x) / (|a - x| + |a|) + (|a| - r0)``), and inside the tile either
 a quadratic in the pixel's offset or, near the radar where the quadratic's tiles would narrow, the
 exact range as that quadratic plus its float32 departure; :func:`._kernels.tiling` picks the
@@ -183,8 +184,8 @@ def backproject(data, collection, grid, options=None, *, nthreads=None) -> np.nd
     d = check_data(data)
     st = Setup(d.shape, collection, grid, *knobs_of(options))
     cdt = np.complex64 if st.dtype == np.float32 else np.complex128
-    out_re = np.zeros(st.shape)
-    out_im = np.zeros(st.shape)
+    out_re = np.zeros(st.kernel_shape)
+    out_im = np.zeros(st.kernel_shape)
     kern = kernels()
     work = ProfileWork(st.block, st.m, st.n_len, cdt)   # one set of block buffers for every block
     with using_threads(nthreads):
@@ -197,10 +198,7 @@ def backproject(data, collection, grid, options=None, *, nthreads=None) -> np.nd
             # real and imaginary parts interleaved: [B, n_len + 2 pad, 2]
             kern.bp_tiles(prof.view(st.dtype).reshape(prof.shape + (2,)), *st.kernel_args(sl),
                           st.cache_block, out_re, out_im)
-    img = np.empty(st.shape, dtype=np.complex128)
-    img.real = out_re
-    img.imag = out_im
-    return img
+    return st.image(out_re, out_im)
 
 
 def pulse_contractions(data, g, collection, grid, options=None, *, nthreads=None) -> np.ndarray:
@@ -218,8 +216,7 @@ def pulse_contractions(data, g, collection, grid, options=None, *, nthreads=None
         raise SarcliInputError(f"g shape {gg.shape} does not match the grid {grid.shape}")
     st = Setup(d.shape, collection, grid, *knobs_of(options))
     cdt = np.complex64 if st.dtype == np.float32 else np.complex128
-    gre = np.ascontiguousarray(gg.real, dtype=st.dtype)
-    gim = np.ascontiguousarray(gg.imag, dtype=st.dtype) if np.iscomplexobj(gg) else np.zeros_like(gre)
+    gre, gim = st.kernel_input(gg)
     out = np.empty(st.n_pulses, dtype=np.complex128)
     kern = kernels()
     work = ProfileWork(st.block, st.m, st.n_len, cdt)
@@ -264,8 +261,7 @@ def reproject(image, collection, grid, options=None, *, nthreads=None) -> np.nda
     if a.ndim != 2:
         raise SarcliInputError(f"antenna positions must be (P, 3), got {a.shape}")
     st = Setup((a.shape[0], fr.shape[-1]), collection, grid, *knobs_of(options))
-    fre = np.ascontiguousarray(f.real, dtype=st.dtype)
-    fim = np.ascontiguousarray(f.imag, dtype=st.dtype) if np.iscomplexobj(f) else np.zeros_like(fre)
+    fre, fim = st.kernel_input(f)
     n_padded = st.n_len + 2 * PAD
     out = np.empty((st.n_pulses, st.m), dtype=np.complex128)
     kern = kernels()

@@ -66,15 +66,12 @@ class Backprojector:
             if e.shape != (st.n_pulses,):
                 raise SarcliInputError(f"phase has shape {e.shape}, expected ({st.n_pulses},)")
             prof = prof * e[:, None]
-        out_re = np.zeros(st.shape)
-        out_im = np.zeros(st.shape)
+        out_re = np.zeros(st.kernel_shape)
+        out_im = np.zeros(st.kernel_shape)
         with using_threads(self._nthreads):
             kernels().bp_tiles(self._view(prof), *st.kernel_args(slice(0, st.n_pulses)), st.cache_block,
                                out_re, out_im)
-        img = np.empty(st.shape, dtype=np.complex128)
-        img.real = out_re
-        img.imag = out_im
-        return img
+        return st.image(out_re, out_im)
 
     def contract(self, g) -> np.ndarray:
         """``pulse_contractions`` of the data as they are with an image-shaped ``g``, shape (P,)."""
@@ -82,8 +79,7 @@ class Backprojector:
         gg = np.asarray(g)
         if gg.shape != st.shape:
             raise SarcliInputError(f"g shape {gg.shape} does not match the grid {st.shape}")
-        gre = np.ascontiguousarray(gg.real, dtype=st.dtype)
-        gim = np.ascontiguousarray(gg.imag, dtype=st.dtype) if np.iscomplexobj(gg) else np.zeros_like(gre)
+        gre, gim = st.kernel_input(gg)
         acc = np.empty((st.n_pulses, 2))
         with using_threads(self._nthreads):
             kernels().bp_contract(self._view(self.profiles), gre, gim, *st.kernel_args(slice(0, st.n_pulses)),
@@ -94,15 +90,16 @@ class Backprojector:
         """The images of consecutive groups of pulses, ``bounds[b] <= p < bounds[b + 1]``, each
         normalised as its share of the image of all pulses (their sum is :meth:`image`): yields
         ``(b, real, imag)``, float64 arrays of the grid's shape that are reused for the next group
-        (copy what is kept).
+        (copy what is kept; transposed views when the kernels run on the transposed grid,
+        :attr:`Setup.transposed <sarcli.formers.backprojection.Setup>`).
         """
         st = self._st
         bounds = np.asarray(bounds, dtype=np.int64)
         if bounds.ndim != 1 or bounds.size < 2 or bounds[0] != 0 or bounds[-1] != st.n_pulses \
                 or np.any(np.diff(bounds) < 1):
             raise SarcliInputError(f"bounds must increase from 0 to the {st.n_pulses} pulses, got {bounds}")
-        out_re = np.empty(st.shape)
-        out_im = np.empty(st.shape)
+        out_re = np.empty(st.kernel_shape)
+        out_im = np.empty(st.kernel_shape)
         kern = kernels()
         for b in range(bounds.size - 1):
             sl = slice(int(bounds[b]), int(bounds[b + 1]))
@@ -110,5 +107,5 @@ class Backprojector:
             out_im.fill(0.0)
             with using_threads(self._nthreads):
                 kern.bp_tiles(self._view(self.profiles[sl]), *st.kernel_args(sl), st.cache_block, out_re, out_im)
-            yield b, out_re, out_im
+            yield b, st.image_view(out_re), st.image_view(out_im)
 

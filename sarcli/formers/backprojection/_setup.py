@@ -1,7 +1,8 @@
 """Backprojection's setup, shared by the one-shot maps (:mod:`.backprojection`), the prepared
 backprojector (:mod:`._prepared`) and ffbp's range profiles: the validated inputs, the
-per-pulse constants in the working precision, the FFT layout and the range profiles. The model
-and its formulas are in :mod:`.backprojection`'s docstring.
+per-pulse constants in the working precision, the FFT layout, the range profiles and the
+orientation of the kernels' rows (:mod:`._rows`). The model and its formulas are in
+:mod:`.backprojection`'s docstring.
 """
 
 from __future__ import annotations
@@ -17,7 +18,9 @@ from ...core.grid import Grid
 from ...core.sampling import INTERPOLATORS as ALL_INTERPOLATORS, PROFILE_INTERPOLATORS, equally_spaced, frequency_line
 from ...errors import AliasingWarning, SarcliInputError
 from ..._native.layout import BpGeo
-from ._kernels import EXACT, GEO_ROWS, min_range, next_fast_len, tiling
+from ._kernels import EXACT, GEO_ROWS, min_range, model_tolerance, next_fast_len
+from ._rows import (CACHE_FRACTION, Orientation, copy_oriented, l2_cache_bytes, orient, row_cosines, row_reach_bins,
+                    row_steps, transposed_grid)
 from .._samples import is_lazy
 
 __all__ = ["INTERPOLATORS", "PAD", "BLOCK", "profile_length", "ProfileWork", "profiles", "range_profiles", "TilingInputs", "tiling_for", "Setup",
@@ -30,8 +33,8 @@ PAD = 3
 _PRECISIONS = {"float64": np.float64, "float32": np.float32}
 #: Most pulses range-compressed and backprojected together (bounds the profile memory).
 BLOCK = 128
-#: Profile bytes one pass over the image works through (about a core's L2 cache).
-_CACHE_BYTES = 640 * 1024
+#: Profile bytes one pass over the image works through: :data:`CACHE_FRACTION` of a core's L2.
+_CACHE_BYTES = int(CACHE_FRACTION * l2_cache_bytes())
 
 
 def profile_length(n_frequencies: int, upsample: float) -> int:
@@ -173,15 +176,10 @@ def range_profiles(data, weights, total_weight, n_len, nthreads, dtype=np.comple
     return re, im
 
 
-def _tiling(grid, a, b, kc_max, inv_bin_max):
-    """:func:`._kernels.tiling` for transmit positions ``a`` and receive positions ``b`` [P, 3]."""
-    r_min = min(min_range(a, grid), min_range(b, grid))
-    return tiling(grid, r_min, kc_max, inv_bin_max, bistatic=not np.array_equal(a, b))
-
-
 class TilingInputs:
-    """What :func:`._kernels.tiling` needs of a collection, computed once for several upsamplings:
-    the smallest antenna-to-grid range, the largest carrier wavenumber and frequency step."""
+    """What :func:`._kernels.tiling` and :func:`orient` need of a collection, computed once for several
+    upsamplings: the smallest antenna-to-grid range, the largest carrier wavenumber and frequency
+    step, the range steps along rows and columns (:func:`row_steps`) and the pulses."""
 
     def __init__(self, freq_hz, antenna_position_m, receive_position_m, grid):
         f = np.asarray(freq_hz, dtype=np.float64)
@@ -192,20 +190,38 @@ class TilingInputs:
         b = a if receive_position_m is None else np.asarray(receive_position_m, dtype=np.float64)
         self.grid = grid
         self.r_min = min(min_range(a, grid), min_range(b, grid))
+        self.cosines = row_cosines(a, b, grid)
         self.bistatic = not np.array_equal(a, b)
+        self.steps = row_steps(a, b, grid)
+        self.n_pulses = a.shape[0]
         self.kc_max = float(np.max(np.abs(4.0 * np.pi * np.asarray(alpha_ref) / C)))
         self.dalpha_max = float(np.max(np.abs(dalpha)))
 
-    def tiling(self, upsample):
-        """The tiling :class:`Setup` chooses at profile oversampling ``upsample``."""
+    def orientation(self, upsample, precision="float32", interp="cubic") -> Orientation:
+        """The orientation and tiling :class:`Setup` chooses at profile oversampling ``upsample``,
+        ``precision`` (of the profiles: 'float32' or 'float64') and interpolator ``interp`` (the range
+        model's tolerance: :func:`._kernels.model_tolerance`)."""
         n_len = profile_length(self.m, upsample)
-        return tiling(self.grid, self.r_min, self.kc_max, 2.0 * self.dalpha_max * n_len / C, bistatic=self.bistatic)
+        return orient(self.grid, self.r_min, self.kc_max, 2.0 * self.dalpha_max * n_len / C, self.steps,
+                      self.n_pulses, bistatic=self.bistatic, sample_bytes=_sample_bytes(precision),
+                      cosines=self.cosines, tolerance=model_tolerance(interp, upsample))
+
+    def tiling(self, upsample, precision="float32", interp="cubic"):
+        """The tiling :class:`Setup` chooses at profile oversampling ``upsample``, ``precision`` and
+        ``interp`` (on the rows of :meth:`orientation`)."""
+        return self.orientation(upsample, precision, interp).tiling
 
 
-def tiling_for(freq_hz, antenna_position_m, receive_position_m, grid, upsample):
-    """The tiling :class:`Setup` chooses for these frequencies, positions, grid and ``upsample``
-    (:func:`._kernels.tiling`; ``receive_position_m`` None when monostatic), without the checks."""
-    return TilingInputs(freq_hz, antenna_position_m, receive_position_m, grid).tiling(upsample)
+def tiling_for(freq_hz, antenna_position_m, receive_position_m, grid, upsample, precision="float32", interp="cubic"):
+    """The tiling :class:`Setup` chooses for these frequencies, positions, grid, ``upsample``,
+    ``precision`` and ``interp`` (:func:`._kernels.tiling` on the rows of :func:`orient`;
+    ``receive_position_m`` None when monostatic), without the checks."""
+    return TilingInputs(freq_hz, antenna_position_m, receive_position_m, grid).tiling(upsample, precision, interp)
+
+
+def _sample_bytes(precision) -> int:
+    """Bytes of a profile sample (re and im) in ``precision``; an unknown one is refused by :class:`Setup`."""
+    return 2 * np.dtype(_PRECISIONS.get(precision, np.float32)).itemsize
 
 
 class Setup:
@@ -273,18 +289,34 @@ class Setup:
         g[BpGeo.OFFSET] = (0.5 * (na + nb) if self.bistatic else na) - r0
         g[BpGeo.INV_BIN] = 1.0 / bin_m
         g[BpGeo.KC] = 4.0 * np.pi * alpha_ref / C
-        self.x = np.ascontiguousarray(grid.x, dtype=np.float64)
-        self.y = np.ascontiguousarray(grid.y, dtype=np.float64)
-        self.shape = grid.shape
+        #: the orientation of the kernels' rows and their tiling (:func:`orient`)
+        self.orientation = orient(grid, min(min_range(a, grid), min_range(b, grid)), float(np.max(np.abs(g[BpGeo.KC]))),
+                                  float(np.max(np.abs(g[BpGeo.INV_BIN]))), row_steps(a, b, grid), n_pulses,
+                                  bistatic=self.bistatic, sample_bytes=_sample_bytes(precision),
+                                  cosines=row_cosines(a, b, grid), tolerance=model_tolerance(interp, upsample))
+        self.transposed = self.orientation.transposed
+        kgrid = transposed_grid(grid) if self.transposed else grid
+        if self.transposed:   # kernel x is the image's y: the antennas' x and y swap with the grid's
+            g[[BpGeo.TWO_AX, BpGeo.TWO_AY]] = g[[BpGeo.TWO_AY, BpGeo.TWO_AX]]
+            g[[BpGeo.TWO_BX, BpGeo.TWO_BY]] = g[[BpGeo.TWO_BY, BpGeo.TWO_BX]]
+        self.x = np.ascontiguousarray(kgrid.x, dtype=np.float64)
+        self.y = np.ascontiguousarray(kgrid.y, dtype=np.float64)
+        #: the image's shape and the kernels' (its transpose when :attr:`transposed`)
+        self.shape, self.kernel_shape = grid.shape, kgrid.shape
         #: the range model and tile width (:func:`._kernels.tiling`)
-        self.tiling = _tiling(grid, a, b, float(np.max(np.abs(g[BpGeo.KC]))), float(np.max(np.abs(g[BpGeo.INV_BIN]))))
+        self.tiling = self.orientation.tiling
         self.model, self.width = self.tiling.model, self.tiling.width
         self._check_window(a, b, r0, grid, np.abs(bin_m) * self.n_len / 2.0)
-        # pulses per pass over the image inside a kernel call: their profiles stay in cache; at
-        # least 8: one AVX-512 vector of the kernels' float64 pulse loop over a tile's anchors,
-        # and each pass adds every tile's accumulators into the image once
+        # pulses per pass over the image inside a kernel call: the parts of their profiles that a
+        # row reads stay in cache from one row to the next; at least 8: one AVX-512 vector of the
+        # kernels' float64 pulse loop over a tile's anchors. Each pass adds every tile's
+        # accumulators into the (float64) image once, so the fewer passes the better: rows across
+        # the look direction read a few bins of each profile, and many pulses share the cache
         row_bytes = (self.n_len + 2 * PAD) * 2 * np.dtype(dt).itemsize
-        self.cache_block = max(8, _CACHE_BYTES // row_bytes)
+        reach = row_reach_bins(kgrid, self.orientation.c_max, float(np.max(np.abs(g[BpGeo.INV_BIN]))),
+                               ALL_INTERPOLATORS[interp].taps)
+        touched = min(row_bytes, int(math.ceil(reach)) * 2 * np.dtype(dt).itemsize)
+        self.cache_block = max(8, _CACHE_BYTES // max(touched, 1))
         # pulses whose profiles live at once: at most BLOCK, and no more bytes than the phase
         # history and the image hold (complex128), so few long pulses onto a small image stay
         # within a few times the data and the image
@@ -308,6 +340,30 @@ class Setup:
                 f"the grid reaches {np.max(excess):.3g} times the unambiguous range window "
                 f"|Δr| < c/(4Δα) = {half_window[worst]:.4g} m (pulse {worst}); backprojection leaves "
                 f"pixels outside it out of those pulses", AliasingWarning, stacklevel=4)
+
+    def image_view(self, arr):
+        """An array of the kernels' shape as an array of the image's (a transposed view when
+        :attr:`transposed`)."""
+        return arr.T if self.transposed else arr
+
+    def image(self, out_re, out_im):
+        """The complex128 image from the kernels' real and imaginary parts (the one copy, transposing
+        when :attr:`transposed`)."""
+        img = np.empty(self.shape, dtype=np.complex128)
+        copy_oriented(img.real, out_re, self.transposed)
+        copy_oriented(img.imag, out_im, self.transposed)
+        return img
+
+    def kernel_input(self, f):
+        """Real and imaginary parts of an image-shaped ``f``, C-contiguous in the working precision
+        and the kernels' orientation (zeros for the imaginary part of real ``f``)."""
+        f = np.asarray(f)
+        re = np.empty(self.kernel_shape, dtype=self.dtype)
+        copy_oriented(re, f.real, self.transposed)
+        im = np.zeros_like(re)
+        if np.iscomplexobj(f):
+            copy_oriented(im, f.imag, self.transposed)
+        return re, im
 
     def kernel_args(self, sl):
         """Geometry and options of the kernels for the pulses in slice ``sl``."""

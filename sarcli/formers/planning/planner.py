@@ -183,11 +183,11 @@ def _candidates(ph, grid, tolerance, c, nthreads, prune, methods) -> list:
             if wanted("backprojection") else None
         for interp in ("lagrange", "cubic", "lanczos", "linear") if wanted("backprojection") else ():
             def seconds(up):
-                return bp_seconds(c, P, M, npix, interp, up, tiled(up).cost, thr)
+                return bp_seconds(c, P, M, npix, interp, up, tiled(up, interp=interp).cost, thr)
             if prune and seconds(_BP_UPSAMPLES[0]) > best_ffbp:
                 continue
             for up in _BP_UPSAMPLES:
-                e = interp_error(interp, float(up)) + e_freq + tiled(up).error
+                e = interp_error(interp, float(up)) + e_freq + tiled(up, interp=interp).error
                 if e <= target or up == _BP_UPSAMPLES[-1]:
                     out.append(Candidate("backprojection", {"upsample": up, "interp": interp}, e, seconds(up),
                                          form_image_bytes("backprojection", smp, grid, upsample=up,
@@ -350,11 +350,17 @@ def ffbp_knobs(ph, grid: Grid, tolerance: float, *, nthreads=None, costs=None) -
     return dict(min(met, key=lambda x: x.seconds).knobs if met else min(ff, key=lambda x: x.predicted_error).knobs)
 
 
-def command_seconds(cand: Candidate, ph, grid: Grid, costs=None, *, auto=False, tolerance=None) -> float:
+def command_seconds(cand: Candidate, ph, grid: Grid, costs=None, *, auto=False, tolerance=None, load=None,
+                    nthreads=None) -> float:
     """Predicted wall time of the whole ``sar form-image`` command for ``cand``: start-up (imports,
     kernel loads), reading the data, the formation, writing the image, and for ``auto`` the
     planning too, from the calibrated constants (:func:`calibrate`). ``tolerance``: the command's
-    ``--tolerance`` (with the samples' type, the stored image's)."""
+    ``--tolerance`` (with the samples' type, the stored image's).
+
+    On an idle machine, unless ``load`` (a :class:`sarcli._util.load.Load`) is given: then the
+    formation, on its ``nthreads`` (default: the cost model's), and the rest, on one thread, are
+    each stretched by what the other runnable threads take of the processors
+    (:meth:`~sarcli._util.load.Load.slowdown`)."""
     from ...io.hdf5 import stored_image_dtype
 
     c = load_cost_model() if costs is None else costs
@@ -362,7 +368,10 @@ def command_seconds(cand: Candidate, ph, grid: Grid, costs=None, *, auto=False, 
     # the samples at their stored size; the image as `sar form-image` stores it
     image = stored_image_dtype(ph.data.dtype, tolerance=tolerance).itemsize
     io = read_seconds(c, np.dtype(ph.data.dtype).itemsize * P * M) + write_seconds(c, image * grid.nx * grid.ny)
-    return c["startup"] + (c["planning"] if auto else 0.0) + io + cand.seconds
+    rest = c["startup"] + (c["planning"] if auto else 0.0) + io
+    if load is None:
+        return rest + cand.seconds
+    return rest * load.slowdown(1) + cand.seconds * load.slowdown(threads(nthreads, c))
 
 
 #: Least share of its default-ratio value each of ffbp's fitted constants keeps (every term costs
