@@ -141,8 +141,14 @@ def test_weights_and_per_pulse_frequencies_match_reference():
     assert rel_err(img, ref) < 1e-3
 
 
-def test_float32_precision_at_100_km_keeps_phase():
-    """r0 = 100 km: the float32 path (float64 tile geometry, float32 inside) keeps float64's phase."""
+def test_float32_precision_at_100_km_keeps_phase(monkeypatch):
+    """r0 = 100 km: the float32 path (float64 tile geometry, float32 inside) keeps float64's phase.
+    Both run the rows across the look: float64's profile samples span twice float32's cache lines, so
+    at 48 pulses the two would otherwise pick different orientations (tilings whose range models
+    differ within MODEL_TOLERANCE)."""
+    import sarcli.formers.backprojection._rows as bp_rows
+
+    monkeypatch.setattr(bp_rows, "TRANSPOSE_COST", 0.0)
     pts = [[7.25, -6.5, 0.0], [-9.0, 9.5, 0.0], [0.0, 0.0, 0.0]]
     data, freq, a, r0 = collection(pts, [1.0, 1.0, 1.0], r0=100e3, P=48, M=64)
     f64 = backproject(data, Collection(freq, a, r0), GRID, BackprojectionOptions(precision="float64"))
@@ -150,9 +156,9 @@ def test_float32_precision_at_100_km_keeps_phase():
     ref = exact_mf(data, freq, a, r0, GRID)
     strong = np.abs(ref) > 0.1
     phase_err = np.max(np.abs(np.angle(f32[strong] / f64[strong])))
-    # measured on AVX-512 / AVX2 / baseline kernels (SARCLI_BP_ISA=2, 1, 0): 4.0e-7, 4.0e-7, 4.1e-7 rad
-    # (Keys at 16: 3.0e-7, 3.0e-7, 4.6e-7)
-    assert phase_err < 5e-7
+    # measured on AVX-512 / AVX2 / baseline kernels (SARCLI_BP_ISA=2, 1, 0): 6.9e-7, 6.9e-7, 6.9e-7 rad
+    # (the 48 pulses summed in float32 in one pass over the image, the rows across the look)
+    assert phase_err < 1e-6
     assert np.max(np.abs(np.angle(f32[strong] / ref[strong]))) < 1.2e-4   # measured 4.6e-5 (interpolation)
     assert rel_err(f32, ref) < 4e-5   # measured 2.4e-5, float64's own error
     assert rel_err(f32, f64) < 2e-7   # measured 1.5e-7 (Keys at 16: 1.3e-7)

@@ -236,10 +236,9 @@ def bp_seconds(c, n_pulses, n_freq, n_pixels, interp, upsample, tile_cost, nthre
 def bp_units(data, freq_hz, antenna_position_m, grid) -> float:
     """What ``c["bp"]`` is per: the pixel-pulses of backprojection's default on this collection
     times its tiling's relative cost (:func:`bp_seconds` without the FFTs, at unit cost)."""
-    from ..backprojection import tiling_for
-    from ..backprojection import DEFAULT_UPSAMPLE
+    from ..backprojection import DEFAULT_INTERP, DEFAULT_UPSAMPLE, tiling_for
 
-    cost = tiling_for(freq_hz, antenna_position_m, None, grid, DEFAULT_UPSAMPLE).cost
+    cost = tiling_for(freq_hz, antenna_position_m, None, grid, DEFAULT_UPSAMPLE, interp=DEFAULT_INTERP).cost
     return float(np.shape(data)[0]) * grid.nx * grid.ny * cost
 
 
