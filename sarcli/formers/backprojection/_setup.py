@@ -127,8 +127,8 @@ def profiles(data, weights, total_weight, n_len, dtype, work=None):
             dst *= scale
     # one call for the block: the FFT's plan is built on every call (megabytes for long profiles),
     # so calls on a few rows at a time cost more than the transforms
-    sig, in_place = _ifft_rows(spec)
-    work.padded = not in_place
+    sig, clobbered = _ifft_rows(spec)
+    work.padded = not clobbered
     out = work.out[:b]
     np.take(sig, work.idx, axis=1, out=out, mode="wrap")   # mode "raise" would buffer the output
     return out
@@ -143,15 +143,16 @@ THREADED_FFT_SAMPLES = 1 << 21
 
 
 def _ifft_rows(spec):
-    """The inverse FFT of every row of ``spec`` and whether it went into ``spec`` itself: a large
-    block's rows, being independent transforms, split across the calling thread's kernel threads
-    (:func:`sarcli._native.threads`)."""
+    """The inverse FFT of every row of ``spec`` and whether ``spec``'s contents changed (the result
+    written into it, or the input used as scratch): a large block's rows, being independent
+    transforms, split across the calling thread's kernel threads (:func:`sarcli._native.threads`)."""
     n = threads()
     if n > 1 and spec.size >= THREADED_FFT_SAMPLES:
         import scipy.fft
 
-        out = scipy.fft.ifft(spec, axis=1, overwrite_x=True, workers=n)
-        return out, out is spec
+        # overwrite_x lets scipy use the input as scratch even where it returns another array: the
+        # spectrum's zero padding is gone either way
+        return scipy.fft.ifft(spec, axis=1, overwrite_x=True, workers=n), True
     if _FFT_OUT:
         return np.fft.ifft(spec, axis=1, out=spec), True
     return np.fft.ifft(spec, axis=1), False
