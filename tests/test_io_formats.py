@@ -156,6 +156,31 @@ def test_warning_lines_go_above_a_live_bar(capsys):
     assert "warning: test\n" in err
 
 
+def test_a_bar_not_drawn_does_without_tqdm():
+    """Where no bar is drawn (--quiet, no terminal, or disable=True) progress() hands back a silent
+    bar with the interface the package uses, and tqdm is never imported (its import costs a
+    command's start-up 18 ms)."""
+    import subprocess
+    import sys
+
+    code = ("import sys\n"
+            "from sarcli._util.progress import progress\n"
+            "assert list(progress(range(3), disable=True)) == [0, 1, 2]\n"
+            "b = progress(iter('ab'))\n"
+            "assert list(b) == ['a', 'b'] and b.n == 2\n"
+            "c = progress(total=5, desc='x', unit='u')\n"
+            "c.update(2); c.update(); c.set_postfix(a=1); c.set_description('y'); c.refresh()\n"
+            "assert c.n == 3 and c.total == 5 and c.disable\n"
+            "c.reset(total=7); c.close()\n"
+            "assert c.n == 0 and c.total == 7\n"
+            "with progress(total=1) as d:\n"
+            "    d.update()\n"
+            "print('tqdm' in sys.modules)\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, stdin=subprocess.DEVNULL)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip() == "False"
+
+
 def test_image_formation_never_reads_the_truth(tmp_path, monkeypatch):
     """form-image reads /truth not at all: the group is made unreadable and the command still works."""
     import h5py
