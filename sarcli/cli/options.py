@@ -312,7 +312,7 @@ def echo_info(ctx, text):
 def cphd_options(func):
     """``--channel``, ``--sgn`` and ``--troposphere``: how a CPHD input is read
     (:func:`sarcli.io.cphd.read_cphd`); they reach the reader as the ``cphd`` argument."""
-    from ..io.cphd.read import TROPOSPHERE_MODES
+    from ..io.cphd.corrections import TROPOSPHERE_MODES
 
     func = click.option("--troposphere", type=click.Choice(TROPOSPHERE_MODES), default=None,
                         help="CPHD: auto (default: trust TDTropoSRP, unless a known vendor leaves the delay in "

@@ -28,7 +28,11 @@ import numpy as np
 from ...core import geometry
 
 __all__ = ["VENDOR_QUIRKS", "vendor_of", "troposphere_delay", "tropo_n0", "sign_from_swath", "swath_can_tell",
-           "DEFAULT_N0", "TROPO_SCALE_HEIGHT_M", "SIGN_DECISIVE_RATIO"]
+           "DEFAULT_N0", "TROPO_SCALE_HEIGHT_M", "SIGN_DECISIVE_RATIO", "TROPOSPHERE_MODES"]
+
+#: ``troposphere`` choices of the reader: auto (the file, or a vendor quirk), file (the file only),
+#: model.
+TROPOSPHERE_MODES = ("auto", "file", "model")
 
 #: Global mean surface refractivity and its scale height (ITU-R P.453, exponential model
 #: ``N(h) = N0 exp(-h / H0)``), used when the file gives no ``TropoParameters/N0``.

@@ -30,6 +30,7 @@ from ...core.types import PhaseHistory
 from ...errors import InputFileError
 from ..georef import GeometryWarning, ReferencePoint, ecf_to_enu, enu_basis
 from . import corrections, validate
+from .corrections import TROPOSPHERE_MODES
 from .signal import CphdSignal, Decoding, ToaToFx
 
 __all__ = ["read_cphd", "cphd_channels", "grid_from_xml", "AXES_TOLERANCE_RAD", "TROPOSPHERE_MODES"]
@@ -37,8 +38,6 @@ __all__ = ["read_cphd", "cphd_channels", "grid_from_xml", "AXES_TOLERANCE_RAD", 
 #: Angle (rad) between the file's image-area axes (uIAX, uIAY) and local East/North above which
 #: its ImageGrid cannot be used as our east/north-aligned grid (a GeometryWarning says so).
 AXES_TOLERANCE_RAD = 1e-6
-#: ``troposphere`` choices: auto (the file, or a vendor quirk), file (the file only), model.
-TROPOSPHERE_MODES = ("auto", "file", "model")
 #: Vectors read to check the phase sign against the saved swath.
 _SIGN_CHECK_VECTORS = 16
 
