@@ -180,16 +180,28 @@ def range_profiles(data, weights, total_weight, n_len, nthreads, dtype=np.comple
 class TilingInputs:
     """What :func:`._kernels.tiling` and :func:`orient` need of a collection, computed once for several
     upsamplings: the smallest antenna-to-grid range, the largest carrier wavenumber and frequency
-    step, the range steps along rows and columns (:func:`row_steps`) and the pulses."""
+    step, the range steps along rows and columns (:func:`row_steps`), the largest direction cosines
+    along them (:func:`row_cosines`) and the pulses. :class:`Setup` orients through one too, so the
+    planner prices the tiling the former runs."""
 
     def __init__(self, freq_hz, antenna_position_m, receive_position_m, grid):
         f = np.asarray(freq_hz, dtype=np.float64)
         f = f[None, :] if f.ndim == 1 else f
-        self.m = f.shape[-1]
-        alpha_ref, dalpha = frequency_line(f, self.m // 2)
+        alpha_ref, dalpha = frequency_line(f, f.shape[-1] // 2)
         a = np.asarray(antenna_position_m, dtype=np.float64)
         b = a if receive_position_m is None else np.asarray(receive_position_m, dtype=np.float64)
-        self.grid = grid
+        self._fill(f.shape[-1], alpha_ref, dalpha, a, b, grid)
+
+    @classmethod
+    def of_geometry(cls, m, alpha_ref, dalpha, a, b, grid) -> "TilingInputs":
+        """From what :class:`Setup` has computed: ``m`` frequencies, the frequency line's reference and
+        step (per pulse or one), transmit and receive positions ``a``, ``b`` [P, 3] and the grid."""
+        inputs = cls.__new__(cls)
+        inputs._fill(m, alpha_ref, dalpha, a, b, grid)
+        return inputs
+
+    def _fill(self, m, alpha_ref, dalpha, a, b, grid):
+        self.m, self.grid = int(m), grid
         self.r_min = min(min_range(a, grid), min_range(b, grid))
         self.cosines = row_cosines(a, b, grid)
         self.bistatic = not np.array_equal(a, b)
@@ -290,11 +302,9 @@ class Setup:
         g[BpGeo.OFFSET] = (0.5 * (na + nb) if self.bistatic else na) - r0
         g[BpGeo.INV_BIN] = 1.0 / bin_m
         g[BpGeo.KC] = 4.0 * np.pi * alpha_ref / C
-        #: the orientation of the kernels' rows and their tiling (:func:`orient`)
-        self.orientation = orient(grid, min(min_range(a, grid), min_range(b, grid)), float(np.max(np.abs(g[BpGeo.KC]))),
-                                  float(np.max(np.abs(g[BpGeo.INV_BIN]))), row_steps(a, b, grid), n_pulses,
-                                  bistatic=self.bistatic, sample_bytes=_sample_bytes(precision),
-                                  cosines=row_cosines(a, b, grid), tolerance=model_tolerance(interp, upsample))
+        #: the orientation of the kernels' rows and their tiling (:func:`orient`), as the planner prices it
+        self.orientation = TilingInputs.of_geometry(m, alpha_ref, dalpha, a, b, grid).orientation(upsample, precision,
+                                                                                                  interp)
         self.transposed = self.orientation.transposed
         kgrid = transposed_grid(grid) if self.transposed else grid
         if self.transposed:   # kernel x is the image's y: the antennas' x and y swap with the grid's
