@@ -52,6 +52,7 @@ def machine() -> dict:
     kernel build."""
     from ... import __version__
     from ..._native import build_id, simd_level
+    from ..._util.load import usable_cpus
 
     model = "unknown"
     try:
@@ -59,11 +60,7 @@ def machine() -> dict:
             model = next((ln.split(":", 1)[1].strip() for ln in f if ln.startswith("model name")), model)
     except OSError:
         pass
-    try:
-        cpus = len(os.sched_getaffinity(0))
-    except AttributeError:
-        cpus = os.cpu_count() or 1
-    return {"cpu": model, "cpus": cpus, "simd": simd_level(), "sarcli": __version__, "kernels": build_id()}
+    return {"cpu": model, "cpus": usable_cpus(), "simd": simd_level(), "sarcli": __version__, "kernels": build_id()}
 
 
 def user_cost_model_path() -> Path:
