@@ -111,13 +111,12 @@ def command(input_path, center, extent, pixel_size, tolerance, as_json, calibrat
     whole = [command_seconds(c, ph, grid, tolerance=tolerance) for c in cands]
     load = present_load()
     now = [command_seconds(c, ph, grid, tolerance=tolerance, load=load, nthreads=nthreads) for c in cands]
+    idle = command_seconds(pick, ph, grid, auto=True, tolerance=tolerance)
+    busy = command_seconds(pick, ph, grid, auto=True, tolerance=tolerance, load=load, nthreads=nthreads)
     if as_json:
         click.echo(json.dumps({"tolerance": tolerance, "grid": grid.as_dict(),
                                "load": {"other_runnable_threads": load.others, "cpus": load.cpus},
-                               "auto": {**pick.as_dict(),
-                                        "predicted_command_s": command_seconds(pick, ph, grid, auto=True, tolerance=tolerance),
-                                        "predicted_command_now_s": command_seconds(pick, ph, grid, auto=True, tolerance=tolerance,
-                                                                                   load=load, nthreads=nthreads)},
+                               "auto": {**pick.as_dict(), "predicted_command_s": idle, "predicted_command_now_s": busy},
                                "status_legend": {w: t.format(safety=SAFETY) for w, t in STATUS_LEGEND},
                                "candidates": [{**c.as_dict(), "predicted_command_s": None if w != w else w,
                                                "predicted_command_now_s": None if n != n else n,
@@ -130,8 +129,6 @@ def command(input_path, center, extent, pixel_size, tolerance, as_json, calibrat
         click.echo(line)
     click.echo("pred.s: the whole `sar form-image` command with that former (start-up, read, form, write) "
                "on this machine, idle")
-    idle = command_seconds(pick, ph, grid, auto=True, tolerance=tolerance)
-    busy = command_seconds(pick, ph, grid, auto=True, tolerance=tolerance, load=load, nthreads=nthreads)
     if busy > 1.05 * idle:
         click.echo(f"this machine is busy now ({load.others:.1f} other runnable threads on {load.cpus} "
                    f"processors): auto's command would take about {busy:.3g} s rather than {idle:.3g} s")
