@@ -121,10 +121,10 @@ def tile_costs(n: int, pulses: int, repeat: int) -> None:
     import sarcli.formers.backprojection._rows as _bp_rows
 
     data, freq, a, r0, grid, _ = problem(1e3, n, pulses)
-    widths = (4, 8, 16, 32, 48, 64)
+    widths = (4, 8, 16, 32, 48, 64, 96, 128)
     fits, original = {}, _bp_rows.tiling
     try:
-        for model in (bk.QUADRATIC, bk.EXACT):
+        for model in (bk.QUADRATIC, bk.SERIES):
             rows, rhs = [], []
             for w in widths:
                 _bp_rows.tiling = lambda *args, **kw: bk.Tiling(model, w, 0.0, 1.0)  # noqa: B023

@@ -54,7 +54,7 @@ def outputs() -> dict[str, np.ndarray]:
     rcv = a + np.array([0.0, 40.0, 5.0])
     r0b = 0.5 * (np.linalg.norm(a, axis=1) + np.linalg.norm(rcv, axis=1))
     db = _point_data(a, r0b, rcv)
-    near, rn = _circle(64, r0=60.0)   # near the radar: the exact range model's tiles
+    near, rn = _circle(64, r0=60.0)   # near the radar: the series range model's tiles
     dn = _point_data(near, rn)
     g = np.random.default_rng(5).normal(size=GRID.shape) + 0j
     for interp in ("linear", "cubic", "lanczos"):

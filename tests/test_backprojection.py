@@ -416,18 +416,18 @@ def _forced_tiling(monkeypatch, model, width):
     monkeypatch.setattr(_bp_rows, "tiling", lambda *args, **kw: bk.Tiling(model, width, 0.0, 1.0))
 
 
-@pytest.mark.parametrize("model", ["quadratic", "exact"])
+@pytest.mark.parametrize("model", ["quadratic", "series"])
 @pytest.mark.parametrize("r0", [30.0, 200.0, 1e3, 1e4, 1e6])
 def test_range_model_error_within_its_bound(monkeypatch, model, r0):
     """Each model, forced to 64-, 16- and 4-pixel tiles: the largest phase error against the exact
-    matched filter is within the bound the tiling is chosen by (quadratic_error / exact_error times
+    matched filter is within the bound the tiling is chosen by (quadratic_error / series_error times
     the larger of kc and 1/bin), plus the float32 carrier's and weights' floor; and the quadratic's
     bound is sharp (within 10x) wherever its error rises above that floor."""
     import sarcli.formers.backprojection._kernels as bk
     from sarcli.formers.backprojection._setup import Setup
 
     floor = 1.5e-6   # measured 3e-7 (AVX-512, AVX2) to 7e-7 (baseline)
-    bound = bk.quadratic_error if model == "quadratic" else bk.exact_error
+    bound = bk.quadratic_error if model == "quadratic" else bk.series_error
     for tone in (0, 1):   # tone 1: its interpolation error stays below the floor (tone 3: 6e-6)
         data, freq, a, r0s, grid = _tone_collection(r0, min(0.25, r0 / 300), tone=tone)
         ref = exact_mf(data, freq, a, r0s, grid)
@@ -516,19 +516,19 @@ def test_row_cosine_is_the_largest_cosine_along_the_rows():
 
 
 def test_tiling_keeps_wide_tiles_near_the_radar():
-    """The quadratic's tiles narrow to 2 pixels at 200 m; the exact model keeps 64 within the same
+    """The quadratic's tiles narrow to 2 pixels at 200 m; the series model keeps 96 within the same
     tolerance, and far away (1,000 km) the cheaper quadratic keeps the widest, 128, itself."""
-    from sarcli.formers.backprojection._kernels import EXACT, MODEL_TOLERANCE, QUADRATIC, tiling
+    from sarcli.formers.backprojection._kernels import MODEL_TOLERANCE, QUADRATIC, SERIES, tiling
 
     grid = Grid(512, 512, 0.25, 0.25)
     kc, ib = 4 * np.pi * 10e9 / geometry.C, 1.0 / 0.01
     assert tile_width(grid, 150.0, kc, ib) <= 4
     near = tiling(grid, 150.0, kc, ib)
-    assert (near.model, near.width) == (EXACT, 64) and near.error <= MODEL_TOLERANCE
+    assert (near.model, near.width) == (SERIES, 96) and near.error <= MODEL_TOLERANCE
     assert tiling(grid, 50.0, kc, ib).width >= 32
     far = tiling(grid, 1e6, kc, ib)
     assert (far.model, far.width) == (QUADRATIC, 128) and far.cost < near.cost
-    # a tile may not reach past half the range (the exact model's rounding bound needs it)
+    # a tile may not reach past half the range (where the series converges too slowly)
     assert tiling(Grid(64, 64, 1.0, 1.0), 20.0, kc, ib).width <= 21
 
 
@@ -569,15 +569,15 @@ def test_default_error_at_every_range_within_prediction(monkeypatch, r0):
 
 
 @pytest.mark.parametrize("level", ["0", "1"])
-def test_exact_model_every_instruction_set_and_adjoint(monkeypatch, level):
-    """At 40 m (the exact model, 64-pixel tiles; bistatic too): the AVX2 and baseline copies give
+def test_series_model_every_instruction_set_and_adjoint(monkeypatch, level):
+    """At 40 m (the series model; bistatic too): the AVX2 and baseline copies give
     AVX-512's image, and reproject stays backproject's exact adjoint."""
     from sarcli.formers.backprojection._setup import tiling_for
 
     rng = np.random.default_rng(11)
     data, freq, a, r0 = collection([[1.0, -2.0, 0.0]], [1.0], P=24, M=32, r0=40.0, aperture_deg=30.0)
     grid = Grid(96, 40, 0.1, 0.15)
-    assert tiling_for(freq, a, None, grid, 4).model == "exact"
+    assert tiling_for(freq, a, None, grid, 4).model == "series"
     rcv = a + np.array([0.0, 1.5, 0.2])
     d = rng.normal(size=data.shape) + 1j * rng.normal(size=data.shape)
     f = rng.normal(size=grid.shape) + 1j * rng.normal(size=grid.shape)

@@ -7,9 +7,9 @@
 // d2 = (1 - c²) / (2R) and d1 = c + (3/4) h² d3 (c the direction cosine along the row, d3 the
 // cubic Taylor coefficient -c (1 - c²) / (2R²), h the tile's half width: the Chebyshev
 // economisation of the cubic term, which leaves at most |d3| h³ / 4 of model error). Near the
-// radar that error (∝ h³/R²) narrows the tiles to a few pixels; there the exact model (Args::exact,
-// ExactAnchor) keeps the plain Taylor quadratic (d1 = c) and adds each pixel's exact departure ρ
-// from it in float32. Python picks the model and the tile width that keep the error far below the
+// radar that error (∝ h³/R²) narrows the tiles to a few pixels; there the series model (Args::series,
+// SeriesAnchor) keeps the plain Taylor quadratic (d1 = c) and adds each pixel's departure ρ from it,
+// the range's Taylor series from u³ to u⁹, in float32. Python picks the model and the tile width that keep the error far below the
 // interpolation's at the least cost (sarcli.formers._bp_kernels.tiling). A tile's pixels run as groups
 // of 16 SIMD lanes, its accumulators stay in registers over a block of pulses whose profiles stay
 // in cache, and each lane reads its stencil as one contiguous vector (profiles interleave real
@@ -98,30 +98,42 @@ struct Args {
   long n_len, pad, width;  // width: tile width <= kLanes * kGroups
   double half_len;
   bool bist;
-  bool exact;  // the exact range model (ExactAnchor) rather than the economised quadratic
+  bool series;  // the series range model (SeriesAnchor) rather than the economised quadratic
 };
 
-// The exact model's float32 terms of one end at the anchor (ExactAnchor).
-struct ExactEnd {
-  float rc, c, c2, s2, i2r;
+// The series model's terms: u³ .. u⁹.
+constexpr int kSeriesTerms = 7;
+
+// The series range model's per-pulse terms at a tile's anchor: with u the pixel's offset along the
+// row, each end's range R(u) = R_c √(1 + 2 c s + s²), s = u / R_c, departs from its quadratic
+// R_c + c u + (1 - c²) u² / (2 R_c) by ρ(u) = Σ_{k>=3} b_k(c) u^k / R_c^(k-1), the Taylor series of
+// the square root (b_k from the recurrence in series_end). SeriesLanes evaluates its terms u³ .. u⁹
+// in float32 (a[k - 3]: a bistatic pair's mean) and adds them to the float64 quadratic.
+struct SeriesAnchor {
+  float a[kSeriesTerms];
+  float ib, kc;  // bins and turns (Anchor) per metre of range
 };
-// i2r: -1/(4 R_c), each end's weight in the bistatic mean (exact_lanes).
-SARCLI_INLINE ExactEnd exact_end(double r, double c, double s2) {
-  return ExactEnd{static_cast<float>(r), static_cast<float>(c), static_cast<float>(2.0 * c),
-                  static_cast<float>(s2), static_cast<float>(-0.25 / r)};
+
+// Adds w times one end's series coefficients a_k = b_k / r^(k-1), k = 3 .. 9, to a: with
+// √(1 + 2 c s + s²) = Σ b_k s^k, differentiating gives (1 + 2 c s + s²) F' = (c + s) F, so
+// (k + 1) b_{k+1} = c (1 - 2k) b_k + (2 - k) b_{k-1}, from b_1 = c and b_2 = (1 - c²)/2. For
+// |c| <= 1, |b_k| <= 4 |binom(1/2, k)| (the coefficients of (2 - √(1 - s))²): the truncation bound
+// of _kernels.series_error. Coefficients below 1e-30 are flushed to zero (far ranges: no
+// subnormal float32 operands in the lanes).
+SARCLI_INLINE void series_end(double r, double c, double s2, double w, double* a) {
+  const double ir = 1.0 / r;
+  double bm = c, b = 0.5 * s2, sc = ir;
+  for (int k = 2; k < 2 + kSeriesTerms; ++k) {
+    const double bn = (c * (1 - 2 * k) * b + (2 - k) * bm) / (k + 1);
+    bm = b;
+    b = bn;
+    sc *= ir;
+    a[k - 2] += w * b * sc;
+  }
 }
 
-// The exact range model's per-pulse terms at a tile's anchor: with u the pixel's offset along the
-// row, each end's range R(u) = √(R_c² + 2 c R_c u + u²) departs from its quadratic
-// R_c + c u + (1 - c²) u² / (2 R_c) by ρ(u) = -δ (2 c u + δ) / (2 R_c), δ = (1 - c²) u² / (R_c + c u + R)
-// (no cancellation), evaluated in float32 and added to the float64 quadratic.
-struct ExactAnchor {
-  ExactEnd e[2];
-  float ib, kc;  // bins and turns (Anchor) per metre of exact_lanes' output (-1/(2 R_c) folded in if NE = 1)
-};
-
 // Tile anchor terms for one pulse (float64 geometry; see the file comment). ph0, ph1, ph2: the
-// carrier's phase kc Δr in turns (ExactAnchor::kc alike; ph0 reduced to [-1/2, 1/2] turn in
+// carrier's phase kc Δr in turns (SeriesAnchor::kc alike; ph0 reduced to [-1/2, 1/2] turn in
 // radians first), the argument of carrier::cos_sin_turns_f32, whose reduction a lane is exact.
 struct Anchor {
   int j0;
@@ -137,36 +149,28 @@ struct Anchors {
   double *ph0, *ph1, *ph2;
   // the contraction's per-pulse lane sums over a row, [n][2][kLanes] of the working precision
   std::vector<double> sums;
-  // the exact model's terms (filled only when Args::exact), one array a field so that the pulse
-  // loop vectorises: ExactEnd's five fields of end e at xf[8 e + field], ExactAnchor::ib at
-  // xf[7], ::kc at xf[15]
+  // the series model's terms (filled only when Args::series), one array a field so that the pulse
+  // loop vectorises: SeriesAnchor::a[k] at xf[k], ::ib at xf[kSeriesTerms], ::kc after it
   std::vector<float> xstore;
-  float* xf[16];
-  explicit Anchors(size_t n) : store(10 * n), sums(2 * kLanes * n), xstore(16 * n) {
-    for (int k = 0; k < 16; ++k) xf[k] = xstore.data() + k * n;
+  float* xf[kSeriesTerms + 2];
+  explicit Anchors(size_t n) : store(10 * n), sums(2 * kLanes * n), xstore((kSeriesTerms + 2) * n) {
+    for (int k = 0; k < kSeriesTerms + 2; ++k) xf[k] = xstore.data() + k * n;
     double* d = store.data();
     ph0 = d; ph1 = d + n; ph2 = d + 2 * n;
     j0 = reinterpret_cast<int*>(d + 3 * n);
     float* f = reinterpret_cast<float*>(d + 4 * n);
     f0 = f; s1 = f + n; s2 = f + 2 * n; lo = f + 3 * n; hi = f + 4 * n; top = f + 5 * n;
   }
-  SARCLI_INLINE void put_exact(long i, const ExactAnchor& x, int ends) {
-    for (int e = 0; e < ends; ++e) {
-      const ExactEnd& q = x.e[e];
-      xf[8 * e + 0][i] = q.rc; xf[8 * e + 1][i] = q.c; xf[8 * e + 2][i] = q.c2;
-      xf[8 * e + 3][i] = q.s2; xf[8 * e + 4][i] = q.i2r;
-    }
-    xf[7][i] = x.ib;
-    xf[15][i] = x.kc;
+  SARCLI_INLINE void put_series(long i, const SeriesAnchor& x) {
+    for (int k = 0; k < kSeriesTerms; ++k) xf[k][i] = x.a[k];
+    xf[kSeriesTerms][i] = x.ib;
+    xf[kSeriesTerms + 1][i] = x.kc;
   }
-  SARCLI_INLINE ExactAnchor exact(long i, int ends) const {
-    ExactAnchor x;
-    for (int e = 0; e < 2; ++e) {
-      const int f = e < ends ? 8 * e : 0;
-      x.e[e] = ExactEnd{xf[f][i], xf[f + 1][i], xf[f + 2][i], xf[f + 3][i], xf[f + 4][i]};
-    }
-    x.ib = xf[7][i];
-    x.kc = xf[15][i];
+  SARCLI_INLINE SeriesAnchor series(long i) const {
+    SeriesAnchor x;
+    for (int k = 0; k < kSeriesTerms; ++k) x.a[k] = xf[k][i];
+    x.ib = xf[kSeriesTerms][i];
+    x.kc = xf[kSeriesTerms + 1][i];
     return x;
   }
   SARCLI_INLINE Anchor get(long i) const {
@@ -189,29 +193,33 @@ SARCLI_INLINE void one_way(double xc, double y, double two_ax, double two_ay, do
 }
 
 
-template <bool BIST>
-SARCLI_INLINE Anchor anchor(const Args& A, long p, double xc, double y, double he, ExactAnchor& ex) {
+// SER: fill ex with the series model's terms too.
+template <bool BIST, bool SER>
+SARCLI_INLINE Anchor anchor(const Args& A, long p, double xc, double y, double he, SeriesAnchor& ex) {
   const double* g = A.geo;
   const long B = A.B;
   double dr, d1, d2, r, c, s2;
   one_way(xc, y, g[G2AX * B + p], g[G2AY * B + p], g[GA2 * B + p], g[GNA * B + p], he, dr, d1, d2,
           r, c, s2);
-  ex.e[0] = exact_end(r, c, s2);
-  ex.e[1] = ex.e[0];
-  const double fold = BIST ? 1.0 : -0.5 / r;
-  ex.ib = static_cast<float>(g[GIB * B + p] * fold);
-  ex.kc = static_cast<float>(kInvTwoPi * g[GKC * B + p] * fold);
+  double a[kSeriesTerms] = {};
+  if (SER) series_end(r, c, s2, BIST ? 0.5 : 1.0, a);
   if (BIST) {
     double drb, d1b, d2b, rb, cb, s2b;
     one_way(xc, y, g[G2BX * B + p], g[G2BY * B + p], g[GB2 * B + p], g[GNB * B + p], he, drb, d1b,
             d2b, rb, cb, s2b);
-    ex.e[1] = exact_end(rb, cb, s2b);
+    if (SER) series_end(rb, cb, s2b, 0.5, a);
     dr = 0.5 * (dr + drb);
     d1 = 0.5 * (d1 + d1b);
     d2 = 0.5 * (d2 + d2b);
   }
   dr += g[GOFF * B + p];
   const double ib = g[GIB * B + p], kc = g[GKC * B + p];
+  if (SER) {
+    for (int k = 0; k < kSeriesTerms; ++k)
+      ex.a[k] = std::fabs(a[k]) < 1e-30 ? 0.0f : static_cast<float>(a[k]);
+    ex.ib = static_cast<float>(ib);
+    ex.kc = static_cast<float>(kInvTwoPi * kc);
+  }
   const double n_len = static_cast<double>(A.n_len);
   double sc = dr * ib + A.half_len;
   sc = std::min(std::max(sc, -4.0e6), 4.0e6);  // anchors far outside the window stay exact in float
@@ -242,20 +250,20 @@ SARCLI_INLINE void anchors(const Args& A, long p0, long p1, double xc, double y,
 #define SARCLI_ANCHOR_LOOP(BIST, EX)                                                          \
   _Pragma("omp simd")                                                                           \
   for (long p = p0; p < p1; ++p) {                                                              \
-    ExactAnchor e;                                                                              \
-    const Anchor a = anchor<BIST>(A, p, xc, y, he, e);                                          \
+    SeriesAnchor e;                                                                             \
+    const Anchor a = anchor<BIST, EX>(A, p, xc, y, he, e);                                      \
     const long i = p - p0;                                                                      \
     j0[i] = a.j0; f0[i] = a.f0; s1[i] = a.s1; s2[i] = a.s2; lo[i] = a.lo; hi[i] = a.hi;         \
     top[i] = a.top; ph0[i] = a.ph0; ph1[i] = a.ph1; ph2[i] = a.ph2;                             \
-    if (EX) an.put_exact(i, e, BIST ? 2 : 1);                                                   \
+    if (EX) an.put_series(i, e);                                                                \
   }
   if (A.bist) {
-    if (A.exact) {
+    if (A.series) {
       SARCLI_ANCHOR_LOOP(true, true)
     } else {
       SARCLI_ANCHOR_LOOP(true, false)
     }
-  } else if (A.exact) {
+  } else if (A.series) {
     SARCLI_ANCHOR_LOOP(false, true)
   } else {
     SARCLI_ANCHOR_LOOP(false, false)
@@ -275,46 +283,32 @@ struct Lanes {
   float c[kLanes], s[kLanes];
 };
 
-// The exact model's departure from the quadratic at each lane, up to the factor that
-// ExactAnchor::ib and ::kc carry: with NE = 1 (monostatic) m = δ (2 c u + δ), so ρ = -m / (2 R_c);
-// with NE = 2 (bistatic) the mean of the two ends' ρ (their i2r carry -1/(4 R_c)).
-// (The generic version: square root and division; the AVX-512 and AVX2 versions below refine the
-// hardware's reciprocal square root and reciprocal by a Newton step instead, which keeps the
-// divider, 20-odd cycles a vector, out of the loop.)
-template <int NE, int ISA>
-struct ExactLanes {
-  static SARCLI_INLINE void eval(const ExactAnchor& x, const float* uf, float* rho) {
+// The series model's departure from the quadratic at each lane (metres): ρ = u³ Σ a_k u^(k-3), by
+// Horner in float32 (seven terms: six fused multiply-adds and three products a lane).
+SARCLI_INLINE void series_lanes(const SeriesAnchor& x, const float* uf, float* rho) {
 #pragma omp simd
-    for (int i = 0; i < kLanes; ++i) {
-      const float u = uf[i], uu = u * u;
-      float r = 0.0f;
-      for (int e = 0; e < NE; ++e) {
-        const ExactEnd& q = x.e[e];
-        const float Q = q.rc + q.c * u, su = q.s2 * uu;  // R(u)² = Q² + (1 - c²) u²
-        const float R = std::sqrt(Q * Q + su);
-        const float d = su / (Q + R);
-        const float m = d * (q.c2 * u + d);
-        r = NE == 1 ? m : r + m * q.i2r;
-      }
-      rho[i] = r;
-    }
+  for (int i = 0; i < kLanes; ++i) {
+    const float u = uf[i];
+    float p = x.a[kSeriesTerms - 1];
+    for (int k = kSeriesTerms - 2; k >= 0; --k) p = p * u + x.a[k];
+    rho[i] = p * (u * u * u);
   }
-};
+}
 
-// Each lane's profile position and carrier phase: the anchor's quadratic, plus with NE > 0 the
-// exact model's ρ (in bins and in radians).
-template <int K, int NE, int ISA>
-SARCLI_INLINE void eval_lanes(const Anchor& an, const ExactAnchor* ex, const float* uf,
+// Each lane's profile position and carrier phase: the anchor's quadratic, plus with SER the
+// series model's ρ (in bins and in radians).
+template <int K, int SER, int ISA>
+SARCLI_INLINE void eval_lanes(const Anchor& an, const SeriesAnchor* ex, const float* uf,
                               const double* ud, long pad, Lanes<K>& L) {
   const int base = an.j0 + static_cast<int>(pad) - Kernel<K>::first;
   float t[kLanes], m[kLanes], rho[kLanes];
-  if (NE > 0) ExactLanes<NE, ISA>::eval(*ex, uf, rho);
-  const float ib = NE > 0 ? ex->ib : 0.0f, kc = NE > 0 ? ex->kc : 0.0f;
+  if (SER) series_lanes(*ex, uf, rho);
+  const float ib = SER ? ex->ib : 0.0f, kc = SER ? ex->kc : 0.0f;
 #pragma omp simd
   for (int i = 0; i < kLanes; ++i) {
     const float u = uf[i];
     float sp = an.f0 + u * (an.s1 + u * an.s2);
-    if (NE > 0) sp += ib * rho[i];
+    if (SER) sp += ib * rho[i];
     m[i] = (sp >= an.lo && sp < an.hi) ? 1.0f : 0.0f;
     sp = std::min(std::max(sp, an.lo), an.top);
     const float fl = std::floor(sp);
@@ -326,7 +320,7 @@ SARCLI_INLINE void eval_lanes(const Anchor& an, const ExactAnchor* ex, const flo
     const double v = ud[i];
     const double q = an.ph0 + v * (an.ph1 + v * an.ph2);
     float c, s;
-    if (NE > 0) {
+    if (SER) {
       // the quadratic's turns reduced in float64, then ρ's turns added and the sum reduced in
       // float32 (one more float32 rounding of the sum; float64 would take twice the vectors for
       // the sum and its reduction)
@@ -548,53 +542,6 @@ struct Taps<float, 2, 1> {
   }
 };
 
-// ExactLanes with the hardware's reciprocal (square root) estimates and one Newton step each:
-// R = A y refined by R + (y/2)(A - R²), 1/D by v (2 - D v). AVX-512's 14-bit estimates leave
-// about 1 ulp; AVX2's 12-bit ones about 2 (within _bp_kernels.EXACT_ROUNDINGS either way).
-#define SARCLI_EXACT_BODY(V, P)                                                                      \
-  const V u = P##_loadu_ps(uf), uu = P##_mul_ps(u, u);                                              \
-  V r = P##_setzero_ps();                                                                            \
-  for (int e = 0; e < NE; ++e) {                                                                     \
-    const ExactEnd& q = x.e[e];                                                                      \
-    const V Q = P##_fmadd_ps(P##_set1_ps(q.c), u, P##_set1_ps(q.rc));                                \
-    const V su = P##_mul_ps(P##_set1_ps(q.s2), uu);                                                  \
-    const V A = P##_fmadd_ps(Q, Q, su);                                                              \
-    const V y = RSQRT(A);                                                                            \
-    V R = P##_mul_ps(A, y);                                                                          \
-    R = P##_fmadd_ps(P##_mul_ps(P##_set1_ps(0.5f), y), P##_fnmadd_ps(R, R, A), R);                   \
-    const V D = P##_add_ps(Q, R);                                                                    \
-    V iv = RCP(D);                                                                                   \
-    iv = P##_mul_ps(iv, P##_fnmadd_ps(D, iv, P##_set1_ps(2.0f)));                                    \
-    const V d = P##_mul_ps(su, iv);                                                                  \
-    const V m = P##_mul_ps(d, P##_fmadd_ps(P##_set1_ps(q.c2), u, d));                                \
-    r = NE == 1 ? m : P##_fmadd_ps(m, P##_set1_ps(q.i2r), r);                                        \
-  }
-template <int NE>
-struct ExactLanes<NE, 2> {
-  static SARCLI_V4_LOAD void eval(const ExactAnchor& x, const float* uf, float* rho) {
-#define RSQRT _mm512_rsqrt14_ps
-#define RCP _mm512_rcp14_ps
-    SARCLI_EXACT_BODY(__m512, _mm512)
-    _mm512_storeu_ps(rho, r);
-#undef RSQRT
-#undef RCP
-  }
-};
-template <int NE>
-struct ExactLanes<NE, 1> {
-  static SARCLI_V3_LOAD void eval(const ExactAnchor& x, const float* uf0, float* rho) {
-#define RSQRT _mm256_rsqrt_ps
-#define RCP _mm256_rcp_ps
-    for (int h = 0; h < 2; ++h) {
-      const float* uf = uf0 + 8 * h;
-      SARCLI_EXACT_BODY(__m256, _mm256)
-      _mm256_storeu_ps(rho + 8 * h, r);
-    }
-#undef RSQRT
-#undef RCP
-  }
-};
-#undef SARCLI_EXACT_BODY
 #endif
 
 // Each lane's stencil of the profile pp, weighted (L from eval_lanes): vr + i vi = Σ w v.
@@ -630,16 +577,16 @@ SARCLI_INLINE void carry_lanes(const Lanes<K>& L, const PT* pp, PT* __restrict u
 }
 
 // eval_lanes then carry_lanes: pulse p's carried samples at one group of lanes.
-template <typename PT, int K, int ISA, int NE>
-SARCLI_INLINE void carried_lanes(const Anchor& a, const ExactAnchor* ex, const float* uf, const double* ud,
+template <typename PT, int K, int ISA, int SER>
+SARCLI_INLINE void carried_lanes(const Anchor& a, const SeriesAnchor* ex, const float* uf, const double* ud,
                                  long pad, const PT* pp, Lanes<K>& L, PT* __restrict ur, PT* __restrict ui) {
-  eval_lanes<K, NE, ISA>(a, ex, uf, ud, pad, L);
+  eval_lanes<K, SER, ISA>(a, ex, uf, ud, pad, L);
   carry_lanes<PT, K, ISA>(L, pp, ur, ui);
 }
 
 // The forward row's work item (pulse p0 + i, group g) in two steps: its lanes' ranges, weights
 // and carrier (eval), then its stencils carried into the tile's accumulators (add).
-template <typename PT, int K, int ISA, int NE>
+template <typename PT, int K, int ISA, int SER>
 struct RowItems {
   const Args& A;
   const PT* prof;
@@ -651,9 +598,9 @@ struct RowItems {
   PT (*ai)[kLanes];
   SARCLI_INLINE void eval(long i, long g, Lanes<K>& L) const {
     const Anchor a = an.get(i);
-    ExactAnchor ex;
-    if (NE > 0) ex = an.exact(i, NE);
-    eval_lanes<K, NE, ISA>(a, &ex, uf[g], ud[g], A.pad, L);
+    SeriesAnchor ex;
+    if (SER) ex = an.series(i);
+    eval_lanes<K, SER, ISA>(a, &ex, uf[g], ud[g], A.pad, L);
   }
   // the sums += (vr + i vi)(c + i s), as two fused multiply-adds a part
   SARCLI_INLINE void add(long i, long g, const Lanes<K>& L) const {
@@ -670,12 +617,12 @@ struct RowItems {
   }
 };
 
-// Forward: pulses [p0, p1) into image row `row` (accumulators in registers per tile); NE: the
-// range model (0 the economised quadratic, 1 or 2 the exact model of one or two ends). The
-// (pulse, group) items run software-pipelined on AVX-512 (and AVX2's exact model): the next item's lanes are
+// Forward: pulses [p0, p1) into image row `row` (accumulators in registers per tile); SER: the
+// range model (0 the economised quadratic, 1 the series model). The
+// (pulse, group) items run software-pipelined on AVX-512 (and AVX2's series model): the next item's lanes are
 // evaluated before this item's stencils are loaded, so that the loads find their indices stored
 // long before (the chain from a lane's range to its stencil's address is the loop's longest).
-template <typename PT, int K, int ISA, int NE>
+template <typename PT, int K, int ISA, int SER>
 SARCLI_INLINE void bp_row_model(const Args& A, const PT* prof, long row, long p0, long p1,
                                 Anchors& an, double* ore, double* oim) {
   const double y = A.y[row];
@@ -686,17 +633,17 @@ SARCLI_INLINE void bp_row_model(const Args& A, const PT* prof, long row, long p0
     double xc, he;
     const long wv = tile_lanes(A, c0, uf, ud, xc, he);
     const long ng = (wv + kLanes - 1) / kLanes;
-    anchors(A, p0, p1, xc, y, NE > 0 ? 0.0 : he, an);
+    anchors(A, p0, p1, xc, y, SER ? 0.0 : he, an);
     PT ar[kGroups][kLanes] = {}, ai[kGroups][kLanes] = {};
-    const RowItems<PT, K, ISA, NE> it{A, prof, an, p0, uf, ud, ar, ai};
+    const RowItems<PT, K, ISA, SER> it{A, prof, an, p0, uf, ud, ar, ai};
     // items j = 0 .. n - 1 in the order (pulse i = j / ng, group g = j % ng), two a turn so that
     // the two Lanes alternate without an index
     const long n = (p1 - p0) * ng;
     long i = 0, g = 0;
     // the plain order where the loop's arithmetic, not its latency, sets the pace: the baseline,
-    // and AVX2 with the quadratic model (the exact model's longer chain to the stencil's address
+    // and AVX2 with the quadratic model (the series model's longer chain to the stencil's address
     // gains from the pipelined order there)
-    if (ISA < 1 || (ISA == 1 && NE == 0)) {
+    if (ISA < 1 || (ISA == 1 && !SER)) {
       for (long j = 0; j < n; ++j) {
         it.eval(i, g, L0);
         it.add(i, g, L0);
@@ -730,11 +677,11 @@ SARCLI_INLINE void bp_row_model(const Args& A, const PT* prof, long row, long p0
   }
 }
 
-// The range model's instance of a row (the exact flag is the same for every tile of a call).
+// The range model's instance of a row (the series flag is the same for every tile of a call; a
+// bistatic pair's series is the mean of its ends', so one instance serves both).
 #define SARCLI_BY_MODEL(FN, ...)                       \
   do {                                                 \
-    if (!A.exact) FN<PT, K, ISA, 0>(__VA_ARGS__);      \
-    else if (A.bist) FN<PT, K, ISA, 2>(__VA_ARGS__);   \
+    if (!A.series) FN<PT, K, ISA, 0>(__VA_ARGS__);     \
     else FN<PT, K, ISA, 1>(__VA_ARGS__);               \
   } while (0)
 
@@ -747,7 +694,7 @@ SARCLI_INLINE void bp_row(const Args& A, const PT* prof, long row, long p0, long
 // Contraction: acc[2p], acc[2p + 1] += Σ over image row `row` of g · (pulse p's backprojection),
 // for the pulses [p0, p1): the per-pulse derivative of an image functional with gradient g, as a
 // gather from each profile where the adjoint (rp_pulse) scatters onto it.
-template <typename PT, int K, int ISA, int NE>
+template <typename PT, int K, int ISA, int SER>
 SARCLI_INLINE void bp_contract_row_model(const Args& A, const PT* prof, const PT* gre, const PT* gim,
                                          long row, long p0, long p1, Anchors& an, double* acc) {
   const double y = A.y[row];
@@ -767,18 +714,18 @@ SARCLI_INLINE void bp_contract_row_model(const Args& A, const PT* prof, const PT
       wr[c / kLanes][c % kLanes] = c < wv ? gre[row * A.nx + c0 + c] : PT(0);
       wi[c / kLanes][c % kLanes] = c < wv ? gim[row * A.nx + c0 + c] : PT(0);
     }
-    anchors(A, p0, p1, xc, y, NE > 0 ? 0.0 : he, an);
+    anchors(A, p0, p1, xc, y, SER ? 0.0 : he, an);
     for (long p = p0; p < p1; ++p) {
       const Anchor a = an.get(p - p0);
-      ExactAnchor exv;
-      if (NE > 0) exv = an.exact(p - p0, NE);
-      const ExactAnchor* ex = &exv;
+      SeriesAnchor exv;
+      if (SER) exv = an.series(p - p0);
+      const SeriesAnchor* ex = &exv;
       const PT* pp = prof + 2 * p * A.lp;
       PT* __restrict sr = sums + 2 * kLanes * (p - p0);
       PT* __restrict si = sr + kLanes;
       for (long g = 0; g < ng; ++g) {
         PT ur[kLanes], ui[kLanes];
-        carried_lanes<PT, K, ISA, NE>(a, ex, uf[g], ud[g], A.pad, pp, L, ur, ui);
+        carried_lanes<PT, K, ISA, SER>(a, ex, uf[g], ud[g], A.pad, pp, L, ur, ui);
         const PT* __restrict gr = wr[g];
         const PT* __restrict gi = wi[g];
 #pragma omp simd
@@ -808,7 +755,7 @@ SARCLI_INLINE void bp_contract_row(const Args& A, const PT* prof, const PT* gre,
 }
 
 // Adjoint: every pixel of the image scattered onto pulse p's profile.
-template <typename PT, int K, int ISA, int NE>
+template <typename PT, int K, int ISA, int SER>
 SARCLI_INLINE void rp_pulse_model(const Args& A, const PT* fre, const PT* fim, long p, PT* h) {
   float uf[kGroups][kLanes];
   double ud[kGroups][kLanes];
@@ -819,12 +766,12 @@ SARCLI_INLINE void rp_pulse_model(const Args& A, const PT* fre, const PT* fim, l
     for (long c0 = 0; c0 < A.nx; c0 += A.width) {
       double xc, he;
       const long wt = tile_lanes(A, c0, uf, ud, xc, he);
-      if (NE > 0) he = 0.0;
-      ExactAnchor ex;
-      const Anchor an = A.bist ? anchor<true>(A, p, xc, y, he, ex) : anchor<false>(A, p, xc, y, he, ex);
+      if (SER) he = 0.0;
+      SeriesAnchor ex;
+      const Anchor an = A.bist ? anchor<true, SER>(A, p, xc, y, he, ex) : anchor<false, SER>(A, p, xc, y, he, ex);
       for (long g = 0; g * kLanes < wt; ++g) {
         const long wv = std::min<long>(kLanes, wt - g * kLanes);
-        eval_lanes<K, NE, ISA>(an, &ex, uf[g], ud[g], A.pad, L);
+        eval_lanes<K, SER, ISA>(an, &ex, uf[g], ud[g], A.pad, L);
         const PT* fr = fre + row * A.nx + c0 + g * kLanes;
         const PT* fi = fim + row * A.nx + c0 + g * kLanes;
         for (long i = 0; i < wv; ++i) {  // f · exp(-i kc Δr) (masked)
@@ -932,7 +879,7 @@ SARCLI_PICKER(PulseFn, pulse_fn, rp_pulse)
 SARCLI_PICKER(ContractFn, contract_fn, bp_contract_row)
 
 Args make_args(in<double, 1> x, in<double, 1> y, in<double, 2> geo, long lp, long n_len, long pad,
-               long width, bool bist, bool exact) {
+               long width, bool bist, bool series) {
   Args A;
   A.x = x.data();
   A.y = y.data();
@@ -946,7 +893,7 @@ Args make_args(in<double, 1> x, in<double, 1> y, in<double, 2> geo, long lp, lon
   A.width = width;
   A.half_len = static_cast<double>(n_len / 2);
   A.bist = bist;
-  A.exact = exact;
+  A.series = series;
   if (geo.shape(0) != kGeoRows) throw nb::value_error("backprojection: geo must have 11 rows");
   if (width < 1 || width > kLanes * kGroups)
     throw nb::value_error("backprojection: tile width must be 1..64");
@@ -959,9 +906,9 @@ Args make_args(in<double, 1> x, in<double, 1> y, in<double, 2> geo, long lp, lon
 
 template <typename PT>
 void bp_tiles(in<PT, 3> prof, in<double, 1> x, in<double, 1> y, in<double, 2> geo, long n_len,
-              long pad, int kind, bool bist, long width, bool exact, long block, out<double, 2> ore,
+              long pad, int kind, bool bist, long width, bool series, long block, out<double, 2> ore,
               out<double, 2> oim) {
-  Args A = make_args(x, y, geo, static_cast<long>(prof.shape(1)), n_len, pad, width, bist, exact);
+  Args A = make_args(x, y, geo, static_cast<long>(prof.shape(1)), n_len, pad, width, bist, series);
   if (prof.shape(0) != static_cast<size_t>(A.B) || prof.shape(2) != 2 ||
       ore.shape(0) != static_cast<size_t>(A.ny) || ore.shape(1) != static_cast<size_t>(A.nx) ||
       oim.shape(0) != ore.shape(0) || oim.shape(1) != ore.shape(1) || !interp::profile_kind(kind))
@@ -985,8 +932,8 @@ void bp_tiles(in<PT, 3> prof, in<double, 1> x, in<double, 1> y, in<double, 2> ge
 
 template <typename PT>
 void rp_tiles(in<PT, 2> fre, in<PT, 2> fim, in<double, 1> x, in<double, 1> y, in<double, 2> geo,
-              long n_len, long pad, int kind, bool bist, long width, bool exact, out<PT, 3> h) {
-  Args A = make_args(x, y, geo, static_cast<long>(h.shape(1)), n_len, pad, width, bist, exact);
+              long n_len, long pad, int kind, bool bist, long width, bool series, out<PT, 3> h) {
+  Args A = make_args(x, y, geo, static_cast<long>(h.shape(1)), n_len, pad, width, bist, series);
   if (h.shape(0) != static_cast<size_t>(A.B) || h.shape(2) != 2 ||
       fre.shape(0) != static_cast<size_t>(A.ny) || fre.shape(1) != static_cast<size_t>(A.nx) ||
       fim.shape(0) != fre.shape(0) || fim.shape(1) != fre.shape(1) || !interp::profile_kind(kind))
@@ -1001,9 +948,9 @@ void rp_tiles(in<PT, 2> fre, in<PT, 2> fim, in<double, 1> x, in<double, 1> y, in
 
 template <typename PT>
 void bp_contract(in<PT, 3> prof, in<PT, 2> gre, in<PT, 2> gim, in<double, 1> x, in<double, 1> y,
-                 in<double, 2> geo, long n_len, long pad, int kind, bool bist, long width, bool exact,
+                 in<double, 2> geo, long n_len, long pad, int kind, bool bist, long width, bool series,
                  long block, out<double, 2> acc) {
-  Args A = make_args(x, y, geo, static_cast<long>(prof.shape(1)), n_len, pad, width, bist, exact);
+  Args A = make_args(x, y, geo, static_cast<long>(prof.shape(1)), n_len, pad, width, bist, series);
   if (prof.shape(0) != static_cast<size_t>(A.B) || prof.shape(2) != 2 ||
       gre.shape(0) != static_cast<size_t>(A.ny) || gre.shape(1) != static_cast<size_t>(A.nx) ||
       gim.shape(0) != gre.shape(0) || gim.shape(1) != gre.shape(1) ||

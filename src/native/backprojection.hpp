@@ -18,13 +18,13 @@ enum PtGeo { PAX, PAY, PAZ, PBX, PBY, PBZ, PNA, PNB, POFF, PIB, PKC, kPtRows };
 
 template <typename PT>
 void bp_tiles(in<PT, 3> prof, in<double, 1> x, in<double, 1> y, in<double, 2> geo, long n_len, long pad, int kind,
-              bool bist, long width, bool exact, long block, out<double, 2> ore, out<double, 2> oim);
+              bool bist, long width, bool series, long block, out<double, 2> ore, out<double, 2> oim);
 template <typename PT>
 void rp_tiles(in<PT, 2> fre, in<PT, 2> fim, in<double, 1> x, in<double, 1> y, in<double, 2> geo, long n_len,
-              long pad, int kind, bool bist, long width, bool exact, out<PT, 3> h);
+              long pad, int kind, bool bist, long width, bool series, out<PT, 3> h);
 template <typename PT>
 void bp_contract(in<PT, 3> prof, in<PT, 2> gre, in<PT, 2> gim, in<double, 1> x, in<double, 1> y,
-                 in<double, 2> geo, long n_len, long pad, int kind, bool bist, long width, bool exact,
+                 in<double, 2> geo, long n_len, long pad, int kind, bool bist, long width, bool series,
                  long block, out<double, 2> acc);
 template <typename PT>
 void bp_points(in<PT, 3> prof, in<double, 2> pts, in<double, 2> geo, long n_len, long pad, int kind, bool bist,

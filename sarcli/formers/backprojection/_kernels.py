@@ -17,18 +17,21 @@ is largest at ``c² = 1/3``; where every pulse sees the grid's rows at a smaller
 across the look direction, :func:`row_cosine`), the bound takes that cosine and tiles widen.
 
 That error grows as ``h³ / R²``: near the radar the quadratic's tiles narrow to a few pixels and
-the per-tile work dominates. The *exact* model keeps wide tiles there: the plain Taylor quadratic
-(``d1 = c``) in float64 plus, per pixel, its exact departure
+the per-tile work dominates. The *series* model keeps wide tiles there: the plain Taylor quadratic
+(``d1 = c``) in float64 plus, per pixel, the rest of the range's Taylor series to ``u⁹``,
 
 .. math::
 
-    \\rho(u) = R(u) - R - c u - \\frac{(1 - c^2) u^2}{2R}
-             = -\\frac{\\delta (2 c u + \\delta)}{2R}, \\qquad
-    \\delta = \\frac{(1 - c^2) u^2}{R + c u + R(u)}, \\quad
-    R(u) = \\sqrt{R^2 + 2 c R u + u^2},
+    R(u) = R \\sqrt{1 + 2 c s + s^2} = R \\sum_k b_k(c)\\, s^k, \\qquad s = u / R, \\qquad
+    \\rho(u) = \\sum_{k=3}^{9} \\frac{b_k(c)}{R^{k-1}}\\, u^k, \\qquad
+    (k + 1)\\, b_{k+1} = c (1 - 2k)\\, b_k + (2 - k)\\, b_{k-1},
 
-in float32 (a square root and a division per pixel; no cancellation). Its error is float32
-rounding of ρ alone (:func:`exact_error`), since ``0 ≤ δ ≤ u²/(2 R_min)``. :func:`tiling` picks,
+(``b_1 = c``, ``b_2 = (1 − c²)/2``; a bistatic pair's coefficients are the mean of its ends'),
+evaluated by Horner's rule in float32: six fused multiply-adds and three products a pixel, where
+the range's square root and a reciprocal cost the loop about twice that. For ``|c| <= 1`` the
+coefficients are bounded by ``|b_k| <= 4 |binom(1/2, k)|``, so the truncation after ``u⁹`` leaves at
+most ``4 |binom(1/2, 10)| R s¹⁰ / (1 − s)`` with ``s = h / R_min`` (:func:`series_error`, which adds the
+float32 roundings of the sum). :func:`tiling` picks,
 of the two models, the tiling of least predicted cost (:func:`tile_cost`) whose error stays below
 :data:`MODEL_TOLERANCE` in both carrier phase and profile bins. The profile position is float32
 relative to an integer bin of the centre, the carrier phase float64 in turns reduced to half a
@@ -47,8 +50,8 @@ import numpy as np
 from ..._native import load
 from ..._native.layout import BpGeo
 
-__all__ = ["GEO_ROWS", "MODEL_TOLERANCE", "QUADRATIC", "EXACT", "Tiling", "next_fast_len", "quadratic_error",
-           "exact_error", "row_cosine", "MODEL_SHARE", "model_tolerance", "tile_cost", "tile_width", "tiling", "kernels"]
+__all__ = ["GEO_ROWS", "MODEL_TOLERANCE", "QUADRATIC", "SERIES", "Tiling", "next_fast_len", "quadratic_error",
+           "series_error", "row_cosine", "MODEL_SHARE", "model_tolerance", "tile_cost", "tile_width", "tiling", "kernels"]
 
 #: Rows of the per-pulse geometry table the kernels read (:class:`sarcli._native.layout.BpGeo`).
 GEO_ROWS = len(BpGeo)
@@ -99,18 +102,21 @@ def min_range(pos, grid) -> float:
 
 
 #: The two range models of a tile (module docstring).
-QUADRATIC, EXACT = "quadratic", "exact"
+QUADRATIC, SERIES = "quadratic", "series"
 #: Unit roundoff of float32.
 _EPS32 = 2.0**-24
-#: float32 roundings that the exact model's departure ρ accumulates, at most, as a multiple of its
-#: bound's unit roundoff (the inputs' conversions, the square root, division and products: about 8;
-#: twice that for margin, checked against float64 in tests/test_backprojection.py).
-EXACT_ROUNDINGS = 16
+#: The series model's last power of ``u`` (the kernels' ``kSeriesTerms`` terms from ``u³``).
+SERIES_DEGREE = 9
+#: float32 roundings that the series model's ρ accumulates, at most, as a multiple of the unit
+#: roundoff times the sum of its terms' magnitudes (the coefficients' and offsets' conversions,
+#: ``u³`` and the last fused multiply-adds of Horner's rule on the leading term: about 8; twice
+#: that for margin, checked against float64 in tests/test_bp_tiles.py).
+SERIES_ROUNDINGS = 16
 #: Relative cost of a tile's work per pulse, in 16-lane groups of the quadratic model: a group of
-#: lanes in each model (the exact one adds a square root, a division and a few products a lane)
-#: and the float64 anchor of a tile (measured: ``bench/bench_bp_range.py --tile-costs``).
-_GROUP_COST = {QUADRATIC: 1.0, EXACT: 1.4}
-_ANCHOR_COST = {QUADRATIC: 0.5, EXACT: 0.5}
+#: lanes in each model (the series adds its polynomial a lane) and the float64 anchor of a tile
+#: (measured: ``bench/bench_bp_range.py --tile-costs``).
+_GROUP_COST = {QUADRATIC: 1.0, SERIES: 1.16}
+_ANCHOR_COST = {QUADRATIC: 0.23, SERIES: 0.4}
 _LANES = 16
 
 
@@ -147,15 +153,30 @@ def row_cosine(pos, grid) -> float:
     return float(min(1.0, np.max(along / np.maximum(near, 1e-300))))
 
 
-def exact_error(h: float, r: float) -> float:
-    """Largest range error (m) of the exact model over a tile of half width ``h`` (m) whose pixels are
-    at least ``r`` (m) from the antenna: :data:`EXACT_ROUNDINGS` float32 roundings of the bound
-    ``δ (2h + δ) / (2r)`` on ``|ρ|``, ``δ = h²/(2r)`` (``R'' <= 1/R_min`` along the row); infinite
-    beyond ``h = r/2``, where the bound on the roundings of ``R + c u + R(u)`` is not kept."""
-    if h > 0.5 * r:
+def _half_binomial(k: int) -> float:
+    """``|binom(1/2, k)|``."""
+    v = 1.0
+    for j in range(k):
+        v *= (0.5 - j) / (j + 1)
+    return abs(v)
+
+
+#: ``4 |binom(1/2, k)|``, k = 0 .. 10: bounds on the series' coefficients ``|b_k(c)|`` for ``|c| <= 1``.
+_SERIES_BOUND = tuple(4.0 * _half_binomial(k) for k in range(SERIES_DEGREE + 2))
+
+
+def series_error(h: float, r: float) -> float:
+    """Largest range error (m) of the series model over a tile of half width ``h`` (m) whose pixels
+    are at least ``r`` (m) from the antenna: the truncation after ``u⁹``,
+    ``4 |binom(1/2, 10)| r s¹⁰ / (1 − s)`` with ``s = h / r``, plus :data:`SERIES_ROUNDINGS` float32
+    roundings of the sum of the terms' bounds ``r Σ 4 |binom(1/2, k)| s^k``; infinite from ``s = 1/2``
+    (where the series converges too slowly to be of use)."""
+    s = h / r
+    if s >= 0.5:
         return math.inf
-    d = h * h / (2.0 * r)
-    return EXACT_ROUNDINGS * _EPS32 * d * (2.0 * h + d) / (2.0 * r)
+    terms = r * sum(_SERIES_BOUND[k] * s**k for k in range(3, SERIES_DEGREE + 1))
+    tail = r * _SERIES_BOUND[SERIES_DEGREE + 1] * s ** (SERIES_DEGREE + 1) / (1.0 - s)
+    return tail + SERIES_ROUNDINGS * _EPS32 * terms
 
 
 def model_tolerance(interp: str, upsample: float) -> float:
@@ -169,34 +190,33 @@ def model_tolerance(interp: str, upsample: float) -> float:
     return max(MODEL_TOLERANCE, MODEL_SHARE * interp_error(interp, float(upsample)))
 
 
-def tile_cost(model: str, width: int, bistatic: bool = False) -> float:
+def tile_cost(model: str, width: int) -> float:
     """Predicted work per pixel-pulse of tiles of ``width`` pixels in ``model``, relative to full
     tiles of the quadratic model's lane groups (each tile runs whole groups of 16 lanes
-    and computes one float64 anchor per pulse). A bistatic exact model evaluates two ends a lane."""
+    and computes one float64 anchor per pulse). A bistatic series costs its lanes what a
+    monostatic one does: its coefficients are the mean of the two ends'."""
     groups = math.ceil(width / _LANES)
     cost = (groups * _GROUP_COST[model] + _ANCHOR_COST[model]) / (width / _LANES)
-    if model == EXACT and bistatic:
-        cost += groups * (_GROUP_COST[EXACT] - _GROUP_COST[QUADRATIC]) / (width / _LANES)
     return cost
 
 
-def tiling(grid, r_min: float, kc_max: float, inv_bin_max: float, *, bistatic: bool = False,
+def tiling(grid, r_min: float, kc_max: float, inv_bin_max: float, *,
            c_max: float = 1.0, tolerance: float = MODEL_TOLERANCE) -> Tiling:
     """The cheapest tiling (:func:`tile_cost`) whose range model stays within ``tolerance``
     (:data:`MODEL_TOLERANCE`; :func:`model_tolerance` for an interpolator)
     in carrier phase (``kc_max`` rad/m) and profile bins (``inv_bin_max`` bins/m), for pixels at least
     ``r_min`` from every antenna that see it at direction cosines along the rows of at most
-    ``c_max`` (:func:`row_cosine`). A bistatic exact model evaluates two ends a lane."""
+    ``c_max`` (:func:`row_cosine`)."""
     scale = max(abs(kc_max), abs(inv_bin_max), 1e-30)
     r = max(r_min, 1e-9)
     best = None
     # a tile wider than the row is the row: price the tiles the kernel would run
     widths = sorted({min(w, max(int(grid.nx), 1)) for w in _WIDTHS}, reverse=True)
-    for model, error in ((QUADRATIC, functools.partial(quadratic_error, c_max=c_max)), (EXACT, exact_error)):
+    for model, error in ((QUADRATIC, functools.partial(quadratic_error, c_max=c_max)), (SERIES, series_error)):
         for w in widths:
             e = error(0.5 * (w - 1) * abs(grid.dx), r) * scale
             if e <= tolerance or w == 1:
-                cand = Tiling(model, w, e, tile_cost(model, w, bistatic))
+                cand = Tiling(model, w, e, tile_cost(model, w))
                 if best is None or cand.cost < best.cost:
                     best = cand
                 break

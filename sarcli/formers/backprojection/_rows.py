@@ -103,7 +103,7 @@ class Orientation(NamedTuple):
 #: Cost of a cache line of profile that a lane group's stencils span, in the lane groups of
 #: :func:`._kernels.tile_cost` (measured, ``bench/bench_bp_orient.py``, rows along against across
 #: the look direction at the same tiling: 0.004 GOTCHA, 0.007 the 740 km orbit and 10 km, 0.002 and
-#: 0 at 1 km and 50 m, where the exact model's heavier lanes hide the loads).
+#: 0 at 1 km and 50 m, where the series model's heavier lanes hide the loads).
 LINE_COST = 0.005
 #: Bytes of a cache line.
 _LINE_BYTES = 64
@@ -157,18 +157,18 @@ def row_reach_bins(grid, c_max: float, inv_bin_max: float, taps: int) -> float:
     return length * c_max * inv_bin_max + 2 * taps
 
 
-def row_cost(t: Tiling, n: int, bistatic: bool = False) -> float:
+def row_cost(t: Tiling, n: int) -> float:
     """Predicted work per pixel-pulse (:func:`._kernels.tile_cost`) of a row of ``n`` pixels cut into
     tiles of ``t.width`` from its start, the last one what is left."""
     full, rest = divmod(int(n), t.width)
-    work = full * t.width * tile_cost(t.model, t.width, bistatic)
+    work = full * t.width * tile_cost(t.model, t.width)
     if rest:
-        work += rest * tile_cost(t.model, rest, bistatic)
+        work += rest * tile_cost(t.model, rest)
     return work / n
 
 
 def orient(grid, r_min: float, kc_max: float, inv_bin_max: float, steps, n_pulses: int, *,
-           bistatic: bool = False, sample_bytes: int = 8, cosines=(1.0, 1.0),
+           sample_bytes: int = 8, cosines=(1.0, 1.0),
            tolerance: float = MODEL_TOLERANCE) -> Orientation:
     """The orientation of the kernels' rows (module docstring): of the grid as it is and transposed,
     the one of least predicted cost per pixel-pulse, the tiling's over a row (:func:`._kernels.tiling`
@@ -180,9 +180,9 @@ def orient(grid, r_min: float, kc_max: float, inv_bin_max: float, steps, n_pulse
     (:func:`._kernels.model_tolerance`)."""
     best = None
     for transposed, g, step, c in ((False, grid, steps[0], cosines[0]), (True, transposed_grid(grid), steps[1], cosines[1])):
-        t = tiling(g, r_min, kc_max, inv_bin_max, bistatic=bistatic, c_max=c, tolerance=tolerance)
+        t = tiling(g, r_min, kc_max, inv_bin_max, c_max=c, tolerance=tolerance)
         lines = group_lines(step, inv_bin_max, sample_bytes)
-        cost = row_cost(t, g.nx, bistatic) + LINE_COST * lines + (TRANSPOSE_COST / max(int(n_pulses), 1) if transposed else 0.0)
+        cost = row_cost(t, g.nx) + LINE_COST * lines + (TRANSPOSE_COST / max(int(n_pulses), 1) if transposed else 0.0)
         cand = Orientation(transposed, t, lines, cost, c)
         if best is None or cand.cost < best.cost:
             best = cand

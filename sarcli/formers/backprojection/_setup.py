@@ -18,7 +18,7 @@ from ...core.grid import Grid
 from ...core.sampling import INTERPOLATORS as ALL_INTERPOLATORS, PROFILE_INTERPOLATORS, equally_spaced, frequency_line
 from ...errors import AliasingWarning, SarcliInputError
 from ..._native.layout import BpGeo
-from ._kernels import EXACT, GEO_ROWS, min_range, model_tolerance, next_fast_len
+from ._kernels import GEO_ROWS, SERIES, min_range, model_tolerance, next_fast_len
 from ._rows import (CACHE_FRACTION, Orientation, copy_oriented, l2_cache_bytes, orient, row_cosines, row_reach_bins,
                     row_steps, transposed_grid)
 from .._samples import is_lazy
@@ -204,7 +204,6 @@ class TilingInputs:
         self.m, self.grid = int(m), grid
         self.r_min = min(min_range(a, grid), min_range(b, grid))
         self.cosines = row_cosines(a, b, grid)
-        self.bistatic = not np.array_equal(a, b)
         self.steps = row_steps(a, b, grid)
         self.n_pulses = a.shape[0]
         self.kc_max = float(np.max(np.abs(4.0 * np.pi * np.asarray(alpha_ref) / C)))
@@ -216,7 +215,7 @@ class TilingInputs:
         model's tolerance: :func:`._kernels.model_tolerance`)."""
         n_len = profile_length(self.m, upsample)
         return orient(self.grid, self.r_min, self.kc_max, 2.0 * self.dalpha_max * n_len / C, self.steps,
-                      self.n_pulses, bistatic=self.bistatic, sample_bytes=_sample_bytes(precision),
+                      self.n_pulses, sample_bytes=_sample_bytes(precision),
                       cosines=self.cosines, tolerance=model_tolerance(interp, upsample))
 
     def tiling(self, upsample, precision="float32", interp="cubic"):
@@ -379,7 +378,7 @@ class Setup:
     def kernel_args(self, sl):
         """Geometry and options of the kernels for the pulses in slice ``sl``."""
         return (self.x, self.y, np.ascontiguousarray(self.geo[:, sl]), self.n_len, PAD, self.kind,
-                self.bistatic, self.width, self.model == EXACT)
+                self.bistatic, self.width, self.model == SERIES)
 
     def samples_from_profiles(self, hri):
         """The adjoint of the range profiles: padded profiles ``hri`` (pulses, ``n_len + 2 PAD``, 2;

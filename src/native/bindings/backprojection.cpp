@@ -12,20 +12,20 @@ NB_MODULE(_backprojection, m) {
       "offset, 1/bin, kc.";
   const char* rp_doc = "Adjoint of bp_tiles: h[p, :] += transposed interpolation of f exp(-i kc Δr).";
   m.def("bp_tiles", &bp_tiles<float>, "profiles"_a, "x"_a, "y"_a, "geo"_a, "n_len"_a, "pad"_a,
-        "kind"_a, "bist"_a, "width"_a, "exact"_a, "block"_a, "out_re"_a, "out_im"_a, bp_doc);
+        "kind"_a, "bist"_a, "width"_a, "series"_a, "block"_a, "out_re"_a, "out_im"_a, bp_doc);
   m.def("bp_tiles", &bp_tiles<double>, "profiles"_a, "x"_a, "y"_a, "geo"_a, "n_len"_a, "pad"_a,
-        "kind"_a, "bist"_a, "width"_a, "exact"_a, "block"_a, "out_re"_a, "out_im"_a, bp_doc);
+        "kind"_a, "bist"_a, "width"_a, "series"_a, "block"_a, "out_re"_a, "out_im"_a, bp_doc);
   m.def("rp_tiles", &rp_tiles<float>, "fre"_a, "fim"_a, "x"_a, "y"_a, "geo"_a, "n_len"_a, "pad"_a,
-        "kind"_a, "bist"_a, "width"_a, "exact"_a, "h"_a, rp_doc);
+        "kind"_a, "bist"_a, "width"_a, "series"_a, "h"_a, rp_doc);
   m.def("rp_tiles", &rp_tiles<double>, "fre"_a, "fim"_a, "x"_a, "y"_a, "geo"_a, "n_len"_a, "pad"_a,
-        "kind"_a, "bist"_a, "width"_a, "exact"_a, "h"_a, rp_doc);
+        "kind"_a, "bist"_a, "width"_a, "series"_a, "h"_a, rp_doc);
   const char* ct_doc =
       "acc[p] = sum over pixels of g · (pulse p's part of bp_tiles), (re, im): the per-pulse "
       "derivative of an image functional with gradient g, by gathering from the profiles.";
   m.def("bp_contract", &bp_contract<float>, "profiles"_a, "gre"_a, "gim"_a, "x"_a, "y"_a, "geo"_a,
-        "n_len"_a, "pad"_a, "kind"_a, "bist"_a, "width"_a, "exact"_a, "block"_a, "acc"_a.noconvert(), ct_doc);
+        "n_len"_a, "pad"_a, "kind"_a, "bist"_a, "width"_a, "series"_a, "block"_a, "acc"_a.noconvert(), ct_doc);
   m.def("bp_contract", &bp_contract<double>, "profiles"_a, "gre"_a, "gim"_a, "x"_a, "y"_a, "geo"_a,
-        "n_len"_a, "pad"_a, "kind"_a, "bist"_a, "width"_a, "exact"_a, "block"_a, "acc"_a.noconvert(), ct_doc);
+        "n_len"_a, "pad"_a, "kind"_a, "bist"_a, "width"_a, "series"_a, "block"_a, "acc"_a.noconvert(), ct_doc);
   const char* pt_doc =
       "out[i] += sum_p w(Δr) profile_p(Δr) exp(+i kc_p Δr) at 3-D pixels pts[i] (exact float64 ranges); "
       "geo rows: ax, ay, az, bx, by, bz, |a|, |b|, offset, 1/bin, kc.";
