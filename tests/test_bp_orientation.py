@@ -105,9 +105,9 @@ def test_tiling_cost_decides_before_the_range_step():
 
 @pytest.mark.parametrize("lines,transposed", [(12.0, False), (20.0, True)])
 def test_a_row_of_partial_tiles_against_the_lines(lines, transposed):
-    """Rows of 128 pixels along the look (one 128-pixel tile, cost 1.0625) or of 120 across it (one
-    tile of 120, eight lane groups: 1.1333): the 0.0708 between them is 14.2 lines at LINE_COST, so 12
-    lines along the look keep the rows and 20 turn them."""
+    """Rows of 128 pixels along the look (one 128-pixel tile, cost 8.23 / 8 = 1.0288) or of 120 across
+    it (one tile of 120, eight lane groups: 8.23 / 7.5 = 1.0973): the 0.0686 between them is 13.7 lines
+    at LINE_COST, so 12 lines along the look keep the rows and 20 turn them."""
     grid = Grid(128, 120, 0.25, 0.25)
     kc, inv_bin = 420.0, 68.0
     o = bp_rows.orient(grid, 1e5, kc, inv_bin, (lines / (2 * inv_bin), 0.0), 10**6, sample_bytes=8)
@@ -118,7 +118,7 @@ def test_a_row_of_partial_tiles_against_the_lines(lines, transposed):
     assert o.tiling == (cols if transposed else rows)
     along = bp_rows.row_cost(rows, 128) + bp_rows.LINE_COST * lines
     across = bp_rows.row_cost(cols, 120) + bp_rows.TRANSPOSE_COST / 10**6
-    assert across - along == pytest.approx(8.5 / 7.5 - 1.0625 - bp_rows.LINE_COST * lines, abs=1e-5)
+    assert across - along == pytest.approx(8.23 / 7.5 - 8.23 / 8 - bp_rows.LINE_COST * lines, abs=1e-5)
     assert o.cost == pytest.approx(min(along, across))
 
 
