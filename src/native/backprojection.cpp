@@ -10,7 +10,7 @@
 // radar that error (∝ h³/R²) narrows the tiles to a few pixels; there the series model (Args::series,
 // SeriesAnchor) keeps the plain Taylor quadratic (d1 = c) and adds each pixel's departure ρ from it,
 // the range's Taylor series from u³ to u⁹, in float32. Python picks the model and the tile width that keep the error far below the
-// interpolation's at the least cost (sarcli.formers._bp_kernels.tiling). A tile's pixels run as groups
+// interpolation's at the least cost (sarcli.formers.backprojection._kernels.tiling). A tile's pixels run as groups
 // of 16 SIMD lanes, its accumulators stay in registers over a block of pulses whose profiles stay
 // in cache, and each lane reads its stencil as one contiguous vector (profiles interleave real
 // and imaginary parts) that is transposed in registers. The profile position is kept

@@ -103,7 +103,8 @@ class Orientation(NamedTuple):
 #: Cost of a cache line of profile that a lane group's stencils span, in the lane groups of
 #: :func:`._kernels.tile_cost` (measured, ``bench/bench_bp_orient.py``, rows along against across
 #: the look direction at the same tiling: 0.004 GOTCHA, 0.007 the 740 km orbit and 10 km, 0.002 and
-#: 0 at 1 km and 50 m, where the series model's heavier lanes hide the loads).
+#: 0 at 1 km and 50 m, measured with the exact departure's lanes there, heavier than the series', which
+#: hide the loads).
 LINE_COST = 0.005
 #: Bytes of a cache line.
 _LINE_BYTES = 64
