@@ -70,14 +70,22 @@ SARCLI_INLINE double one_way(double x, double y, double ax, double ay, double a2
 
 // Stencil start of fractional index f (clamped so every access stays in [0, n)), its fraction,
 // and whether the whole stencil lies inside. The start is formed in floating point and converted
-// once to int32 (a vector conversion on AVX2 too).
+// once to int32 (a vector conversion on AVX2 too). A NaN index (a polar node that is no ground
+// point: near the radar a grid's corners at large |u| and small q can lie below the ground) is
+// outside, at start 0 and fraction 0.
 SARCLI_INLINE i32 locate(double f, double lo, double n, double ntap, double& frac, bool& ok) {
   const double fl = std::floor(f);
-  double s = fl + lo;
+  const double s = fl + lo;
   ok = (s >= 0.0) & (s + ntap <= n);
-  s = std::min(std::max(s, 0.0), n - ntap);
-  frac = f - fl;
-  return static_cast<i32>(s);
+  frac = f == f ? f - fl : 0.0;
+  return static_cast<i32>(s >= 0.0 ? (s <= n - ntap ? s : n - ntap) : 0.0);
+}
+
+// Each row's bounds [start, stop) within [0, nq].
+void check_rows(const i64* rows, std::size_t n_rows, std::size_t nq, const char* who) {
+  for (std::size_t r = 0; r < n_rows; ++r)
+    if (rows[2 * r] < 0 || rows[2 * r + 1] < rows[2 * r] || static_cast<std::size_t>(rows[2 * r + 1]) > nq)
+      throw nb::value_error((std::string(who) + ": row bounds out of range").c_str());
 }
 
 // ---- interpolation weights ---------------------------------------------------------------------
@@ -147,6 +155,7 @@ struct Stage0 {
   bool bistatic;
   double half_len, n_len, off, dq, kref;
   float *out_re, *out_im;
+  const i64* rows;          // [S, nt, 2]: the nodes start .. stop-1 of each row that are formed
 };
 
 // Stage 0 takes its nodes in blocks of kBlock0 (one AVX-512 vector of float32) and models range
@@ -432,15 +441,15 @@ SARCLI_INLINE void emit0(float n_len, float jb, i32 ioff, std::size_t k0, std::s
   for (i32 j = 0; j < static_cast<i32>(n); ++j) {   // int32 j: a vector conversion to float on AVX2 too
     const float f = pos(j);
     const float m = (f >= lo) & (f < hi) ? 1.0f : 0.0f;
-    const float fc = std::min(std::max(f, lo), top);
+    const float fc = f >= lo ? (f <= top ? f : top) : lo;   // a NaN position (no ground point): lo
     const i32 it = static_cast<i32>(fc);   // floor by truncation (a vector conversion everywhere)
     const i32 fi = it - static_cast<i32>(static_cast<float>(it) > fc);
     idx[k0 + j] = ioff + fi;
     frac[k0 + j] = fc - static_cast<float>(fi);
     float c, sn;
     carrier::sincos_f32(phase(j), c, sn);
-    cr[k0 + j] = m * c;
-    ci[k0 + j] = m * sn;
+    cr[k0 + j] = m != 0.0f ? c : 0.0f;   // not m · c: a NaN carrier (no ground point) stays out
+    ci[k0 + j] = m != 0.0f ? sn : 0.0f;
   }
 }
 
@@ -490,10 +499,24 @@ SARCLI_INLINE void tap6_block(const float* sre, const float* sim, std::size_t le
 // sub-aperture's first, middle and last pulses; a tile it misses by more than kFitPhase or kFitBin
 // there is evaluated exactly at every node. The phase is demodulated as it is formed
 // (ψ = k_c Δr − k_ref q), so the sums are the stored sub-image.
+// Only the row's nodes start .. stop-1 (A.rows) are formed, the others set to zero: no later
+// stencil reads them.
 SARCLI_CLONES
 void stage0_row(const Stage0& A, std::size_t s, std::size_t it, Scratch0& W) {
-  const std::size_t nq = A.nq, n = W.n;
-  const Frame F = frame_at(A.frame, A.S, s);
+  const i64* rb = A.rows + 2 * (s * A.nt + it);
+  const std::size_t start = static_cast<std::size_t>(rb[0]), nq = static_cast<std::size_t>(rb[1] - rb[0]);
+  const std::size_t n = (nq + kBlock0 - 1) / kBlock0 * kBlock0;
+  float* ore = A.out_re + (s * A.nt + it) * A.nq;
+  float* oim = A.out_im + (s * A.nt + it) * A.nq;
+  std::fill(ore, ore + start, 0.0f);
+  std::fill(oim, oim + start, 0.0f);
+  std::fill(ore + start + nq, ore + A.nq, 0.0f);
+  std::fill(oim + start + nq, oim + A.nq, 0.0f);
+  if (nq == 0) return;
+  ore += start;
+  oim += start;
+  Frame F = frame_at(A.frame, A.S, s);
+  F.q0 += static_cast<double>(start) * A.dq;
   const double tau = F.u0 + static_cast<double>(it) * F.du;
   const int ntap = kTaps[A.kind];
   const bool series = A.series[s];
@@ -570,7 +593,14 @@ void stage0_row(const Stage0& A, std::size_t s, std::size_t it, Scratch0& W) {
       const std::size_t k0 = t * nq / ntile, m = (t + 1) * nq / ntile - k0;
       if (W.exact[t]) {   // every node exactly (float64), relative to the first node's bin
         const double ib = g[kInvBin * A.B], kc = g[kKc * A.B];
-        const double jb = std::floor(exact_dr(A, g, series, G, k0) * ib + A.half_len);
+        double jb = 0.0;   // the first node's bin; a NaN range (a node that is no ground point) is skipped
+        for (std::size_t j = 0; j < m; ++j) {
+          const double b = std::floor(exact_dr(A, g, series, G, k0 + j) * ib + A.half_len);
+          if (b == b) {
+            jb = b;
+            break;
+          }
+        }
         for (std::size_t j = 0; j < m; ++j) {
           const std::size_t k = k0 + j;
           const double d = exact_dr(A, g, series, G, k);
@@ -631,8 +661,6 @@ void stage0_row(const Stage0& A, std::size_t s, std::size_t it, Scratch0& W) {
       acc_im[iq] = static_cast<float>(acc_im[iq] + (vr * ci[iq] + vi * cr[iq]));
     }
   }
-  float* ore = A.out_re + (s * A.nt + it) * nq;
-  float* oim = A.out_im + (s * A.nt + it) * nq;
   for (std::size_t iq = 0; iq < nq; ++iq) {
     ore[iq] = acc_re[iq];
     oim[iq] = acc_im[iq];
@@ -658,16 +686,18 @@ inline bool stage0_weights_first() {
 }  // namespace
 
 void stage0(in<float, 2> pre, in<float, 2> pim, in<i64, 1> first, in<i64, 1> count, in<double, 2> pulses,
-            in<bool, 1> series, in<double, 2> frame, in<float, 2> tab, const Stage0Options& o, out<float, 3> out_re,
-            out<float, 3> out_im) {
+            in<bool, 1> series, in<double, 2> frame, in<i64, 3> rows, in<float, 2> tab, const Stage0Options& o,
+            out<float, 3> out_re, out<float, 3> out_im) {
   const int kind = o.kind;
   const std::size_t S = out_re.shape(0), nt = out_re.shape(1), nq = out_re.shape(2), B = pre.shape(0);
   if (kind < interp::kLinear || kind >= interp::kKinds) throw nb::value_error("stage0: unknown interpolation kind");
   if (pim.shape(0) != B || pim.shape(1) != pre.shape(1) || pulses.shape(0) != kPulseRows || pulses.shape(1) != B ||
       first.shape(0) != S || count.shape(0) != S || series.shape(0) != S || frame.shape(0) != kFrameRows ||
       frame.shape(1) != S || tab.shape(0) != 6 || tab.shape(1) != 8 || out_im.shape(0) != S ||
-      out_im.shape(1) != nt || out_im.shape(2) != nq)
+      out_im.shape(1) != nt || out_im.shape(2) != nq || rows.shape(0) != S || rows.shape(1) != nt ||
+      rows.shape(2) != 2)
     throw nb::value_error("stage0: inconsistent shapes");
+  check_rows(rows.data(), S * nt, nq, "stage0");
   for (std::size_t s = 0; s < S; ++s)
     if (first.data()[s] < 0 || count.data()[s] < 0 || static_cast<std::size_t>(first.data()[s] + count.data()[s]) > B)
       throw nb::value_error("stage0: sub-aperture pulses out of range");
@@ -676,7 +706,7 @@ void stage0(in<float, 2> pre, in<float, 2> pim, in<i64, 1> first, in<i64, 1> cou
                  series.data(), frame.data(), S, nt, nq, tab.data(), kind, weight_mode(kind, tab.data()),
                  o.weights_first < 0 ? stage0_weights_first() : o.weights_first != 0, o.bistatic,
                  o.half_len, o.n_len, static_cast<double>(o.pad - (ntap / 2 - 1)), o.dq, o.kref, out_re.data(),
-                 out_im.data()};
+                 out_im.data(), rows.data()};
   nb::gil_scoped_release nogil;
   const long jobs = static_cast<long>(S * nt);
 #pragma omp parallel
@@ -770,9 +800,9 @@ SARCLI_INLINE void polar_row(const Child& C, double dq, double kref, const doubl
     fq[i] = static_cast<float>(tq);
     float c, s;
     carrier::sincos_half_f32(hk * (qs[i] - qref[i]), c, s);
-    const float m = okq ? cr[i] : 0.0f;
-    cr[i] = m * c;
-    ci[i] = m * s;
+    const bool m = okq && cr[i] != 0.0f;
+    cr[i] = m ? c : 0.0f;   // not a mask times the carrier: a NaN one (no ground point) stays out
+    ci[i] = m ? s : 0.0f;
   }
   row_weights<float>(kind, ft, n, wt, n, tab_t);
   const std::size_t cq = C.nq, plane = C.nt * C.nq;
@@ -870,10 +900,9 @@ SARCLI_INLINE void separable_row(const Child& C, double dq, double kref, const d
     fq[i] = static_cast<float>(tq);
     float c, s;
     carrier::sincos_half_f32(hk * (qs[i] - qref[i]), c, s);
-    const float m = okq ? 1.0f : 0.0f;
-    cr[i] = m * c;
-    ci[i] = m * s;
-    okc[i] = m;
+    cr[i] = okq ? c : 0.0f;
+    ci[i] = okq ? s : 0.0f;
+    okc[i] = okq ? 1.0f : 0.0f;
   }
   // the points whose stencils lie inside form one interval [i0, i1] (qs increases)
   std::size_t i0 = 0;
@@ -982,12 +1011,25 @@ struct Merge {
   double dq, kref;
   float *out_re, *out_im;
   int mode_q, mode_t;   // WeightMode of the range and angular kernels
+  const i64* rows;      // [P, nt, 2]: the nodes start .. stop-1 of each parent row that are formed
 };
 
+// A parent's row: only its nodes start .. stop-1 (A.rows) are formed, the others set to zero.
 SARCLI_CLONES
 void merge_row(const Merge& A, std::size_t s, std::size_t it, RowScratch& W) {
-  const std::size_t nq = A.nq;
-  const Frame pf = frame_at(A.pframe, A.P, s);
+  const i64* rb = A.rows + 2 * (s * A.nt + it);
+  const std::size_t start = static_cast<std::size_t>(rb[0]), nq = static_cast<std::size_t>(rb[1] - rb[0]);
+  float* ore = A.out_re + (s * A.nt + it) * A.nq;
+  float* oim = A.out_im + (s * A.nt + it) * A.nq;
+  std::fill(ore, ore + start, 0.0f);
+  std::fill(oim, oim + start, 0.0f);
+  std::fill(ore + start + nq, ore + A.nq, 0.0f);
+  std::fill(oim + start + nq, oim + A.nq, 0.0f);
+  if (nq == 0) return;
+  ore += start;
+  oim += start;
+  Frame pf = frame_at(A.pframe, A.P, s);
+  pf.q0 += static_cast<double>(start) * A.dq;
   const double tau = pf.u0 + static_cast<double>(it) * pf.du;
   double *xs = W.xs.data(), *ys = W.ys.data(), *qp = W.qp.data(), *qs = W.qs.data(), *ts = W.ts.data();
   float *acc_re = W.acc_re.data(), *acc_im = W.acc_im.data();
@@ -1010,15 +1052,14 @@ void merge_row(const Merge& A, std::size_t s, std::size_t it, RowScratch& W) {
       qs[iq] = q;
       ts[iq] = u;
     }
-    std::size_t falls = 0;   // points whose child range does not increase
-    for (std::size_t iq = 1; iq < nq; ++iq) falls += qs[iq] <= qs[iq - 1];
+    std::size_t falls = 0;   // points whose child range does not increase (or is NaN: no ground point)
+    for (std::size_t iq = 1; iq < nq; ++iq) falls += !(qs[iq] > qs[iq - 1]);
+    falls += nq > 0 && !(qs[0] == qs[0]);
     if (nq >= 2 && falls == 0)
       separable_row(ch, A.dq, A.kref, qs, ts, qp, A.kind, A.tab_q, A.tab_t, A.mode_q, A.mode_t, nq, W);
     else
       polar_row(ch, A.dq, A.kref, qs, ts, qp, A.kind, A.tab_q, A.tab_t, nq, W);
   }
-  float* ore = A.out_re + (s * A.nt + it) * nq;
-  float* oim = A.out_im + (s * A.nt + it) * nq;
   for (std::size_t iq = 0; iq < nq; ++iq) {
     ore[iq] = acc_re[iq];
     oim[iq] = acc_im[iq];
@@ -1035,22 +1076,24 @@ void check_tabs(in<float, 2>& tab_q, in<float, 2>& tab_t, int kind, const char* 
 }  // namespace
 
 void merge(in<float, 3> cre, in<float, 3> cim, in<double, 2> cframe, in<double, 2> pframe, in<i64, 1> first,
-           in<i64, 1> count, in<float, 2> tab_q, in<float, 2> tab_t, int kind, double dq, double kref,
-           out<float, 3> out_re, out<float, 3> out_im) {
+           in<i64, 1> count, in<i64, 3> rows, in<float, 2> tab_q, in<float, 2> tab_t, int kind, double dq,
+           double kref, out<float, 3> out_re, out<float, 3> out_im) {
   const std::size_t C = cre.shape(0), P = out_re.shape(0), nt = out_re.shape(1), nq = out_re.shape(2);
   check_tabs(tab_q, tab_t, kind, "merge");
   if (cim.shape(0) != C || cim.shape(1) != cre.shape(1) || cim.shape(2) != cre.shape(2) ||
       cframe.shape(0) != kFrameRows || cframe.shape(1) != C || pframe.shape(0) != kFrameRows ||
       pframe.shape(1) != P || first.shape(0) != P || count.shape(0) != P || out_im.shape(0) != P ||
-      out_im.shape(1) != nt || out_im.shape(2) != nq)
+      out_im.shape(1) != nt || out_im.shape(2) != nq || rows.shape(0) != P || rows.shape(1) != nt ||
+      rows.shape(2) != 2)
     throw nb::value_error("merge: inconsistent shapes");
+  check_rows(rows.data(), P * nt, nq, "merge");
   for (std::size_t s = 0; s < P; ++s)
     if (first.data()[s] < 0 || count.data()[s] < 0 || static_cast<std::size_t>(first.data()[s] + count.data()[s]) > C)
       throw nb::value_error("merge: children out of range");
   if (cre.shape(1) < 6 || cre.shape(2) < 6) throw nb::value_error("merge: child grids need at least 6 x 6 nodes");
   const Merge A{cre.data(), cim.data(), C, cre.shape(1), cre.shape(2), cframe.data(), pframe.data(), P, nt, nq,
                 first.data(), count.data(), kind, tab_q.data(), tab_t.data(), dq, kref, out_re.data(),
-                out_im.data(), weight_mode(kind, tab_q.data()), weight_mode(kind, tab_t.data())};
+                out_im.data(), weight_mode(kind, tab_q.data()), weight_mode(kind, tab_t.data()), rows.data()};
   const std::size_t ncmax = std::max(cre.shape(2), nq) + 6;
   nb::gil_scoped_release nogil;
   const long jobs = static_cast<long>(P * nt);

@@ -40,11 +40,11 @@ struct Stage0Options {
 
 
 void stage0(in<float, 2> pre, in<float, 2> pim, in<std::int64_t, 1> first, in<std::int64_t, 1> count,
-            in<double, 2> pulses, in<bool, 1> series, in<double, 2> frame, in<float, 2> tab, const Stage0Options& o,
-            out<float, 3> out_re, out<float, 3> out_im);
+            in<double, 2> pulses, in<bool, 1> series, in<double, 2> frame, in<std::int64_t, 3> rows, in<float, 2> tab,
+            const Stage0Options& o, out<float, 3> out_re, out<float, 3> out_im);
 void merge(in<float, 3> cre, in<float, 3> cim, in<double, 2> cframe, in<double, 2> pframe, in<std::int64_t, 1> first,
-           in<std::int64_t, 1> count, in<float, 2> tab_q, in<float, 2> tab_t, int kind, double dq, double kref,
-           out<float, 3> out_re, out<float, 3> out_im);
+           in<std::int64_t, 1> count, in<std::int64_t, 3> rows, in<float, 2> tab_q, in<float, 2> tab_t, int kind,
+           double dq, double kref, out<float, 3> out_re, out<float, 3> out_im);
 void final_stage(in<float, 3> cre, in<float, 3> cim, in<double, 2> cframe, in<double, 1> x, in<double, 1> y,
                  in<float, 2> tab_q, in<float, 2> tab_t, int kind, double dq, double kref,
                  out<std::complex<double>, 2> img);

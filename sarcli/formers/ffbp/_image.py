@@ -337,7 +337,7 @@ class _Pass:
             self.clock("profiles")
             stage0((pre, pim), (lev.first[s0:s1] - p0, lev.count[s0:s1]), np.ascontiguousarray(self.pulses[:, p0:p1]),
                    self.series[s0:s1], frame(lev, s0, s1), self.tab_p, settings,
-                   (cur_re[s0 - lo:s1 - lo], cur_im[s0 - lo:s1 - lo]))
+                   (cur_re[s0 - lo:s1 - lo], cur_im[s0 - lo:s1 - lo]), lev.row_table(s0, s1))
             del pre, pim
             self.clock("stage0")
             bar.update(p1 - p0)
@@ -359,7 +359,7 @@ class _Pass:
             nxt_re = np.empty((u1 - u0, parent.n_u, parent.n_q), dtype=_STORE)
             nxt_im = np.empty((u1 - u0, parent.n_u, parent.n_q), dtype=_STORE)
             merge_stage((cur_re, cur_im), frame(child, c0, c1), frame(parent, u0, u1), (pf[u0:u1] - c0, pc[u0:u1]),
-                        self.interp, (nxt_re, nxt_im))
+                        self.interp, (nxt_re, nxt_im), parent.row_table(u0, u1))
             cur_re, cur_im = nxt_re, nxt_im
             del nxt_re, nxt_im
             self.clock("merge")

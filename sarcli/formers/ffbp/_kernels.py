@@ -69,8 +69,9 @@ class Interp(NamedTuple):
     kref: float
 
 
-def merge(children, cframe, pframe, groups, interp: Interp, out):
-    """Parent sub-image s = Σ over children ``first[s] .. +count[s]`` interpolated at its nodes.
+def merge(children, cframe, pframe, groups, interp: Interp, out, rows=None):
+    """Parent sub-image s = Σ over children ``first[s] .. +count[s]`` interpolated at its nodes
+    (those of ``rows``; the others set to zero).
 
     Parameters
     ----------
@@ -83,11 +84,22 @@ def merge(children, cframe, pframe, groups, interp: Interp, out):
     interp : Interp
     out : (ndarray, ndarray), each shape (S, n_u', n_q'), float32
         Parents' sub-images, real and imaginary parts (written).
+    rows : ndarray of int64, shape (S, n_u', 2), optional
+        The nodes ``start .. stop-1`` of each parent row to form
+        (:meth:`sarcli.formers.ffbp._grids._Level.row_table`); None: every node.
     """
     (cre, cim), (first, count), (out_re, out_im) = children, groups, out
+    rows = full_rows(out_re.shape) if rows is None else np.ascontiguousarray(rows, np.int64)
     native().merge(cre, cim, cframe, pframe, np.ascontiguousarray(first, np.int64),
-                   np.ascontiguousarray(count, np.int64), table(interp.tab_q), table(interp.tab_t),
+                   np.ascontiguousarray(count, np.int64), rows, table(interp.tab_q), table(interp.tab_t),
                    int(interp.kind), float(interp.dq), float(interp.kref), out_re, out_im)
+
+
+def full_rows(shape):
+    """Row bounds ``[S, n_u, 2]`` that take every node of grids of ``shape`` ``(S, n_u, n_q)``."""
+    out = np.zeros((shape[0], shape[1], 2), np.int64)
+    out[..., 1] = shape[2]
+    return out
 
 
 def final(children, cframe, x, y, interp: Interp, img):

@@ -171,7 +171,7 @@ class StageLayout:
             ext_q = int(math.ceil(half * (n_lev - l))) + EXTRA_SAMPLES
             ext_u = np.ceil(half * reach / fr.du + U_FOR_Q_EXTENSION * ext_q * dq / (fr.metres_per_u * fr.du)
                             ).astype(np.int64) + EXTRA_SAMPLES
-            levels.append(level_grid(fr, dq, ext_q, ext_u, children[l]))
+            levels.append(level_grid(fr, dq, ext_q, ext_u, children[l], bounds=self.apertures.bounds))
         return levels
 
     @functools.cached_property
@@ -182,10 +182,13 @@ class StageLayout:
         n_pix = self.grid.nx * self.grid.ny
         P = self.pos.shape[0]
         n_freq = int(np.shape(self.freq_hz)[-1])
-        ops = {"stage0": float(P) * levels[0].n_u * levels[0].n_q * ntap, "merge": 0.0,
+        # the nodes formed: each row's that later stencils can read (StageLayout.levels' rows)
+        lv0 = levels[0]
+        per_sub = np.sum(lv0.row_table()[..., 1] - lv0.row_table()[..., 0], axis=1)
+        ops = {"stage0": float(np.dot(per_sub, lv0.count)) * ntap, "merge": 0.0,
                "final": float(n_pix) * levels[-1].n * ntap * ntap,
                "nodes": float(max(lv.n * lv.n_u * lv.n_q for lv in levels)),
-               "stage0_nodes": float(levels[0].n) * levels[0].n_u * levels[0].n_q,
+               "stage0_nodes": lv0.nodes,
                "final_pairs": float(n_pix) * levels[-1].n, "merge_pairs": 0.0,
                # the deapodized kernels' weights: per pulse, sample, level and axis (both axes
                # counted, before the plan decides which it deapodizes)
@@ -193,8 +196,8 @@ class StageLayout:
                # bytes first touched: every level's polar grids and the complex128 image
                "fresh_bytes": float(sum(lv.nbytes for lv in levels)) + 16.0 * n_pix}
         for lv in levels[1:]:
-            ops["merge"] += float(lv.n) * lv.n_u * lv.n_q * merge * 2 * ntap
-            ops["merge_pairs"] += float(lv.n) * lv.n_u * lv.n_q * merge
+            ops["merge"] += lv.nodes * merge * 2 * ntap
+            ops["merge_pairs"] += lv.nodes * merge
         ops["pairs"] = ops["merge_pairs"] + ops["final_pairs"]
         return ops
 

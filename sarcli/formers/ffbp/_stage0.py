@@ -12,7 +12,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ..._native.layout import FfbpPulse
-from ._kernels import native, table
+from ._kernels import full_rows, native, table
 
 #: Largest phase (radians) the truncated range series of stage 0 may cost (:func:`series_inputs`).
 SERIES_PHASE = 1e-7
@@ -53,8 +53,9 @@ class Stage0Settings(NamedTuple):
     kref: float
 
 
-def stage0(profiles, groups, pulses, series, frame, tab, settings: Stage0Settings, out):
-    """Backproject the pulses ``first[s] .. first[s]+count[s]-1`` onto sub-aperture s's polar grid.
+def stage0(profiles, groups, pulses, series, frame, tab, settings: Stage0Settings, out, rows=None):
+    """Backproject the pulses ``first[s] .. first[s]+count[s]-1`` onto sub-aperture s's polar grid
+    (the nodes of ``rows``; the others set to zero).
 
     Profile interpolation as in backprojection; the profiles, weights, gather and sums are float32
     (the sub-images are stored in float32), positions and carriers float64.
@@ -82,14 +83,18 @@ def stage0(profiles, groups, pulses, series, frame, tab, settings: Stage0Setting
     settings : Stage0Settings
     out : (ndarray, ndarray), each shape (S, n_u, n_q), float32
         The sub-images, real and imaginary parts (written).
+    rows : ndarray of int64, shape (S, n_u, 2), optional
+        The nodes ``start .. stop-1`` of each row to form
+        (:meth:`sarcli.formers.ffbp._grids._Level.row_table`); None: every node.
     """
     (pre, pim), (first, count), (out_re, out_im), st = profiles, groups, out, settings
+    rows = full_rows(out_re.shape) if rows is None else np.ascontiguousarray(rows, np.int64)
     opts = native().Stage0Options(kind=int(st.kind), bistatic=bool(st.bistatic), half_len=float(st.half_len),
                                   n_len=float(st.n_len), pad=int(st.pad), dq=float(st.dq), kref=float(st.kref))
     if WEIGHTS_FIRST is not None:
         opts.weights_first = int(bool(WEIGHTS_FIRST))
     native().stage0(pre, pim, np.ascontiguousarray(first, np.int64), np.ascontiguousarray(count, np.int64), pulses,
-                    np.ascontiguousarray(series, np.bool_), frame, table(tab), opts, out_re, out_im)
+                    np.ascontiguousarray(series, np.bool_), frame, rows, table(tab), opts, out_re, out_im)
 
 
 def pulse_table(geo, dlt, inv_bin, kc):

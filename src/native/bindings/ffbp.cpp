@@ -40,12 +40,14 @@ NB_MODULE(_ffbp, m) {
       .def_rw("dq", &s::Stage0Options::dq)
       .def_rw("kref", &s::Stage0Options::kref)
       .def_rw("weights_first", &s::Stage0Options::weights_first);
-  m.def("stage0", &s::stage0, "pre"_a, "pim"_a, "first"_a, "count"_a, "pulses"_a, "series"_a, "frame"_a, "tab"_a,
-        "options"_a, nb::arg("out_re").noconvert(), nb::arg("out_im").noconvert(),
-        "Backproject each sub-aperture's pulses (first[s] .. +count[s]) onto its polar grid (out[s]).");
-  m.def("merge", &s::merge, "cre"_a, "cim"_a, "cframe"_a, "pframe"_a, "first"_a, "count"_a, "tab_q"_a, "tab_t"_a,
-        "kind"_a, "dq"_a, "kref"_a, nb::arg("out_re").noconvert(), nb::arg("out_im").noconvert(),
-        "Parent sub-image s = sum of children first[s] .. +count[s] interpolated at its nodes.");
+  m.def("stage0", &s::stage0, "pre"_a, "pim"_a, "first"_a, "count"_a, "pulses"_a, "series"_a, "frame"_a, "rows"_a,
+        "tab"_a, "options"_a, nb::arg("out_re").noconvert(), nb::arg("out_im").noconvert(),
+        "Backproject each sub-aperture's pulses (first[s] .. +count[s]) onto its polar grid (out[s]): the nodes "
+        "rows[s, row, 0] .. rows[s, row, 1]-1 of each row, zero elsewhere.");
+  m.def("merge", &s::merge, "cre"_a, "cim"_a, "cframe"_a, "pframe"_a, "first"_a, "count"_a, "rows"_a, "tab_q"_a,
+        "tab_t"_a, "kind"_a, "dq"_a, "kref"_a, nb::arg("out_re").noconvert(), nb::arg("out_im").noconvert(),
+        "Parent sub-image s = sum of children first[s] .. +count[s] interpolated at its nodes rows[s, row, 0] .. "
+        "rows[s, row, 1]-1 of each row, zero elsewhere.");
   m.def("final_stage", &s::final_stage, "cre"_a, "cim"_a, "cframe"_a, "x"_a, "y"_a, "tab_q"_a, "tab_t"_a,
         "kind"_a, "dq"_a, "kref"_a, nb::arg("img").noconvert(),
         "Add the sub-images, interpolated at every pixel and re-modulated, to img [ny, nx].");
