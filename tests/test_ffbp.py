@@ -538,7 +538,7 @@ def _merge_reference(cre, cim, cf, pf, first, count, tab_q, tab_t, dq, kref, n_u
     for the optimal 6-tap kernels: each parent row's nodes in every child's (q, u); the child's
     columns the row's q-stencils touch interpolated in u at the row's u, linear in q between nodes
     (pass 1); that signal interpolated in q at each node and re-referenced (pass 2)."""
-    from sarcli.formers.ffbp._grids import _coords_np
+    from sarcli.formers.ffbp._grids import polar_coords
     from sarcli.formers.ffbp._kernels import row_weights
 
     out = np.zeros((len(first), n_u, n_q), complex)
@@ -552,7 +552,7 @@ def _merge_reference(cre, cim, cf, pf, first, count, tab_q, tab_t, dq, kref, n_u
             x, y = along * e0x - across * e0y, along * e0y + across * e0x
             for c in range(first[s], first[s] + count[s]):
                 f = cf[:, c]
-                qs, ts, _ = _coords_np(f[:, None], x[None], y[None])
+                qs, ts, _ = polar_coords(f[:, None], x[None], y[None])
                 qs, ts = qs[0], ts[0]
                 assert np.all(np.diff(qs) > 0)      # the separable path
                 fq = (qs - f[7]) / dq

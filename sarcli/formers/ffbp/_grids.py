@@ -49,7 +49,7 @@ def _centre_geometry(c):
     return np.ascontiguousarray(np.stack([c[:, 0], c[:, 1], cn, rho0, e0[:, 0], e0[:, 1], c[:, 2]]))
 
 
-def _coords_np(g, x, y):
+def polar_coords(g, x, y):
     """NumPy twin of the compiled ``_coords``: (q, u, a) [S, n] for points (x, y); ``a`` is the
     point's distance from the centre's nadir along ``e0``."""
     cx, cy, cn, rho0, e0x, e0y = (r[:, None] for r in g[:6])
@@ -132,7 +132,7 @@ class _Level:
     n_q: int
     children: tuple | None = None   # (first, count) of each sub-aperture's children in the level below
     #: [n, n_u, 2] int64: the nodes ``start .. stop-1`` of each row that later stencils can read
-    #: (:func:`row_bounds`); None: every node
+    #: (:func:`sarcli.formers.ffbp._rows.with_rows`); None: every node
     rows: np.ndarray | None = None
 
     @property
@@ -170,11 +170,11 @@ def _frame_geometry(pos, first, count, boundary) -> _FrameGeometry:
     centres = np.add.reduceat(run, starts, axis=0) / count[:, None]
     g = _centre_geometry(centres)
     xs, ys, (x0, x1, y0, y1) = boundary
-    q, u, den = _coords_np(g, xs[None, :], ys[None, :])
+    q, u, den = polar_coords(g, xs[None, :], ys[None, :])
     if np.any(den <= NADIR_CLEARANCE * g[3][:, None]):
         raise SarcliInputError("ffbp needs the antennas' nadir well outside the image; use method 'backprojection'")
     # nearest point of the rectangle to each centre's nadir: the smallest q (q is convex in x)
-    qn, _, _ = _coords_np(g, np.clip(centres[:, 0], x0, x1)[:, None], np.clip(centres[:, 1], y0, y1)[:, None])
+    qn, _, _ = polar_coords(g, np.clip(centres[:, 0], x0, x1)[:, None], np.clip(centres[:, 1], y0, y1)[:, None])
     q_min = np.minimum(q.min(axis=1), qn[:, 0])
     q_max = q.max(axis=1)
     # band along u: |∂R_p/∂u| = |Δ⊥ − Δ_e0 u R/a| ≤ d √(1 + (uR/a)²) for a pulse Δ from the centre
@@ -202,72 +202,14 @@ def _frame(geo: _FrameGeometry, first, count, kmax, os_angle, band_scale=1.0) ->
                   float(np.max(geo.geo[2] + geo.q_max)))
 
 
-def level_grid(fr: _Frame, dq, ext_q, ext_u, children=None, bounds=None) -> _Level:
+def level_grid(fr: _Frame, dq, ext_q, ext_u, children=None) -> _Level:
     """The polar grids of a frame, extended by ``ext_q``/``ext_u`` samples on each side (``ext_u``
-    may differ between sub-apertures; the grids share the largest shape). ``bounds``: the grown
-    grid's rectangle ``(x0, x1, y0, y1)``, to bound each row to the nodes later stencils can read
-    (:func:`row_bounds`); None: every node of every row."""
+    may differ between sub-apertures; the grids share the largest shape), every node of every row
+    formed (:func:`sarcli.formers.ffbp._rows.with_rows` bounds the rows)."""
     n_u = int(np.max(np.ceil((fr.u_max - fr.u_min) / fr.du) + 2 * np.asarray(ext_u))) + 1
     n_q = int(np.max(np.ceil((fr.q_max - fr.q_min) / dq))) + 1 + 2 * ext_q
-    lv = _Level(fr.first, fr.count, fr.geo, fr.q_min - ext_q * dq, fr.u_min - ext_u * fr.du, fr.du, n_u, n_q,
-                children)
-    if bounds is None:
-        return lv
-    return _Level(lv.first, lv.count, lv.geo, lv.q0, lv.u0, lv.du, n_u, n_q, children,
-                  row_bounds(lv, bounds, dq, ext_q, ext_u))
-
-
-def row_bounds(lv: _Level, bounds, dq, ext_q, ext_u) -> np.ndarray:
-    """The nodes of each row of ``lv``'s grids that later stencils can read, ``[n, n_u, 2]``
-    (start, stop). A grid is a rectangle in (q, u) that holds the grown grid's rectangle (``bounds``:
-    x0, x1, y0, y1) extended by ``ext_q`` samples in q and ``ext_u`` in u; seen from near the
-    radar that rectangle is far from one in (q, u): the near edge spans a wider u than the far
-    edge, so the rows at large |u| cross the scene only near it. Along a row (u fixed) q grows
-    with the distance from the centre's nadir, so a row band's extremes of q over the rectangle
-    lie on its boundary: each row keeps the q range of the boundary points within ``ext_u`` rows
-    of it (one more for the sampling), extended by ``ext_q`` samples and one more, in nodes.
-
-    The boundary is sampled finely enough that neighbouring points lie within half a row of each
-    other (each point counts for the two rows about it)."""
-    x0, x1, y0, y1 = bounds
-    ext_u = np.broadcast_to(np.asarray(ext_u, dtype=np.int64), (lv.n,))
-    n_side = max(65, 2 * lv.n_u + 1)
-    while True:
-        s = np.linspace(0.0, 1.0, n_side)
-        xs = np.concatenate([x0 + (x1 - x0) * s, np.full(n_side, x1), x1 - (x1 - x0) * s, np.full(n_side, x0)])
-        ys = np.concatenate([np.full(n_side, y0), y0 + (y1 - y0) * s, np.full(n_side, y1), y1 - (y1 - y0) * s])
-        q, u, _ = _coords_np(lv.geo, xs[None, :], ys[None, :])
-        r = (u - lv.u0[:, None]) / lv.du[:, None]   # row coordinate of each boundary point
-        if np.max(np.abs(np.diff(r, axis=1))) <= 0.5 or n_side > 64 * (lv.n_u + 1):
-            break
-        n_side = 2 * n_side - 1
-    n, n_u = lv.n, lv.n_u
-    q_lo, q_hi = np.full(n * n_u, np.inf), np.full(n * n_u, -np.inf)
-    base = (np.arange(n) * n_u)[:, None]
-    for row in (np.floor(r), np.ceil(r)):
-        ok = (row >= 0) & (row < n_u)
-        at = (base + np.clip(row, 0, n_u - 1).astype(np.int64))[ok]
-        np.minimum.at(q_lo, at, q[ok])
-        np.maximum.at(q_hi, at, q[ok])
-    q_lo, q_hi = q_lo.reshape(n, n_u), q_hi.reshape(n, n_u)
-    lo, hi = q_lo.copy(), q_hi.copy()
-    reach = ext_u + 1
-    for k in range(1, int(reach.max()) + 1):   # the rows within ext_u (+1) of each row
-        on = (k <= reach)[:, None]
-        lo[:, k:] = np.where(on, np.minimum(lo[:, k:], q_lo[:, :-k]), lo[:, k:])
-        lo[:, :-k] = np.where(on, np.minimum(lo[:, :-k], q_lo[:, k:]), lo[:, :-k])
-        hi[:, k:] = np.where(on, np.maximum(hi[:, k:], q_hi[:, :-k]), hi[:, k:])
-        hi[:, :-k] = np.where(on, np.maximum(hi[:, :-k], q_hi[:, k:]), hi[:, :-k])
-    out = np.zeros((n, n_u, 2), np.int64)
-    seen = np.isfinite(lo)
-    q0 = lv.q0[:, None]
-    start = np.floor((np.where(seen, lo, 0.0) - q0) / dq) - ext_q - 1
-    stop = np.ceil((np.where(seen, hi, 0.0) - q0) / dq) + ext_q + 2
-    out[..., 0] = np.where(seen, np.clip(start, 0, lv.n_q), 0)
-    out[..., 1] = np.where(seen, np.clip(stop, 0, lv.n_q), 0)
-    out[..., 1] = np.maximum(out[..., 1], out[..., 0])
-    out.setflags(write=False)
-    return out
+    return _Level(fr.first, fr.count, fr.geo, fr.q_min - ext_q * dq, fr.u_min - ext_u * fr.du, fr.du, n_u, n_q,
+                  children)
 
 
 def pulse_rates(t, rcv, fr, xs, ys, parent=None, rays=None):
@@ -409,7 +351,8 @@ class Apertures:
 
     @property
     def bounds(self) -> tuple:
-        """The grid's rectangle grown by the margin, ``(x0, x1, y0, y1)`` (:func:`row_bounds`)."""
+        """The grid's rectangle grown by the margin, ``(x0, x1, y0, y1)``
+        (:func:`sarcli.formers.ffbp._rows.with_rows`)."""
         return self._boundary[2]
 
     def geometry(self, l: int) -> _FrameGeometry:

@@ -17,6 +17,7 @@ from ...errors import SarcliInputError
 from .model import INTERPOLATORS, NTAPS, angle_interp_error, deapodized_edge_error, deapodized_error
 from .model import default_upsample, frequency_error, interp_error, predict_error
 from ._grids import level_grid, apertures, band_excess, decide_deapodization
+from ._rows import with_rows
 
 #: Default knobs (see docs/ffbp.md for the error-vs-time frontier behind them); ``upsample`` not
 #: given is :func:`default_upsample` for ``optimal``, :data:`UPSAMPLE_ANALYTIC` for the others.
@@ -171,7 +172,8 @@ class StageLayout:
             ext_q = int(math.ceil(half * (n_lev - l))) + EXTRA_SAMPLES
             ext_u = np.ceil(half * reach / fr.du + U_FOR_Q_EXTENSION * ext_q * dq / (fr.metres_per_u * fr.du)
                             ).astype(np.int64) + EXTRA_SAMPLES
-            levels.append(level_grid(fr, dq, ext_q, ext_u, children[l], bounds=self.apertures.bounds))
+            levels.append(with_rows(level_grid(fr, dq, ext_q, ext_u, children[l]), self.apertures.bounds, dq, ext_q,
+                                    ext_u))
         return levels
 
     @functools.cached_property
