@@ -43,11 +43,14 @@ SARCLI_INLINE Frame frame_at(const double* f, std::size_t n, std::size_t s) {
           f[kE0y * n + s],  f[kCz * n + s], f[kQ0 * n + s], f[kU0 * n + s],   f[kDu * n + s]};
 }
 
-// (q, u) of the ground point (x, y, 0) about the frame's centre.
+// (q, u) of the ground point (x, y, 0) about the frame's centre. With s = |c − x| = √(|c|² + num),
+// q = num/(s + |c|) and u = (e⊥·x)/s: both quotients from one division, 1/(s (s + |c|)).
 SARCLI_INLINE void coords(double x, double y, const Frame& g, double& q, double& u) {
   const double num = x * x + y * y - 2.0 * (g.cx * x + g.cy * y);
-  q = num / (std::sqrt(g.cn * g.cn + num) + g.cn);
-  u = (g.e0x * y - g.e0y * x) / (g.cn + q);
+  const double s = std::sqrt(g.cn * g.cn + num), t = s + g.cn;
+  const double inv = 1.0 / (s * t);
+  q = num * (s * inv);
+  u = (g.e0x * y - g.e0y * x) * (t * inv);
 }
 
 // Ground point (x, y) of the polar node (q, u): the inverse of coords. With R = |c| + q the
@@ -762,20 +765,30 @@ SARCLI_INLINE v8f weights8(const v8f* ck, float t) {
 
 typedef int v8i __attribute__((vector_size(32)));
 
-// The lane sums of a and b, each as ((a0 + a4) + (a1 + a5)) + ((a2 + a6) + (a3 + a7)), from three
-// shuffles and three additions shared by the two.
-SARCLI_INLINE void hsum8x2(v8f a, v8f b, float& sa, float& sb) {
-  const v8f s = __builtin_shuffle(a, b, v8i{0, 1, 2, 3, 8, 9, 10, 11}) + __builtin_shuffle(a, b, v8i{4, 5, 6, 7, 12, 13, 14, 15});
-  const v8f t = s + __builtin_shuffle(s, v8i{1, 0, 3, 2, 5, 4, 7, 6});
-  const v8f u = t + __builtin_shuffle(t, v8i{2, 3, 0, 1, 6, 7, 4, 5});
-  sa = u[0];
-  sb = u[4];
+SARCLI_INLINE void store8(float* p, v8f v) { __builtin_memcpy(p, &v, sizeof v); }
+
+// The lane sums of eight vectors a[k] as the lanes k of one vector: pairs, then quadruples, then
+// halves added across the vectors (14 shuffles and 7 additions for eight sums).
+SARCLI_INLINE v8f lane_sums8(const v8f* a) {
+  const v8i ev{0, 8, 2, 10, 4, 12, 6, 14}, od{1, 9, 3, 11, 5, 13, 7, 15};
+  const v8f b0 = __builtin_shuffle(a[0], a[1], ev) + __builtin_shuffle(a[0], a[1], od);
+  const v8f b1 = __builtin_shuffle(a[2], a[3], ev) + __builtin_shuffle(a[2], a[3], od);
+  const v8f b2 = __builtin_shuffle(a[4], a[5], ev) + __builtin_shuffle(a[4], a[5], od);
+  const v8f b3 = __builtin_shuffle(a[6], a[7], ev) + __builtin_shuffle(a[6], a[7], od);
+  // b0 = (a0 01, a1 01, a0 23, a1 23, a0 45, a1 45, a0 67, a1 67), b1 the same of a2, a3, ...
+  const v8i lo{0, 1, 8, 9, 4, 5, 12, 13}, hi{2, 3, 10, 11, 6, 7, 14, 15};
+  const v8f c0 = __builtin_shuffle(b0, b1, lo) + __builtin_shuffle(b0, b1, hi);
+  const v8f c1 = __builtin_shuffle(b2, b3, lo) + __builtin_shuffle(b2, b3, hi);
+  // c0 = (a0 0-3, a1 0-3, a2 0-3, a3 0-3, a0 4-7, a1 4-7, a2 4-7, a3 4-7), c1 the same of a4 .. a7
+  return __builtin_shuffle(c0, c1, v8i{0, 1, 2, 3, 8, 9, 10, 11}) +
+         __builtin_shuffle(c0, c1, v8i{4, 5, 6, 7, 12, 13, 14, 15});
 }
 
 // Add one sub-image, interpolated at the polar coordinates (qs, ts) of n points and re-modulated
 // by e^{i k_ref (q − qref)}, to acc: positions and carriers, weights, then the 2-D stencil. With
 // the 6-tap polynomial kernel, each of a point's six stencil rows is read as one 8-lane vector
-// (lanes 6, 7 weighted zero) and the range weights are one vector polynomial.
+// (lanes 6, 7 weighted zero), the range weights are one vector polynomial, and the lane sums of
+// eight points are taken together (lane_sums8).
 SARCLI_INLINE void polar_row(const Child& C, double dq, double kref, const double* qs, const double* ts,
                              const double* qref, int kind, const float* tab_q, const float* tab_t, std::size_t n,
                              RowScratch& W) {
@@ -810,7 +823,8 @@ SARCLI_INLINE void polar_row(const Child& C, double dq, double kref, const doubl
     v8f ck[8] = {};
     for (int k = 0; k < 8; ++k)
       for (int b = 0; b < 8; ++b) ck[k][b] = b < 6 ? tab_q[8 * b + k] : 0.0f;
-    for (std::size_t i = 0; i < n; ++i) {
+    // a point's stencil rows weighted in angle and, lane by lane, in range (lanes 6, 7 weighted zero)
+    auto stencil = [&](std::size_t i, v8f& pr, v8f& pi) SARCLI_LAMBDA_INLINE {
       const std::size_t base = static_cast<std::size_t>(idx_t[i]) * cq + static_cast<std::size_t>(idx_q[i]);
       const v8f w8 = weights8(ck, fq[i]);
       v8f sr = {}, si = {};
@@ -829,10 +843,35 @@ SARCLI_INLINE void polar_row(const Child& C, double dq, double kref, const doubl
           }
         }
       }
-      float vr, vi;
-      hsum8x2(sr * w8, si * w8, vr, vi);
-      acc_re[i] += vr * cr[i] - vi * ci[i];
-      acc_im[i] += vr * ci[i] + vi * cr[i];
+      pr = sr * w8;
+      pi = si * w8;
+    };
+    // eight points at a time: their lane sums by one transposing reduction, whose sum of a vector
+    // does not depend on the others (a short last group, zeros beside it, sums its points alike:
+    // the image does not depend on how the points are cut into rows or bands)
+    auto add8 = [](float* ar, float* ai, const float* c, const float* sn, v8f vr, v8f vi) SARCLI_LAMBDA_INLINE {
+      const v8f c8 = load8(c), s8 = load8(sn);
+      store8(ar, load8(ar) + (vr * c8 - vi * s8));
+      store8(ai, load8(ai) + (vr * s8 + vi * c8));
+    };
+    std::size_t i = 0;
+    for (; i + 8 <= n; i += 8) {
+      v8f pr[8], pi[8];
+      for (int k = 0; k < 8; ++k) stencil(i + k, pr[k], pi[k]);
+      add8(acc_re + i, acc_im + i, cr + i, ci + i, lane_sums8(pr), lane_sums8(pi));
+    }
+    if (i < n) {
+      const std::size_t m = n - i;
+      v8f pr[8] = {}, pi[8] = {};
+      for (std::size_t k = 0; k < m; ++k) stencil(i + k, pr[k], pi[k]);
+      float c[8] = {}, sn[8] = {}, ar[8] = {}, ai[8] = {};
+      std::copy(cr + i, cr + n, c);
+      std::copy(ci + i, ci + n, sn);
+      std::copy(acc_re + i, acc_re + n, ar);
+      std::copy(acc_im + i, acc_im + n, ai);
+      add8(ar, ai, c, sn, lane_sums8(pr), lane_sums8(pi));
+      std::copy(ar, ar + m, acc_re + i);
+      std::copy(ai, ai + m, acc_im + i);
     }
     return;
   }
