@@ -24,7 +24,7 @@ def row_bounds(lv, bounds, dq, ext_q, ext_u) -> np.ndarray:
     extensions ``ext_q`` and ``ext_u`` (samples). Along a row (u fixed) q grows with the distance
     from the centre's nadir, so over the rectangle and a band of rows q takes its extremes on the
     rectangle's boundary: each row keeps the q range of the boundary points within ``ext_u`` rows
-    of it (one more for the sampling), extended by ``ext_q`` samples and one more.
+    of it, extended by ``ext_q`` samples as the grids are.
 
     The boundary is sampled so that neighbouring points lie within half a row of each other; each
     point counts for the two rows about it."""
@@ -50,8 +50,8 @@ def row_bounds(lv, bounds, dq, ext_q, ext_u) -> np.ndarray:
         np.maximum.at(q_hi, at, q[ok])
     q_lo, q_hi = q_lo.reshape(n, n_u), q_hi.reshape(n, n_u)
     lo, hi = q_lo.copy(), q_hi.copy()
-    reach = ext_u + 1
-    for k in range(1, int(reach.max()) + 1):   # the rows within ext_u (+1) of each row
+    reach = ext_u   # each point counts for the two rows about it: every point within ext_u rows
+    for k in range(1, int(reach.max()) + 1):
         on = (k <= reach)[:, None]
         lo[:, k:] = np.where(on, np.minimum(lo[:, k:], q_lo[:, :-k]), lo[:, k:])
         lo[:, :-k] = np.where(on, np.minimum(lo[:, :-k], q_lo[:, k:]), lo[:, :-k])
@@ -60,8 +60,9 @@ def row_bounds(lv, bounds, dq, ext_q, ext_u) -> np.ndarray:
     out = np.zeros((n, n_u, 2), np.int64)
     seen = np.isfinite(lo)
     q0 = lv.q0[:, None]
-    start = np.floor((np.where(seen, lo, 0.0) - q0) / dq) - ext_q - 1
-    stop = np.ceil((np.where(seen, hi, 0.0) - q0) / dq) + ext_q + 2
+    # as the grids' own extension (the whole grid's q_min .. q_max give 0 .. n_q)
+    start = np.floor((np.where(seen, lo, 0.0) - q0) / dq) - ext_q
+    stop = np.ceil((np.where(seen, hi, 0.0) - q0) / dq) + ext_q + 1
     out[..., 0] = np.where(seen, np.clip(start, 0, lv.n_q), 0)
     out[..., 1] = np.where(seen, np.clip(stop, 0, lv.n_q), 0)
     out[..., 1] = np.maximum(out[..., 1], out[..., 0])
