@@ -91,7 +91,7 @@ SARCLI_INLINE i32 locate(double f, double lo, double n, double ntap, double& fra
   const double s = fl + lo;
   ok = (s >= 0.0) & (s + ntap <= n);
   frac = f == f ? f - fl : 0.0;
-  return static_cast<i32>(s >= 0.0 ? (s <= n - ntap ? s : n - ntap) : 0.0);
+  return static_cast<i32>(std::min(std::max(0.0, s), n - ntap));   // std::max(0, NaN) is 0
 }
 
 // Each row's bounds [start, stop) within [0, nq].
@@ -229,10 +229,10 @@ struct Scratch0 {
   std::size_t n;                        // nodes rounded up to whole blocks
   explicit Scratch0(std::size_t nq)
       : xs(nq), ys(nq), ax(nq), ay(nq), az(nq), ir2(nq), rr(nq), qq(nq), xpos(nq), xpsi(nq),
-        idx((nq + kBlock0 - 1) / kBlock0 * kBlock0), frac(idx.size()), cr(idx.size()), ci(idx.size()),
+        idx((nq + kBlock0 - 1) / kBlock0 * kBlock0 + kBlock0), frac(idx.size()), cr(idx.size()), ci(idx.size()),
         w(6 * idx.size()), acc_re(idx.size()), acc_im(idx.size()), exact(nq / kTile0 + 1), inv(nq / kTile0 + 1),
         fxs(3 * inv.size()), fys(fxs.size()), fax(fxs.size()), fay(fxs.size()), faz(fxs.size()), fir2(fxs.size()),
-        frr(fxs.size()), fqq(fxs.size()), fd(fxs.size()), fit(inv.size()), n(idx.size()) {}
+        frr(fxs.size()), fqq(fxs.size()), fd(fxs.size()), fit(inv.size()), n(idx.size() - kBlock0) {}
 };
 
 // How weights6 forms the six weights of a 6-tap kernel: read precomputed ones, evaluate the
@@ -453,16 +453,16 @@ SARCLI_INLINE void emit0(float n_len, float jb, i32 ioff, std::size_t k0, std::s
 #pragma omp simd
   for (i32 j = 0; j < static_cast<i32>(n); ++j) {   // int32 j: a vector conversion to float on AVX2 too
     const float f = pos(j);
-    const float m = (f >= lo) & (f < hi) ? 1.0f : 0.0f;
-    const float fc = f >= lo ? (f <= top ? f : top) : lo;   // a NaN position (no ground point): lo
+    const bool in = (f >= lo) & (f < hi);   // false for NaN (a node that is no ground point)
+    const float fc = std::min(std::max(lo, f), top);   // std::max(lo, NaN) is lo: a node that is no ground point
     const i32 it = static_cast<i32>(fc);   // floor by truncation (a vector conversion everywhere)
     const i32 fi = it - static_cast<i32>(static_cast<float>(it) > fc);
     idx[k0 + j] = ioff + fi;
     frac[k0 + j] = fc - static_cast<float>(fi);
     float c, sn;
     carrier::sincos_f32(phase(j), c, sn);
-    cr[k0 + j] = m != 0.0f ? c : 0.0f;   // not m · c: a NaN carrier (no ground point) stays out
-    ci[k0 + j] = m != 0.0f ? sn : 0.0f;
+    cr[k0 + j] = in ? c : 0.0f;   // a select, not a mask times the carrier: a NaN carrier stays out
+    ci[k0 + j] = in ? sn : 0.0f;
   }
 }
 
@@ -631,7 +631,10 @@ void stage0_row(const Stage0& A, std::size_t s, std::size_t it, Scratch0& W) {
       const float p0f = static_cast<float>(f.p0), p1f = static_cast<float>(f.p1), p2f = static_cast<float>(f.p2);
       const float s0f = static_cast<float>(f.s0), s1f = static_cast<float>(f.s1), s2f = static_cast<float>(f.s2);
       const float jmf = static_cast<float>(f.jm);
-      emit0(n_len, static_cast<float>(f.jb), off + static_cast<i32>(f.jb), k0, m,
+      // whole blocks of kBlock0 nodes, so that emit0's vector loop has no scalar remainder (a tile
+      // of 31 nodes would take 15 of them one at a time): the nodes past the tile are the next
+      // tile's, which it writes after, or the row's spare nodes, reset below
+      emit0(n_len, static_cast<float>(f.jb), off + static_cast<i32>(f.jb), k0, (m + kBlock0 - 1) / kBlock0 * kBlock0,
             [=](i32 j) SARCLI_LAMBDA_INLINE {
               const float jf = static_cast<float>(j);
               return p0f + (jf - jmf) * (p1f + jf * p2f);
