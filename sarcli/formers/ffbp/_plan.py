@@ -271,7 +271,8 @@ def layout_stages(antenna_position_m, freq_hz, grid: Grid, *, receive_position_m
     error model (:class:`StageLayout`).
 
     Parameters as for :func:`ffbp`. ``ops`` holds the multiply-add counts of stage 0
-    (pulse × node × taps), the merges (node × child × 2 taps: two 1-D passes) and the final stage
+    (pulse × node × taps, the nodes each row forms: :mod:`sarcli.formers.ffbp._rows`), the merges
+    (node × child × 2 taps: two 1-D passes) and the final stage
     (pixel × child × taps²), the stage-0 nodes and the (node or pixel, child) pairs of the merges
     and the final stage (each with its own coordinates and carrier; ``merge_pairs`` and
     ``final_pairs`` apart), the deapodized kernels' tone weights (``tones``) and the bytes first
