@@ -468,6 +468,9 @@ def test_rows_form_every_node_later_stencils_read():
 
     short = ffbp(data, col, GRID, plan=dataclasses.replace(plan, levels=[cut(lv, 10) for lv in plan.levels]))
     assert np.abs(short - full).max() > 1e-3 * np.abs(full).max()
+    # 3 km away the grids' far and near ranges differ by under RANGE_RATIO: whole rows
+    far, _ = circle(P=384, aperture_deg=8.0)
+    assert all(lv.rows is None for lv in plan_stages(far, FREQ, GRID, base=8, merge=2, final=2).levels)
 
 
 def test_polar_nodes_that_are_no_ground_point_stay_out():
