@@ -43,11 +43,14 @@ SARCLI_INLINE Frame frame_at(const double* f, std::size_t n, std::size_t s) {
           f[kE0y * n + s],  f[kCz * n + s], f[kQ0 * n + s], f[kU0 * n + s],   f[kDu * n + s]};
 }
 
-// (q, u) of the ground point (x, y, 0) about the frame's centre.
+// (q, u) of the ground point (x, y, 0) about the frame's centre: with R = |c − x| and
+// D = R + |c|, q = num/D and u = ((x − c)·e⊥)/R share one division, 1/(R D) (a vector division
+// costs as much as a square root, and the merges form these for every node and child).
 SARCLI_INLINE void coords(double x, double y, const Frame& g, double& q, double& u) {
   const double num = x * x + y * y - 2.0 * (g.cx * x + g.cy * y);
-  q = num / (std::sqrt(g.cn * g.cn + num) + g.cn);
-  u = (g.e0x * y - g.e0y * x) / (g.cn + q);
+  const double r = std::sqrt(g.cn * g.cn + num), d = r + g.cn, inv = 1.0 / (r * d);
+  q = num * (r * inv);
+  u = (g.e0x * y - g.e0y * x) * (d * inv);
 }
 
 // Ground point (x, y) of the polar node (q, u): the inverse of coords. With R = |c| + q the
@@ -941,7 +944,11 @@ SARCLI_INLINE void separable_row(const Child& C, double dq, double kref, const d
   const i32 jlo = idx_q[i0];
   const std::size_t ncol = static_cast<std::size_t>(idx_q[i1] + ntap - jlo);
   // T at the columns: linear between the row's points (extrapolated past its ends), then located in u
-  for (std::size_t i = 0; i + 1 < n; ++i) slope[i] = (ts[i + 1] - ts[i]) / (qs[i + 1] - qs[i]);
+  // (the slopes' quotients in float32: a column lies within a point's spacing of its segment's
+  // point, so their rounding moves T by about 1e-7 of that spacing's step in u, and a float32
+  // vector division costs a fraction of a float64 one's)
+  for (std::size_t i = 0; i + 1 < n; ++i)
+    slope[i] = static_cast<float>(ts[i + 1] - ts[i]) / static_cast<float>(qs[i + 1] - qs[i]);
   // segment of each column: the last point k in [1, n − 2] with qs[k] <= q_j (0 if none). With
   // c_k the first column at or past point k, that is the last k with c_k <= j. Columns and points share
   // their spacing in q, so along a run of points whose c_k rises by one a point each column's
