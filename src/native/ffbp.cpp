@@ -32,6 +32,7 @@ using i32 = std::int32_t;
 // a lambda compiled into the (cloned) function that calls it
 #define SARCLI_LAMBDA_INLINE __attribute__((always_inline))
 using i64 = std::int64_t;
+using u32 = std::uint32_t;
 
 using interp::kTaps;   // taps of each interpolation kernel (numerics/kinds.hpp)
 struct Frame {
@@ -471,14 +472,19 @@ SARCLI_INLINE void tap6_block(const float* sre, const float* sim, std::size_t le
                               const float* __restrict tab, const float* __restrict w, std::size_t ws,
                               const float* __restrict cr, const float* __restrict ci, float* __restrict acc_re,
                               float* __restrict acc_im, std::size_t k0) {
-  i32 smin = idx[k0], smax = idx[k0];   // over the whole block: one vector of kBlock0 lanes, no remainder
-#pragma omp simd reduction(min : smin) reduction(max : smax)
+  // which offsets d = (idx[k] − k) − idx[k0] from the first node's start occur: bit d + 1 for d in
+  // [−1, 1], bit 3 for any other (one OR over the block's single vector, where a minimum and a
+  // maximum take two horizontal reductions); the starts span at most two neighbouring values when
+  // no other offset and not both −1 and 1 occur, and the lower is smin
+  const i32 s0 = idx[k0];
+  u32 seen = 0;
+#pragma omp simd reduction(| : seen)
   for (std::size_t i = 0; i < kBlock0; ++i) {
-    const i32 s = idx[k0 + i] - static_cast<i32>(i);
-    smin = std::min(smin, s);
-    smax = std::max(smax, s);
+    const u32 d1 = static_cast<u32>(idx[k0 + i] - static_cast<i32>(i) - s0 + 1);   // d + 1; others >= 3 as unsigned
+    seen |= u32(1) << std::min(d1, u32(3));
   }
-  if (smax - smin <= 1 && smin >= 0 && static_cast<std::size_t>(smin) + kBlock0 + 6 <= len) {
+  const i32 smin = s0 - static_cast<i32>(seen & 1u);
+  if ((seen & 8u) == 0 && (seen & 5u) != 5u && smin >= 0 && static_cast<std::size_t>(smin) + kBlock0 + 6 <= len) {
     const float *r = sre + smin, *m = sim + smin;
 #pragma omp simd
     for (std::size_t i = 0; i < kBlock0; ++i) {
