@@ -28,7 +28,17 @@
 #include <vector>
 
 #if defined(__x86_64__)
+// GCC 12's AVX-512 headers build their "undefined" vectors from themselves, which its
+// -Wmaybe-uninitialized reports at every inlined shuffle (GCC bug 105593, fixed in GCC 13): the
+// warning is silenced for the header's lines only.
+#if defined(__GNUC__) && !defined(__clang__)
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+#endif
 #include <immintrin.h>
+#if defined(__GNUC__) && !defined(__clang__)
+#pragma GCC diagnostic pop
+#endif
 #endif
 
 #include "backprojection.hpp"

@@ -32,6 +32,7 @@ using i32 = std::int32_t;
 // a lambda compiled into the (cloned) function that calls it
 #define SARCLI_LAMBDA_INLINE __attribute__((always_inline))
 using i64 = std::int64_t;
+using u32 = std::uint32_t;
 
 using interp::kTaps;   // taps of each interpolation kernel (numerics/kinds.hpp)
 struct Frame {
@@ -178,7 +179,7 @@ constexpr std::size_t kBlock0 = 16, kTile0 = 32;
 // check points before its nodes are evaluated exactly.
 constexpr double kFitPhase = 1e-6, kFitBin = 1e-5;
 
-// The reciprocals of a tile of n nodes' divided differences (fit_tile): 1/jm, 1/je, 1/(je − jm),
+// The reciprocals of a tile of n nodes' divided differences (fit_from): 1/jm, 1/je, 1/(je − jm),
 // worked out once a row rather than once a pulse.
 struct TileInv {
   double m, e, d;
@@ -225,6 +226,9 @@ struct Scratch0 {
   // every tile's three fit nodes (3t, 3t + 1, 3t + 2: its first, middle and last), their node
   // arrays gathered once a row, and one pulse's exact ranges there
   std::vector<double> fxs, fys, fax, fay, faz, fir2, frr, fqq, fd;
+  // every tile's two check nodes (2t, 2t + 1), their offsets in the tile and one pulse's exact
+  // ranges there
+  std::vector<double> cxs, cys, cax, cay, caz, cir2, crr, cqq, cj, cd;
   std::vector<TileFit> fit;           // per tile: one pulse's quadratics
   std::size_t n;                        // nodes rounded up to whole blocks
   explicit Scratch0(std::size_t nq)
@@ -232,7 +236,9 @@ struct Scratch0 {
         idx((nq + kBlock0 - 1) / kBlock0 * kBlock0 + kBlock0), frac(idx.size()), cr(idx.size()), ci(idx.size()),
         w(6 * idx.size()), acc_re(idx.size()), acc_im(idx.size()), exact(nq / kTile0 + 1), inv(nq / kTile0 + 1),
         fxs(3 * inv.size()), fys(fxs.size()), fax(fxs.size()), fay(fxs.size()), faz(fxs.size()), fir2(fxs.size()),
-        frr(fxs.size()), fqq(fxs.size()), fd(fxs.size()), fit(inv.size()), n(idx.size() - kBlock0) {}
+        frr(fxs.size()), fqq(fxs.size()), fd(fxs.size()), cxs(2 * inv.size()), cys(cxs.size()), cax(cxs.size()),
+        cay(cxs.size()), caz(cxs.size()), cir2(cxs.size()), crr(cxs.size()), cqq(cxs.size()), cj(cxs.size()),
+        cd(cxs.size()), fit(inv.size()), n(idx.size() - kBlock0) {}
 };
 
 // How weights6 forms the six weights of a 6-tap kernel: read precomputed ones, evaluate the
@@ -401,14 +407,15 @@ struct NodeGeo {
 };
 
 // Exact differential range of pulse g (row r of the pulse table at g[r * B]) at node iq of N: the
-// series about the sub-aperture centre or the square root (stage 0's two forms).
-SARCLI_INLINE double exact_dr(const Stage0& A, const double* g, bool series, const NodeGeo& N, std::size_t iq) {
-  const std::size_t B = A.B;
-  if (series) {
+// series about the sub-aperture centre or the square root (stage 0's two forms), monostatic or
+// bistatic; the forms as template arguments, so that a loop over the nodes has no branch in it.
+template <bool Series, bool Bistatic>
+SARCLI_INLINE double exact_dr_of(const double* g, std::size_t B, const NodeGeo& N, std::size_t iq) {
+  if constexpr (Series) {
     const double e = N.ax[iq] * g[kDtx * B] + N.ay[iq] * g[kDty * B] + N.az[iq] * g[kDtz * B] +
                      g[kDt2 * B] * N.ir2[iq];
     double s = sqrt_series(e);
-    if (A.bistatic) {
+    if constexpr (Bistatic) {
       const double eb = N.ax[iq] * g[kDrx * B] + N.ay[iq] * g[kDry * B] +
                         N.az[iq] * g[kDrz * B] + g[kDr2 * B] * N.ir2[iq];
       s = 0.5 * (s + sqrt_series(eb));
@@ -416,8 +423,31 @@ SARCLI_INLINE double exact_dr(const Stage0& A, const double* g, bool series, con
     return N.qq[iq] + N.rr[iq] * s + g[kCentreOffset * B];
   }
   double d = one_way(N.xs[iq], N.ys[iq], g[kTx * B], g[kTy * B], g[kT2 * B], g[kTn * B]);
-  if (A.bistatic) d = 0.5 * (d + one_way(N.xs[iq], N.ys[iq], g[kRx * B], g[kRy * B], g[kR2 * B], g[kRn * B]));
+  if constexpr (Bistatic) d = 0.5 * (d + one_way(N.xs[iq], N.ys[iq], g[kRx * B], g[kRy * B], g[kR2 * B], g[kRn * B]));
   return d + g[kOffset * B];
+}
+
+// f(std::integral_constant<bool, series>{}, std::integral_constant<bool, bistatic>{}): exact_dr's
+// four forms.
+template <typename F>
+SARCLI_INLINE void by_form(bool series, bool bistatic, F&& f) {
+  using T = std::true_type;
+  using N = std::false_type;
+  if (series) {
+    if (bistatic) f(T{}, T{});
+    else f(T{}, N{});
+  } else {
+    if (bistatic) f(N{}, T{});
+    else f(N{}, N{});
+  }
+}
+
+SARCLI_INLINE double exact_dr(const Stage0& A, const double* g, bool series, const NodeGeo& N, std::size_t iq) {
+  double d = 0.0;
+  by_form(series, A.bistatic, [&](auto se, auto bi) SARCLI_LAMBDA_INLINE {
+    d = exact_dr_of<decltype(se)::value, decltype(bi)::value>(g, A.B, N, iq);
+  });
+  return d;
 }
 
 SARCLI_INLINE NodeGeo row_geo(const Scratch0& W) {
@@ -427,20 +457,6 @@ SARCLI_INLINE NodeGeo row_geo(const Scratch0& W) {
 SARCLI_INLINE NodeGeo fit_geo(const Scratch0& W) {
   return {W.fxs.data(), W.fys.data(), W.fax.data(), W.fay.data(), W.faz.data(), W.fir2.data(), W.frr.data(),
           W.fqq.data()};
-}
-
-SARCLI_INLINE TileFit fit_tile(const Stage0& A, const double* g, bool series, const NodeGeo& N, std::size_t k0,
-                               std::size_t n, const TileInv& inv) {
-  const double ib = g[kInvBin * A.B], kc = g[kKc * A.B];
-  const std::size_t jm = (n - 1) / 2, je = n - 1;
-  double pv[3], sv[3];
-  const std::size_t js[3] = {0, jm, je};
-  for (int i = 0; i < 3; ++i) {
-    const double d = exact_dr(A, g, series, N, k0 + js[i]);
-    pv[i] = d * ib + A.half_len;
-    sv[i] = kc * d - A.kref * N.qq[k0 + js[i]];
-  }
-  return fit_from(pv, sv, static_cast<double>(jm), inv);
 }
 
 // Profile index, fraction and masked carrier of nodes k0 .. k0+n-1 from their positions f relative
@@ -475,14 +491,19 @@ SARCLI_INLINE void tap6_block(const float* sre, const float* sim, std::size_t le
                               const float* __restrict tab, const float* __restrict w, std::size_t ws,
                               const float* __restrict cr, const float* __restrict ci, float* __restrict acc_re,
                               float* __restrict acc_im, std::size_t k0) {
-  i32 smin = idx[k0], smax = idx[k0];   // over the whole block: one vector of kBlock0 lanes, no remainder
-#pragma omp simd reduction(min : smin) reduction(max : smax)
+  // which offsets d = (idx[k] − k) − idx[k0] from the first node's start occur: bit d + 1 for d in
+  // [−1, 1], bit 3 for any other (one OR over the block's single vector, where a minimum and a
+  // maximum take two horizontal reductions); the starts span at most two neighbouring values when
+  // no other offset and not both −1 and 1 occur, and the lower is smin
+  const i32 s0 = idx[k0];
+  u32 seen = 0;
+#pragma omp simd reduction(| : seen)
   for (std::size_t i = 0; i < kBlock0; ++i) {
-    const i32 s = idx[k0 + i] - static_cast<i32>(i);
-    smin = std::min(smin, s);
-    smax = std::max(smax, s);
+    const u32 d1 = static_cast<u32>(idx[k0 + i] - static_cast<i32>(i) - s0 + 1);   // d + 1; others >= 3 as unsigned
+    seen |= u32(1) << std::min(d1, u32(3));
   }
-  if (smax - smin <= 1 && smin >= 0 && static_cast<std::size_t>(smin) + kBlock0 + 6 <= len) {
+  const i32 smin = s0 - static_cast<i32>(seen & 1u);
+  if ((seen & 8u) == 0 && (seen & 5u) != 5u && smin >= 0 && static_cast<std::size_t>(smin) + kBlock0 + 6 <= len) {
     const float *r = sre + smin, *m = sim + smin;
 #pragma omp simd
     for (std::size_t i = 0; i < kBlock0; ++i) {
@@ -536,48 +557,106 @@ void stage0_row(const Stage0& A, std::size_t s, std::size_t it, Scratch0& W) {
   i32* idx = W.idx.data();
   float *frac = W.frac.data(), *cr = W.cr.data(), *ci = W.ci.data(), *w = W.w.data();
   float *acc_re = W.acc_re.data(), *acc_im = W.acc_im.data();
-  for (std::size_t iq = 0; iq < nq; ++iq) {   // the node, its range from the centre, the series' factors
-    const double q = F.q0 + static_cast<double>(iq) * A.dq;
-    double x, y;
-    node(q, tau, F, x, y);
-    const double r = F.cn + q, i2 = 1.0 / (r * r);
-    W.xs[iq] = x; W.ys[iq] = y;
-    W.ax[iq] = 2.0 * (F.cx - x) * i2;
-    W.ay[iq] = 2.0 * (F.cy - y) * i2;
-    W.az[iq] = 2.0 * F.cz * i2;
-    W.ir2[iq] = i2; W.rr[iq] = r; W.qq[iq] = q;
+  {   // the node, its range from the centre, the series' factors (vectorised: every pointer and
+      // setting in a local)
+    double *__restrict xs = W.xs.data(), *__restrict ys = W.ys.data(), *__restrict ax = W.ax.data();
+    double *__restrict ay = W.ay.data(), *__restrict az = W.az.data(), *__restrict ir2 = W.ir2.data();
+    double *__restrict rr = W.rr.data(), *__restrict qq = W.qq.data();
+    const double dq = A.dq;
+#pragma omp simd
+    for (std::size_t iq = 0; iq < nq; ++iq) {
+      const double q = F.q0 + static_cast<double>(iq) * dq;
+      double x, y;
+      node(q, tau, F, x, y);
+      const double r = F.cn + q, i2 = 1.0 / (r * r);
+      xs[iq] = x; ys[iq] = y;
+      ax[iq] = 2.0 * (F.cx - x) * i2;
+      ay[iq] = 2.0 * (F.cy - y) * i2;
+      az[iq] = 2.0 * F.cz * i2;
+      ir2[iq] = i2; rr[iq] = r; qq[iq] = q;
+    }
   }
   for (std::size_t k = 0; k < n; ++k) { acc_re[k] = 0.0f; acc_im[k] = 0.0f; }
   const NodeGeo G = row_geo(W), FG = fit_geo(W);
   const std::size_t ntile = std::max<std::size_t>(1, (nq + kTile0 / 2) / kTile0);
   const i64 p0 = A.first[s], p1 = A.first[s] + A.count[s];
-  for (std::size_t t = 0; t < ntile; ++t) {   // which tiles the quadratic serves
+  for (std::size_t t = 0; t < ntile; ++t) {   // each tile's fit and check nodes, gathered
     const std::size_t k0 = t * nq / ntile, m = (t + 1) * nq / ntile - k0;
     W.inv[t] = tile_inv(m);
-    const std::size_t js[3] = {k0, k0 + (m - 1) / 2, k0 + m - 1};
-    for (std::size_t i = 0; i < 3; ++i) {   // the tile's fit nodes, gathered
+    const std::size_t jm = (m - 1) / 2;
+    const std::size_t js[3] = {k0, k0 + jm, k0 + m - 1}, jc[2] = {jm / 2, (jm + m - 1) / 2};
+    for (std::size_t i = 0; i < 3; ++i) {   // the tile's fit nodes: its first, middle and last
       const std::size_t k = js[i], f = 3 * t + i;
       W.fxs[f] = W.xs[k]; W.fys[f] = W.ys[k]; W.fax[f] = W.ax[k]; W.fay[f] = W.ay[k]; W.faz[f] = W.az[k];
       W.fir2[f] = W.ir2[k]; W.frr[f] = W.rr[k]; W.fqq[f] = W.qq[k];
     }
-    bool ok = m >= 3;
-    if (ok && p1 > p0) {
-      const std::size_t jm = (m - 1) / 2;
-      const std::size_t jc[2] = {jm / 2, (jm + m - 1) / 2};
-      for (i64 p : {p0, p0 + (p1 - p0 - 1) / 2, p1 - 1}) {
-        const double* g = A.pul + p;
-        const TileFit f = fit_tile(A, g, series, G, k0, m, W.inv[t]);
-        const double ib = g[kInvBin * A.B], kc = g[kKc * A.B];
-        for (std::size_t j : jc) {
-          const double d = exact_dr(A, g, series, G, k0 + j);
-          const double pe = d * ib + A.half_len - f.jb, se = kc * d - A.kref * W.qq[k0 + j];
-          const double ds = se - f.psi(static_cast<double>(j));
-          ok = ok && std::abs(pe - f.pos(static_cast<double>(j))) <= kFitBin &&
-               std::abs(ds - 6.283185307179586 * std::nearbyint(ds / 6.283185307179586)) <= kFitPhase;
-        }
-      }
+    for (std::size_t i = 0; i < 2; ++i) {   // its check nodes: between them
+      const std::size_t k = k0 + jc[i], f = 2 * t + i;
+      W.cxs[f] = W.xs[k]; W.cys[f] = W.ys[k]; W.cax[f] = W.ax[k]; W.cay[f] = W.ay[k]; W.caz[f] = W.az[k];
+      W.cir2[f] = W.ir2[k]; W.crr[f] = W.rr[k]; W.cqq[f] = W.qq[k];
+      W.cj[f] = static_cast<double>(jc[i]);
     }
-    W.exact[t] = !ok;
+    W.exact[t] = m < 3;
+  }
+  const double half_len = A.half_len, kref = A.kref;
+  // every tile's quadratics for pulse g (W.fit): the exact ranges at all fit nodes, then the fits,
+  // each vectorised (the pulse's row and the settings in locals: the stores cannot change them)
+  auto fit_all = [&](const double* g) SARCLI_LAMBDA_INLINE {
+    const double ib = g[kInvBin * A.B], kc = g[kKc * A.B];
+    double gl[kPulseRows];
+    for (int r = 0; r < kPulseRows; ++r) gl[r] = g[r * A.B];
+    double* __restrict fd = W.fd.data();
+    TileFit* __restrict fit = W.fit.data();
+    const double* __restrict fqq = W.fqq.data();
+    const std::size_t nf = 3 * ntile;
+    by_form(series, A.bistatic, [&](auto se, auto bi) SARCLI_LAMBDA_INLINE {
+#pragma omp simd
+      for (std::size_t f = 0; f < nf; ++f) fd[f] = exact_dr_of<decltype(se)::value, decltype(bi)::value>(gl, 1, FG, f);
+    });
+#pragma omp simd
+    for (std::size_t t = 0; t < ntile; ++t) {
+      double pv[3], sv[3];
+      for (std::size_t i = 0; i < 3; ++i) {
+        pv[i] = fd[3 * t + i] * ib + half_len;
+        sv[i] = kc * fd[3 * t + i] - kref * fqq[3 * t + i];
+      }
+      const std::size_t m = (t + 1) * nq / ntile - t * nq / ntile;
+      fit[t] = fit_from(pv, sv, static_cast<double>((m - 1) / 2), W.inv[t]);
+    }
+  };
+  // which tiles the quadratic serves: checked at the check nodes for the first, middle and last
+  // pulses, all tiles at once (vectorised)
+  const NodeGeo CG{W.cxs.data(), W.cys.data(), W.cax.data(), W.cay.data(), W.caz.data(), W.cir2.data(),
+                   W.crr.data(), W.cqq.data()};
+  for (i64 p : {p0, p0 + (p1 - p0 - 1) / 2, p1 - 1}) {
+    if (p1 <= p0) break;
+    const double* g = A.pul + p;
+    fit_all(g);
+    const double ib = g[kInvBin * A.B], kc = g[kKc * A.B];
+    double gl[kPulseRows];
+    for (int r = 0; r < kPulseRows; ++r) gl[r] = g[r * A.B];
+    double* __restrict cd = W.cd.data();
+    const std::size_t nc = 2 * ntile;
+    by_form(series, A.bistatic, [&](auto se, auto bi) SARCLI_LAMBDA_INLINE {
+#pragma omp simd
+      for (std::size_t f = 0; f < nc; ++f) cd[f] = exact_dr_of<decltype(se)::value, decltype(bi)::value>(gl, 1, CG, f);
+    });
+    const TileFit* __restrict fit = W.fit.data();
+    const double *__restrict cqq = W.cqq.data(), *__restrict cj = W.cj.data();
+    unsigned char* __restrict bad = W.exact.data();
+#pragma omp simd
+    for (std::size_t t = 0; t < ntile; ++t) {
+      const TileFit f = fit[t];
+      bool ok = true;
+      for (std::size_t i = 0; i < 2; ++i) {
+        const double d = cd[2 * t + i], j = cj[2 * t + i];
+        const double pe = d * ib + half_len - f.jb, se = kc * d - kref * cqq[2 * t + i];
+        const double ds = se - f.psi(j);
+        ok = ok & (std::abs(pe - f.pos(j)) <= kFitBin) &
+             (std::abs(ds - 6.283185307179586 * std::nearbyint(ds / 6.283185307179586)) <= kFitPhase);
+      }
+      bad[t] = bad[t] | static_cast<unsigned char>(!ok);
+    }
   }
   const i32 off = static_cast<i32>(A.off);
   const float n_len = static_cast<float>(A.n_len);
@@ -585,23 +664,7 @@ void stage0_row(const Stage0& A, std::size_t s, std::size_t it, Scratch0& W) {
     const float* rp = A.pre + p * A.plen;
     const float* ip = A.pim + p * A.plen;
     const double* g = A.pul + p;   // row r at g[r * B]
-    {   // every tile's quadratics: the exact ranges at all fit nodes, then the fits, each vectorised
-      const double ib = g[kInvBin * A.B], kc = g[kKc * A.B];
-      double* fd = W.fd.data();
-      TileFit* fit = W.fit.data();
-#pragma omp simd
-      for (std::size_t f = 0; f < 3 * ntile; ++f) fd[f] = exact_dr(A, g, series, FG, f);
-#pragma omp simd
-      for (std::size_t t = 0; t < ntile; ++t) {
-        double pv[3], sv[3];
-        for (std::size_t i = 0; i < 3; ++i) {
-          pv[i] = fd[3 * t + i] * ib + A.half_len;
-          sv[i] = kc * fd[3 * t + i] - A.kref * W.fqq[3 * t + i];
-        }
-        const std::size_t m = (t + 1) * nq / ntile - t * nq / ntile;
-        fit[t] = fit_from(pv, sv, static_cast<double>((m - 1) / 2), W.inv[t]);
-      }
-    }
+    fit_all(g);
     for (std::size_t t = 0; t < ntile; ++t) {
       const std::size_t k0 = t * nq / ntile, m = (t + 1) * nq / ntile - k0;
       if (W.exact[t]) {   // every node exactly (float64), relative to the first node's bin
@@ -965,7 +1028,11 @@ SARCLI_INLINE void separable_row(const Child& C, double dq, double kref, const d
   const i32 jlo = idx_q[i0];
   const std::size_t ncol = static_cast<std::size_t>(idx_q[i1] + ntap - jlo);
   // T at the columns: linear between the row's points (extrapolated past its ends), then located in u
-  for (std::size_t i = 0; i + 1 < n; ++i) slope[i] = (ts[i + 1] - ts[i]) / (qs[i + 1] - qs[i]);
+  // (the slopes' quotients in float32: a column lies within a point's spacing of its segment's
+  // point, so their rounding moves T by about 1e-7 of that spacing's step in u, and a float32
+  // vector division costs a fraction of a float64 one's)
+  for (std::size_t i = 0; i + 1 < n; ++i)
+    slope[i] = static_cast<float>(ts[i + 1] - ts[i]) / static_cast<float>(qs[i + 1] - qs[i]);
   // segment of each column: the last point k in [1, n − 2] with qs[k] <= q_j (0 if none). With
   // c_k the first column at or past point k, that is the last k with c_k <= j. Columns and points share
   // their spacing in q, so along a run of points whose c_k rises by one a point each column's
@@ -1083,10 +1150,12 @@ void merge_row(const Merge& A, std::size_t s, std::size_t it, RowScratch& W) {
   Frame pf = frame_at(A.pframe, A.P, s);
   pf.q0 += static_cast<double>(start) * A.dq;
   const double tau = pf.u0 + static_cast<double>(it) * pf.du;
-  double *xs = W.xs.data(), *ys = W.ys.data(), *qp = W.qp.data(), *qs = W.qs.data(), *ts = W.ts.data();
-  float *acc_re = W.acc_re.data(), *acc_im = W.acc_im.data();
+  double *__restrict xs = W.xs.data(), *__restrict ys = W.ys.data(), *__restrict qp = W.qp.data();
+  double *qs = W.qs.data(), *ts = W.ts.data();
+  float *__restrict acc_re = W.acc_re.data(), *__restrict acc_im = W.acc_im.data();
+  const double dq = A.dq;   // in a local: the stores cannot change it, and the loop vectorises
   for (std::size_t iq = 0; iq < nq; ++iq) {
-    const double q = pf.q0 + static_cast<double>(iq) * A.dq;
+    const double q = pf.q0 + static_cast<double>(iq) * dq;
     double x, y;
     node(q, tau, pf, x, y);
     qp[iq] = q;
