@@ -526,6 +526,26 @@ SARCLI_INLINE void tap6_block(const float* sre, const float* sim, std::size_t le
                     kBlock0);
 }
 
+// Row it of sub-image s forms only its nodes start .. start + nq (A.rows: [S, nt, 2], stage 0's
+// and the merges' alike); the rest of the row's output is set to zero, and ore, oim point at its
+// first formed node. Returns nq.
+template <typename RowArgs>
+SARCLI_INLINE std::size_t formed_nodes(const RowArgs& A, std::size_t s, std::size_t it, std::size_t& start,
+                                       float*& ore, float*& oim) {
+  const i64* rb = A.rows + 2 * (s * A.nt + it);
+  start = static_cast<std::size_t>(rb[0]);
+  const std::size_t nq = static_cast<std::size_t>(rb[1] - rb[0]);
+  ore = A.out_re + (s * A.nt + it) * A.nq;
+  oim = A.out_im + (s * A.nt + it) * A.nq;
+  std::fill(ore, ore + start, 0.0f);
+  std::fill(oim, oim + start, 0.0f);
+  std::fill(ore + start + nq, ore + A.nq, 0.0f);
+  std::fill(oim + start + nq, oim + A.nq, 0.0f);
+  ore += start;
+  oim += start;
+  return nq;
+}
+
 // One row (angle it) of sub-aperture s's polar grid. Along the row, each pulse's range and phase
 // are smooth in the node: they are evaluated exactly (float64) at three nodes of every tile of
 // about kTile0 nodes and by the quadratic through them (float32, relative to the tile's middle
@@ -537,18 +557,11 @@ SARCLI_INLINE void tap6_block(const float* sre, const float* sim, std::size_t le
 // stencil reads them.
 SARCLI_CLONES
 void stage0_row(const Stage0& A, std::size_t s, std::size_t it, Scratch0& W) {
-  const i64* rb = A.rows + 2 * (s * A.nt + it);
-  const std::size_t start = static_cast<std::size_t>(rb[0]), nq = static_cast<std::size_t>(rb[1] - rb[0]);
-  const std::size_t n = (nq + kBlock0 - 1) / kBlock0 * kBlock0;
-  float* ore = A.out_re + (s * A.nt + it) * A.nq;
-  float* oim = A.out_im + (s * A.nt + it) * A.nq;
-  std::fill(ore, ore + start, 0.0f);
-  std::fill(oim, oim + start, 0.0f);
-  std::fill(ore + start + nq, ore + A.nq, 0.0f);
-  std::fill(oim + start + nq, oim + A.nq, 0.0f);
+  std::size_t start;
+  float *ore, *oim;
+  const std::size_t nq = formed_nodes(A, s, it, start, ore, oim);
   if (nq == 0) return;
-  ore += start;
-  oim += start;
+  const std::size_t n = (nq + kBlock0 - 1) / kBlock0 * kBlock0;
   Frame F = frame_at(A.frame, A.S, s);
   F.q0 += static_cast<double>(start) * A.dq;
   const double tau = F.u0 + static_cast<double>(it) * F.du;
@@ -1136,17 +1149,10 @@ struct Merge {
 // A parent's row: only its nodes start .. stop-1 (A.rows) are formed, the others set to zero.
 SARCLI_CLONES
 void merge_row(const Merge& A, std::size_t s, std::size_t it, RowScratch& W) {
-  const i64* rb = A.rows + 2 * (s * A.nt + it);
-  const std::size_t start = static_cast<std::size_t>(rb[0]), nq = static_cast<std::size_t>(rb[1] - rb[0]);
-  float* ore = A.out_re + (s * A.nt + it) * A.nq;
-  float* oim = A.out_im + (s * A.nt + it) * A.nq;
-  std::fill(ore, ore + start, 0.0f);
-  std::fill(oim, oim + start, 0.0f);
-  std::fill(ore + start + nq, ore + A.nq, 0.0f);
-  std::fill(oim + start + nq, oim + A.nq, 0.0f);
+  std::size_t start;
+  float *ore, *oim;
+  const std::size_t nq = formed_nodes(A, s, it, start, ore, oim);
   if (nq == 0) return;
-  ore += start;
-  oim += start;
   Frame pf = frame_at(A.pframe, A.P, s);
   pf.q0 += static_cast<double>(start) * A.dq;
   const double tau = pf.u0 + static_cast<double>(it) * pf.du;
