@@ -477,16 +477,30 @@ def test_polar_nodes_that_are_no_ground_point_stay_out():
     """25 m from a 14 m scene, 4-pulse sub-apertures: stage 0's grids, extended by their coarse
     angular spacing, reach past |u| = 1, where a node is no ground point (NaN coordinates). Those
     nodes contribute nothing, so the image is finite and near the exact one (their NaN stencil
-    starts once indexed outside the grids). The error model does not cover such grids: measured
-    4.2e-2 against a predicted 1.2e-3."""
+    starts once indexed outside the grids). The error model does not cover such grids (measured
+    4.2e-2 where it gives 1.2e-3): the plan promises no accuracy (UNCOVERED_ERROR, so auto passes
+    it by) and ffbp warns with the reach. 200 m away the same pulses' grids stay on the ground."""
+    import warnings
+    from sarcli.errors import SarcliWarning
+    from sarcli.formers.ffbp._grids import ground_reach
+    from sarcli.formers.ffbp._plan import UNCOVERED_ERROR
+
     a, r0 = circle(P=384, r0=25.0, aperture_deg=8.0)
     plan = plan_stages(a, FREQ, GRID, base=4)
     lv = plan.levels[0]
     assert np.max(np.abs(lv.u0)) > 1   # the grids reach past the ground
+    assert ground_reach(plan.levels) > 1 and plan.predicted_error >= UNCOVERED_ERROR
     data = point_data(a, r0)
-    img = ffbp(data, Collection(FREQ, a, r0), GRID, plan=plan)
+    with pytest.warns(SarcliWarning, match=r"\|u\| = [0-9.]+ > 1, past the ground"):
+        img = ffbp(data, Collection(FREQ, a, r0), GRID, plan=plan)
     assert np.isfinite(img).all()
     assert image_error(img, direct_spherical(data, FREQ, a, r0, GRID)) < 0.1
+    far, rf = circle(P=384, r0=200.0, aperture_deg=8.0)
+    plan = plan_stages(far, FREQ, GRID, base=4)
+    assert ground_reach(plan.levels) < 1 and plan.predicted_error < 0.01
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", SarcliWarning)
+        ffbp(point_data(far, rf), Collection(FREQ, far, rf), GRID, plan=plan)
 
 
 def test_ffbp_depth_first_groups_give_the_same_image(monkeypatch):

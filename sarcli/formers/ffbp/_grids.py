@@ -118,6 +118,17 @@ class _Frame:
     metres_per_u: float      # ground metres per unit u (the largest R)
 
 
+def ground_reach(levels) -> float:
+    """The largest ``|u|`` any level's polar grid reaches (its rows' first and last). Past
+    ``|u| = 1`` a node is no ground point (near the radar, a coarse grid's extension): the kernels
+    keep such nodes out, and ffbp's error model does not cover the image they leave."""
+    reach = 0.0
+    for lv in levels:
+        last = lv.u0 + (lv.n_u - 1) * lv.du
+        reach = max(reach, float(np.max(np.abs(lv.u0))), float(np.max(np.abs(last))))
+    return reach
+
+
 @dataclass(frozen=True, eq=False)
 class _Level:
     """Sub-apertures of one stage and their polar grids (all of one shape ``n_u × n_q``)."""

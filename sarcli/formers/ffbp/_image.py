@@ -103,16 +103,18 @@ that axis is deapodized and errs no more than the minimax stencil at the default
 """
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 
 from ...core.geometry import C
 from ...core.sampling import equally_spaced, range_wavenumbers
 from ...core.grid import Grid
-from ...errors import SarcliInputError
+from ...errors import SarcliInputError, SarcliWarning
 from ..._util.progress import progress
 from .model import INTERPOLATORS, interp_error, optimal_kernel, predict_error
 from .model import deapodized_inverse, deapodized_kernel
-from ._grids import deapodization
+from ._grids import deapodization, ground_reach
 from ._kernels import Interp
 from ._plan import (BAND_SLACK, DEFAULTS, OS_ANGLE_DEAPODIZED, OS_RANGE_DEAPODIZED, SUBTREE_BYTES, UPSAMPLE_ANALYTIC,
                     FfbpPlan, StageLayout, layout_stages, plan_stages, subtree_groups)
@@ -207,6 +209,11 @@ def ffbp(data, collection, grid: Grid, *, nthreads=None, return_plan=False, plan
     inp = _Inputs(data, collection)
     if plan is None:
         plan = plan_stages(inp.t, inp.f, grid, receive_position_m=inp.rcv if inp.bistatic else None, **knobs)
+    reach = ground_reach(plan.levels)
+    if reach > 1.0:
+        warnings.warn(f"ffbp: this near the radar the polar grids reach |u| = {reach:.3g} > 1, past the ground, "
+                      f"where ffbp's error model does not hold; form this image by backprojection",
+                      SarcliWarning, stacklevel=2)
     run = _Pass(inp, plan, _Clock(timings))
     img = None   # made at the first final stage (when only the last level is alive); parts add in place
     # the pulses through stage 0 (each group's merges and final stage follow its own pulses)
