@@ -92,13 +92,20 @@ def next_fast_len(n: int) -> int:
     return best
 
 
-def min_range(pos, grid) -> float:
-    """Smallest distance from any antenna position in ``pos`` [P, 3] to the grid's rectangle (z = 0)."""
+def _nearest(pos, grid):
+    """Distance from each antenna position in ``pos`` [P, 3] to the grid's rectangle (z = 0, pixel
+    edges included), and the rectangle's x edges ``(x0, x1)``."""
+    pos = np.asarray(pos, dtype=np.float64)
     x0, x1 = grid.x[0] - grid.dx / 2, grid.x[-1] + grid.dx / 2
     y0, y1 = grid.y[0] - grid.dy / 2, grid.y[-1] + grid.dy / 2
     dx = np.clip(pos[:, 0], min(x0, x1), max(x0, x1)) - pos[:, 0]
     dy = np.clip(pos[:, 1], min(y0, y1), max(y0, y1)) - pos[:, 1]
-    return float(np.sqrt(np.min(dx * dx + dy * dy + pos[:, 2] ** 2)))
+    return np.sqrt(dx * dx + dy * dy + pos[:, 2] ** 2), (x0, x1)
+
+
+def min_range(pos, grid) -> float:
+    """Smallest distance from any antenna position in ``pos`` [P, 3] to the grid's rectangle (z = 0)."""
+    return float(np.min(_nearest(pos, grid)[0]))
 
 
 #: The two range models of a tile (module docstring).
@@ -144,12 +151,8 @@ def row_cosine(pos, grid) -> float:
     """Largest direction cosine along the grid's rows (x) from any antenna position in ``pos`` [P, 3]
     to any point of the grid's rectangle (z = 0): ``max |x − a_x| / min |x − a|`` per position."""
     pos = np.asarray(pos, dtype=np.float64)
-    x0, x1 = grid.x[0] - grid.dx / 2, grid.x[-1] + grid.dx / 2
-    y0, y1 = grid.y[0] - grid.dy / 2, grid.y[-1] + grid.dy / 2
+    near, (x0, x1) = _nearest(pos, grid)
     along = np.maximum(np.abs(x0 - pos[:, 0]), np.abs(x1 - pos[:, 0]))
-    dx = np.clip(pos[:, 0], min(x0, x1), max(x0, x1)) - pos[:, 0]
-    dy = np.clip(pos[:, 1], min(y0, y1), max(y0, y1)) - pos[:, 1]
-    near = np.sqrt(dx * dx + dy * dy + pos[:, 2] ** 2)
     return float(min(1.0, np.max(along / np.maximum(near, 1e-300))))
 
 
@@ -196,8 +199,7 @@ def tile_cost(model: str, width: int) -> float:
     and computes one float64 anchor per pulse). A bistatic series costs its lanes what a
     monostatic one does: its coefficients are the mean of the two ends'."""
     groups = math.ceil(width / _LANES)
-    cost = (groups * _GROUP_COST[model] + _ANCHOR_COST[model]) / (width / _LANES)
-    return cost
+    return (groups * _GROUP_COST[model] + _ANCHOR_COST[model]) / (width / _LANES)
 
 
 def tiling(grid, r_min: float, kc_max: float, inv_bin_max: float, *,

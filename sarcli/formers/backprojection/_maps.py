@@ -44,8 +44,8 @@ The kernels (``src/native/backprojection.cpp``, :mod:`._kernels`) take the diffe
 of each tile of up to 128 pixels along a row (of the image, or of its transpose when that puts the
 rows across the look direction: :mod:`._rows`) in float64 at the tile's centre, without
 cancellation (``Δr = (|x|² - 2 a·x) / (|a - x| + |a|) + (|a| - r0)``), and inside the tile either
-a quadratic in the pixel's offset or, near the radar where the quadratic's tiles would narrow, the
-exact range as that quadratic plus its float32 departure; :func:`._kernels.tiling` picks the
+a quadratic in the pixel's offset or, near the radar where the quadratic's tiles would narrow, that
+quadratic plus the rest of the range's Taylor series to the ninth power in float32 (the series model); :func:`._kernels.tiling` picks the
 cheaper within the same error bound. Profile
 positions and interpolation weights are float32, the carrier phase float64 reduced modulo 2π and
 its sine and cosine a float32 polynomial (error 4e-7). ``precision`` sets the profiles and the

@@ -151,20 +151,20 @@ class _Level:
         return self.first.size
 
     @property
-    def nodes(self) -> float:
-        """Nodes formed (those of :attr:`rows`, else the whole grids)."""
+    def grid_nodes(self) -> np.ndarray:
+        """Nodes formed in each sub-aperture's grid, ``[n]`` (those of :attr:`rows`, else the whole grid)."""
         if self.rows is None:
-            return float(self.n) * self.n_u * self.n_q
-        return float(np.sum(self.rows[..., 1] - self.rows[..., 0]))
+            return np.full(self.n, float(self.n_u) * self.n_q)
+        return np.sum(self.rows[..., 1] - self.rows[..., 0], axis=1).astype(np.float64)
 
-    def row_table(self, a=0, b=None) -> np.ndarray:
-        """:attr:`rows` of sub-apertures ``a .. b-1`` as the kernels read them (every node where
-        None): int64 ``[b − a, n_u, 2]``, C-contiguous."""
-        if self.rows is None:
-            out = np.zeros((len(self.q0[a:b]), self.n_u, 2), np.int64)
-            out[..., 1] = self.n_q
-            return out
-        return np.ascontiguousarray(self.rows[a:b])
+    @property
+    def nodes(self) -> float:
+        """Nodes formed in all the grids (:attr:`grid_nodes`)."""
+        return float(np.sum(self.grid_nodes))
+
+    def row_table(self, a=0, b=None):
+        """:attr:`rows` of sub-apertures ``a .. b-1`` as the kernels take them (None: every node)."""
+        return None if self.rows is None else self.rows[a:b]
 
     @property
     def nbytes(self) -> float:

@@ -190,8 +190,7 @@ class StageLayout:
         n_freq = int(np.shape(self.freq_hz)[-1])
         # the nodes formed: each row's that later stencils can read (StageLayout.levels' rows)
         lv0 = levels[0]
-        per_sub = np.sum(lv0.row_table()[..., 1] - lv0.row_table()[..., 0], axis=1)
-        ops = {"stage0": float(np.dot(per_sub, lv0.count)) * ntap, "merge": 0.0,
+        ops = {"stage0": float(np.dot(lv0.grid_nodes, lv0.count)) * ntap, "merge": 0.0,
                "final": float(n_pix) * levels[-1].n * ntap * ntap,
                "nodes": float(max(lv.n * lv.n_u * lv.n_q for lv in levels)),
                "stage0_nodes": lv0.nodes,

@@ -33,7 +33,7 @@ from . import corrections, validate
 from .corrections import TROPOSPHERE_MODES
 from .signal import CphdSignal, Decoding, ToaToFx
 
-__all__ = ["read_cphd", "cphd_channels", "grid_from_xml", "AXES_TOLERANCE_RAD", "TROPOSPHERE_MODES"]
+__all__ = ["read_cphd", "cphd_channels", "grid_from_xml", "AXES_TOLERANCE_RAD"]
 
 #: Angle (rad) between the file's image-area axes (uIAX, uIAY) and local East/North above which
 #: its ImageGrid cannot be used as our east/north-aligned grid (a GeometryWarning says so).
