@@ -71,22 +71,19 @@ struct Kernel<interp::kLinear> {
     }
   }
 };
-template <>
-struct Kernel<interp::kKeysCubic> {
-  static constexpr int taps = interp::kTaps[interp::kKeysCubic], first = 1;
+// The 4-tap kernels whose weights one function forms per fraction (numerics/keys.hpp).
+template <int K, void (*Weights)(float, float*, std::size_t)>
+struct Cubic4 {
+  static constexpr int taps = interp::kTaps[K], first = 1;
   static SARCLI_INLINE void weights(const float* t, float (*w)[kLanes]) {
 #pragma omp simd
-    for (int i = 0; i < kLanes; ++i) interp::keys(t[i], &w[0][i], kLanes);
+    for (int i = 0; i < kLanes; ++i) Weights(t[i], &w[0][i], kLanes);
   }
 };
 template <>
-struct Kernel<interp::kLagrange3> {
-  static constexpr int taps = interp::kTaps[interp::kLagrange3], first = 1;
-  static SARCLI_INLINE void weights(const float* t, float (*w)[kLanes]) {
-#pragma omp simd
-    for (int i = 0; i < kLanes; ++i) interp::lagrange(t[i], &w[0][i], kLanes);
-  }
-};
+struct Kernel<interp::kKeysCubic> : Cubic4<interp::kKeysCubic, interp::keys<float>> {};
+template <>
+struct Kernel<interp::kLagrange3> : Cubic4<interp::kLagrange3, interp::lagrange<float>> {};
 template <>
 struct Kernel<interp::kLanczos3> {
   static constexpr int taps = interp::kTaps[interp::kLanczos3], first = 2;
